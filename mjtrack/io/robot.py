@@ -1,0 +1,148 @@
+"""Robot description (CONTRACTS.md §2): the geometry, mass and friction of a tracked robot.
+
+A :class:`Robot` is what every simulating command takes, what ``simulate`` writes beside
+its log (``LOG.json``) and what ``diagnose`` reads. SI units; angles in radians.
+Keys beyond the contract's are kept in ``extra`` so that a description round-trips.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from mjtrack.errors import InputError
+
+G = 9.81  # [m/s^2] gravity used throughout the package
+
+
+@dataclass(frozen=True)
+class Robot:
+    """Geometry, mass and friction of a two-track robot.
+
+    Frame: x forward, y left, z up, origin at the geometric centre of the two track
+    contact patches on the ground plane.
+
+    Attributes:
+        track_gauge: T, distance between the track centre lines [m].
+        track_length: L, length of each track's ground contact [m].
+        track_width: width of each track's ground contact [m].
+        sprocket_radius: radius that converts sprocket speed to track speed [m].
+        mass: total mass [kg].
+        cg_x, cg_y: centre of mass relative to the geometric centre (+x forward, +y left) [m].
+        cg_z: height of the centre of mass above the ground [m].
+        mu: ground friction coefficient (both tracks unless mu_left/mu_right are set) [-].
+        mu_left, mu_right: per-track friction coefficients; ``None`` means ``mu`` [-].
+        extra: project-specific keys read from a description file, kept for round trips.
+    """
+
+    track_gauge: float = 0.4
+    track_length: float = 0.5
+    track_width: float = 0.08
+    sprocket_radius: float = 0.06
+    mass: float = 20.0
+    cg_x: float = 0.0
+    cg_y: float = 0.0
+    cg_z: float = 0.12
+    mu: float = 0.8
+    mu_left: float | None = None
+    mu_right: float | None = None
+    extra: dict[str, Any] = field(default_factory=dict, compare=False)
+
+    def __post_init__(self) -> None:
+        for name in ("track_gauge", "track_length", "track_width", "sprocket_radius", "mass", "mu"):
+            value = getattr(self, name)
+            if not _is_finite_number(value) or value <= 0:
+                raise InputError(f"robot: '{name}' must be a positive number, got {value!r}")
+        for name in ("cg_x", "cg_y", "cg_z"):
+            value = getattr(self, name)
+            if not _is_finite_number(value):
+                raise InputError(f"robot: '{name}' must be a finite number, got {value!r}")
+        for name in ("mu_left", "mu_right"):
+            value = getattr(self, name)
+            if value is not None and (not _is_finite_number(value) or value <= 0):
+                raise InputError(f"robot: '{name}' must be a positive number or null, got {value!r}")
+        if abs(self.cg_x) >= self.track_length / 2:
+            raise InputError(
+                f"robot: 'cg_x' = {self.cg_x} puts the centre of mass outside the tracks "
+                f"(|cg_x| must be < track_length/2 = {self.track_length / 2})"
+            )
+        if abs(self.cg_y) >= self.track_gauge / 2:
+            raise InputError(
+                f"robot: 'cg_y' = {self.cg_y} puts the centre of mass outside the tracks "
+                f"(|cg_y| must be < track_gauge/2 = {self.track_gauge / 2})"
+            )
+
+    # -- derived quantities -------------------------------------------------------------
+    @property
+    def friction_left(self) -> float:
+        """Friction coefficient of the left track [-]."""
+        return self.mu if self.mu_left is None else self.mu_left
+
+    @property
+    def friction_right(self) -> float:
+        """Friction coefficient of the right track [-]."""
+        return self.mu if self.mu_right is None else self.mu_right
+
+    @property
+    def weight(self) -> float:
+        """m g [N]."""
+        return self.mass * G
+
+    def replace(self, **changes: Any) -> "Robot":
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    # -- serialisation --------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "extra"}
+        return {**self.extra, **d}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], *, source: str = "robot description") -> "Robot":
+        if not isinstance(data, dict):
+            raise InputError(f"{source}: expected a JSON object, got {type(data).__name__}")
+        if "track_gauge" not in data:
+            raise InputError(f"{source}: missing required key 'track_gauge'")
+        names = {f.name for f in dataclasses.fields(cls)} - {"extra"}
+        known = {k: v for k, v in data.items() if k in names}
+        extra = {k: v for k, v in data.items() if k not in names}
+        for k, v in known.items():
+            if v is None and k in ("mu_left", "mu_right"):
+                continue
+            if not _is_finite_number(v):
+                raise InputError(f"{source}: key '{k}' must be a number, got {v!r}")
+            known[k] = float(v)
+        try:
+            return cls(**known, extra=extra)
+        except InputError as exc:
+            raise InputError(f"{source}: {str(exc).removeprefix('robot: ')}") from None
+
+
+def _is_finite_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def read_robot(path: str | os.PathLike) -> Robot:
+    """Read a robot description JSON file; bad input raises :class:`InputError`."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read robot description ({exc.strerror})") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{path}: not valid JSON (line {exc.lineno}: {exc.msg})") from None
+    return Robot.from_dict(data, source=str(path))
+
+
+def write_robot(robot: Robot, path: str | os.PathLike) -> None:
+    """Write the full description atomically (temp file renamed at the end)."""
+    from mjtrack.io.atomic import atomic_write_text
+
+    atomic_write_text(path, json.dumps(robot.to_dict(), indent=2, sort_keys=True) + "\n")
