@@ -7,3 +7,4 @@ from mjtrack.models.kinematic import MVIR as MVIR
 from mjtrack.models.kinematic import KinematicModel as KinematicModel
 from mjtrack.models.kinematic import Nominal as Nominal
 from mjtrack.models.kinematic import integrate as integrate
+from mjtrack.models.kinematic import integrate_twist as integrate_twist

@@ -186,12 +186,10 @@ MODELS: dict[str, type[KinematicModel]] = {m.name: m for m in (Nominal, MPP, MIC
 
 
 def integrate(model: KinematicModel, pose0, t, v_left, v_right, *, method: str = "exact") -> np.ndarray:
-    """Integrate the pose over a command sequence (zero-order hold).
+    """Integrate the pose of ``model`` over a command sequence (zero-order hold).
 
     The command (and the model parameters, if they are arrays) of sample k is held over
-    [t_k, t_{k+1}). ``method="exact"`` composes exact constant-twist SE(2) steps — vectorised:
-    the yaw is the cumulative sum of wz·dt and each step's body-frame displacement is rotated by
-    the yaw at its start; ``method="euler"`` uses the thesis's first-order step (3.11).
+    [t_k, t_{k+1}). See :func:`integrate_twist` for the methods.
 
     Args:
         model: any :class:`KinematicModel`.
@@ -202,12 +200,28 @@ def integrate(model: KinematicModel, pose0, t, v_left, v_right, *, method: str =
         (N, 3) poses at the sample times; row 0 is pose0; yaw continuous (not wrapped).
     """
     t = np.asarray(t, dtype=float)
+    twist = np.broadcast_to(model.twist(v_left, v_right), (t.size, 3))
+    return integrate_twist(pose0, t, twist, method=method)
+
+
+def integrate_twist(pose0, t, twist, *, method: str = "exact") -> np.ndarray:
+    """Integrate a sequence of body twists (N, 3), twist k held over [t_k, t_{k+1}).
+
+    ``method="exact"`` composes exact constant-twist SE(2) steps — vectorised: the yaw is the
+    cumulative sum of wz·dt and each step's body-frame displacement is rotated by the yaw at
+    its start; ``method="euler"`` uses the thesis's first-order step (3.11).
+    Returns (N, 3) poses; row 0 is pose0; yaw continuous.
+    """
+    t = np.asarray(t, dtype=float)
     if t.ndim != 1 or t.size < 1:
         raise InputError("integrate: t must be a 1-D array with at least one sample")
     dt = np.diff(t)
     if np.any(dt <= 0):
         raise InputError(f"integrate: time not strictly increasing at sample {int(np.flatnonzero(dt <= 0)[0]) + 1}")
-    twist = np.broadcast_to(model.twist(v_left, v_right), (t.size, 3))[:-1]
+    twist = np.asarray(twist, dtype=float)
+    if twist.shape != (t.size, 3):
+        raise InputError(f"integrate: twist must have shape ({t.size}, 3), got {twist.shape}")
+    twist = twist[:-1]
     pose0 = np.asarray(pose0, dtype=float)
     if method == "euler":
         poses = np.empty((t.size, 3))
