@@ -60,6 +60,9 @@ def main(argv: list[str] | None = None) -> int:
     except MjtrackError as exc:
         print(f"mjtrack {args.command}: failed: {exc}", file=sys.stderr)
         return 1
+    except OSError as exc:  # disk full, permission denied, ...: one line, not a traceback
+        print(f"mjtrack {args.command}: failed: {exc}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,6 +1,7 @@
 """Atomic file output: write to a temporary file in the same folder, rename at the end.
 
-A command that fails half-way therefore leaves no partial output behind.
+A command that fails half-way therefore leaves no partial output behind. The file gets the
+ordinary permissions of a new file (0666 minus the umask), not the 0600 of ``mkstemp``.
 """
 
 from __future__ import annotations
@@ -12,6 +13,15 @@ from pathlib import Path
 from typing import IO, Iterator
 
 
+def _umask() -> int:
+    mask = os.umask(0o022)  # reading the umask means setting it; restore at once
+    os.umask(mask)
+    return mask
+
+
+_UMASK = _umask()
+
+
 @contextlib.contextmanager
 def atomic_open(path: str | os.PathLike, mode: str = "w", **kwargs) -> Iterator[IO]:
     """Open a temporary file beside ``path``; on success it replaces ``path``."""
@@ -19,7 +29,13 @@ def atomic_open(path: str | os.PathLike, mode: str = "w", **kwargs) -> Iterator[
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        with os.fdopen(fd, mode, **kwargs) as fh:
+        os.chmod(tmp, 0o666 & ~_UMASK)
+        try:
+            fh = os.fdopen(fd, mode, **kwargs)
+        except BaseException:
+            os.close(fd)
+            raise
+        with fh:
             yield fh
         os.replace(tmp, path)
     except BaseException:
@@ -29,7 +45,8 @@ def atomic_open(path: str | os.PathLike, mode: str = "w", **kwargs) -> Iterator[
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> None:
-    with atomic_open(path, "w") as fh:
+    """Write ``text`` as UTF-8 (whatever the locale), line ends untranslated, atomically."""
+    with atomic_open(path, "w", encoding="utf-8", newline="") as fh:
         fh.write(text)
 
 

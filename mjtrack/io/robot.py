@@ -38,6 +38,9 @@ class Robot:
         mu: ground friction coefficient (both tracks unless mu_left/mu_right are set) [-].
         mu_left, mu_right: per-track friction coefficients; ``None`` means ``mu`` [-].
         extra: project-specific keys read from a description file, kept for round trips.
+        provided: the contract keys that a description file actually gave (the others took
+            their defaults), or None for a robot built in code. Diagnosis uses it to tell
+            known geometry from assumed geometry.
     """
 
     track_gauge: float = 0.4
@@ -52,6 +55,7 @@ class Robot:
     mu_left: float | None = None
     mu_right: float | None = None
     extra: dict[str, Any] = field(default_factory=dict, compare=False)
+    provided: frozenset[str] | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         for name in ("track_gauge", "track_length", "track_width", "sprocket_radius", "mass", "mu"):
@@ -94,12 +98,13 @@ class Robot:
         return self.mass * G
 
     def replace(self, **changes: Any) -> "Robot":
-        """A copy with some fields changed (validated again)."""
-        return dataclasses.replace(self, **changes)
+        """A copy with some fields changed (validated again); changed fields count as provided."""
+        provided = None if self.provided is None else self.provided | frozenset(changes)
+        return dataclasses.replace(self, **changes, provided=provided)
 
     # -- serialisation --------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "extra"}
+        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in ("extra", "provided")}
         return {**self.extra, **d}
 
     @classmethod
@@ -108,7 +113,7 @@ class Robot:
             raise InputError(f"{source}: expected a JSON object, got {type(data).__name__}")
         if "track_gauge" not in data:
             raise InputError(f"{source}: missing required key 'track_gauge'")
-        names = {f.name for f in dataclasses.fields(cls)} - {"extra"}
+        names = {f.name for f in dataclasses.fields(cls)} - {"extra", "provided"}
         known = {k: v for k, v in data.items() if k in names}
         extra = {k: v for k, v in data.items() if k not in names}
         for k, v in known.items():
@@ -118,7 +123,7 @@ class Robot:
                 raise InputError(f"{source}: key '{k}' must be a number, got {v!r}")
             known[k] = float(v)
         try:
-            return cls(**known, extra=extra)
+            return cls(**known, extra=extra, provided=frozenset(known))
         except InputError as exc:
             raise InputError(f"{source}: {str(exc).removeprefix('robot: ')}") from None
 

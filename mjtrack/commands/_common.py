@@ -1,0 +1,146 @@
+"""Command-line pieces shared by the commands: robot options, ``--quiet``, ``--out`` checks.
+
+Robot options (CONTRACTS.md §3) on every command that simulates::
+
+    --robot FILE  --cg-x M  --cg-y M  --mu X  --mass KG  --track-gauge M  --track-length M
+
+:func:`robot_from_args` builds the :class:`~mjtrack.io.robot.Robot`: the ``--robot`` file if
+given, else the caller's ``base`` (a scenario's robot, a log's ``LOG.json``), else the default
+robot; then each option given on the command line replaces that field. The result is validated
+as a whole, so ``--cg-y 0.3`` with a 0.4 m gauge is refused (centre of mass outside the tracks).
+
+``--out`` checks run before any long work, so that a run does not fail at the very end
+because its output cannot be written. They do not create anything; outputs are written
+atomically by :mod:`mjtrack.io.atomic`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+from pathlib import Path
+from typing import Iterable
+
+from mjtrack.errors import InputError
+from mjtrack.io.robot import Robot, read_robot
+
+# option dest -> (Robot field, metavar, help)
+ROBOT_OPTIONS: dict[str, tuple[str, str, str]] = {
+    "cg_x": ("cg_x", "M", "centre of mass ahead (+) / behind (-) the geometric centre [m]"),
+    "cg_y": ("cg_y", "M", "centre of mass left (+) / right (-) of the geometric centre [m]"),
+    "mu": ("mu", "X", "ground friction coefficient, both tracks [-]"),
+    "mass": ("mass", "KG", "total mass [kg]"),
+    "track_gauge": ("track_gauge", "M", "distance between the track centre lines [m]"),
+    "track_length": ("track_length", "M", "length of each track's ground contact [m]"),
+}
+
+
+def finite_float(text: str) -> float:
+    """argparse ``type=``: a finite float (``nan``/``inf`` are usage errors, exit 2)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+    return value
+
+
+def add_robot_options(parser: argparse.ArgumentParser) -> None:
+    """Add ``--robot FILE`` and the per-field overrides (all default to ``None``: not given)."""
+    group = parser.add_argument_group(
+        "robot", "the robot: --robot FILE (JSON, CONTRACTS.md §2), then each option below overrides one field"
+    )
+    group.add_argument("--robot", metavar="FILE", type=Path, default=None,
+                       help="robot description JSON (at least 'track_gauge' [m])")
+    for dest, (_, metavar, text) in ROBOT_OPTIONS.items():
+        group.add_argument("--" + dest.replace("_", "-"), dest=dest, metavar=metavar,
+                           type=finite_float, default=None, help=text)
+
+
+def robot_from_args(args: argparse.Namespace, base: Robot | None = None) -> Robot:
+    """The robot the command line asks for.
+
+    Start from ``--robot FILE`` (wins over ``base``), else ``base``, else ``Robot()``; replace
+    every field whose option was given. Invalid values or combinations raise
+    :class:`InputError` (one line, naming the options and file that were given).
+    """
+    path = getattr(args, "robot", None)
+    robot = read_robot(path) if path is not None else (base if base is not None else Robot())
+    changes = {
+        field: float(getattr(args, dest))
+        for dest, (field, _, _) in ROBOT_OPTIONS.items()
+        if getattr(args, dest, None) is not None
+    }
+    if not changes:
+        return robot
+    try:
+        return robot.replace(**changes)
+    except InputError as exc:
+        given = " ".join(
+            f"--{dest.replace('_', '-')} {getattr(args, dest)}"
+            for dest in ROBOT_OPTIONS
+            if getattr(args, dest, None) is not None
+        )
+        origin = f" on top of {path}" if path is not None else ""
+        raise InputError(f"{exc} (options: {given}{origin})") from None
+
+
+def add_output_options(parser: argparse.ArgumentParser) -> None:
+    """Add ``-q/--quiet`` (no progress display)."""
+    parser.add_argument("-q", "--quiet", action="store_true",
+                        help="no progress display (it is also off when stderr is not a terminal)")
+
+
+def _writable_ancestor(path: Path, what: str) -> None:
+    """Refuse ``path`` if the nearest existing ancestor is not a writable folder."""
+    for parent in path.absolute().parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise InputError(f"{path}: cannot create {what}: {parent} is not a folder")
+            if not os.access(parent, os.W_OK | os.X_OK):
+                raise InputError(f"{path}: cannot create {what}: {parent} is not writable")
+            return
+    raise InputError(f"{path}: cannot create {what}: no existing parent folder")  # pragma: no cover
+
+
+def check_out_dir(path: str | os.PathLike) -> Path:
+    """Check an ``--out DIR`` before the work: an existing writable folder, or creatable."""
+    path = Path(path)
+    if path.exists():
+        if not path.is_dir():
+            raise InputError(f"{path}: --out must be a folder, this is an existing file")
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise InputError(f"{path}: --out folder is not writable")
+        return path
+    _writable_ancestor(path, "output folder")
+    return path
+
+
+def check_out_file(
+    path: str | os.PathLike, *, suffixes: Iterable[str] = (), inputs: Iterable[str | os.PathLike] = ()
+) -> Path:
+    """Check an ``--out FILE`` before the work.
+
+    Refused: a name without one of ``suffixes`` (case-insensitive, when given), an existing
+    folder, a file that would overwrite one of ``inputs``, a parent that cannot be created
+    or written.
+    """
+    path = Path(path)
+    suffixes = tuple(s.lower() for s in suffixes)
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise InputError(f"{path}: --out must end in {' or '.join(suffixes)}")
+    if path.is_dir():
+        raise InputError(f"{path}: --out is an existing folder, expected a file name")
+    for other in inputs:
+        if Path(other).exists() and path.exists() and path.resolve() == Path(other).resolve():
+            raise InputError(f"{path}: --out would overwrite the input {other}")
+    if path.parent.exists():
+        if not path.parent.is_dir():
+            raise InputError(f"{path}: cannot create output file: {path.parent} is not a folder")
+        if not os.access(path.parent, os.W_OK | os.X_OK):
+            raise InputError(f"{path}: cannot create output file: {path.parent} is not writable")
+    else:
+        _writable_ancestor(path.parent, "output file")
+    return path
