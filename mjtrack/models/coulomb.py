@@ -1,0 +1,515 @@
+"""Rigid-track Coulomb reference: a planar rigid body on Coulomb point contacts along both tracks.
+
+This is the physics the MuJoCo robot is checked against (after J.Y. Wong, *Theory of Ground
+Vehicles*, chapter "Steering of tracked vehicles" / skid-steering kinematics and kinetics, and
+Wong & Chiang, "A general theory for skid steering of tracked vehicles on firm ground",
+Proc. IMechE D 215, 2001, whose firm-ground limit is pure Coulomb shear).
+
+Contacts. Each track is a line of ``n_points`` points at x_i uniform over [-L/2, L/2]
+(midpoint rule, x_i = -L/2 + (i + 1/2) L/n), optionally ``n_across`` points across the
+track width w (midpoints of [-w/2, w/2] around y = +-T/2). Left track at y = +T/2.
+
+Sliding velocity. The track surface moves backwards at V_side relative to the body, so the
+ground-contact point p_i of a track moves over the ground with
+    u_i = (vx - wz*y_i - V_side, vy + wz*x_i)                                          (1)
+and its Coulomb friction force is f_i = -mu_side N_i u_i/|u_i|. The body-frame wrench about
+the geometric centre is F = sum f_i, Mz = sum (x_i f_iy - y_i f_ix). Because
+f_i = -mu N_i grad |u_i|, the wrench is minus the gradient of the convex dissipation
+D(vx, vy, wz) = sum mu_i N_i |u_i|: the quasi-static steady state (zero wrench) is the unique
+minimiser of D (used as the fallback solver).
+
+Normal loads (Wong's classical assumption). The planar rigid body on a line of supports is
+statically indeterminate; as in Wong, the pressure varies linearly along each track and the
+load is split between the tracks by the lever rule:
+    N_left = m g (1/2 + c_y/T),   N_right = m g (1/2 - c_y/T),
+and along each track the weights are w_i proportional to max(0, x_i - x0) (mirrored for a
+rearward centroid), x0 chosen so that sum w_i x_i / sum w_i = c_x exactly (discrete). While
+|c_x| <= mean(x_i^2)/max x_i (~L/6) this is the trapezoid x0 = -mean(x^2)/c_x; beyond it the
+pressure vanishes on part of the track (Wong's shortened, triangular contact). Then
+sum N = m g and the load centroid is (c_x, c_y) exactly.
+
+Load transfer (``load_transfer``, default True). The friction forces act at the ground, a
+height h = cg_z below the centre of mass; the roll and pitch moment balance about the CoM,
+sum (r_i - c) x (f_i + N_i e_z) = 0, gives the load centroid
+    (c_x, c_y) = (cg_x - h a_x/g, cg_y - h a_y/g),   a = F/m the CoM acceleration.     (2)
+In a steady turn a is the centripetal acceleration (-wz v_cy, wz v_cx) ~ V^2/R, so the
+transfer vanishes at low speed (and always without inertia, ``inertial=False``). A centroid
+outside the support (tip-over) is clipped to 0.999 of the support and logged; ``steady_state``
+raises in that case.
+
+Steady state (constant track speeds). With c = (cg_x, cg_y) and the CoM velocity
+v_c = (vx - wz c_y, vy + wz c_x), a constant twist needs
+    F = m (-wz v_cy, wz v_cx),   Mz - (c_x F_y - c_y F_x) = 0   (moment about the CoM), (3)
+or F = 0, Mz = 0 with ``inertial=False``. It is solved with the exact Coulomb law (no
+regularisation) by scipy's hybrid Powell method in the ICR coordinates (y_l, y_r, x_c), with
+the twist from eq. (2.14): they are O(T) at any speed (well scaled as wz -> 0) and, without
+inertia, the wrench depends on them alone (u_i = wz (y_side - y_i, x_i - x_c)), so the
+quasi-static ICRs are independent of the track speeds. Start (+-0.65 T, 0); fallback:
+minimising D (quasi-static), then continuation in the mass (inertial).
+V_L == V_R gives straight motion exactly (all u_i = 0, zero lies in the Coulomb friction set);
+its ICRs are undefined and :class:`SteadyState` raises :class:`SingularMotionError` for them.
+
+Time domain. Newton-Euler of the planar body about the CoM with yaw inertia I (default a
+uniform L x T box, m (L^2 + T^2)/12):
+    wz' = (Mz - c x F)/I,  vx' = F_x/m + wz' c_y + wz v_cy,  vy' = F_y/m - wz' c_x - wz v_cx,
+with u/|u| regularised as u/sqrt(|u|^2 + eps^2) (``eps`` [m/s], default 1e-4, documented
+error O(eps^2/|u|^2)). The load-transfer acceleration is found by ``load_iterations`` fixed-point
+steps of (2) started from the kinematic (centripetal) acceleration, exact in steady state.
+
+Pivot turn in closed form (uniform load, V_L = -V, V_R = V, no inertia): by symmetry
+vx = vy = 0; with a = wz T/2 - V both tracks give the same moment integrand and Mz = 0 reads
+    int_{-L/2}^{L/2} (wz x^2 + (T/2) a) / sqrt(a^2 + wz^2 x^2) dx = 0,
+i.e. with h = L/2, c = |wz|, s = sqrt(a^2 + c^2 h^2), A = asinh(c h/|a|):
+    h s - a^2 A/c + T a A = 0                                                           (4)
+(int x^2/sqrt(a^2+c^2x^2) = h s/c^2 - a^2 A/c^3 and int 1/sqrt(.) = 2A/c over [-h, h]).
+The left side is < 0 as wz -> 0+ and > 0 at wz = 2V/T (a = 0), so a < 0: the tracks slip
+backwards and the yaw rate is below the ideal 2V/T; the ratio depends on L/T only.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from typing import Callable, NamedTuple
+
+import numpy as np
+from scipy import integrate, optimize
+
+from mjtrack.errors import InputError, MjtrackError, SingularMotionError
+from mjtrack.io.robot import G, Robot
+
+log = logging.getLogger(__name__)
+
+DEFAULT_N_POINTS = 200
+DEFAULT_EPS = 1e-4  # [m/s] time-domain regularisation of the Coulomb sign function
+_RESIDUAL_MAX = 1e-10  # steady-state residual accepted (dimensionless, see SteadyState)
+
+
+class _Contacts:
+    """Contact points of both tracks and their Wong loads (internal, built once per call)."""
+
+    def __init__(self, robot: Robot, n_points: int, n_across: int) -> None:
+        if int(n_points) != n_points or n_points < 2:
+            raise InputError(f"coulomb: n_points must be an integer >= 2, got {n_points!r}")
+        if int(n_across) != n_across or n_across < 1:
+            raise InputError(f"coulomb: n_across must be an integer >= 1, got {n_across!r}")
+        n, k = int(n_points), int(n_across)
+        L, T, w = robot.track_length, robot.track_gauge, robot.track_width
+        self.robot = robot
+        self.xg = -L / 2 + (np.arange(n) + 0.5) * L / n  # midpoint grid along a track
+        dy = (-w / 2 + (np.arange(k) + 0.5) * w / k) if k > 1 else np.zeros(1)
+        xs = np.tile(self.xg, 2 * k)
+        ys = np.concatenate([np.repeat(side * T / 2 + dy, n) for side in (1.0, -1.0)])
+        self.x, self.y = xs, ys
+        self.left = np.arange(xs.size) < n * k  # first half: left track (y = +T/2)
+        self.mu = np.where(self.left, robot.friction_left, robot.friction_right)
+        self.k = k
+        self.cg = np.array([robot.cg_x, robot.cg_y])
+        self.tipped = False  # set when a load centroid had to be clipped to the support
+        self.static_loads = self.loads(0.0, 0.0)
+
+    def _along(self, cx: float) -> np.ndarray:
+        """Weights along one track (sum 1) with discrete centroid cx (Wong linear pressure)."""
+        xg = self.xg
+        if cx == 0.0:
+            return np.full(xg.size, 1.0 / xg.size)
+        s, c = np.sign(cx), abs(cx)
+        xs = s * xg
+        x0 = -np.mean(xs**2) / c
+        if x0 > xs.min():  # pressure vanishes on part of the track: solve for the zero point
+            def centroid_gap(z: float) -> float:
+                w = np.maximum(xs - z, 0.0)
+                return float(w @ xs / w.sum() - c)
+
+            x0 = optimize.brentq(centroid_gap, xs.min(), xs.max() - 1e-12 * xs.max(), xtol=1e-15)
+        w = np.maximum(xs - x0, 0.0)
+        return w / w.sum()
+
+    def loads(self, ax: float, ay: float) -> np.ndarray:
+        """Normal loads N_i [N] for a CoM acceleration (ax, ay) [m/s^2] (eq. 2)."""
+        r = self.robot
+        cx = r.cg_x - r.cg_z * ax / G
+        cy = r.cg_y - r.cg_z * ay / G
+        xmax, ymax = 0.999 * self.xg.max(), 0.999 * r.track_gauge / 2
+        if abs(cx) > xmax or abs(cy) > ymax:
+            log.debug("coulomb: load centroid (%.3g, %.3g) outside the support: clipped", cx, cy)
+            self.tipped = True
+            cx, cy = float(np.clip(cx, -xmax, xmax)), float(np.clip(cy, -ymax, ymax))
+        along = self._along(cx)
+        side = np.where(self.left, 0.5 + cy / r.track_gauge, 0.5 - cy / r.track_gauge)
+        return r.weight * side * np.tile(along, 2 * self.k) / self.k
+
+    def wrench(self, twist, v_left: float, v_right: float, N: np.ndarray, eps: float) -> np.ndarray:
+        """Friction wrench (Fx, Fy, Mz about the geometric centre) [N, N, N m]."""
+        vx, vy, wz = twist
+        ux = vx - wz * self.y - np.where(self.left, v_left, v_right)
+        uy = vy + wz * self.x
+        nrm = np.sqrt(ux * ux + uy * uy + eps * eps)
+        safe = np.where(nrm > 0.0, nrm, 1.0)
+        k = np.where(nrm > 0.0, self.mu * N / safe, 0.0)
+        fx, fy = -k * ux, -k * uy
+        return np.array([fx.sum(), fy.sum(), np.sum(self.x * fy - self.y * fx)])
+
+    def wrench_icr(self, wz: float, y_l: float, y_r: float, x_c: float, N: np.ndarray) -> np.ndarray:
+        """Exact Coulomb wrench written with the ICRs, u_i = wz (y_side - y_i, x_i - x_c) (eq. 1
+        with 2.13): free of the cancellation vx - V_side when the tracks run at nearly equal speeds."""
+        ux = wz * (np.where(self.left, y_l, y_r) - self.y)
+        uy = wz * (self.x - x_c)
+        nrm = np.hypot(ux, uy)
+        k = np.where(nrm > 0.0, self.mu * N / np.where(nrm > 0.0, nrm, 1.0), 0.0)
+        fx, fy = -k * ux, -k * uy
+        return np.array([fx.sum(), fy.sum(), np.sum(self.x * fy - self.y * fx)])
+
+    def kinematic_accel(self, twist) -> np.ndarray:
+        """Centripetal CoM acceleration of a constant twist, body frame [m/s^2]."""
+        vx, vy, wz = twist
+        cx, cy = self.cg
+        return np.array([-wz * (vy + wz * cx), wz * (vx - wz * cy)])
+
+
+def contact_wrench(
+    robot: Robot,
+    vx: float,
+    vy: float,
+    wz: float,
+    v_left: float,
+    v_right: float,
+    *,
+    n_points: int = DEFAULT_N_POINTS,
+    n_across: int = 1,
+    accel: tuple[float, float] = (0.0, 0.0),
+    eps: float = 0.0,
+) -> np.ndarray:
+    """Body-frame friction wrench (Fx [N], Fy [N], Mz [N m] about the geometric centre), shape (3,).
+
+    ``accel`` is the CoM acceleration [m/s^2] used for the load transfer (2); (0, 0) gives the
+    static Wong loads. ``eps`` [m/s] regularises u/|u| (time-domain use only; 0 = exact Coulomb,
+    a contact with u_i = 0 then carries no force).
+    """
+    c = _Contacts(robot, n_points, n_across)
+    N = c.loads(*accel) if any(accel) else c.static_loads
+    return c.wrench((vx, vy, wz), v_left, v_right, N, eps)
+
+
+def normal_loads(
+    robot: Robot, *, n_points: int = DEFAULT_N_POINTS, n_across: int = 1, accel=(0.0, 0.0)
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Contact points and loads: (x [m], y [m], N [N]), each shape (2 n_points n_across,)."""
+    c = _Contacts(robot, n_points, n_across)
+    return c.x.copy(), c.y.copy(), c.loads(*accel)
+
+
+@dataclass(frozen=True)
+class SteadyState:
+    """Constant body twist under constant track speeds, with its ICRs (eq. 2.13).
+
+    vx, vy [m/s], wz [rad/s]: body twist of the geometric centre. ``icr`` = (y_l, y_r, x_c) [m]
+    as solved (free of the cancellation in (vx - V)/wz), None for straight motion (wz == 0);
+    the properties ``y_l``, ``y_r``, ``x_c``, ``y_c`` then raise :class:`SingularMotionError`.
+    ``residual`` = max(|F_x - m a_x|, |F_y - m a_y|, |M_c|/L) / (m g) at the solution
+    (dimensionless).
+    """
+
+    vx: float
+    vy: float
+    wz: float
+    v_left: float
+    v_right: float
+    residual: float
+    inertial: bool
+    load_transfer: bool
+    n_points: int
+    icr: tuple[float, float, float] | None = None
+
+    def __post_init__(self) -> None:
+        if not all(np.isfinite([self.vx, self.vy, self.wz, self.residual])):
+            raise MjtrackError("SteadyState: non-finite twist or residual")
+        if (self.icr is None) != (self.wz == 0.0):
+            raise MjtrackError("SteadyState: icr must be given exactly when wz != 0")
+        if self.icr is not None and not (len(self.icr) == 3 and np.all(np.isfinite(self.icr))):
+            raise MjtrackError("SteadyState: icr must be 3 finite numbers")
+
+    @property
+    def straight(self) -> bool:
+        """True for straight motion (wz == 0): the ICRs are at infinity."""
+        return self.wz == 0.0
+
+    def _get(self, k: int, name: str) -> float:
+        if self.icr is None:
+            raise SingularMotionError(f"steady state: {name} undefined for straight motion (wz = 0)")
+        return float(self.icr[k])
+
+    @property
+    def y_l(self) -> float:
+        return self._get(0, "y_l")
+
+    @property
+    def y_r(self) -> float:
+        return self._get(1, "y_r")
+
+    @property
+    def x_c(self) -> float:
+        return self._get(2, "x_c")
+
+    @property
+    def y_c(self) -> float:
+        if self.straight:
+            raise SingularMotionError("steady state: y_c undefined for straight motion (wz = 0)")
+        return self.vx / self.wz
+
+    @property
+    def twist(self) -> np.ndarray:
+        return np.array([self.vx, self.vy, self.wz])
+
+
+def _steady_residual(c: _Contacts, z, icr, mass_scale: float, load_transfer: bool) -> np.ndarray:
+    """Residual of eq. (3) for the twist z = (vx, vy, wz) with ICRs icr = (y_l, y_r, x_c)."""
+    r = c.robot
+    acc = c.kinematic_accel(z) * (mass_scale > 0)
+    N = c.loads(*acc) if (load_transfer and mass_scale > 0) else c.static_loads
+    Fx, Fy, Mz = c.wrench_icr(z[2], *icr, N)
+    m = r.mass * mass_scale
+    Mc = Mz - (r.cg_x * Fy - r.cg_y * Fx)
+    return np.array([Fx - m * acc[0], Fy - m * acc[1], Mc / r.track_length]) / r.weight
+
+
+def steady_state(
+    robot: Robot,
+    v_left: float,
+    v_right: float,
+    *,
+    inertial: bool = True,
+    load_transfer: bool = True,
+    n_points: int = DEFAULT_N_POINTS,
+    n_across: int = 1,
+    tol: float = 1e-12,
+) -> SteadyState:
+    """Steady twist for constant track speeds v_left, v_right [m/s] (exact Coulomb law, eq. 3).
+
+    ``tol`` is the solver's relative step tolerance; the result is refused (MjtrackError) unless
+    its residual is <= 1e-10. Raises MjtrackError when no steady state exists (e.g. the
+    centripetal force would exceed the friction).
+    """
+    vl, vr = float(v_left), float(v_right)
+    if not (np.isfinite(vl) and np.isfinite(vr)):
+        raise InputError(f"steady_state: track speeds must be finite, got {v_left!r}, {v_right!r}")
+    c = _Contacts(robot, n_points, n_across)
+    meta = dict(v_left=vl, v_right=vr, inertial=inertial, load_transfer=load_transfer, n_points=n_points)
+    if vl == vr:  # u_i = 0 everywhere: zero friction is admissible, no centripetal force
+        return SteadyState(vx=vl, vy=0.0, wz=0.0, residual=0.0, **meta)
+    T = robot.track_gauge
+    ms = 1.0 if inertial else 0.0
+
+    def twist_of(q: np.ndarray) -> np.ndarray:  # eq. (2.14), ICRs q = (y_l, y_r, x_c) / T
+        yl, yr, xc = q * T
+        wz = (vr - vl) / (yl - yr)
+        return np.array([(yl * vr - yr * vl) / (yl - yr), -xc * wz, wz])
+
+    def icr_of(z: np.ndarray) -> np.ndarray:  # eq. (2.13), scaled by 1/T
+        return np.array([z[0] - vl, z[0] - vr, -z[1]]) / z[2] / T
+
+    def resid(q: np.ndarray, mass_scale: float = ms) -> float:
+        return float(np.max(np.abs(_steady_residual(c, twist_of(q), q * T, mass_scale, load_transfer))))
+
+    def solve(q0: np.ndarray, mass_scale: float) -> np.ndarray:
+        # Unknowns: the ICRs, O(T) whatever the speeds (well scaled even for wz -> 0).
+        fun = lambda q: _steady_residual(c, twist_of(q), q * T, mass_scale, load_transfer)  # noqa: E731
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return optimize.root(fun, q0, method="hybr", options={"xtol": tol}).x
+
+    q = solve(np.array([0.65, -0.65, 0.0]), ms)  # nominal-like start: wz ~ 0.77 nominal
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = twist_of(q)
+    if not (np.all(np.isfinite(z)) and resid(q) <= _RESIDUAL_MAX):
+        log.info("steady_state: direct solve failed; fallback (dissipation minimum, continuation)")
+        scale = max(abs(vl), abs(vr))
+        weights = c.static_loads * c.mu / robot.weight  # quasi-static: minimise the convex D
+        vside = np.where(c.left, vl, vr)
+
+        def dissipation(p: np.ndarray) -> float:
+            vx, vy, wz = p * np.array([scale, scale, scale / T])
+            return float(weights @ np.hypot(vx - wz * c.y - vside, vy + wz * c.x)) / scale
+
+        p0 = np.array([(vl + vr) / 2 / scale, 0.0, 0.7 * (vr - vl) / scale])
+        p = optimize.minimize(dissipation, p0, method="Nelder-Mead",
+                              options={"xatol": 1e-12, "fatol": 1e-15, "maxiter": 20000}).x
+        q = solve(icr_of(p * np.array([scale, scale, scale / T])), 0.0)
+        if inertial:  # continuation in the mass from the quasi-static solution
+            for lam in np.linspace(0.1, 1.0, 10):
+                q = solve(q, float(lam))
+        z = twist_of(q)
+    c.tipped = False
+    res = resid(q) if np.all(np.isfinite(z)) else np.inf
+    if not res <= _RESIDUAL_MAX:
+        raise MjtrackError(
+            f"steady_state: no steady state found for v_left={vl}, v_right={vr} (residual {res:.2g})"
+        )
+    if c.tipped:
+        raise MjtrackError(f"steady_state: the robot would tip over at v_left={vl}, v_right={vr}")
+    icr = tuple(float(v) for v in q * T)
+    return SteadyState(vx=float(z[0]), vy=float(z[1]), wz=float(z[2]), residual=res, icr=icr, **meta)
+
+
+class PivotTurn(NamedTuple):
+    """Closed-form quasi-static pivot turn: yaw rate [rad/s] and track ICRs [m]."""
+
+    wz: float
+    y_l: float
+    y_r: float
+
+
+def pivot_turn_closed_form(robot: Robot, v: float) -> PivotTurn:
+    """Pivot turn V_L = -v, V_R = +v with uniform load and no inertia, from eq. (4) by brentq.
+
+    Line contacts (track width ignored), continuous load (the limit n_points -> infinity).
+    Requires cg_x = cg_y = 0 and equal friction on both tracks (else InputError).
+    """
+    if robot.cg_x != 0.0 or robot.cg_y != 0.0 or robot.friction_left != robot.friction_right:
+        raise InputError("pivot_turn_closed_form: needs cg_x = cg_y = 0 and equal track friction")
+    v = float(v)
+    if not np.isfinite(v) or v == 0.0:
+        raise InputError(f"pivot_turn_closed_form: v must be finite and non-zero, got {v!r}")
+    T, h = robot.track_gauge, robot.track_length / 2
+
+    def g(r: float) -> float:  # eq. (4) divided by c, with V = 1 and wz = r * 2/T
+        c = 2.0 * r / T
+        a = r - 1.0
+        if a == 0.0:
+            return h * h
+        A = np.arcsinh(c * h / abs(a))
+        s = np.hypot(a, c * h)
+        return (h * s - a * a * A / c + T * a * A) / c
+
+    ratio = optimize.brentq(g, 1e-9, 1.0, xtol=1e-16, rtol=4 * np.finfo(float).eps)
+    wz = ratio * 2.0 * v / T
+    return PivotTurn(wz=wz, y_l=v / wz, y_r=-v / wz)
+
+
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class CoulombRollout:
+    """Time-domain result: t (n,) [s]; pose (n, 3) x, y [m], yaw [rad] of the geometric centre
+    (world frame, yaw unwrapped); twist (n, 3) vx, vy [m/s], wz [rad/s] in the body frame."""
+
+    t: np.ndarray
+    pose: np.ndarray
+    twist: np.ndarray
+
+    def __post_init__(self) -> None:
+        n = self.t.shape[0]
+        if self.pose.shape != (n, 3) or self.twist.shape != (n, 3):
+            raise MjtrackError("CoulombRollout: pose and twist must have shape (len(t), 3)")
+
+
+def _as_input(value, t: np.ndarray, name: str) -> Callable[[float], float] | np.ndarray:
+    if callable(value):
+        return value
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 0:
+        arr = np.full(t.shape, float(arr))
+    if arr.shape != t.shape or not np.all(np.isfinite(arr)):
+        raise InputError(f"{name} must be a callable, a number or finite samples shaped like t")
+    return arr
+
+
+def integrate_held_inputs(rhs, t, inputs, s0, *, what: str = "rollout", **solve_ivp_kw) -> np.ndarray:
+    """Integrate s' = rhs(t, s, *u(t)) and return the states at the times t, shape (n, len(s0)).
+
+    ``inputs``: numbers, samples shaped like t (zero-order hold: u(t) = u[k] on [t[k], t[k+1])),
+    or callables u(t). With samples only, each constant segment is integrated on its own so
+    that the integrator never steps over a jump. Shared by the time-domain models.
+    """
+    t = np.asarray(t, dtype=float)
+    if t.ndim != 1 or t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise InputError(f"{what}: t must be a 1-D, finite, strictly increasing array of >= 2 times")
+    u = [_as_input(v, t, f"{what}: input {i}") for i, v in enumerate(inputs)]
+    s0 = np.asarray(s0, dtype=float)
+    if not np.all(np.isfinite(s0)):
+        raise InputError(f"{what}: initial state must be finite")
+    if any(callable(v) for v in u):
+        def held(v, tt):
+            return float(v(tt)) if callable(v) else float(v[min(np.searchsorted(t, tt, "right") - 1, t.size - 1)])
+
+        sol = integrate.solve_ivp(lambda tt, s: rhs(tt, s, *(held(v, tt) for v in u)),
+                                  (t[0], t[-1]), s0, t_eval=t, **solve_ivp_kw)
+        if not sol.success:
+            raise MjtrackError(f"{what}: integration failed ({sol.message})")
+        return sol.y.T
+    jumps = np.zeros(t.size - 1, dtype=bool)
+    for v in u:
+        jumps |= np.diff(v) != 0
+    bounds = np.concatenate([[0], np.flatnonzero(jumps) + 1, [t.size - 1]])
+    out = np.empty((t.size, s0.size))
+    out[0] = s0
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        if b <= a:
+            continue
+        sol = integrate.solve_ivp(rhs, (t[a], t[b]), out[a], t_eval=t[a:b + 1],
+                                  args=tuple(float(v[a]) for v in u), **solve_ivp_kw)
+        if not sol.success:
+            raise MjtrackError(f"{what}: integration failed at t={t[a]:.3g} s ({sol.message})")
+        out[a:b + 1] = sol.y.T
+    return out
+
+
+def rollout(
+    robot: Robot,
+    t,
+    v_left,
+    v_right,
+    *,
+    pose0=(0.0, 0.0, 0.0),
+    twist0=(0.0, 0.0, 0.0),
+    rtol: float = 1e-8,
+    atol: float = 1e-10,
+    n_points: int = DEFAULT_N_POINTS,
+    n_across: int = 1,
+    eps: float = DEFAULT_EPS,
+    inertia: float | None = None,
+    load_transfer: bool = True,
+    load_iterations: int = 1,
+    method: str = "LSODA",
+) -> CoulombRollout:
+    """Integrate the rigid body on Coulomb contacts over the sample times t (n,) [s].
+
+    v_left, v_right [m/s]: numbers, samples (n,) held constant from t[k] to t[k+1] (zero-order
+    hold), or callables f(t). ``inertia``: yaw inertia about the CoM [kg m^2], default a uniform
+    L x T box m (L^2 + T^2)/12. ``eps`` [m/s] regularises the Coulomb sign (module docstring).
+    """
+    t = np.asarray(t, dtype=float)
+    if eps <= 0:
+        raise InputError(f"rollout: eps must be > 0 (time-domain regularisation), got {eps!r}")
+    c = _Contacts(robot, n_points, n_across)
+    m = robot.mass
+    I = inertia if inertia is not None else m * (robot.track_length**2 + robot.track_gauge**2) / 12
+    if not I > 0:
+        raise InputError(f"rollout: inertia must be > 0, got {inertia!r}")
+    cx, cy = c.cg
+
+    def rhs(_t: float, s: np.ndarray, vl: float, vr: float) -> np.ndarray:
+        _, _, yaw, vx, vy, wz = s
+        tw = s[3:]
+        if load_transfer:
+            acc = c.kinematic_accel(tw)
+            for _ in range(load_iterations):
+                acc = c.wrench(tw, vl, vr, c.loads(*acc), eps)[:2] / m
+            N = c.loads(*acc)
+        else:
+            N = c.static_loads
+        Fx, Fy, Mz = c.wrench(tw, vl, vr, N, eps)
+        wdot = (Mz - (cx * Fy - cy * Fx)) / I
+        vcx, vcy = vx - wz * cy, vy + wz * cx
+        co, si = np.cos(yaw), np.sin(yaw)
+        return np.array([
+            co * vx - si * vy, si * vx + co * vy, wz,
+            Fx / m + wdot * cy + wz * vcy, Fy / m - wdot * cx - wz * vcx, wdot,
+        ])
+
+    s0 = np.concatenate([np.asarray(pose0, float), np.asarray(twist0, float)])
+    if s0.shape != (6,) or not np.all(np.isfinite(s0)):
+        raise InputError("rollout: pose0 and twist0 must be 3 finite numbers each")
+    out = integrate_held_inputs(rhs, t, (v_left, v_right), s0, what="rollout",
+                                method=method, rtol=rtol, atol=atol)
+    if c.tipped:
+        log.warning("rollout: the load centroid left the support (tip-over); loads were clipped")
+    return CoulombRollout(t=t.copy(), pose=out[:, :3].copy(), twist=out[:, 3:].copy())
