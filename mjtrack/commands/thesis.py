@@ -1,0 +1,38 @@
+"""Reproduce the chapter-4 experiments of the tracked-robot thesis.
+
+Section 4.1: the MPP, MICR and MVIR kinematic models driven along the reconstructed U-shaped
+path of fig. 4.1 in three slip cases (none, longitudinal, lateral). Writes figures 4.1-4.7 as
+PNG and DIR/thesis.json (per case: max_dev_m, the largest distance between the MPP, MICR and
+MVIR paths; nominal_dev_m; final poses; the reconstruction parameters; figure files and
+captions). Takes a few seconds, no MuJoCo.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from mjtrack.commands._common import add_output_options, check_out_dir
+
+HELP = "reproduce the source thesis's chapter-4 experiments (figures + thesis.json)"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", metavar="DIR", type=Path, required=True,
+                        help="output folder for thesis.json and the PNG figures (created if missing)")
+    add_output_options(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    out = check_out_dir(args.out)
+    from mjtrack.thesis.run import JSON_NAME, run_thesis  # matplotlib only when the command runs
+
+    doc = run_thesis(out, quiet=args.quiet)
+    if not args.quiet:
+        for key in doc["sections"]:
+            cases = {k: v for k, v in doc[key].items() if isinstance(v, dict) and "max_dev_m" in v}
+            for name, entry in cases.items():
+                extra = f" (finite parameters only: {entry['max_dev_finite_m']:.3g} m)" if "max_dev_finite_m" in entry else ""
+                print(f"{key} {name}: max_dev_m = {entry['max_dev_m']:.3g} m{extra}")
+        print(f"wrote {out / JSON_NAME} and {len(doc['figures'])} figures")
+    return 0
