@@ -38,7 +38,7 @@ def steering_angles(radius: float, *, wheelbase: float, track: float) -> tuple[f
     return math.atan(wheelbase / (radius - 0.5 * track)), math.atan(wheelbase / (radius + 0.5 * track))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Ackermann:
     """Kinematic Ackermann car (1.22) (``drive="rear"``) or (1.23) (``drive="front"``).
 

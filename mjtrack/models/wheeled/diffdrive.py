@@ -41,7 +41,7 @@ def body_speeds(omega_left: float, omega_right: float, *, track: float, wheel_ra
     return 0.5 * (v_right + v_left), (v_right - v_left) / track
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class DiffDriveKinematic:
     """No-slip differential drive (1.1)-(1.4).
 

@@ -32,7 +32,7 @@ THESIS_INERTIA = 5e-4  # J [kg m^2]
 THESIS_FORCE_MAX = 1.5  # F_max [N] per wheel
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class DiffDriveDynamic1:
     """Dynamic model 1 (1.5)-(1.8).
 

@@ -53,7 +53,7 @@ THESIS_MU = 0.6
 THESIS_WHEEL_LOAD = 2.45  # W [N] per wheel
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class DiffDriveDynamic2:
     """Dynamic model 2 (1.9)-(1.15); attributes in SI units (see the module docstring).
 

@@ -17,7 +17,10 @@ magnitude C|slip| up to mu W.  Body (1.16), world frame:
     M xddot = sum F_i cos(phi) - sum S_i sin(phi),   M yddot = sum F_i sin(phi) + sum S_i cos(phi)
     J phiddot = sum_i (x_i S_i - y_i F_i)
               = (F_RR + F_FR - F_FL - F_RL) b/2 + (S_FL + S_FR) p a - (S_RL + S_RR)(1-p) a.
-Equal wheel loads W (as the thesis: W = M g/4).
+Wheel loads: ``load_distribution="equal"`` gives every wheel W (as the thesis: W = M g/4);
+``"static"`` distributes the weight by the COG position, front wheels 2(1-p) W, rear wheels
+2p W (mean W), and scales each wheel's stiffness C and limit mu W_i with its load (slip
+stiffness proportional to normal load).
 
 Properties (tested): (i) straight start: all four forces saturate at mu W, a = 4 mu W/M, the
 speed v_req is reached at t = M v_req/(4 mu W) (thesis: 0.17 s for 1 m/s);
@@ -25,7 +28,11 @@ speed v_req is reached at t = M v_req/(4 mu W) (thesis: 0.17 s for 1 m/s);
 lateral forces the robot turns about the geometric centre, which lies (p - 1/2) a ahead of
 the COG; the moment balance about it, sum x'^2 C phidot + sum y (C (r omega_i + y phidot)) = 0,
 gives phidot = r Omega (b/2)/((a/2)^2 + (b/2)^2), i.e. b^2/(a^2 + b^2) of the no-slip rate;
-(iii) a = 0 reduces exactly to dynamic model 2 with doubled stiffness and wheel load.
+(iii) a = 0 reduces exactly to dynamic model 2 with doubled stiffness and wheel load;
+(iv) with the static load distribution the lateral forces of a slow spin balance,
+(1-p)(v_y + p a phidot) + p(v_y - (1-p) a phidot) = v_y = 0, so the robot spins about its
+COG, and the moment balance gives phidot = r Omega (b/2)/(a^2 p (1-p) + (b/2)^2)
+(both reduce to (ii) at p = 1/2).
 
 State (6,): x, y [m] (COG), phi [rad], xdot, ydot [m/s], phidot [rad/s].
 Input (2,): wheel speeds of the left and right side (omega_L, omega_R) [rad/s].
@@ -48,7 +55,7 @@ from mjtrack.models.wheeled.dynamic2 import THESIS_MU
 WHEELS = ("FL", "RL", "RR", "FR")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SkidSteer4:
     """Four-wheel skid-steer dynamics (1.16)-(1.20); see the module docstring.
 
@@ -56,7 +63,8 @@ class SkidSteer4:
         wheelbase: a [m] (0 allowed: both axles coincide); track: b [m];
         cg_ratio: p, COG distance behind the front axle divided by a [-], 0 <= p <= 1;
         wheel_radius: r [m]; mass: M [kg]; inertia: J about the COG [kg m^2];
-        stiffness: C [N s/m]; mu [-]; wheel_load: W per wheel [N].
+        stiffness: C [N s/m]; mu [-]; wheel_load: W, mean load per wheel [N];
+        load_distribution: "equal" (thesis) or "static" (by the COG position, see above).
     """
 
     wheelbase: float = 0.5
@@ -68,6 +76,7 @@ class SkidSteer4:
     stiffness: float = 5e3
     mu: float = THESIS_MU
     wheel_load: float = 144.7
+    load_distribution: str = "equal"
 
     is_kinematic = False  # twist() reads the state
     n_state = 6
@@ -83,6 +92,16 @@ class SkidSteer4:
             raise InputError(f"SkidSteer4: 'wheelbase' must be >= 0, got {self.wheelbase!r}")
         if not (0.0 <= self.cg_ratio <= 1.0):
             raise InputError(f"SkidSteer4: 'cg_ratio' must lie in [0, 1], got {self.cg_ratio!r}")
+        if self.load_distribution not in ("equal", "static"):
+            raise InputError(f"SkidSteer4: 'load_distribution' must be 'equal' or 'static', got {self.load_distribution!r}")
+
+    @property
+    def load_factors(self) -> np.ndarray:
+        """(4,) wheel load / W for FL, RL, RR, FR [-] (mean 1)."""
+        if self.load_distribution == "equal":
+            return np.ones(4)
+        front, rear = 2.0 * (1.0 - self.cg_ratio), 2.0 * self.cg_ratio
+        return np.array([front, rear, rear, front])
 
     @property
     def wheel_positions(self) -> np.ndarray:
@@ -94,19 +113,19 @@ class SkidSteer4:
     def max_stable_dt(self) -> float:
         """Largest RK4 step [s] keeping the fastest friction mode stable, with margin."""
         arm2 = float(np.max(np.sum(self.wheel_positions**2, axis=1)))
-        return 2.5 / (self.stiffness * (4.0 / self.mass + 4.0 * arm2 / self.inertia))
+        k = float(np.max(self.load_factors))
+        return 2.5 / (k * self.stiffness * (4.0 / self.mass + 4.0 * arm2 / self.inertia))
 
     def contact_forces(self, state: np.ndarray, u: np.ndarray) -> np.ndarray:
         """(1.17)-(1.20): (4, 2) friction forces (F_i, S_i) on FL, RL, RR, FR, robot frame [N]."""
         phi, xd, yd, phid = state[2], state[3], state[4], state[5]
         c, s = math.cos(phi), math.sin(phi)
         vx, vy = xd * c + yd * s, -xd * s + yd * c
-        limit = self.mu * self.wheel_load
         out = np.empty((4, 2))
-        for i, (xi, yi) in enumerate(self.wheel_positions):
+        for i, ((xi, yi), k) in enumerate(zip(self.wheel_positions, self.load_factors)):
             omega = u[0] if yi > 0 else u[1]
             out[i] = wheel_friction(self.wheel_radius * omega - (vx - yi * phid), vy + xi * phid,
-                                    stiffness=self.stiffness, limit=limit)
+                                    stiffness=k * self.stiffness, limit=k * self.mu * self.wheel_load)
         return out
 
     def derivative(self, state: np.ndarray, u: np.ndarray) -> np.ndarray:

@@ -1,0 +1,154 @@
+"""Geometric paths for the controllers: smooth parametric curves and polylines.
+
+A :class:`ParametricPath` is r(u) = (x(u), y(u)), u in [u_start, u_end], with its first and
+second derivatives.  From them (thesis 3.1.1):
+
+    osculating-circle radius (3.1)  rho(u) = (x'^2 + y'^2)^(3/2) / (x' y'' - y' x'')
+    arc length (3.2)                s(u) = integral_{u_start}^{u} sqrt(x'^2 + y'^2) du
+
+rho is signed (positive: the path turns left); :meth:`ParametricPath.curvature` returns
+kappa = 1/rho, which stays finite on straight parts.  s(u) is tabulated once on a fine grid
+(composite Simpson on each cell pair, ``n_table`` cells) and inverted by interpolation, which
+replaces the thesis's analytic inversion x = x(s) (3.3) and works for any parametric path.
+
+A :class:`Polyline` is the line that the line-following robot senses (thesis 3.2.2.1).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from mjtrack.errors import InputError
+
+Fn = Callable[[np.ndarray], np.ndarray]
+
+
+class ParametricPath:
+    """Smooth planar path r(u) with derivatives; see the module docstring.
+
+    Args:
+        x, y, dx, dy, ddx, ddy: vectorised functions of u.
+        u_start, u_end: parameter range.
+        n_table: cells of the arc-length table.
+    """
+
+    def __init__(self, x: Fn, y: Fn, dx: Fn, dy: Fn, ddx: Fn, ddy: Fn, *, u_start: float, u_end: float,
+                 n_table: int = 4000) -> None:
+        if not u_end > u_start:
+            raise InputError(f"ParametricPath: need u_end > u_start, got {u_start}, {u_end}")
+        self._f = (x, y, dx, dy, ddx, ddy)
+        self.u_start, self.u_end = float(u_start), float(u_end)
+        u = np.linspace(self.u_start, self.u_end, 2 * n_table + 1)
+        speed = np.hypot(dx(u), dy(u))
+        if np.any(speed <= 0):
+            raise InputError("ParametricPath: the parametrisation is singular (|r'(u)| = 0)")
+        # Simpson on pairs of cells gives s at even nodes; odd nodes by trapezoid refinement.
+        h = u[1] - u[0]
+        pair = h / 3 * (speed[0:-2:2] + 4 * speed[1:-1:2] + speed[2::2])
+        s_even = np.concatenate([[0.0], np.cumsum(pair)])
+        self._u_table = u[::2]
+        self._s_table = s_even
+        self.length = float(s_even[-1])
+
+    def point(self, u) -> np.ndarray:
+        """(…, 2) position [m]."""
+        return np.stack([self._f[0](np.asarray(u, float)), self._f[1](np.asarray(u, float))], -1)
+
+    def heading(self, u) -> np.ndarray:
+        """Tangent direction atan2(y', x') [rad]."""
+        u = np.asarray(u, float)
+        return np.arctan2(self._f[3](u), self._f[2](u))
+
+    def curvature(self, u) -> np.ndarray:
+        """Signed curvature kappa = 1/rho (3.1) [1/m]."""
+        u = np.asarray(u, float)
+        dx, dy, ddx, ddy = (f(u) for f in self._f[2:])
+        return (dx * ddy - dy * ddx) / np.hypot(dx, dy) ** 3
+
+    def radius(self, u) -> np.ndarray:
+        """Signed osculating-circle radius rho(u) (3.1) [m]; inf on straight parts."""
+        with np.errstate(divide="ignore"):
+            return 1.0 / self.curvature(u)
+
+    def arc_length(self, u) -> np.ndarray:
+        """s(u) (3.2) [m], interpolated linearly in the Simpson table."""
+        return np.interp(u, self._u_table, self._s_table)
+
+    def u_at(self, s) -> np.ndarray:
+        """Inverse of s(u): the parameter at arc length s [m] (clipped to the path)."""
+        return np.interp(s, self._s_table, self._u_table)
+
+
+def circle_path(*, centre=(0.0, 0.0), radius: float = 1.0, start_angle: float = -math.pi / 2,
+                turns: float = 1.0, ccw: bool = True) -> ParametricPath:
+    """Circle of ``radius`` [m] about ``centre``, starting at polar angle ``start_angle`` [rad]."""
+    if not radius > 0:
+        raise InputError(f"circle_path: radius must be positive, got {radius}")
+    cx, cy = centre
+    sgn = 1.0 if ccw else -1.0
+    a0 = start_angle
+    return ParametricPath(
+        lambda u: cx + radius * np.cos(a0 + sgn * u), lambda u: cy + radius * np.sin(a0 + sgn * u),
+        lambda u: -sgn * radius * np.sin(a0 + sgn * u), lambda u: sgn * radius * np.cos(a0 + sgn * u),
+        lambda u: -radius * np.cos(a0 + sgn * u), lambda u: -radius * np.sin(a0 + sgn * u),
+        u_start=0.0, u_end=2 * math.pi * turns,
+    )
+
+
+def figure_eight_path(*, size: float = 1.0, centre=(0.0, 0.0), laps: float = 1.0) -> ParametricPath:
+    """Lemniscate of Gerono x = A sin u, y = (A/2) sin 2u, u in [0, 2 pi laps]; A = ``size`` [m].
+
+    Starts at the crossing point heading +45 degrees; the first lobe (x > 0) is driven clockwise,
+    the second counter-clockwise.  |r'(u)|^2 = A^2 (cos^2 u + cos^2 2u) never vanishes, so kappa
+    is finite everywhere; at the lobe tips (u = pi/2, 3 pi/2) kappa = -1/A and +1/A.
+    """
+    if not size > 0:
+        raise InputError(f"figure_eight_path: size must be positive, got {size}")
+    cx, cy = centre
+    a = size
+    return ParametricPath(
+        lambda u: cx + a * np.sin(u), lambda u: cy + 0.5 * a * np.sin(2 * u),
+        lambda u: a * np.cos(u), lambda u: a * np.cos(2 * u),
+        lambda u: -a * np.sin(u), lambda u: -2 * a * np.sin(2 * u),
+        u_start=0.0, u_end=2 * math.pi * laps,
+    )
+
+
+@dataclass(frozen=True)
+class Polyline:
+    """A line on the floor: (N, 2) vertices [m], N >= 2, no zero-length segment."""
+
+    points: np.ndarray
+
+    def __post_init__(self) -> None:
+        pts = np.asarray(self.points, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 2:
+            raise InputError(f"Polyline: points must have shape (N >= 2, 2), got {pts.shape}")
+        if np.any(np.hypot(*np.diff(pts, axis=0).T) <= 0):
+            raise InputError("Polyline: two consecutive vertices coincide")
+        object.__setattr__(self, "points", pts)
+
+    def closest(self, p) -> tuple[float, float, int]:
+        """(signed distance [m], arc length at the foot point [m], segment index) of point p.
+
+        Sign: positive when p lies to the left of the line's direction of travel.
+        """
+        p = np.asarray(p, dtype=float)
+        a, b = self.points[:-1], self.points[1:]
+        d = b - a
+        seg_len2 = np.sum(d * d, axis=1)
+        lam = np.clip(np.sum((p - a) * d, axis=1) / seg_len2, 0.0, 1.0)
+        foot = a + lam[:, None] * d
+        dist = np.hypot(*(p - foot).T)
+        i = int(np.argmin(dist))
+        cross = d[i, 0] * (p[1] - a[i, 1]) - d[i, 1] * (p[0] - a[i, 0])
+        s_before = float(np.sum(np.sqrt(seg_len2[:i])))
+        return math.copysign(float(dist[i]), cross if cross != 0 else 1.0), s_before + lam[i] * math.sqrt(seg_len2[i]), i
+
+    @property
+    def length(self) -> float:
+        return float(np.sum(np.hypot(*np.diff(self.points, axis=0).T)))
