@@ -1,0 +1,283 @@
+"""Offscreen MP4 video of a MuJoCo trajectory: following camera, ground grid, path trail, ICR markers.
+
+Resampling: the video shows simulated time t_k = t_0 + k * speed / fps for
+k = 0 .. K-1, K = floor((t_N - t_0) * fps / speed) + 1 (so its duration K / fps is
+(t_N - t_0) / speed within one frame). The configuration at t_k is the geodesic
+interpolation between the two samples around it: with alpha = (t_k - t_i) / (t_{i+1} - t_i),
+q(t_k) = q_i (+) alpha * (q_{i+1} (-) q_i), where (-) is ``mj_differentiatePos`` (velocity that
+maps q_i to q_{i+1} in unit time) and (+) ``mj_integratePos``: linear for hinge/slide
+joints, a slerp for the quaternions of free and ball joints (a plain linear interpolation
+would denormalise them). ICR markers are not interpolated (they jump, and are NaN in
+straight driving): each frame shows the last sample at or before t_k.
+
+Writing: imageio's ffmpeg plugin, libx264, yuv420p (which needs even width and height;
+``macro_block_size=2`` stops imageio from resizing). The file is written in a temporary
+folder beside ``out_path`` under the final extension (ffmpeg picks the container from it)
+and renamed at the end, so a failure leaves no partial video.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import logging
+import os
+import tempfile
+import time
+from pathlib import Path
+from typing import Iterator
+
+import mujoco
+import numpy as np
+
+from mjtrack.errors import InputError
+from mjtrack.progress import Progress
+from mjtrack.render import decor
+from mjtrack.render.offscreen import OffscreenRenderer
+
+logger = logging.getLogger(__name__)
+
+MAX_TRAIL_POINTS = 600  # trail decimation: bounds the decoration geoms per frame
+
+
+@dataclasses.dataclass(frozen=True)
+class VideoStats:
+    """What :func:`render_video` wrote: ``frames`` at ``fps`` [1/s] of ``width`` x ``height`` [px].
+
+    ``render_s`` is the wall time spent in scene update + OpenGL render + pixel read-back,
+    ``total_s`` includes interpolation and encoding [s].
+    """
+
+    path: Path
+    frames: int
+    fps: float
+    width: int
+    height: int
+    render_s: float
+    total_s: float
+
+    @property
+    def duration(self) -> float:
+        """Video duration [s]."""
+        return self.frames / self.fps
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
+    """A temporary path with ``path``'s name in a hidden folder beside it; renamed onto ``path`` on success.
+
+    For writers that need a file name rather than a handle (ffmpeg picks the format from the
+    extension). The folder is removed in every case.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix=f".{path.name}.", dir=path.parent) as folder:
+        tmp = Path(folder) / path.name
+        yield tmp
+        os.replace(tmp, path)
+
+
+def frame_times(times: np.ndarray, *, fps: float, speed: float) -> np.ndarray:
+    """Simulated times [s] shown by the video's frames, (K,) (see module docstring)."""
+    span = float(times[-1] - times[0])
+    count = int(np.floor(span * fps / speed + 1e-9)) + 1
+    return times[0] + np.arange(count) * (speed / fps)
+
+
+def interpolate_qpos(model: mujoco.MjModel, qpos_traj: np.ndarray, times: np.ndarray,
+                     t_query: np.ndarray) -> np.ndarray:
+    """Configurations at ``t_query`` (K,) [s], (K, nq), geodesic between samples (module docstring)."""
+    n = len(times)
+    out = np.empty((len(t_query), model.nq))
+    qvel = np.empty(model.nv)
+    for k, t in enumerate(t_query):
+        i = int(np.clip(np.searchsorted(times, t, side="right") - 1, 0, max(n - 2, 0)))
+        q = qpos_traj[i].copy()
+        if n > 1:
+            alpha = (t - times[i]) / (times[i + 1] - times[i])
+            mujoco.mj_differentiatePos(model, qvel, 1.0, qpos_traj[i], qpos_traj[i + 1])
+            mujoco.mj_integratePos(model, q, qvel, float(alpha))
+        out[k] = q
+    return out
+
+
+def _check_inputs(model, qpos_traj, times, out_path, width, height, fps, speed, follow_body, icr):
+    """Validated arrays and ids; raises InputError with a one-line message."""
+    if not isinstance(model, mujoco.MjModel):
+        raise InputError(f"render_video: model must be a mujoco.MjModel, got {type(model).__name__}")
+    qpos_traj = np.asarray(qpos_traj, dtype=float)
+    times = np.asarray(times, dtype=float)
+    if qpos_traj.ndim != 2 or qpos_traj.shape[1] != model.nq:
+        raise InputError(f"render_video: qpos_traj must have shape (N, nq={model.nq}), got {qpos_traj.shape}")
+    if times.ndim != 1 or len(times) != len(qpos_traj):
+        raise InputError(f"render_video: times must have shape ({len(qpos_traj)},), got {times.shape}")
+    if len(times) < 2:
+        raise InputError("render_video: need at least 2 samples")
+    if not (np.all(np.isfinite(times)) and np.all(np.isfinite(qpos_traj))):
+        raise InputError("render_video: times and qpos_traj must be finite")
+    bad = np.flatnonzero(np.diff(times) <= 0)
+    if bad.size:
+        raise InputError(f"render_video: times must be strictly increasing (sample {bad[0] + 1}: "
+                         f"{times[bad[0] + 1]:g} after {times[bad[0]]:g})")
+    for name, value in (("width", width), ("height", height)):
+        if int(value) != value or value < 2 or value % 2:
+            raise InputError(f"render_video: {name} must be an even number of pixels >= 2 "
+                             f"(libx264/yuv420p), got {value}")
+    if not (np.isfinite(fps) and fps > 0 and np.isfinite(speed) and speed > 0):
+        raise InputError(f"render_video: fps and speed must be positive, got fps={fps}, speed={speed}")
+    if Path(out_path).suffix.lower() != ".mp4":
+        raise InputError(f"render_video: output must be a .mp4 file, got {out_path}")
+    body_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, follow_body)
+    if body_id < 0:
+        names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, model.nbody)]
+        raise InputError(f"render_video: no body named {follow_body!r} (bodies: {', '.join(map(str, names[:12]))})")
+    if icr is not None:
+        icr = np.asarray(icr, dtype=float)
+        if icr.ndim == 2:
+            icr = icr[:, None, :]
+        if icr.ndim != 3 or icr.shape[0] != len(times) or icr.shape[2] not in (2, 3):
+            raise InputError(f"render_video: icr must have shape (N={len(times)}, 2|3) or (N, K, 2|3), "
+                             f"got {np.shape(icr)}")
+        if icr.shape[2] == 2:
+            icr = np.concatenate([icr, np.zeros(icr.shape[:2] + (1,))], axis=2)
+    return qpos_traj, times, body_id, icr
+
+
+def render_video(
+    model: mujoco.MjModel,
+    qpos_traj: np.ndarray,
+    times: np.ndarray,
+    out_path: str | os.PathLike,
+    *,
+    width: int = 640,
+    height: int = 480,
+    fps: float = 30.0,
+    speed: float = 1.0,
+    follow_body: str = "chassis",
+    follow: bool = True,
+    distance: float | None = None,
+    azimuth: float = 135.0,
+    elevation: float = -30.0,
+    grid: float | None = 0.5,
+    trail: bool = True,
+    icr: np.ndarray | None = None,
+    shadows: bool = False,
+    progress: bool | Progress = True,
+) -> VideoStats:
+    """Render ``qpos_traj`` (N, nq) sampled at ``times`` (N,) [s] to the MP4 ``out_path``.
+
+    Args:
+        width, height: frame size [px], even.
+        fps: frames per second of the video; speed: playback speed (2 = twice as fast).
+        follow_body: body whose path is trailed and that the camera looks at.
+        follow: the camera moves with the body (fixed orientation, so the world grid slides
+            under it); ``False``: one fixed camera framing the whole path.
+        distance: camera distance [m]; default: fit the body's subtree (following) or the path.
+        azimuth, elevation: camera direction [deg], MuJoCo free-camera convention.
+        grid: spacing [m] of grid lines drawn on the z = 0 ground, ``None`` for none.
+        trail: draw the body's path so far on the ground.
+        icr: optional world-frame points (N, 2|3) or (N, K, 2|3) [m] drawn as markers (NaN: none).
+        shadows: render shadows (about 3-5x slower with Mesa's software rasteriser).
+        progress: show a progress line on a terminal (or update the given :class:`Progress`).
+
+    Returns:
+        :class:`VideoStats`.
+
+    Raises:
+        InputError: inconsistent shapes, times not increasing, unknown body, odd size, bad path.
+        RenderUnavailableError: no offscreen OpenGL backend works here.
+    """
+    start = time.perf_counter()
+    qpos_traj, times, body_id, icr = _check_inputs(
+        model, qpos_traj, times, out_path, width, height, fps, speed, follow_body, icr)
+    import imageio.v2 as imageio  # heavy; only needed here
+
+    t_frames = frame_times(times, fps=fps, speed=speed)
+    q_frames = interpolate_qpos(model, qpos_traj, times, t_frames)
+    data = mujoco.MjData(model)
+    body_pos = np.empty((len(t_frames), 3))
+    for k, q in enumerate(q_frames):
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        body_pos[k] = data.xpos[body_id]
+    data.qpos[:] = q_frames[0]
+    mujoco.mj_kinematics(model, data)
+    size = max(decor.subtree_radius(model, data, body_id), 0.05)
+    icr_index = np.clip(np.searchsorted(times, t_frames, side="right") - 1, 0, len(times) - 1)
+    trail_stride = max(1, int(np.ceil(len(t_frames) / MAX_TRAIL_POINTS)))
+
+    bar = progress if isinstance(progress, Progress) else Progress(
+        len(t_frames), label="render", quiet=not progress)
+    render_s = 0.0
+    with OffscreenRenderer(model, width=width, height=height) as renderer, atomic_path(out_path) as tmp:
+        cam = renderer.camera
+        cam.azimuth, cam.elevation = azimuth, elevation
+        if follow:
+            cam.distance = distance or decor.fit_distance(model, 3.0 * size)
+        else:
+            lo, hi = body_pos.min(axis=0), body_pos.max(axis=0)
+            cam.lookat[:] = (lo + hi) / 2
+            cam.distance = distance or decor.fit_distance(model, max(np.linalg.norm(hi - lo) / 2, 3.0 * size))
+        grid_half = 1.5 * cam.distance
+        writer = imageio.get_writer(
+            tmp, format="FFMPEG", mode="I", fps=fps, codec="libx264", pixelformat="yuv420p",
+            macro_block_size=2, ffmpeg_log_level="error", output_params=["-preset", "veryfast"])
+        try:
+            for k, q in enumerate(q_frames):
+                data.qpos[:] = q
+                mujoco.mj_kinematics(model, data)
+                mujoco.mj_comPos(model, data)
+                mujoco.mj_camlight(model, data)
+                if follow:
+                    cam.lookat[:] = body_pos[k]
+                tic = time.perf_counter()
+                renderer.update_scene(data)
+                renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
+                if grid:
+                    decor.draw_grid(renderer, cam.lookat, spacing=grid, half_size=grid_half)
+                if trail:
+                    points = np.vstack([body_pos[: k + 1 : trail_stride, :2], body_pos[k, :2]])
+                    decor.draw_polyline(renderer, points, width_px=max(2.0, height / 100))
+                if icr is not None:
+                    decor.draw_markers(renderer, icr[icr_index[k]], body_pos[k], radius=0.15 * size)
+                frame = renderer.render()
+                render_s += time.perf_counter() - tic
+                writer.append_data(frame)
+                bar.update()
+        finally:
+            writer.close()
+            if bar is not progress:
+                bar.close()
+    stats = VideoStats(Path(out_path), len(t_frames), float(fps), width, height, render_s,
+                       time.perf_counter() - start)
+    logger.info("wrote %s: %d frames %dx%d, %.1f frames/s rendered", out_path, stats.frames, width, height,
+                stats.frames / max(render_s, 1e-9))
+    return stats
+
+
+def qpos_from_poses(model: mujoco.MjModel, poses: np.ndarray, *, body: str = "chassis",
+                    z: float | None = None) -> np.ndarray:
+    """Configurations (N, nq) placing ``body``'s free joint at planar ``poses`` (N, 3) = (x, y, yaw) [m, rad].
+
+    For rendering a log or a kinematic model's path: the other joints keep ``model.qpos0``,
+    the body's height is ``z`` [m] (default: its height in ``qpos0``), roll = pitch = 0 and
+    the quaternion is (cos(yaw/2), 0, 0, sin(yaw/2)).
+    """
+    poses = np.asarray(poses, dtype=float)
+    if poses.ndim != 2 or poses.shape[1] != 3:
+        raise InputError(f"qpos_from_poses: poses must have shape (N, 3), got {poses.shape}")
+    body_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body)
+    if body_id < 0:
+        raise InputError(f"qpos_from_poses: no body named {body!r}")
+    jnt = model.body_jntadr[body_id]
+    if model.body_jntnum[body_id] < 1 or model.jnt_type[jnt] != mujoco.mjtJoint.mjJNT_FREE:
+        raise InputError(f"qpos_from_poses: body {body!r} has no free joint")
+    adr = model.jnt_qposadr[jnt]
+    qpos = np.tile(model.qpos0, (len(poses), 1))
+    qpos[:, adr] = poses[:, 0]
+    qpos[:, adr + 1] = poses[:, 1]
+    qpos[:, adr + 2] = model.qpos0[adr + 2] if z is None else z
+    qpos[:, adr + 3] = np.cos(poses[:, 2] / 2)
+    qpos[:, adr + 4 : adr + 6] = 0.0
+    qpos[:, adr + 6] = np.sin(poses[:, 2] / 2)
+    return qpos

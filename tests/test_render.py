@@ -1,0 +1,299 @@
+"""Offscreen videos and animated path plots (mjtrack.render), on a tiny model of their own.
+
+Rendering is checked loosely but with properties that a broken renderer fails: the right
+shape and frame count, frames neither black nor all identical, the followed body stays in
+the middle of the image while the fixed camera sees it move, the trail and the ICR marker
+appear in their colours. Input errors are checked without any OpenGL.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from mjtrack.errors import InputError
+from mjtrack.render import gl
+from mjtrack.icr import icr_from_twist
+from mjtrack.render.animation import animate_paths, footprint_corners
+from mjtrack.render.decor import icr_markers
+from mjtrack.render.video import frame_times, interpolate_qpos, qpos_from_poses, render_video
+
+imageio = pytest.importorskip("imageio.v2")
+
+BOX_RGBA = (0.8, 0.1, 0.1)
+TEST_XML = """
+<mujoco model="render_test">
+  <worldbody>
+    <light name="sun" pos="0 0 4" dir="0 0 -1" directional="true"/>
+    <geom name="floor" type="plane" size="20 20 0.1" rgba="0.8 0.8 0.75 1"/>
+    <body name="chassis" pos="0 0 0.1">
+      <freejoint name="root"/>
+      <geom name="hull" type="box" size="0.3 0.2 0.1" rgba="0.8 0.1 0.1 1"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+RADIUS = 1.5  # [m] of the test turn
+YAW_RATE = 0.5  # [rad/s]
+
+
+@pytest.fixture(scope="module")
+def model():
+    return mujoco.MjModel.from_xml_string(TEST_XML)
+
+
+@pytest.fixture(scope="module")
+def backend():
+    try:
+        return gl.select_backend()
+    except gl.RenderUnavailableError as exc:
+        pytest.skip(f"no offscreen OpenGL backend: {exc}")
+
+
+def turn(duration: float = 2.0, n: int = 101):
+    """Times (n,) and poses (n, 3) of a CCW circle of RADIUS about (0, RADIUS), starting at the origin."""
+    t = np.linspace(0.0, duration, n)
+    yaw = YAW_RATE * t
+    return t, np.column_stack([RADIUS * np.sin(yaw), RADIUS * (1 - np.cos(yaw)), yaw])
+
+
+def colour_mask(frame: np.ndarray, rgb, tol: int = 60) -> np.ndarray:
+    """Pixels whose hue matches ``rgb`` (0..1): the ratio of channels, robust to shading."""
+    f = frame.astype(float) + 1.0
+    ref = np.asarray(rgb, float) * 255 + 1.0
+    ratio = f / f.sum(axis=2, keepdims=True)
+    ref_ratio = ref / ref.sum()
+    return (np.abs(ratio - ref_ratio).max(axis=2) < tol / 765) & (f.max(axis=2) > 40)
+
+
+def centroid(mask: np.ndarray) -> np.ndarray:
+    rows, cols = np.nonzero(mask)
+    return np.array([cols.mean(), rows.mean()])
+
+
+# --- resampling and poses (no OpenGL) -----------------------------------------------------------
+
+def test_frame_times_span_the_trajectory_at_fps_over_speed():
+    t = np.array([0.5, 1.0, 3.5])
+    for fps, speed in ((30, 1.0), (25, 2.0), (10, 0.5)):
+        tf = frame_times(t, fps=fps, speed=speed)
+        assert tf[0] == 0.5 and tf[-1] <= 3.5 + 1e-12
+        assert 3.5 - tf[-1] < speed / fps  # the last frame is within one frame of the end
+        np.testing.assert_allclose(np.diff(tf), speed / fps)
+
+
+def test_qpos_from_poses_places_the_body(model):
+    _, poses = turn()
+    q = qpos_from_poses(model, poses)
+    data = mujoco.MjData(model)
+    for k in (0, 37, 100):
+        data.qpos[:] = q[k]
+        mujoco.mj_kinematics(model, data)
+        xmat = data.xmat[1].reshape(3, 3)
+        np.testing.assert_allclose(data.xpos[1, :2], poses[k, :2], atol=1e-12)
+        assert math.isclose(math.atan2(xmat[1, 0], xmat[0, 0]), poses[k, 2], abs_tol=1e-12)
+        assert data.xpos[1, 2] == pytest.approx(0.1)  # the height of qpos0
+
+
+def test_interpolation_is_exact_at_samples_and_slerps_between(model):
+    t = np.array([0.0, 1.0])
+    poses = np.array([[0.0, 0.0, 0.0], [1.0, 2.0, 1.2]])
+    q = qpos_from_poses(model, poses)
+    out = interpolate_qpos(model, q, t, np.array([0.0, 0.25, 1.0]))
+    np.testing.assert_allclose(out[[0, 2]], q, atol=1e-12)
+    quat = out[1, 3:7]
+    assert np.linalg.norm(quat) == pytest.approx(1.0, abs=1e-12)
+    # a rotation about z: slerp at 1/4 gives a quarter of the yaw, and positions move linearly
+    np.testing.assert_allclose(quat, [math.cos(0.15), 0, 0, math.sin(0.15)], atol=1e-12)
+    np.testing.assert_allclose(out[1, :2], [0.25, 0.5], atol=1e-12)
+
+
+def test_icr_markers_of_a_circle_sit_at_its_centre():
+    _, poses = turn()
+    n = len(poses)
+    vx, wz = np.full(n, RADIUS * YAW_RATE), np.full(n, YAW_RATE)
+    vx[0] = wz[0] = 0.0  # at rest: no ICR, no marker
+    icr = icr_from_twist(vx, np.zeros(n), wz, vx - 0.2 * wz, vx + 0.2 * wz, on_singular="mask")
+    world = icr_markers(poses, icr)  # (N, 3 ICRs, xyz)
+    assert world.shape == (n, 3, 3) and np.all(np.isnan(world[0, :, :2]))
+    np.testing.assert_allclose(world[1:, 2, :2], np.tile([0.0, RADIUS], (n - 1, 1)), atol=1e-12)
+    left = poses[1:, :2] + 0.2 * np.column_stack([-np.sin(poses[1:, 2]), np.cos(poses[1:, 2])])
+    np.testing.assert_allclose(world[1:, 0, :2], left, atol=1e-12)  # y_l = 0.2 m left of the centre
+
+
+def test_footprint_corners_rotate_a_rectangle():
+    corners = footprint_corners((1.0, 2.0, math.pi / 2), 0.6, 0.4)
+    np.testing.assert_allclose(corners[0], [1.0 - 0.2, 2.0 + 0.3], atol=1e-12)  # front-left
+    sides = np.linalg.norm(np.roll(corners, -1, axis=0) - corners, axis=1)
+    np.testing.assert_allclose(sides, [0.6, 0.4, 0.6, 0.4], atol=1e-12)
+
+
+# --- input errors (no OpenGL) -------------------------------------------------------------------
+
+@pytest.mark.parametrize(
+    "change, match",
+    [
+        (dict(qpos_traj=np.zeros((101, 5))), r"qpos_traj must have shape \(N, nq=7\)"),
+        (dict(times=np.linspace(0, 1, 100)), r"times must have shape \(101,\)"),
+        (dict(times=np.r_[np.linspace(0, 1, 100), 0.5]), "strictly increasing.*sample 100"),
+        (dict(follow_body="tank"), "no body named 'tank'.*chassis"),
+        (dict(width=641), "width must be an even number"),
+        (dict(height=0), "height must be an even number"),
+        (dict(speed=0.0), "fps and speed must be positive"),
+        (dict(out_path="video.avi"), r"must be a \.mp4 file"),
+        (dict(icr=np.zeros((101, 4))), r"icr must have shape"),
+    ],
+)
+def test_render_video_refuses_bad_input(model, tmp_path, change, match):
+    t, poses = turn()
+    args = dict(qpos_traj=qpos_from_poses(model, poses), times=t, out_path=tmp_path / "v.mp4")
+    args.update(change)
+    if not str(args["out_path"]).startswith(str(tmp_path)):
+        args["out_path"] = tmp_path / args["out_path"]
+    with pytest.raises(InputError, match=match):
+        render_video(model, args.pop("qpos_traj"), args.pop("times"), args.pop("out_path"), **args)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_qpos_from_poses_refuses_a_body_without_free_joint(model):
+    with pytest.raises(InputError, match="no free joint"):
+        qpos_from_poses(model, np.zeros((3, 3)), body="world")
+
+
+@pytest.mark.parametrize(
+    "change, match",
+    [
+        (dict(paths={"a": np.zeros((5, 2))}), r"path 'a' must have shape \(6, 3\)"),
+        (dict(paths={}), "no paths"),
+        (dict(times=np.array([0, 1, 1, 2, 3, 4.0])), "strictly increasing"),
+        (dict(paths={"a": np.full((6, 3), np.nan)}), "non-finite"),
+        (dict(out_path="p.png"), r"must be a \.gif file"),
+        (dict(max_frames=10), "frames > max_frames=10"),
+    ],
+)
+def test_animate_paths_refuses_bad_input(tmp_path, change, match):
+    args = dict(times=np.linspace(0, 5, 6), paths={"a": np.zeros((6, 3))}, out_path="p.gif", fps=10)
+    args.update(change)
+    args["out_path"] = tmp_path / args["out_path"]
+    with pytest.raises(InputError, match=match):
+        animate_paths(args.pop("times"), args.pop("paths"), args.pop("out_path"), **args)
+    assert list(tmp_path.iterdir()) == []
+
+
+# --- OpenGL backend selection -------------------------------------------------------------------
+
+def test_disabled_backend_is_refused(monkeypatch):
+    monkeypatch.setattr(gl, "_chosen", None)
+    monkeypatch.setenv("MUJOCO_GL", "off")
+    with pytest.raises(gl.RenderUnavailableError, match="disabled by MUJOCO_GL='off'"):
+        gl.select_backend()
+
+
+def test_no_working_backend_says_what_was_tried_and_what_to_install(monkeypatch):
+    monkeypatch.setattr(gl, "_chosen", None)
+    monkeypatch.delenv("MUJOCO_GL", raising=False)
+    monkeypatch.setattr(gl, "CANDIDATES", ("nosuchgl",))
+    with pytest.raises(gl.RenderUnavailableError, match=r"tried nosuchgl: .*nosuchgl.*apt-get install libegl1"):
+        gl.select_backend()
+
+
+# --- rendering ----------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def turn_video(model, backend, tmp_path_factory):
+    """A 2 s video of the test turn at the default size, with trail and ICR, and its frames."""
+    t, poses = turn()
+    icr = np.column_stack([np.zeros_like(t), np.full_like(t, RADIUS)])
+    icr[:10] = np.nan  # no ICR (e.g. straight driving) during the first 0.2 s: no marker
+    out = tmp_path_factory.mktemp("video") / "turn.mp4"
+    stats = render_video(model, qpos_from_poses(model, poses), t, out, fps=30, icr=icr, progress=False)
+    with imageio.get_reader(out) as reader:
+        meta = reader.get_meta_data()
+    frames = np.stack(imageio.mimread(out))
+    return stats, meta, frames
+
+
+def test_video_shape_and_duration(turn_video):
+    stats, meta, frames = turn_video
+    assert frames.shape[1:] == (480, 640, 3)
+    assert abs(len(frames) - 2.0 * 30 / 1.0) <= 1  # duration / speed * fps, within one frame
+    assert len(frames) == stats.frames
+    assert meta["fps"] == pytest.approx(30)
+    assert meta["codec"] == "h264"
+
+
+def test_video_frames_show_the_followed_robot_trail_and_icr(turn_video):
+    _, _, frames = turn_video
+    assert all(f.mean() > 40 for f in frames[::10])  # not black
+    diffs = [np.abs(frames[k].astype(int) - frames[k + 15].astype(int)).mean() for k in range(0, 45, 15)]
+    assert min(diffs) > 1.0  # the grid slides under the following camera: frames differ
+    h, w = frames.shape[1:3]
+    for f in (frames[0], frames[-1]):  # the following camera keeps the robot near the image centre
+        red = colour_mask(f, BOX_RGBA)
+        assert red.sum() > 500
+        assert np.linalg.norm(centroid(red) - [w / 2, h / 2]) < 0.1 * w
+    blue = [colour_mask(f, (0.05, 0.35, 0.95)).sum() for f in (frames[0], frames[-1])]
+    assert blue[0] < 20 and blue[1] > 80  # the trail grows (172 px measured at the end)
+    magenta = [colour_mask(f, (0.9, 0.1, 0.6)).sum() for f in (frames[0], frames[-1])]
+    assert magenta[0] < 10 and magenta[1] > 50  # the ICR marker, absent while the ICR is NaN
+
+
+def test_fixed_camera_sees_the_robot_move_and_speed_shortens(model, backend, tmp_path):
+    t, poses = turn()
+    out = tmp_path / "fixed.mp4"
+    stats = render_video(model, qpos_from_poses(model, poses), t, out, width=320, height=240, fps=20,
+                         speed=2.0, follow=False, trail=False, progress=False)
+    frames = np.stack(imageio.mimread(out))
+    assert frames.shape == (stats.frames, 240, 320, 3)
+    assert abs(len(frames) - 2.0 * 20 / 2.0) <= 1
+    moved = centroid(colour_mask(frames[-1], BOX_RGBA)) - centroid(colour_mask(frames[0], BOX_RGBA))
+    assert np.linalg.norm(moved) > 20  # [px]
+    assert [p.name for p in tmp_path.iterdir()] == ["fixed.mp4"]  # no temporary left behind
+
+
+def test_frames_wider_than_the_model_buffer_leave_the_model_alone(model, backend, tmp_path):
+    assert model.vis.global_.offwidth == 640
+    t, poses = turn(duration=0.1, n=3)
+    out = tmp_path / "wide.mp4"
+    render_video(model, qpos_from_poses(model, poses), t, out, width=800, height=600, fps=20, progress=False)
+    assert imageio.mimread(out)[0].shape == (600, 800, 3)
+    assert model.vis.global_.offwidth == 640
+
+
+def test_failure_while_rendering_leaves_no_file(model, backend, tmp_path, monkeypatch):
+    from mjtrack.render import offscreen
+
+    def boom(self):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(offscreen.OffscreenRenderer, "render", boom)
+    t, poses = turn(duration=0.2, n=5)
+    with pytest.raises(RuntimeError, match="boom"):
+        render_video(model, qpos_from_poses(model, poses), t, tmp_path / "v.mp4", progress=False)
+    assert list(tmp_path.iterdir()) == []
+
+
+# --- animated plot ------------------------------------------------------------------------------
+
+def test_animated_paths_gif_has_distinct_frames(tmp_path):
+    from PIL import Image
+
+    t, truth = turn(duration=3.0)
+    model_path = truth.copy()
+    model_path[:, :2] *= 0.9
+    out = tmp_path / "paths.gif"
+    stats = animate_paths(t, {"MuJoCo": truth, "MPP": model_path}, out, fps=5, speed=1.0,
+                          footprint=(0.6, 0.4), size_px=(320, 240))
+    assert stats.frames == 16  # 3 s * 5 fps + 1
+    with Image.open(out) as gif:
+        assert gif.n_frames == stats.frames and gif.size == (320, 240)
+        frames = []
+        for k in range(gif.n_frames):
+            gif.seek(k)
+            frames.append(np.asarray(gif.convert("RGB"), dtype=int))
+    assert len({f.tobytes() for f in frames}) == len(frames)
+    assert np.abs(frames[0] - frames[-1]).mean() > 0.5
+    assert [p.name for p in tmp_path.iterdir()] == ["paths.gif"]
