@@ -4,7 +4,9 @@ Section 4.1: the MPP, MICR and MVIR kinematic models driven along the reconstruc
 path of fig. 4.1 in three slip cases (none, longitudinal, lateral). Writes figures 4.1-4.7 as
 PNG and DIR/thesis.json (per case: max_dev_m, the largest distance between the MPP, MICR and
 MVIR paths; nominal_dev_m; final poses; the reconstruction parameters; figure files and
-captions). Takes a few seconds, no MuJoCo.
+captions). Section 4.2: the slip, ICR and virtual-robot filters, as printed and improved, on
+MPP truth (V = 0.4 m/s, w = -7 deg/s, s_L = 0.2, alpha = 15 deg); figures 4.8-4.14 and, per
+filter, param_error_final, converged_after_s and pred_err_ratio. Takes a few seconds, no MuJoCo.
 """
 
 from __future__ import annotations

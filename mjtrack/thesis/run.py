@@ -8,9 +8,7 @@ atomically, one top-level key per section::
 
     {"thesis": ..., "sections": ["4.1"], "figures": [...], "4.1": {..., "figures": {...}}}
 
-Adding section 4.2 (estimation) is one entry::
-
-    SECTIONS["4.2"] = Section("4.2", "EKF parameter estimation", ex42.compute, ex42.summary, figures42.plot_ex42)
+Adding a section is one entry in :data:`SECTIONS`.
 """
 
 from __future__ import annotations
@@ -25,7 +23,7 @@ from typing import Any, Callable, Iterable
 from mjtrack.errors import InputError
 from mjtrack.io.atomic import atomic_write_text
 from mjtrack.progress import Progress
-from mjtrack.thesis import ex41, figures
+from mjtrack.thesis import ex41, ex42, figures
 
 log = logging.getLogger(__name__)
 
@@ -51,6 +49,13 @@ SECTIONS: dict[str, Section] = {
         ex41.compute,
         ex41.summary,
         figures.plot_ex41,
+    ),
+    "4.2": Section(
+        "4.2",
+        "EKF estimation of the kinematic models' parameters: slip, ICR and virtual-robot filters",
+        ex42.compute,
+        ex42.summary,
+        ex42.plot,
     ),
 }
 

@@ -1,0 +1,68 @@
+"""Slip-parameter EKF, eqs. (3.9)–(3.13) of the tracked-robot thesis.
+
+State (3.9) q_e = (x, y, θ, s_L, s_R, α); the slips are a random walk (3.10)/(3.11); the pose
+follows the Euler step (3.11) of the MPP model (2.9) (with the /2 of its first row, see
+:mod:`mjtrack.models.kinematic`); the measurement is the pose (3.12), innovation (3.13) with the
+yaw residual wrapped. This is :func:`~mjtrack.estimation.pose_ekf.run_pose_param_ekf` with the
+MPP model: its Jacobian F (3.5) is written out there and uses ``MPP.twist_jacobian``:
+
+    ∂ν/∂s_L = (−V_L/2,  V_L tan α / 2,  V_L/T),   ∂ν/∂s_R = (−V_R/2, V_R tan α / 2, −V_R/T),
+    ∂ν/∂α   = (0, −v_x / cos² α, 0).
+
+Observability: with pose measurements the filter sees v_x, v_y and ω through the pose
+increments; (v_x, ω) fix the two actual track speeds, hence s_L and s_R whenever V_L, V_R ≠ 0,
+and v_y = −v_x tan α fixes α whenever v_x ≠ 0. In straight driving with equal slips nothing is
+lost either (the map (s_L, s_R) -> (v_x, ω) is invertible for V_L, V_R ≠ 0).
+
+A twist measurement can be added (``twist_meas``); the thesis's filter uses the pose only.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from mjtrack.estimation.common import FilterResult
+from mjtrack.estimation.pose_ekf import run_pose_param_ekf
+from mjtrack.models import MPP
+
+PARAM_NAMES = MPP.param_names  # ("s_left", "s_right", "alpha")
+
+
+def run_slip_ekf(
+    t,
+    v_left,
+    v_right,
+    *,
+    track_gauge: float,
+    pose_meas,
+    twist_meas=None,
+    pose_std: Sequence[float] = (0.1, 0.1, np.radians(2.0)),
+    twist_std: Sequence[float] = (0.05, 0.05, 0.04),
+    params0: Sequence[float] = (0.0, 0.0, 0.0),
+    param_std0: Sequence[float] = (0.3, 0.3, np.radians(20.0)),
+    q_param_std: Sequence[float] = (1e-3, 1e-3, np.radians(0.05)),
+    q_pose_std: Sequence[float] = (0.005, 0.005, 0.002),
+    pose0=None,
+    pose_std0=None,
+) -> FilterResult:
+    """Slip EKF over a drive.
+
+    Args:
+        t: (N,) [s]; v_left, v_right: (N,) commanded track speeds [m/s].
+        track_gauge: T [m].
+        pose_meas: (N, 3) measured pose [m, m, rad]; twist_meas: optional (N, 3) body twist.
+        pose_std, twist_std: measurement noise std [m, m, rad] / [m/s, m/s, rad/s].
+        params0: initial (s_L, s_R, α) [-, -, rad] (default: no slip); param_std0: their std.
+        q_param_std: random-walk intensity [1/√s, 1/√s, rad/√s]; q_pose_std: pose process
+            noise [m/√s, m/√s, rad/√s] (covers Euler's error and unmodelled motion).
+    Returns:
+        :class:`FilterResult` with states (x, y, theta, s_left, s_right, alpha).
+    """
+    model = MPP(track_gauge, *params0)
+    return run_pose_param_ekf(
+        model, t, v_left, v_right, pose_meas=pose_meas, twist_meas=twist_meas, pose_std=pose_std,
+        twist_std=twist_std, param_std0=param_std0, q_param_std=q_param_std, q_pose_std=q_pose_std,
+        pose0=pose0, pose_std0=pose_std0, name="slip_ekf",
+    )
