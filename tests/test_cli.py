@@ -56,7 +56,11 @@ def test_thesis_writes_readable_figures(thesis_run):
     doc = json.loads((out / "thesis.json").read_text())
     figs = doc["4.1"]["figures"]
     assert sorted(figs) == ["4.1", "4.2", "4.3", "4.4", "4.5", "4.6", "4.7"]
-    assert doc["figures"] == [figs[k]["file"] for k in sorted(figs)]
+    figs42 = doc["4.2"]["figures"]
+    assert sorted(figs42) == ["4.10", "4.11", "4.12", "4.13", "4.14", "4.8", "4.9"]
+    assert doc["figures"] == [figs[k]["file"] for k in sorted(figs)] + [
+        figs42[k]["file"] for k in sorted(figs42, key=lambda n: int(n.split(".")[1]))
+    ]
     for number, fig in figs.items():
         path = out / fig["file"]
         assert path.read_bytes()[:8] == PNG_MAGIC, number
