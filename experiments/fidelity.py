@@ -1,0 +1,204 @@
+"""Fidelity of the MuJoCo roller-chain robot against the rigid-track Coulomb reference.
+
+    python experiments/fidelity.py [--out experiments/results/fidelity] [--quick]
+
+Grid (issue 3): turns of nominal radius R in {pivot, 0.25, 0.5, 1, 2} m at v in {0.3, 0.8}
+m/s (pivot: track speeds +-v), turning left and right, driving forward and backward; cg_x in {-0.1, 0, +0.1} L; mu in
+{0.4, 0.8}; for the default robot (T = 0.4, L = 0.5 m, 20 kg) and a long-track robot
+(T = 0.6, L = 0.9 m, 60 kg, cg_z = 0.2 m). Commands from the nominal model:
+w = v/R, V_L = v - w T/2, V_R = v + w T/2.
+
+Each case: settle 3 s at the constant command, average 2 s (``mjtrack.sim.steady``; the
+window standard deviation of w is reported); ICRs by (2.13) from the window means with
+the measured track speeds; reference ``mjtrack.models.coulomb.steady_state`` at the same
+(measured) track speeds. Pass: |y_l - y_l*|, |y_r - y_r*| <= 0.1 T/2, |x_c - x_c*| <= 0.02 L,
+each track in ground contact in >= 99 % of the steps (settle + window).
+
+Also measured: convergence (halving the time step, doubling the roller count: largest ICR
+change on the default robot over all radii, cg_x and mu at 0.8 m/s) and straight driving
+(|v_x - V|/V and lateral drift per metre at 0.3, 0.8, 2 m/s). Writes fidelity.json and
+fidelity.png into --out and prints the tables. Runs in under a minute on one core.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mjtrack.io.robot import Robot
+from mjtrack.models.coulomb import steady_state as coulomb_steady
+from mjtrack.sim.config import SimConfig
+from mjtrack.sim.rollout import drive_log
+from mjtrack.sim.steady import steady_batch
+
+RADII = ("pivot", 0.25, 0.5, 1.0, 2.0)
+SPEEDS = (0.3, 0.8)
+DIRECTIONS = (1, -1)  # +1 left (CCW), -1 right (CW)
+TRAVEL = (1, -1)  # +1 forward, -1 reverse (turns only; a reversed pivot is the mirrored pivot)
+CG_FRACTIONS = (-0.1, 0.0, 0.1)
+MUS = (0.4, 0.8)
+GEOMETRIES = {
+    "default": Robot(),
+    "long": Robot(track_gauge=0.6, track_length=0.9, mass=60.0, cg_z=0.2),
+}
+TOL_Y, TOL_X, TOL_CONTACT = 0.10, 0.02, 0.99
+
+
+def commands_for(robot: Robot, radius, v: float, direction: int, travel: int = 1) -> tuple[float, float]:
+    """Nominal track speeds: turn left (+1) / right (-1), driving forward (+1) / backward (-1)."""
+    if radius == "pivot":
+        return -direction * v, direction * v
+    v = travel * v
+    w = direction * abs(v) / radius
+    return v - w * robot.track_gauge / 2, v + w * robot.track_gauge / 2
+
+
+def grid_cases(geometry: str, quick: bool):
+    base = GEOMETRIES[geometry]
+    radii = RADII if not quick else ("pivot", 0.5, 2.0)
+    for radius in radii:
+        for v in SPEEDS:
+            for direction in DIRECTIONS:
+                for travel in (TRAVEL if radius != "pivot" else (1,)):
+                    for cgf in CG_FRACTIONS:
+                        for mu in MUS:
+                            robot = base.replace(cg_x=cgf * base.track_length, mu=mu)
+                            yield dict(geometry=geometry, radius=radius, v=v, direction=direction, travel=travel,
+                                       cg_frac=cgf, mu=mu), robot, commands_for(robot, radius, v, direction, travel)
+
+
+def run_grid(quick: bool) -> list[dict]:
+    rows = []
+    for geometry in GEOMETRIES:
+        cases = list(grid_cases(geometry, quick))
+        results = steady_batch([c[1] for c in cases], np.array([c[2] for c in cases]))
+        for (meta, robot, _), res in zip(cases, results):
+            ref = coulomb_steady(robot, res.v_left, res.v_right)
+            half, L = robot.track_gauge / 2, robot.track_length
+            row = dict(meta, **res.to_dict(), ref_y_l=ref.y_l, ref_y_r=ref.y_r, ref_x_c=ref.x_c, ref_wz=ref.wz)
+            row["err_y"] = max(abs(res.y_l - ref.y_l), abs(res.y_r - ref.y_r)) / half
+            row["err_x"] = abs(res.x_c - ref.x_c) / L
+            row["contact_min"] = min(res.contact_left, res.contact_right)
+            row["pass"] = bool(row["err_y"] <= TOL_Y and row["err_x"] <= TOL_X and row["contact_min"] >= TOL_CONTACT)
+            rows.append(row)
+    return rows
+
+
+def convergence() -> dict:
+    """Largest ICR change over the default robot's grid at 0.8 m/s (left turns, forward)."""
+    base = Robot()
+    robots, cmds = [], []
+    for radius in RADII:
+        for cgf in CG_FRACTIONS:
+            for mu in MUS:
+                robot = base.replace(cg_x=cgf * base.track_length, mu=mu)
+                robots.append(robot)
+                cmds.append(commands_for(robot, radius, 0.8, 1))
+    cmds = np.array(cmds)
+    variants = {"base": SimConfig(), "half_dt": SimConfig(timestep=SimConfig().timestep / 2),
+                "double_rollers": SimConfig(n_rollers=2 * SimConfig().n_rollers)}
+    res = {k: steady_batch(robots, cmds, config=c) for k, c in variants.items()}
+    out = {}
+    for k in ("half_dt", "double_rollers"):
+        dy = max(max(abs(a.y_l - b.y_l), abs(a.y_r - b.y_r)) / (base.track_gauge / 2)
+                 for a, b in zip(res["base"], res[k]))
+        dx = max(abs(a.x_c - b.x_c) / base.track_length for a, b in zip(res["base"], res[k]))
+        out[k] = {"cases": len(robots), "max_dy_over_half_gauge": dy, "max_dx_over_length": dx}
+    return out
+
+
+def straight() -> list[dict]:
+    out = []
+    for v in (0.3, 0.8, 2.0):
+        log = drive_log(Robot(), (np.array([0.0]), np.array([v]), np.array([v])), duration=10.0)
+        k = log.t >= 3.0  # after the start transient
+        V = float(np.mean(log.v_left[k] + log.v_right[k]) / 2)
+        dist = float(np.hypot(log.x[-1] - log.x[0], log.y[-1] - log.y[0]))
+        out.append({"v_cmd": v, "V_measured": V, "vx": float(np.mean(log.vx[k])),
+                    "rel_speed_err": float(abs(np.mean(log.vx[k]) - V) / V),
+                    "drift_mm_per_m": 1000 * float(abs(log.y[-1] - log.y[0])) / dist})
+    return out
+
+
+def figure(rows: list[dict], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4))
+    for ax, key, ref, label in ((axes[0], "y_l", "ref_y_l", "y_l [m]"), (axes[1], "y_r", "ref_y_r", "y_r [m]"),
+                                (axes[2], "x_c", "ref_x_c", "x_c [m]")):
+        for geometry, marker in zip(GEOMETRIES, "ox"):
+            sel = [r for r in rows if r["geometry"] == geometry]
+            ax.plot([r[ref] for r in sel], [r[key] for r in sel], marker, ms=4, label=geometry, alpha=0.7)
+        lim = [min(min(r[ref], r[key]) for r in rows), max(max(r[ref], r[key]) for r in rows)]
+        ax.plot(lim, lim, "k-", lw=0.8)
+        ax.set_xlabel(f"Coulomb reference {label}")
+        ax.set_ylabel(f"MuJoCo {label}")
+        ax.legend()
+    fig.suptitle("Steady-state ICRs: MuJoCo roller chain vs rigid-track Coulomb reference")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", type=Path, default=Path("experiments/results/fidelity"))
+    p.add_argument("--quick", action="store_true", help="3 radii instead of 5")
+    args = p.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    rows = run_grid(args.quick)
+    conv = convergence()
+    straight_rows = straight()
+    elapsed = time.perf_counter() - t0
+
+    print(f"{'geom':8s} {'R':>6s} {'v':>4s} {'dir':>3s} {'fwd':>3s} {'cg/L':>5s} {'mu':>4s} {'y_l':>7s} {'ref':>7s} {'y_r':>7s} "
+          f"{'ref':>7s} {'x_c':>7s} {'ref':>7s} {'errY':>5s} {'errX':>6s} {'wz_std':>7s} {'cont':>5s}")
+    for r in rows:
+        print(f"{r['geometry']:8s} {str(r['radius']):>6s} {r['v']:4.1f} {r['direction']:3d} {r['travel']:3d} {r['cg_frac']:5.2f} "
+              f"{r['mu']:4.1f} {r['y_l']:7.4f} {r['ref_y_l']:7.4f} {r['y_r']:7.4f} {r['ref_y_r']:7.4f} "
+              f"{r['x_c']:7.4f} {r['ref_x_c']:7.4f} {r['err_y']:5.3f} {r['err_x']:6.4f} {r['wz_std']:7.4f} "
+              f"{r['contact_min']:5.3f}{'' if r['pass'] else '  FAIL'}")
+    summary = {}
+    for geometry in GEOMETRIES:
+        sel = [r for r in rows if r["geometry"] == geometry]
+        summary[geometry] = {
+            "cases": len(sel), "passed": sum(r["pass"] for r in sel),
+            "max_err_y_over_half_gauge": max(r["err_y"] for r in sel),
+            "max_err_x_over_length": max(r["err_x"] for r in sel),
+            "min_contact_fraction": min(r["contact_min"] for r in sel),
+            "max_wz_std": max(r["wz_std"] for r in sel),
+        }
+    print("\nsummary:", json.dumps(summary, indent=1))
+    print("convergence (largest ICR change):", json.dumps(conv))
+    print("straight driving:")
+    for s in straight_rows:
+        print(f"  v_cmd {s['v_cmd']:.1f}: V {s['V_measured']:.4f} vx {s['vx']:.4f} |vx-V|/V {s['rel_speed_err']:.2e} "
+              f"drift {s['drift_mm_per_m']:.3g} mm/m")
+    print(f"elapsed {elapsed:.1f} s")
+    doc = {"config": SimConfig().to_dict(), "tolerances": {"y": TOL_Y, "x": TOL_X, "contact": TOL_CONTACT},
+           "summary": summary, "convergence": conv, "straight": straight_rows, "cases": rows,
+           "elapsed_s": elapsed, "command": "python experiments/fidelity.py" + (" --quick" if args.quick else "")}
+    (args.out / "fidelity.json").write_text(json.dumps(doc, indent=1, default=_json_default) + "\n")
+    figure(rows, args.out / "fidelity.png")
+    print(f"wrote {args.out / 'fidelity.json'} and {args.out / 'fidelity.png'}")
+    return 0 if all(r["pass"] for r in rows) else 1
+
+
+def _json_default(x):
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    raise TypeError(type(x))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,42 @@
+"""Steady-state twist and ICRs of the MuJoCo robot under constant track speeds.
+
+Holds (V_L, V_R) for --settle seconds, then averages the body twist and the measured track
+speeds over --window seconds; ICRs by (2.13) from the means (null when driving straight).
+Prints JSON: vx, vy, wz, y_l, y_r, x_c plus the window standard deviations, the measured
+track speeds and the ground-contact fractions of each track.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from mjtrack.commands._common import add_robot_options, finite_float, robot_from_args
+
+HELP = "steady-state twist and ICRs of the MuJoCo robot under constant track speeds (JSON)"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--v-left", metavar="A", type=finite_float, required=True, help="left track speed [m/s]")
+    parser.add_argument("--v-right", metavar="B", type=finite_float, required=True, help="right track speed [m/s]")
+    parser.add_argument("--settle", metavar="S", type=finite_float, default=3.0, help="transient time [s] (default 3)")
+    parser.add_argument("--window", metavar="S", type=finite_float, default=2.0, help="averaging window [s] (default 2)")
+    parser.add_argument("--track-model", choices=["rollers", "surfacevel"], default="rollers",
+                        help="MuJoCo track model: sprung roller chain (default) or surfacevel row")
+    parser.add_argument("--json", action="store_true", help="print JSON (the only output format; accepted for clarity)")
+    add_robot_options(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    from mjtrack.errors import InputError
+    from mjtrack.sim.steady import steady_state
+
+    if args.settle < 0 or args.window <= 0:
+        raise InputError("--settle must be >= 0 and --window > 0 seconds")
+    from mjtrack.sim.config import sim_config
+
+    robot = robot_from_args(args)
+    result = steady_state(robot, args.v_left, args.v_right, config=sim_config(args.track_model),
+                          settle_s=args.settle, window_s=args.window)
+    print(json.dumps(result.to_dict(), indent=2))
+    return 0

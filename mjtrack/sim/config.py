@@ -1,0 +1,174 @@
+"""Simulation settings of the MuJoCo tracked robot: :class:`SimConfig`.
+
+Everything that is not a property of the robot itself (those live in
+:class:`mjtrack.io.robot.Robot`) but decides how it is simulated: time step, roller
+discretisation of the tracks, suspension, contact model and solver, the drive servo.
+The defaults are the settings that ``experiments/fidelity.py`` measured against the
+rigid-track Coulomb reference; ``assets/README.md`` says why each one is what it is.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from mjtrack.errors import InputError
+
+TRACK_MODELS = ("rollers", "surfacevel")
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """How the robot is simulated (SI units).
+
+    Attributes:
+        timestep: integration step [s].
+        n_rollers: contact rollers per track (>= 2); placed at the midpoints of N equal
+            cells of the contact length, so that they integrate a uniform load exactly [-].
+        roller_radius: radius of the spherical contact rollers [m].
+        unsprung_fraction: share of ``robot.mass`` in the 2N rollers (unsprung mass) [-];
+            a fraction, so that the explicit damper's stability margin c dt / m_roller does
+            not depend on the robot's mass.
+        suspension_deflection: static spring deflection of a roller under its share of the
+            weight [m]; sets the road-wheel spring stiffness k = m g / (2 N d).
+        suspension_damping_ratio: damping of the roller spring relative to critical for
+            the roller's share of the sprung mass [-].
+        track_mass: drivetrain inertia of one track (chain, sprocket, gearbox and rotor)
+            reflected to the track surface [kg]; armature track_mass r^2 / N on each roller
+            hinge (track_mass R_s^2 on the sprocket with the equality coupling). Heavy by
+            default (a geared motor: rotor 5e-5 kg m^2 x 100^2 / R_s^2 = 139 kg), so that the
+            rollers of a track move together (assets/README.md, item 5).
+        kv: velocity-servo gain of a track drive [N/(m/s)] (kv / N per roller servo).
+        torque_limit: sprocket torque limit [N m] (track force limit torque/R_s).
+        lag: first-order time constant from command to servo set-point [s] (0 = none).
+        contact_timeconst: contact solref time constant [s] (0 = 2 timesteps).
+        contact_dampratio: contact solref damping ratio [-].
+        solimp: contact impedance (dmin, dmax, width, midpoint, power).
+        friction_timeconst: solref time constant of the friction rows only [s] (explicit
+            contact pairs' ``solreffriction``; 0 = 2 timesteps). Keep it short: the noslip
+            pass then opposes the slip *velocity*; a long one (1 s) makes friction follow
+            accelerations (measured err_x 0.45 L, experiments/sim_ablation.py).
+        contact_margin: distance at which a roller-ground contact becomes active [m]; room
+            for the separating acceleration that sliding produces in MuJoCo's convex contact
+            model, so that a sliding roller floats up a little instead of losing contact.
+        coupling_timeconst: solref time constant of the roller-sprocket couplings [s]
+            (0 = 2 timesteps).
+        coupling: how a track's rollers share its speed: ``"servo"`` (each roller hinge has
+            its own velocity servo on the track command, gain kv, force limit
+            torque_limit / (R_s N), armature track_mass r^2 / N: no constraint rows) or
+            ``"equality"`` (roller hinges tied to one sprocket by joint equalities, one
+            servo on the sprocket: an exact chain, but N more constraint rows).
+        cone: ``"elliptic"`` (isotropic Coulomb cone) or ``"pyramidal"``.
+        impratio: friction-to-normal impedance ratio (elliptic cones) [-]; 1e-4 keeps the
+            friction rows of the main solve far inside the cone (no sliding lift-off); the
+            noslip pass then supplies hard Coulomb friction.
+        noslip_iterations: post-solve iterations of the un-regularised friction solver.
+        iterations, tolerance: main (Newton) solver settings.
+        jacobian: ``"dense"`` or ``"sparse"``. With friction in the noslip pass (which
+            works on the dense constraint matrix) dense measured ~15 % faster at 10 rollers;
+            sparse was 2-6x faster when the main Newton solve carried the friction.
+        integrator: ``"implicitfast"``, ``"Euler"``, ``"implicit"`` or ``"RK4"``.
+        implicit_damping: keep MuJoCo's implicit joint damping under Euler (default off:
+            the constraint solver cannot see it, see assets/README.md).
+        track_model: ``"rollers"`` (this module's roller chain) or ``"surfacevel"``.
+    """
+
+    timestep: float = 0.005
+    n_rollers: int = 10
+    roller_radius: float = 0.03
+    unsprung_fraction: float = 0.3
+    suspension_deflection: float = 0.005
+    suspension_damping_ratio: float = 1.0
+    track_mass: float = 200.0
+    kv: float = 30000.0
+    torque_limit: float = 60.0
+    lag: float = 0.0
+    contact_timeconst: float = 0.0
+    contact_dampratio: float = 1.0
+    solimp: tuple[float, float, float, float, float] = (0.95, 0.99, 0.001, 0.5, 2.0)
+    friction_timeconst: float = 0.0
+    contact_margin: float = 0.0
+    coupling_timeconst: float = 0.0
+    coupling: str = "servo"
+    cone: str = "elliptic"
+    impratio: float = 1e-4
+    noslip_iterations: int = 20
+    iterations: int = 50
+    tolerance: float = 1e-6
+    jacobian: str = "dense"
+    integrator: str = "Euler"
+    implicit_damping: bool = False
+    track_model: str = "rollers"
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.unsprung_fraction, (int, float)) and 0 < self.unsprung_fraction <= 0.5):
+            raise InputError(f"sim config: 'unsprung_fraction' must be in (0, 0.5], got {self.unsprung_fraction!r}")
+        for name in ("timestep", "roller_radius", "suspension_deflection",
+                     "track_mass", "kv", "torque_limit", "impratio", "tolerance"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise InputError(f"sim config: '{name}' must be a positive number, got {value!r}")
+        for name in ("lag", "contact_timeconst", "coupling_timeconst", "friction_timeconst", "contact_margin", "suspension_damping_ratio",
+                     "contact_dampratio"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise InputError(f"sim config: '{name}' must be a number >= 0, got {value!r}")
+        if not isinstance(self.n_rollers, int) or self.n_rollers < 2:
+            raise InputError(f"sim config: 'n_rollers' must be an integer >= 2, got {self.n_rollers!r}")
+        for name in ("noslip_iterations", "iterations"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or value < 0:
+                raise InputError(f"sim config: '{name}' must be an integer >= 0, got {value!r}")
+        if len(self.solimp) != 5:
+            raise InputError(f"sim config: 'solimp' needs 5 numbers, got {self.solimp!r}")
+        if self.cone not in ("elliptic", "pyramidal"):
+            raise InputError(f"sim config: 'cone' must be elliptic or pyramidal, got {self.cone!r}")
+        if self.coupling not in ("servo", "equality"):
+            raise InputError(f"sim config: 'coupling' must be servo or equality, got {self.coupling!r}")
+        if self.jacobian not in ("sparse", "dense"):
+            raise InputError(f"sim config: 'jacobian' must be sparse or dense, got {self.jacobian!r}")
+        if self.integrator not in ("implicitfast", "Euler", "implicit", "RK4"):
+            raise InputError(f"sim config: unknown integrator {self.integrator!r}")
+        if self.track_model not in TRACK_MODELS:
+            raise InputError(
+                f"sim config: 'track_model' must be one of {TRACK_MODELS}, got {self.track_model!r}"
+            )
+
+    @property
+    def contact_solref(self) -> tuple[float, float]:
+        """(timeconst, dampratio) of the ground contacts; 0 means two timesteps."""
+        tc = self.contact_timeconst or 2.0 * self.timestep
+        return (tc, self.contact_dampratio)
+
+    @property
+    def coupling_solref(self) -> tuple[float, float]:
+        tc = self.coupling_timeconst or 2.0 * self.timestep
+        return (tc, 1.0)
+
+    def roller_mass(self, robot_mass: float) -> float:
+        """Mass of one roller [kg] for a robot of ``robot_mass`` [kg]."""
+        return self.unsprung_fraction * robot_mass / (2 * self.n_rollers)
+
+    def replace(self, **changes: Any) -> "SimConfig":
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        d = dataclasses.asdict(self)
+        d["solimp"] = list(self.solimp)
+        return d
+
+
+def sim_config(track_model: str = "rollers", *, timestep: float | None = None) -> SimConfig:
+    """The measured default settings of a track model (the surfacevel model has its own)."""
+    if track_model == "surfacevel":
+        from mjtrack.sim.surfacevel import surfacevel_config
+
+        config = surfacevel_config(track_model="surfacevel")
+    elif track_model == "rollers":
+        config = SimConfig()
+    else:
+        raise InputError(f"unknown track model {track_model!r}; choose rollers or surfacevel")
+    return config if timestep is None else config.replace(timestep=timestep)

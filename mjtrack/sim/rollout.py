@@ -1,0 +1,303 @@
+"""Headless rollouts of the MuJoCo tracked robot: commands in, drive-log columns out.
+
+All stepping goes through ``mujoco.rollout`` (C loop, optional threads, deterministic: the
+same model, initial state and controls give bit-identical states). Commands are two track
+speeds per step, expanded to the actuators by :func:`mjtrack.sim.builder.control_matrix`.
+
+Before t = 0 the robot settles for ``settle_s`` with zero command (suspension and contacts
+reach their static state), so a log starts at rest. Logged quantities, sampled every
+``round(1 / (log_rate * dt))`` steps (the log period must be a multiple of the time step):
+
+* ``x, y`` [m]: the ``centre`` site (geometric centre on the ground); ``yaw`` [rad]: the
+  chassis heading, unwrapped (continuous), from the site quaternion;
+* ``vx, vy, wz``: velocimeter/gyro of ``centre`` in the chassis frame (for the small
+  pitch/roll of the sprung chassis this is the body twist of CONTRACTS.md);
+* ``v_left, v_right``: track speeds (tendon velocity sensors, m/s).
+
+A simulation that diverges (NaN, or MuJoCo's automatic reset after a bad acceleration,
+seen as time going back) raises :class:`~mjtrack.errors.MjtrackError`.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from mujoco import rollout as mj_rollout
+
+from mjtrack.errors import InputError, MjtrackError
+from mjtrack.io.robot import Robot
+from mjtrack.sim.builder import build_model, control_matrix
+from mjtrack.sim.config import SimConfig
+
+logger = logging.getLogger(__name__)
+
+STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
+SETTLE_S = 0.5  # [s] zero-command settling before t = 0
+
+
+@dataclass(frozen=True)
+class SensorMap:
+    """Column slices of ``sensordata`` for the quantities a rollout reports."""
+
+    linvel: slice
+    angvel: slice
+    pos: slice
+    quat: slice
+    track_speed: tuple[int, int]
+    ground_left: np.ndarray
+    ground_right: np.ndarray
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel) -> "SensorMap":
+        def sl(name: str) -> slice:
+            s = model.sensor(name)
+            return slice(int(s.adr[0]), int(s.adr[0] + s.dim[0]))
+
+        def ground(side: str) -> np.ndarray:
+            return np.array([int(model.sensor(i).adr[0]) for i in range(model.nsensor)
+                             if model.sensor(i).name.startswith(f"ground_{side}_")], dtype=int)
+
+        return cls(
+            linvel=sl("body_linvel"), angvel=sl("body_angvel"), pos=sl("body_pos"), quat=sl("body_quat"),
+            track_speed=(int(model.sensor("track_speed_left").adr[0]), int(model.sensor("track_speed_right").adr[0])),
+            ground_left=ground("left"), ground_right=ground("right"),
+        )
+
+
+def initial_state(model: mujoco.MjModel) -> np.ndarray:
+    """Full physics state (nstate,) of the model at rest in its reference configuration."""
+    data = mujoco.MjData(model)
+    mujoco.mj_resetData(model, data)
+    mujoco.mj_forward(model, data)
+    state = np.empty(mujoco.mj_stateSize(model, STATE_SPEC))
+    mujoco.mj_getState(model, data, state, STATE_SPEC)
+    return state
+
+
+def run_batch(
+    models: list[mujoco.MjModel],
+    commands: np.ndarray,
+    *,
+    state0: np.ndarray | None = None,
+    nthread: int = 1,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Roll out track-speed commands on a batch of models (same size signature).
+
+    Args:
+        models: nbatch models (or one, tiled).
+        commands: (nbatch or 1, nstep, 2) track speed commands [m/s], held for each step.
+        state0: (nbatch or 1, nstate) initial states; default each model's rest state.
+        nthread: threads for ``mujoco.rollout`` (results do not depend on it).
+    Returns:
+        state (nbatch, nstep, nstate) after each step, sensordata (nbatch, nstep, nsensordata).
+    """
+    commands = np.asarray(commands, dtype=float)
+    if commands.ndim != 3 or commands.shape[2] != 2:
+        raise InputError(f"rollout: commands must have shape (nbatch, nstep, 2), got {commands.shape}")
+    B = control_matrix(models[0])
+    control = np.ascontiguousarray(commands @ B.T)
+    if state0 is None:
+        state0 = np.stack([initial_state(m) for m in models])
+    state0 = np.atleast_2d(state0)
+    nbatch = max(len(models), control.shape[0], state0.shape[0])
+    model_arg = models if len(models) > 1 else models[0]
+    datas = [mujoco.MjData(models[0]) for _ in range(max(1, nthread))]
+    state, sensordata = mj_rollout.rollout(model_arg, datas if nthread > 1 else datas[0],
+                                           np.repeat(state0, nbatch // state0.shape[0], axis=0),
+                                           np.repeat(control, nbatch // control.shape[0], axis=0))
+    _check(state)
+    return state, sensordata
+
+
+def _check(state: np.ndarray) -> None:
+    if not np.all(np.isfinite(state)):
+        raise MjtrackError("simulation diverged (non-finite state); reduce the time step")
+    t = state[..., 0]
+    if np.any(np.diff(t, axis=-1) <= 0):
+        raise MjtrackError("simulation diverged (MuJoCo reset the state); reduce the time step")
+
+
+def settled_state(model: mujoco.MjModel, *, settle_s: float = SETTLE_S) -> np.ndarray:
+    """State (nstate,) after ``settle_s`` at rest with zero command, time reset to 0."""
+    nstep = max(1, int(round(settle_s / model.opt.timestep)))
+    state, _ = run_batch([model], np.zeros((1, nstep, 2)))
+    s = state[0, -1].copy()
+    s[0] = 0.0  # mjSTATE_TIME comes first in the full physics state
+    return s
+
+
+def steps_per_sample(timestep: float, log_rate: float) -> int:
+    """Integer steps per log sample; refuses a log period that is not a multiple of dt."""
+    if not log_rate > 0:
+        raise InputError(f"log rate must be positive, got {log_rate!r}")
+    k = 1.0 / (log_rate * timestep)
+    if abs(k - round(k)) > 1e-6 or round(k) < 1:
+        raise InputError(
+            f"log rate {log_rate} Hz: the log period must be a multiple of the time step {timestep} s"
+        )
+    return int(round(k))
+
+
+def yaw_of(quat: np.ndarray) -> np.ndarray:
+    """Heading [rad] of quaternions (..., 4) (w, x, y, z): the angle of the body x axis in xy."""
+    w, x, y, z = np.moveaxis(quat, -1, 0)
+    return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def log_columns(sensordata: np.ndarray, commands: np.ndarray, smap: SensorMap, *, timestep: float,
+                stride: int) -> dict[str, np.ndarray]:
+    """Drive-log columns (CONTRACTS.md §1) from one rollout's sensordata (nstep, nsensordata).
+
+    Sample j is the state after step (j+1)*stride - 1, i.e. at t = (j+1) * stride * dt. The
+    command columns are filled in by :func:`simulate` (see :func:`_commands_in_force`). A first
+    row at t = 0 (the settled rest state) is prepended by :func:`simulate`.
+    """
+    idx = np.arange(stride - 1, sensordata.shape[0], stride)
+    s = sensordata[idx]
+    return {
+        "t": (idx + 1) * timestep,
+        "v_left_cmd": commands[idx, 0],
+        "v_right_cmd": commands[idx, 1],
+        "x": s[:, smap.pos][:, 0],
+        "y": s[:, smap.pos][:, 1],
+        "yaw": yaw_of(s[:, smap.quat]),
+        "v_left": s[:, smap.track_speed[0]],
+        "v_right": s[:, smap.track_speed[1]],
+        "vx": s[:, smap.linvel][:, 0],
+        "vy": s[:, smap.linvel][:, 1],
+        "wz": s[:, smap.angvel][:, 2],
+    }
+
+
+def hold_commands(t_cmd: np.ndarray, v_left: np.ndarray, v_right: np.ndarray, *, timestep: float,
+                  duration: float) -> np.ndarray:
+    """Zero-order hold of a command table onto the steps: (nstep, 2) [m/s].
+
+    Step k (from t = k dt to (k+1) dt) gets the last command with t_cmd <= k dt (the first
+    command before t_cmd[0]).
+    """
+    t_cmd = np.asarray(t_cmd, dtype=float)
+    if t_cmd.ndim != 1 or len(t_cmd) == 0 or np.any(np.diff(t_cmd) <= 0):
+        raise InputError("commands: time must be a non-empty, strictly increasing column")
+    nstep = int(round(duration / timestep))
+    if nstep < 1:
+        raise InputError(f"duration {duration} s is shorter than one time step")
+    tk = np.arange(nstep) * timestep
+    i = np.clip(np.searchsorted(t_cmd, tk + 1e-9 * timestep, side="right") - 1, 0, len(t_cmd) - 1)
+    return np.stack([np.asarray(v_left, float)[i], np.asarray(v_right, float)[i]], axis=1)
+
+
+def simulate(
+    robot: Robot,
+    commands: np.ndarray,
+    *,
+    config: SimConfig | None = None,
+    log_rate: float = 50.0,
+    model: mujoco.MjModel | None = None,
+) -> dict[str, np.ndarray]:
+    """Roll out per-step commands (nstep, 2) [m/s] from rest; drive-log columns at ``log_rate``.
+
+    Returns a dict of (nsample,) arrays with the columns t, v_left_cmd, v_right_cmd, x, y, yaw,
+    v_left, v_right, vx, vy, wz; the first row is the settled rest state at t = 0.
+    """
+    config = config or SimConfig()
+    commands = np.asarray(commands, dtype=float)
+    if config.track_model == "surfacevel":
+        return _simulate_surfacevel(robot, commands, config=config, log_rate=log_rate)
+    model = model or build_model(robot, config)
+    stride = steps_per_sample(model.opt.timestep, log_rate)
+    s0 = settled_state(model)
+    _, sensordata = run_batch([model], commands[None], state0=s0[None])
+    cols = log_columns(sensordata[0], commands, SensorMap.of(model), timestep=model.opt.timestep, stride=stride)
+    first = _rest_row(model, s0)
+    out = {k: np.concatenate([[first[k]], v]) for k, v in cols.items()}
+    out["yaw"] = np.unwrap(out["yaw"])
+    return _commands_in_force(out, commands, stride)
+
+
+def _commands_in_force(out: dict[str, np.ndarray], commands: np.ndarray, stride: int) -> dict[str, np.ndarray]:
+    """Log convention: a row's command is the one in force from its time t on (zero-order hold
+    over [t_j, t_j+1)), the convention of :func:`mjtrack.models.integrate` and of the filters.
+
+    Row j (t = j·stride·dt) therefore gets the command of step j·stride; the last row, after
+    the final step, repeats the last command.
+    """
+    n = out["t"].size
+    idx = np.minimum(np.arange(n) * stride, len(commands) - 1)
+    out["v_left_cmd"] = commands[idx, 0].copy()
+    out["v_right_cmd"] = commands[idx, 1].copy()
+    return out
+
+
+def _simulate_surfacevel(robot: Robot, commands: np.ndarray, *, config: SimConfig, log_rate: float
+                         ) -> dict[str, np.ndarray]:
+    """The surfacevel track model (:mod:`mjtrack.sim.surfacevel`): a Python step loop, because
+    its track speeds are model fields set every step by its ``TrackDrive`` (no actuators, so
+    ``mujoco.rollout`` cannot drive it). Same columns and sampling as :func:`simulate`; the
+    track speeds logged are the drive's."""
+    from mjtrack.sim.surfacevel import TrackDrive
+
+    model = build_model(robot, config)
+    stride = steps_per_sample(model.opt.timestep, log_rate)
+    data = mujoco.MjData(model)
+    drive = TrackDrive(model, robot, config)
+    for _ in range(int(round(SETTLE_S / model.opt.timestep))):
+        drive.step(data, 0.0, 0.0)
+    smap = {n: int(model.sensor(n).adr[0]) for n in ("body_linvel", "body_angvel", "body_pos", "body_quat")}
+    rows = []
+
+    def row(t: float, cmd) -> list[float]:
+        s = data.sensordata
+        p, q = smap["body_pos"], smap["body_quat"]
+        return [t, cmd[0], cmd[1], s[p], s[p + 1], float(yaw_of(s[q:q + 4])), drive.speeds[0], drive.speeds[1],
+                s[smap["body_linvel"]], s[smap["body_linvel"] + 1], s[smap["body_angvel"] + 2]]
+
+    mujoco.mj_forward(model, data)
+    rows.append(row(0.0, (0.0, 0.0)))
+    for k, cmd in enumerate(commands):
+        drive.step(data, *cmd)
+        if (k + 1) % stride == 0:
+            rows.append(row((k + 1) * model.opt.timestep, cmd))
+    a = np.array(rows)
+    if not np.all(np.isfinite(a)):
+        raise MjtrackError("surfacevel simulation diverged (non-finite state)")
+    names = ("t", "v_left_cmd", "v_right_cmd", "x", "y", "yaw", "v_left", "v_right", "vx", "vy", "wz")
+    out = {n: a[:, i] for i, n in enumerate(names)}
+    out["yaw"] = np.unwrap(out["yaw"])
+    return _commands_in_force(out, commands, stride)
+
+
+def _rest_row(model: mujoco.MjModel, state: np.ndarray) -> dict[str, float]:
+    data = mujoco.MjData(model)
+    mujoco.mj_setState(model, data, state, STATE_SPEC)
+    mujoco.mj_forward(model, data)
+    smap = SensorMap.of(model)
+    s = data.sensordata
+    return {"t": 0.0, "v_left_cmd": 0.0, "v_right_cmd": 0.0, "x": s[smap.pos][0], "y": s[smap.pos][1],
+            "yaw": float(yaw_of(s[smap.quat])), "v_left": s[smap.track_speed[0]],
+            "v_right": s[smap.track_speed[1]], "vx": s[smap.linvel][0], "vy": s[smap.linvel][1],
+            "wz": s[smap.angvel][2]}
+
+
+def drive_log(robot: Robot, table: tuple[np.ndarray, np.ndarray, np.ndarray], *, duration: float,
+              config: SimConfig | None = None, log_rate: float = 50.0):
+    """Roll out a command table (t, v_left, v_right) held for ``duration`` [s]: a DriveLog."""
+    from mjtrack.io.logs import DriveLog
+
+    config = config or SimConfig()
+    commands = hold_commands(*table, timestep=config.timestep, duration=duration)
+    return DriveLog.from_columns(simulate(robot, commands, config=config, log_rate=log_rate))
+
+
+def log_icrs(log, *, wz_min: float = 1e-3):
+    """ICRs (2.13) of every row of a simulated DriveLog, via :func:`mjtrack.icr.icr_from_twist`.
+
+    Uses the logged twist and the *measured* track speeds; rows with |wz| < ``wz_min``
+    [rad/s] (straight driving, rest) are masked (``valid`` False, NaN ICRs).
+    """
+    from mjtrack.icr import icr_from_twist
+
+    return icr_from_twist(log.vx, log.vy, log.wz, log.v_left, log.v_right, wz_min=wz_min, on_singular="mask")

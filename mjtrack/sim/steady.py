@@ -1,0 +1,143 @@
+"""Steady-state twist and ICRs of the MuJoCo robot under constant track speeds.
+
+Method (honest steady state): from the settled rest state, hold (V_L, V_R) constant for
+``settle_s`` (transients: track spin-up, yaw acceleration, suspension pitch), then average
+the sensors over the next ``window_s`` and report the standard deviation over the window
+too. The ICRs follow from the window means by (2.13) via :func:`mjtrack.icr.icr_from_twist`
+using the *measured* track speeds (what a robot's encoders give):
+    y_l = (v_x - V_L)/w,  y_r = (v_x - V_R)/w,  x_c = -v_y/w;
+straight motion (|w| < ``WZ_STRAIGHT``) gives NaN ICRs, not an error.
+
+Contact persistence is reported per track as the fraction of steps in the whole run (settle
++ window) in which the track had at least one roller on the ground, and as the fraction of
+(roller, step) pairs in contact in the window.
+
+Batches of cases run through ``mujoco.rollout`` (one model per case: different robots of
+the same size signature, e.g. other cg or friction, share one batch).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import asdict, dataclass
+from typing import Sequence
+
+import numpy as np
+
+from mjtrack.errors import SingularMotionError
+from mjtrack.icr import icr_from_twist
+from mjtrack.io.robot import Robot
+from mjtrack.sim.builder import build_model
+from mjtrack.sim.config import SimConfig
+from mjtrack.sim.rollout import SensorMap, run_batch, settled_state
+
+logger = logging.getLogger(__name__)
+
+WZ_STRAIGHT = 1e-5  # [rad/s] below this the run counts as straight (ICRs NaN): 1e-5 rad/s is
+# an ICR 100 km away at 1 m/s, and numerical yaw drift in straight runs is ~1e-6 rad/s
+SETTLE_S = 3.0  # [s] constant-command time before the averaging window
+WINDOW_S = 2.0  # [s] averaging window
+
+
+@dataclass(frozen=True)
+class SteadyResult:
+    """Window statistics of one constant-command run (SI units; std over the window)."""
+
+    v_left_cmd: float
+    v_right_cmd: float
+    v_left: float
+    v_right: float
+    vx: float
+    vy: float
+    wz: float
+    vx_std: float
+    vy_std: float
+    wz_std: float
+    y_l: float
+    y_r: float
+    x_c: float
+    contact_left: float
+    contact_right: float
+    roller_contact: float
+
+    def to_dict(self) -> dict[str, float]:
+        return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in asdict(self).items()}
+
+
+def steady_batch(
+    robots: Sequence[Robot],
+    commands: np.ndarray,
+    *,
+    config: SimConfig | None = None,
+    settle_s: float = SETTLE_S,
+    window_s: float = WINDOW_S,
+    nthread: int = 1,
+) -> list[SteadyResult]:
+    """Steady states of robots[i] under commands[i] = (V_L, V_R) [m/s]; (nbatch, 2) commands.
+
+    All robots must give models of the same size (same ``config``), e.g. differ in cg,
+    friction, mass or geometry.
+    """
+    config = config or SimConfig()
+    commands = np.atleast_2d(np.asarray(commands, dtype=float))
+    if config.track_model == "surfacevel":
+        return [_surfacevel(r, c, config, settle_s, window_s) for r, c in zip(robots, commands)]
+    models = [build_model(r, config) for r in robots]
+    dt = models[0].opt.timestep
+    n_settle, n_window = int(round(settle_s / dt)), int(round(window_s / dt))
+    s0 = np.stack([settled_state(m) for m in models])
+    ctrl = np.repeat(commands[:, None, :], n_settle + n_window, axis=1)
+    _, sensordata = run_batch(models, ctrl, state0=s0, nthread=nthread)
+    smap = SensorMap.of(models[0])
+    return [_stats(sensordata[i], commands[i], smap, n_settle) for i in range(len(models))]
+
+
+def _stats(sd: np.ndarray, cmd: np.ndarray, smap: SensorMap, n_settle: int) -> SteadyResult:
+    w = sd[n_settle:]
+    lin, ang = w[:, smap.linvel], w[:, smap.angvel]
+    vl, vr = w[:, smap.track_speed[0]], w[:, smap.track_speed[1]]
+    vx, vy, wz = lin[:, 0].mean(), lin[:, 1].mean(), ang[:, 2].mean()
+    try:
+        icr = icr_from_twist(vx, vy, wz, vl.mean(), vr.mean(), wz_min=WZ_STRAIGHT)
+        y_l, y_r, x_c = float(icr.y_l), float(icr.y_r), float(icr.x_c)
+    except SingularMotionError:
+        y_l = y_r = x_c = math.nan
+    gl, gr = sd[:, smap.ground_left], sd[:, smap.ground_right]
+    return SteadyResult(
+        v_left_cmd=float(cmd[0]), v_right_cmd=float(cmd[1]), v_left=float(vl.mean()), v_right=float(vr.mean()),
+        vx=float(vx), vy=float(vy), wz=float(wz),
+        vx_std=float(lin[:, 0].std()), vy_std=float(lin[:, 1].std()), wz_std=float(ang[:, 2].std()),
+        y_l=y_l, y_r=y_r, x_c=x_c,
+        contact_left=float((gl.sum(axis=1) > 0).mean()), contact_right=float((gr.sum(axis=1) > 0).mean()),
+        roller_contact=float(np.concatenate([gl[n_settle:], gr[n_settle:]], axis=1).mean()),
+    )
+
+
+def _surfacevel(robot: Robot, cmd: np.ndarray, config: SimConfig, settle_s: float, window_s: float
+                ) -> SteadyResult:
+    """The surfacevel track model through its own ``run_steady`` (kinematic track speeds: the
+    commands; no window standard deviations, reported as NaN; roller_contact as the mean of
+    the per-track fractions)."""
+    from mjtrack.sim.surfacevel import run_steady
+
+    run = run_steady(build_model(robot, config), float(cmd[0]), float(cmd[1]),
+                     duration=settle_s + window_s, average=window_s)
+    try:
+        icr = icr_from_twist(run.vx, run.vy, run.wz, run.v_left, run.v_right, wz_min=WZ_STRAIGHT)
+        y_l, y_r, x_c = float(icr.y_l), float(icr.y_r), float(icr.x_c)
+    except SingularMotionError:
+        y_l = y_r = x_c = math.nan
+    nan = math.nan
+    return SteadyResult(
+        v_left_cmd=float(cmd[0]), v_right_cmd=float(cmd[1]), v_left=run.v_left, v_right=run.v_right,
+        vx=run.vx, vy=run.vy, wz=run.wz, vx_std=nan, vy_std=nan, wz_std=nan, y_l=y_l, y_r=y_r, x_c=x_c,
+        contact_left=run.contact_left, contact_right=run.contact_right,
+        roller_contact=(run.contact_left + run.contact_right) / 2,
+    )
+
+
+def steady_state(robot: Robot, v_left: float, v_right: float, *, config: SimConfig | None = None,
+                 settle_s: float = SETTLE_S, window_s: float = WINDOW_S) -> SteadyResult:
+    """Steady state of one robot under constant track speeds (see the module docstring)."""
+    return steady_batch([robot], [[v_left, v_right]], config=config, settle_s=settle_s, window_s=window_s)[0]

@@ -1,0 +1,487 @@
+"""Tracked robot whose tracks are moving contact surfaces (MuJoCo ``geom/surfacevel``).
+
+The second MuJoCo track model (``SimConfig.track_model = "surfacevel"``), beside the roller
+chain of :mod:`mjtrack.sim.builder`, whose names and settings it shares.
+
+MuJoCo's surface velocity (MuJoCo >= 3.x; docs: XMLreference ``body/geom/surfacevel``).
+``geom_surfacevel`` (ngeom x 6) is a velocity field sigma(x) = v + w x (x - p) in the *geom*
+frame (p the geom origin). Contacts see the geom's material move with sigma projected on the
+contact's tangent plane; the friction rows' velocity (and ``efc_vel``) is taken relative to
+that moving material. The field is a model field, writable between steps ("Safe" in the
+programming guide); ``mjModel.flg_surfacevel`` must be 1 when any geom moves (this module sets
+it). It cannot be driven by an actuator, and the contact force does not act back on any
+degree of freedom: the track speed is kinematic. A lag or torque limit is emulated outside
+MuJoCo by :class:`TrackDrive` (one step of explicit coupling, see there).
+
+Derivation of the model.
+
+* Chassis: body ``chassis`` with free joint ``root``, frame origin at the geometric centre of
+  the contact patches on the ground (site ``centre``), x forward, y left. Chassis mass is
+  ``robot.mass`` minus the contact elements' and sits where it puts the total centre of mass
+  at (cg_x, cg_y, cg_z); inertia of a uniform box L x (T + width) x ``CHASSIS_HEIGHT``.
+* Track contact: each track (body ``<side>_track`` at y = +-T/2) is N contact elements
+  (``track_<side>_<i>``) at the midpoints x_i = -L/2 + (i + 1/2) L/N (midpoint rule, the
+  grid of mjtrack.models.coulomb: the Coulomb pivot yaw ratio with 12 points is within 0.2 %
+  of the 200-point value, study section "discretisation"; points placed from end to end
+  would over-weight the track ends, which carry the turning resistance).
+* Track motion: the bottom run of a track driven forward at V moves backwards relative to
+  the chassis, so every element of that track has surfacevel = (-V, 0, 0, 0, 0, 0) in its
+  geom frame (aligned with the chassis). Straight driving is then exact: vx = V.
+* Suspension: each element sits on a vertical slide ``susp_<side>_<i>`` with the builder's
+  spring k = m g / (2 N d), preloaded so q = 0 under the nominal share: the loads are set by
+  the springs (Wong's linear distribution from the cg offset) and are determinate.
+* Sensors: ``body_linvel``, ``body_angvel`` (twist of ``centre`` in the chassis frame),
+  ``body_pos``, ``body_quat``, ``ground_<side>_<i>`` (element in contact, 0/1), as the builder;
+  no ``track_speed_<side>``: the track speed is the value last set (:class:`TrackDrive`).
+* Friction: explicit contact pairs ``contact_<side>_<i>`` (floor, element), condim 3, the
+  track's mu, elliptic cone, impratio, solref/solimp and ``solreffriction`` from SimConfig.
+
+What was wrong with a rigid surfacevel row (0.41 of the ideal pivot yaw rate, 22 % contact),
+and the fixes. Numbers: ``python experiments/surfacevel_study.py`` (pivot at 0.3 m/s, cg_x = 0;
+Coulomb yaw ratio wz / (2V/T) = 0.743 for T = 0.4, L = 0.5).
+
+1. Loads follow the slip speed. On the elliptic cone a contact in steady sliding has roughly
+   f_n = D (mu b |u| - k r - b v_n) (the cone's middle zone couples the friction residual b|u|
+   into the normal row), so a sliding contact pushes in proportion to its slip speed |u| even
+   at zero penetration r. On a rigid row the solver therefore loads the fast-slipping track ends
+   (12 spheres: max/mean load 3.6, min 0) and the yaw ratio drops to 0.48; where the push at
+   zero penetration exceeds the load share the chassis hops (a sub-millimetre limit cycle,
+   contact on 37 % of the steps). One box per track touches the plane at its 4 corners
+   only: ratio 0.38 (Coulomb with the loads at the track ends: T^2/(T^2 + L^2) = 0.39). A pyramidal cone mixes normal and friction rows:
+   one box 0.28. Softer contacts (solref) only change the hop frequency; a row that keeps
+   contact (solimp dmin 0) shows the mechanism cleanly: loads exactly proportional to |u|
+   (coefficient of variation of load/|u| 0.00, load max/mean 1.48), yaw ratio 0.66.
+2. Sprung elements (the roller chain's road-wheel springs) make the loads determinate: ratio
+   0.743 already with MuJoCo's default contact settings (load max/mean 1.06).
+3. solimp dmin = 0 (impedance 0 at zero penetration, 0.99 beyond 1 mm): with dmin 0.95 the
+   light sprung elements are kicked off the ground by the slip push (pivot: contact 97.0 %,
+   elements at zero load); with dmin = 0 every element keeps its spring load, contact 100 %.
+4. Friction rows as hard as the normal rows (``friction_timeconst`` = 0, impratio 10): a slow
+   friction solref creeps at small slip speeds, so gentle turns come out wrong (0.05 s: |dy|
+   0.17 T/2, |dx_c| 0.040 L; 1 s: |dy| > 1 T/2 and a 1.5 s spin-up where Coulomb needs 0.1 s),
+   and noslip cannot undo it (it keeps the rows' reference acceleration -b u, b ~ 2/timeconst).
+   noslip does restore friction made weak by the *impedance*: the roller chain's recipe
+   (impratio 1e-4, noslip 20, dmin 0.95: no slip push, exact friction) matches the Coulomb
+   reference as well here, at about a third of the steps/s; with hard friction rows noslip changes
+   nothing (pivot 0.742 either way) and is off. impratio 1 or 10 and pyramidal or elliptic
+   cones give the same ratio (0.742) once the elements are sprung.
+5. Spheres at cell midpoints: capsules across the track (0.713) and boxes (0.704) touch at
+   their ends/corners +-w/2 off the track line and add turning resistance; 24 spheres = 12.
+Result (default robot, 60 steady turns, both directions, cg_x -0.05/0/0.05, 0.3 and 0.8 m/s):
+ICRs within 0.024 T/2 and 0.011 L of the Coulomb reference, contact on 99.96 % of the steps
+(all but the first two), straight |vx - V| <= 6.5e-4 V (chassis pitch), no drift, timestep
+halving moves ICRs <= 0.0017 T/2; about 3x the roller chain's steps/s (study: "speed").
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import time
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from mjtrack.errors import InputError
+from mjtrack.io.robot import G, Robot
+from mjtrack.sim.config import SimConfig
+
+log = logging.getLogger(__name__)
+
+SIDES = ("left", "right")
+ELEMENTS = ("sphere", "capsule", "box")
+CHASSIS_HEIGHT = 0.15  # [m] height of the box whose inertia the chassis is given (as builder)
+FLOOR_FRICTION = 1e-3  # the contact pairs carry the track friction; the floor's is unused
+_JACOBIANS = {"sparse": mujoco.mjtJacobian.mjJAC_SPARSE, "dense": mujoco.mjtJacobian.mjJAC_DENSE}
+_INTEGRATORS = {
+    "Euler": mujoco.mjtIntegrator.mjINT_EULER,
+    "RK4": mujoco.mjtIntegrator.mjINT_RK4,
+    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+}
+
+
+# Settings measured for this model (experiments/surfacevel_study.py), pinned here: the SimConfig
+# defaults are tuned for the roller chain and change with it. Why each one: module docstring.
+SURFACEVEL_SETTINGS = dict(
+    track_model="surfacevel",
+    timestep=0.002,  # [s] halving it moves the ICRs by < 0.2 % of T/2
+    n_rollers=12,  # elements per track at cell midpoints
+    roller_radius=0.03,  # [m] sphere radius
+    roller_mass=0.15,  # [kg] unsprung mass of one element (older SimConfig) ...
+    unsprung_fraction=0.18,  # ... or the same 24 x 0.15 kg as a share of the 20 kg robot
+    suspension_deflection=0.01,  # [m] static spring deflection: loads determinate
+    suspension_damping_ratio=1.0,
+    contact_timeconst=0.0,  # 2 timesteps
+    contact_dampratio=1.0,
+    solimp=(0.0, 0.99, 0.001, 0.5, 2.0),  # dmin = 0: no push at zero penetration, no element hop
+    friction_timeconst=0.0,  # friction rows as hard as the normal row: weak ones creep
+    cone="elliptic",
+    impratio=10.0,
+    noslip_iterations=0,  # no effect through surfacevel (measured), costs time
+    iterations=50,
+    tolerance=1e-8,
+    integrator="implicitfast",
+)
+
+
+def surfacevel_config(**changes) -> SimConfig:
+    """The SimConfig this model was measured with: :data:`SURFACEVEL_SETTINGS` plus ``changes``.
+
+    Settings that this version of SimConfig does not have are left out.
+    """
+    names = {f.name for f in dataclasses.fields(SimConfig)}
+    return SimConfig(**{k: v for k, v in {**SURFACEVEL_SETTINGS, **changes}.items() if k in names or k in changes})
+
+
+def setting_problems(config: SimConfig) -> list[str]:
+    """Contact settings measured to distort this model (module docstring, items 3-4), as messages."""
+    out = []
+    if config.friction_timeconst > 0.01:
+        out.append(f"friction_timeconst {config.friction_timeconst:g} s makes the friction creep (noslip cannot undo it)")
+    if config.impratio < 1 and config.noslip_iterations == 0:
+        out.append(f"impratio {config.impratio:g} without noslip leaves almost no friction")
+    if config.solimp[0] > 0.5 and config.impratio >= 1:
+        out.append(f"solimp dmin {config.solimp[0]:g} with hard friction rows lets the sliding elements hop")
+    return out
+
+
+def element_mass(robot: Robot, config: SimConfig, n: int) -> float:
+    """Unsprung mass of one contact element [kg]: ``unsprung_fraction`` m / 2N or ``roller_mass``."""
+    if hasattr(config, "unsprung_fraction"):
+        return config.unsprung_fraction * robot.mass / (2 * n)
+    return config.roller_mass
+
+
+def element_positions(robot: Robot, n: int) -> np.ndarray:
+    """x of the contact elements along a track, (n,) [m]: midpoints of n equal cells of L."""
+    return -robot.track_length / 2 + (np.arange(n) + 0.5) * robot.track_length / n
+
+
+def robot_spec(
+    robot: Robot,
+    config: SimConfig | None = None,
+    *,
+    element: str = "sphere",
+    n_elements: int | None = None,
+    sprung: bool = True,
+    into: mujoco.MjSpec | None = None,
+) -> mujoco.MjSpec:
+    """The robot (no floor), added to ``into`` when given, else to a new spec.
+
+    Args:
+        element: shape of a contact element: "sphere" (radius ``roller_radius``), "capsule"
+            (across the track, like a road wheel) or "box" (an L/N x width cell).
+        n_elements: elements per track (default ``config.n_rollers``); 1 with "box" is one box.
+        sprung: elements on sprung vertical slides (else bolted to the chassis).
+    """
+    config = config or surfacevel_config()
+    if element not in ELEMENTS:
+        raise InputError(f"surfacevel: 'element' must be one of {ELEMENTS}, got {element!r}")
+    n = config.n_rollers if n_elements is None else n_elements
+    if int(n) != n or n < 1:
+        raise InputError(f"surfacevel: 'n_elements' must be an integer >= 1, got {n!r}")
+    spec = into if into is not None else mujoco.MjSpec()
+    T, L, w, r = robot.track_gauge, robot.track_length, robot.track_width, config.roller_radius
+    m_el = element_mass(robot, config, n) if sprung else 0.0
+    m_chassis = robot.mass - 2 * n * m_el
+    if m_chassis <= 0.2 * robot.mass:
+        raise InputError(f"surfacevel: elements weigh {2 * n * m_el:.3g} kg of {robot.mass:.3g} kg; "
+                         "reduce the unsprung mass")
+    cg = np.array([robot.cg_x, robot.cg_y, robot.cg_z])
+    ly, lz = T + w, CHASSIS_HEIGHT
+    chassis = spec.worldbody.add_body(name="chassis", pos=[0, 0, 0])
+    chassis.add_freejoint(name="root")
+    chassis.explicitinertial = True
+    chassis.mass = m_chassis
+    chassis.ipos = (robot.mass * cg - 2 * n * m_el * np.array([0.0, 0.0, r])) / m_chassis
+    chassis.inertia = m_chassis / 12 * np.array([ly**2 + lz**2, L**2 + lz**2, L**2 + ly**2])
+    chassis.add_site(name="centre", pos=[0, 0, 0], size=[0.01, 0.01, 0.01])
+    chassis.add_site(name="cg", pos=cg, size=[0.015, 0.015, 0.015], rgba=[1, 0, 0, 1])
+    chassis.add_geom(
+        name="hull", type=mujoco.mjtGeom.mjGEOM_BOX, size=[L / 2, T / 2 - w, 0.04],
+        pos=[0, 0, 2 * r + 0.06], contype=0, conaffinity=0, density=0, rgba=[0.35, 0.4, 0.45, 1],
+    )
+    k = robot.weight / (2 * n * config.suspension_deflection)  # [N/m], as builder.suspension_stiffness
+    c = config.suspension_damping_ratio * 2 * math.sqrt(k * m_chassis / (2 * n))
+    preload = robot.weight / (2 * n) - m_el * G
+    for side, sign in zip(SIDES, (1.0, -1.0)):
+        track = chassis.add_body(name=f"{side}_track", pos=[0, sign * T / 2, 0])
+        track.add_site(name=f"{side}_track", pos=[0, 0, 0], size=[0.01, 0.01, 0.01])
+        for i, x in enumerate(element_positions(robot, n)):
+            host, gx = track, x
+            if sprung:
+                host = track.add_body(name=f"wheel_{side}_{i}", pos=[x, 0, 0])
+                host.explicitinertial = True
+                host.mass = m_el
+                host.ipos = [0, 0, r]
+                host.inertia = [0.4 * m_el * r**2] * 3
+                host.add_joint(name=f"susp_{side}_{i}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1],
+                               stiffness=k, damping=c, springref=-preload / k)
+                gx = 0.0
+            _add_element(host, element, name=f"track_{side}_{i}", x=gx, r=r, cell=L / n, width=w)
+            # number of ground contacts of this element (0 or 1), as the builder's rollers
+            spec.add_sensor(name=f"ground_{side}_{i}", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                            objtype=mujoco.mjtObj.mjOBJ_GEOM, objname=f"track_{side}_{i}", intprm=[1, 0, 1])
+    for name, stype in (("body_linvel", mujoco.mjtSensor.mjSENS_VELOCIMETER),
+                        ("body_angvel", mujoco.mjtSensor.mjSENS_GYRO),
+                        ("body_pos", mujoco.mjtSensor.mjSENS_FRAMEPOS),
+                        ("body_quat", mujoco.mjtSensor.mjSENS_FRAMEQUAT)):
+        spec.add_sensor(name=name, type=stype, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="centre")
+    return spec
+
+
+def _add_element(body, element: str, *, name: str, x: float, r: float, cell: float, width: float) -> None:
+    """One contact element whose lowest point is at the body's z = 0 (geom frame = body frame axes)."""
+    common = dict(name=name, contype=0, conaffinity=0, density=0, rgba=[0.1, 0.1, 0.1, 1])
+    if element == "sphere":
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0], pos=[x, 0, r], **common)
+    elif element == "capsule":  # axis along y; a rotation about x keeps the geom's x forward
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[r, width / 2, 0], pos=[x, 0, r],
+                      quat=[math.sqrt(0.5), math.sqrt(0.5), 0, 0], **common)
+    else:
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[cell / 2, width / 2, r], pos=[x, 0, r], **common)
+
+
+def add_scene(spec: mujoco.MjSpec, robot: Robot, config: SimConfig | None = None) -> mujoco.MjSpec:
+    """Options, floor ``floor``, one contact pair per element and a light (in place)."""
+    config = config or surfacevel_config()
+    opt = spec.option
+    opt.timestep = config.timestep
+    opt.integrator = _INTEGRATORS[config.integrator]
+    opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC if config.cone == "elliptic" else mujoco.mjtCone.mjCONE_PYRAMIDAL
+    opt.impratio = config.impratio
+    opt.noslip_iterations = config.noslip_iterations
+    opt.iterations = config.iterations
+    opt.tolerance = config.tolerance
+    opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
+    if getattr(config, "jacobian", None) in _JACOBIANS:  # identical physics either way
+        opt.jacobian = _JACOBIANS[config.jacobian]
+    spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[50, 50, 0.1],
+                            friction=[FLOOR_FRICTION, 0, 0], rgba=[0.8, 0.8, 0.75, 1])
+    elements = [g.name for g in spec.geoms if g.name.startswith("track_")]
+    # friction_timeconst 0: the friction rows use the contact solref (MuJoCo's [0, 0] default)
+    friction_solref = [config.friction_timeconst, 1.0] if config.friction_timeconst > 0 else [0.0, 0.0]
+    for name in elements:
+        side = name.split("_")[1]
+        mu = robot.friction_left if side == "left" else robot.friction_right
+        spec.add_pair(name="contact_" + name.removeprefix("track_"), geomname1="floor", geomname2=name,
+                      condim=3, friction=[mu, mu, 0.0, 0.0, 0.0], solref=config.contact_solref,
+                      solimp=config.solimp, solreffriction=friction_solref,
+                      margin=getattr(config, "contact_margin", 0.0))
+    spec.worldbody.add_light(name="sun", pos=[0, 0, 5], dir=[0, 0, -1],
+                             type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
+    return spec
+
+
+def build_surfacevel_spec(robot: Robot, config: SimConfig | None = None, **options) -> mujoco.MjSpec:
+    """Robot (:func:`robot_spec`, ``options`` passed on) plus scene (:func:`add_scene`)."""
+    spec = robot_spec(robot, config, **options)
+    spec.modelname = "tracked_robot_surfacevel"
+    return add_scene(spec, robot, config)
+
+
+def build_surfacevel_model(robot: Robot, config: SimConfig | None = None, **options) -> mujoco.MjModel:
+    """Compiled model with the tracks at rest; drive it with :func:`set_track_speeds`.
+
+    ``config`` defaults to :func:`surfacevel_config`; a SimConfig with the roller chain's
+    friction settings is used as given but logged as a warning (module docstring, item 4).
+    """
+    config = config or surfacevel_config()
+    for problem in setting_problems(config):
+        log.warning("surfacevel: %s (experiments/surfacevel_study.py); see surfacevel_config()", problem)
+    model = build_surfacevel_spec(robot, config, **options).compile()
+    model.flg_surfacevel = 1
+    return model
+
+
+def track_geom_ids(model: mujoco.MjModel) -> dict[str, np.ndarray]:
+    """Geom ids of each track's contact elements: {"left": (N,), "right": (N,)}."""
+    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, i) or "" for i in range(model.ngeom)]
+    return {s: np.array([i for i, nm in enumerate(names) if nm.startswith(f"track_{s}_")]) for s in SIDES}
+
+
+def set_track_speeds(model: mujoco.MjModel, v_left: float, v_right: float, *, ids=None) -> None:
+    """Set the track surface speeds V_L, V_R [m/s] for the following steps (surfacevel -V along x)."""
+    ids = ids if ids is not None else track_geom_ids(model)
+    model.geom_surfacevel[ids["left"], 0] = -float(v_left)
+    model.geom_surfacevel[ids["right"], 0] = -float(v_right)
+    model.flg_surfacevel = 1
+
+
+# -- driving and measuring ----------------------------------------------------------------
+def body_twist(data: mujoco.MjData) -> np.ndarray:
+    """(vx, vy, wz) of site ``centre`` in the chassis frame [m/s, m/s, rad/s], shape (3,)."""
+    lin, ang = data.sensor("body_linvel").data, data.sensor("body_angvel").data
+    return np.array([lin[0], lin[1], ang[2]])
+
+
+def ground_contact(data: mujoco.MjData, ids: dict[str, np.ndarray]) -> np.ndarray:
+    """Whether each track (left, right) has an active ground contact now, bool (2,).
+
+    Active: a contact of the last collision pass with dist < margin (it enters the solver).
+    """
+    n = data.ncon
+    if n == 0:
+        return np.zeros(2, dtype=bool)
+    touching = data.contact.dist[:n] < data.contact.includemargin[:n]
+    g = data.contact.geom[:n][touching].ravel()
+    return np.array([np.isin(ids[s], g).any() for s in SIDES])
+
+
+def track_traction(model: mujoco.MjModel, data: mujoco.MjData, ids: dict[str, np.ndarray]) -> np.ndarray:
+    """Ground force on each track along the chassis x axis [N], (2,) (left, right).
+
+    Positive when the ground pushes the robot forward (a forward-driving track's reaction).
+    """
+    out = np.zeros(2)
+    f6 = np.zeros(6)
+    R = data.site("centre").xmat.reshape(3, 3)
+    for i in range(data.ncon):
+        con = data.contact[i]
+        for k, s in enumerate(SIDES):
+            if con.geom[1] in ids[s]:  # pairs are (floor, element): force on geom[1]
+                mujoco.mj_contactForce(model, data, i, f6)
+                world = con.frame.reshape(3, 3).T @ f6[:3]
+                out[k] += (R.T @ world)[0]
+    return out
+
+
+def element_loads(model: mujoco.MjModel, data: mujoco.MjData, ids: dict[str, np.ndarray]) -> np.ndarray:
+    """Normal force on each contact element [N], shape (2, N) (rows left, right; 0 if not touching)."""
+    out = np.zeros((2, len(ids["left"])))
+    f6 = np.zeros(6)
+    for i in range(data.ncon):
+        g = data.contact[i].geom[1]
+        for k, s in enumerate(SIDES):
+            hit = np.flatnonzero(ids[s] == g)
+            if hit.size:
+                mujoco.mj_contactForce(model, data, i, f6)
+                out[k, hit[0]] += f6[0]
+    return out
+
+
+class TrackDrive:
+    """Track speeds as a state, applied through surfacevel at every step.
+
+    Per step of length dt with held commands c (left, right) [m/s]:
+      set-point  u <- c + (u - c) exp(-dt/lag)        (exact first-order lag; u = c if lag = 0)
+      kinematic  V = u                                 (``torque_limited=False``)
+      servo      m_t dV/dt = F - F_g,  F = clip(kv (u - V), +-torque_limit/R_s)
+    with m_t = ``track_mass``, kv, torque_limit, lag from SimConfig (the roller chain's drive) and
+    F_g the ground's traction on the track (:func:`track_traction`). surfacevel has no degree of
+    freedom for the contact force to act on, so F_g is fed back explicitly from the previous
+    step; fed back raw it makes a period-2 oscillation (measured: F_g alternating +-78 N in
+    straight driving), so it is low-passed with time constant ``traction_filter`` [s]. The
+    unsaturated servo is integrated implicitly, V' = (V + dt (kv u - F_g)/m_t) / (1 + dt kv/m_t)
+    (m_t/kv < dt). In steady state V = u - F_g/kv (servo droop) or |F_g| = F_max (stall).
+    """
+
+    def __init__(self, model: mujoco.MjModel, robot: Robot, config: SimConfig | None = None,
+                 *, torque_limited: bool = False, traction_filter: float = 0.01) -> None:
+        config = config or surfacevel_config()
+        if not traction_filter > 0:
+            raise InputError(f"surfacevel: 'traction_filter' must be positive, got {traction_filter!r}")
+        self.model, self.ids = model, track_geom_ids(model)
+        self.lag, self.kv, self.track_mass = config.lag, config.kv, config.track_mass
+        self.force_limit = config.torque_limit / robot.sprocket_radius  # [N]
+        self.torque_limited = torque_limited
+        self.traction_filter = traction_filter
+        self.setpoint = np.zeros(2)  # u [m/s]
+        self.speeds = np.zeros(2)  # V [m/s], (left, right)
+        self.force = np.zeros(2)  # servo force F [N]
+        self.traction = np.zeros(2)  # filtered F_g [N]
+
+    def step(self, data: mujoco.MjData, v_left: float, v_right: float) -> None:
+        """Advance the drive and the simulation by one timestep under commands V_L, V_R [m/s]."""
+        dt = self.model.opt.timestep
+        cmd = np.array([v_left, v_right], dtype=float)
+        a = math.exp(-dt / self.lag) if self.lag > 0 else 0.0
+        self.setpoint = cmd + (self.setpoint - cmd) * a
+        if self.torque_limited:
+            fg = track_traction(self.model, data, self.ids)
+            self.traction += (fg - self.traction) * (1.0 - math.exp(-dt / self.traction_filter))
+            m, kv, fg = self.track_mass, self.kv, self.traction
+            v_new = (self.speeds + dt * (kv * self.setpoint - fg) / m) / (1 + dt * kv / m)
+            force = kv * (self.setpoint - v_new)
+            sat = np.abs(force) > self.force_limit
+            force = np.clip(force, -self.force_limit, self.force_limit)
+            self.speeds = np.where(sat, self.speeds + dt * (force - fg) / m, v_new)
+            self.force = force
+        else:
+            self.speeds = self.setpoint.copy()
+        set_track_speeds(self.model, *self.speeds, ids=self.ids)
+        mujoco.mj_step(self.model, data)
+
+
+@dataclass(frozen=True)
+class SteadyRun:
+    """Mean twist and contact statistics of a constant-command run (:func:`run_steady`).
+
+    vx, vy, wz: mean body twist over the averaging window [m/s, m/s, rad/s]; v_left, v_right:
+    track speeds [m/s]; contact_left/right: fraction of all steps with a ground contact [-];
+    drift: |lateral displacement| / distance travelled over the window [-] (straight runs);
+    loads: mean normal force of each element over the window [N], (2, N) (left, right);
+    steps_per_s: wall-clock simulation speed; warnings: MuJoCo warnings raised.
+    """
+
+    vx: float
+    vy: float
+    wz: float
+    v_left: float
+    v_right: float
+    contact_left: float
+    contact_right: float
+    drift: float
+    loads: np.ndarray
+    steps_per_s: float
+    warnings: int
+
+    def icr(self) -> tuple[float, float, float]:
+        """(y_l, y_r, x_c) [m] by (2.13); raises InputError for wz == 0."""
+        if self.wz == 0.0:
+            raise InputError("surfacevel: ICRs undefined for wz = 0")
+        return ((self.vx - self.v_left) / self.wz, (self.vx - self.v_right) / self.wz, -self.vy / self.wz)
+
+
+def run_steady(model: mujoco.MjModel, v_left: float, v_right: float, *,
+               duration: float = 4.0, average: float = 1.5) -> SteadyRun:
+    """Drive from rest at constant V_L, V_R [m/s] for ``duration`` [s]; average the last ``average`` s."""
+    if not 0 < average <= duration:
+        raise InputError(f"surfacevel: need 0 < average <= duration, got {average!r}, {duration!r}")
+    data = mujoco.MjData(model)
+    ids = track_geom_ids(model)
+    set_track_speeds(model, v_left, v_right, ids=ids)
+    mujoco.mj_forward(model, data)
+    n, n_avg = int(round(duration / model.opt.timestep)), int(round(average / model.opt.timestep))
+    twist = np.zeros((n_avg, 3))
+    contact = np.zeros((n, 2), dtype=bool)
+    loads, n_loads = np.zeros((2, len(ids["left"]))), 0
+    t0 = time.perf_counter()
+    for k in range(n):
+        if k == n - n_avg:
+            p0, yaw0 = data.qpos[:2].copy(), _yaw(data)
+        mujoco.mj_step(model, data)
+        contact[k] = ground_contact(data, ids)
+        if k >= n - n_avg:
+            twist[k - n + n_avg] = body_twist(data)
+            if k % 10 == 0:
+                loads += element_loads(model, data, ids)
+                n_loads += 1
+    wall = time.perf_counter() - t0
+    d = data.qpos[:2] - p0
+    along = np.array([math.cos(yaw0), math.sin(yaw0)])
+    dist = abs(d @ along)
+    drift = abs(along[0] * d[1] - along[1] * d[0]) / dist if dist > 0 else float("nan")
+    vx, vy, wz = twist.mean(axis=0)
+    return SteadyRun(vx=float(vx), vy=float(vy), wz=float(wz), v_left=float(v_left), v_right=float(v_right),
+                     contact_left=float(contact[:, 0].mean()), contact_right=float(contact[:, 1].mean()),
+                     drift=float(drift), loads=loads / max(n_loads, 1), steps_per_s=n / wall,
+                     warnings=int(sum(w.number for w in data.warning)))
+
+
+def _yaw(data: mujoco.MjData) -> float:
+    w, x, y, z = data.qpos[3:7]
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
