@@ -17,6 +17,12 @@ from mjtrack.errors import InputError, MjtrackError
 
 # Command name -> module under mjtrack.commands. Order is the order of ``--help``.
 COMMANDS: dict[str, str] = {
+    "demo": "demo",
+    "simulate": "simulate",
+    "steady": "steady",
+    "validate": "validate",
+    "render": "render",
+    "track": "track",
     "thesis": "thesis",
 }
 
