@@ -1,0 +1,60 @@
+"""Offscreen MuJoCo video of a drive log (or of a scenario rollout), no display needed.
+
+The robot is placed at the log's poses (any log: simulated or measured), the camera follows
+it, its path is trailed on the ground and the log's own ICRs (2.13) of the left track, right
+track and body are drawn on the ground while it turns. --gif FILE.gif also writes an
+animated top view of the true path and the open-loop paths of the nominal model and of the
+models whose parameters the filters estimate online. A log with several segments shows the
+first one.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from mjtrack.commands._common import add_output_options, check_out_file, finite_float
+from mjtrack.commands.validate import add_source_arguments, source_from_args
+from mjtrack.errors import InputError
+
+HELP = "offscreen MuJoCo video (MP4) of a log or scenario, with path trail and ICRs; optional GIF of model paths"
+
+
+def _even_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 16 or value % 2:
+        raise argparse.ArgumentTypeError(f"must be an even number of pixels >= 16, got {value}")
+    return value
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_source_arguments(parser)
+    parser.add_argument("--out", metavar="FILE.mp4", type=Path, required=True, help="output video")
+    parser.add_argument("--width", type=_even_int, default=640, help="frame width [px], even (default 640)")
+    parser.add_argument("--height", type=_even_int, default=480, help="frame height [px], even (default 480)")
+    parser.add_argument("--fps", type=finite_float, default=30.0, help="frames per second (default 30)")
+    parser.add_argument("--speed", type=finite_float, default=1.0, help="playback speed, 2 = twice as fast (default 1)")
+    parser.add_argument("--gif", metavar="FILE.gif", type=Path, default=None,
+                        help="also write an animated plot of the true and model paths")
+    add_output_options(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    from mjtrack.validate.video import animate_log, render_log
+
+    if not (args.fps > 0 and args.speed > 0):
+        raise InputError(f"--fps and --speed must be > 0, got {args.fps:g} and {args.speed:g}")
+    inputs = [args.log] if args.log else []
+    out = check_out_file(args.out, suffixes=(".mp4",), inputs=inputs)
+    gif = check_out_file(args.gif, suffixes=(".gif",), inputs=inputs) if args.gif else None
+    drive, robot, _ = source_from_args(args)
+    stats = render_log(drive, robot, out, width=args.width, height=args.height, fps=args.fps, speed=args.speed,
+                       quiet=args.quiet)
+    print(f"wrote {out} ({stats.frames} frames, {stats.duration:.1f} s, {stats.width}x{stats.height})")
+    if gif is not None:
+        animate_log(drive, robot, gif, seed=args.seed, speed=args.speed)
+        print(f"wrote {gif}")
+    return 0

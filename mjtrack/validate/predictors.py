@@ -1,0 +1,182 @@
+"""The predictors a validation scores: a kinematic model plus where its parameters come from.
+
+| key | model | parameters |
+|---|---|---|
+| ``nominal`` | (2.1) | none (the track gauge) |
+| ``mpp_slip_ekf`` | MPP (2.9) | slip EKF, online: the estimate after the measurement at t_s |
+| ``micr_icr_ekf`` | MICR (2.14) | improved ICR EKF, online |
+| ``mvir_vir_filter`` | MVIR | improved VIR filter, online |
+| ``mpp_fit`` | MPP | least-squares fit to the truth's own twist over each prediction window (oracle) |
+| ``micr_own_icr`` | MICR = MVIR | the truth's own ICRs (2.13): least-squares fit over each prediction window (oracle) |
+
+Online predictors are causal: a prediction starting at sample s uses the parameters the
+filter had after the measurement at s, held over the horizon. The oracles are not causal:
+they fit the best *constant* parameters to the true motion inside the window they then
+predict, so they bound what any constant-parameter model of their family can do over that
+horizon (the per-sample own ICRs would reproduce the true twist exactly and bound nothing).
+
+Measurements (a decision, so that the three filters differ as in the thesis): the slip EKF
+measures pose and twist, the ICR EKF the pose only (the thesis's (3.20) measures pose
+increments), the VIR filter the twist only (its (3.30)). The ICR EKF and the VIR filter are
+both the ψ-parametrised filter of :mod:`mjtrack.estimation` (ψ = (x_c, ȳ, 1)/(y_l − y_r) =
+(x_o, y_o, 1)/T_v), so MICR and MVIR predict with
+:class:`~mjtrack.estimation.icr_ekf.InverseICR` — the same twist as MICR (2.14) and MVIR
+wherever those are defined, and regular through straight driving (ψ_z = 0).
+
+Window fits (cumulative sums, O(N) for all windows). Twist k is held over [t_k, t_{k+1}),
+weight dt_k; ΔV = V_R − V_L, V̄ = (V_L + V_R)/2. With ψ the MICR twist is linear,
+v_x − V̄ = ψ_y ΔV, v_y = −ψ_x ΔV, ω = ψ_z ΔV, so each component is a scalar ridge
+regression towards the nominal ψ₀ = (0, 0, 1/T):  ψ_i = (Σ dt ΔV r_i + λ ψ₀_i)/(Σ dt ΔV² + λ).
+MPP: the actual track speeds u_L = v_x − ωT/2 = V_L a_L, u_R = v_x + ωT/2 = V_R a_R with
+a = 1 − s, so a_L = (Σ dt V_L u_L + λ)/(Σ dt V_L² + λ) (likewise a_R), and with the fitted
+v̂_x = (V_L a_L + V_R a_R)/2, tan α = −Σ dt v̂_x v_y / (Σ dt v̂_x² + λ). λ = (1 mm/s)²·h makes
+a window without the needed excitation (|ΔV|, |V| below 1 mm/s) fall back to the nominal.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from mjtrack.errors import MjtrackError
+from mjtrack.estimation.icr_ekf import InverseICR, run_icr_ekf
+from mjtrack.estimation.slip_ekf import run_slip_ekf
+from mjtrack.estimation.vir_filter import run_vir_filter
+from mjtrack.models import MPP, KinematicModel, Nominal
+from mjtrack.validate.truth import Case, Noise
+
+log = logging.getLogger(__name__)
+
+RIDGE_SPEED = 0.001  # [m/s] excitation below which a window fit falls back to the nominal
+
+
+@dataclass(frozen=True, eq=False)
+class Predictor:
+    """A model and the parameters to use for a prediction starting at each sample.
+
+    ``params(h)`` returns (N, P) parameters of ``template`` for horizon h [s] (online
+    predictors ignore h); ``causal`` is False for the oracles.
+    """
+
+    key: str
+    label: str
+    model: str
+    source: str
+    template: KinematicModel
+    params: Callable[[float], np.ndarray]
+    causal: bool
+    filter_name: str | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class FilterRun:
+    """Per-sample posterior parameters (N, P) of one filter over all segments (row s: after z_s)."""
+
+    name: str
+    param_names: tuple[str, ...]
+    params: np.ndarray
+    measures: str
+    error: str | None = None
+
+
+def _run_segments(case: Case, run, p0: np.ndarray, names: tuple[str, ...], name: str, measures: str) -> FilterRun:
+    """Run a filter on each segment (restarting from ``p0``); a filter that fails leaves NaN parameters.
+
+    A failure (e.g. the slip EKF's α leaving (−π/2, π/2), which happens when the MPP model must
+    explain a sideways velocity while v_x ≈ 0) is a finding of the validation, not a crash: it
+    is logged and reported, and the predictor scores NaN.
+    """
+    out = np.empty((case.t.size, p0.size))
+    for sl in case.segment_slices():
+        out[sl.start] = p0
+        if sl.stop - sl.start < 2:
+            out[sl] = p0
+            continue
+        try:
+            res = run(case.t[sl], case.v_left[sl], case.v_right[sl], case.pose_meas[sl], case.twist_meas[sl])
+        except MjtrackError as exc:
+            log.warning("%s failed on the %s truth: %s", name, case.name, exc)
+            return FilterRun(name, names, np.full_like(out, np.nan), measures, str(exc))
+        out[sl.start + 1:sl.stop] = res.x_post[:, 3:]
+    return FilterRun(name, names, out, measures)
+
+
+def run_filters(case: Case, track_gauge: float, *, noise: Noise = Noise()) -> dict[str, FilterRun]:
+    """The three improved filters on ``case`` (measurements: module docstring)."""
+    T = track_gauge
+    ps, ts = np.asarray(noise.pose_std), np.asarray(noise.twist_std)
+    psi0 = InverseICR.nominal(T).params
+    return {
+        "slip_ekf": _run_segments(case, lambda t, vl, vr, pm, tm: run_slip_ekf(
+            t, vl, vr, track_gauge=T, pose_meas=pm, twist_meas=tm, pose_std=ps, twist_std=ts),
+            np.zeros(3), MPP.param_names, "slip_ekf", "pose + twist"),
+        "icr_ekf": _run_segments(case, lambda t, vl, vr, pm, tm: run_icr_ekf(
+            t, vl, vr, track_gauge=T, pose_meas=pm, pose_std=ps, twist_std=ts),
+            psi0, InverseICR.param_names, "icr_ekf", "pose"),
+        "vir_filter": _run_segments(case, lambda t, vl, vr, pm, tm: run_vir_filter(
+            t, vl, vr, track_gauge=T, twist_meas=tm, pose0=pm[0], pose_std=ps, twist_std=ts),
+            psi0, InverseICR.param_names, "vir_filter", "twist"),
+    }
+
+
+def _window_sums(case: Case, values: np.ndarray, horizon: float) -> np.ndarray:
+    """Σ dt·values over the window [t_s, t_s + h) of every start s (within its segment): (N, ...)."""
+    n = case.t.size
+    dt = np.zeros(n)
+    end = np.empty(n, dtype=int)
+    for sl in case.segment_slices():
+        ts = case.t[sl]
+        dt[sl.start:sl.stop - 1] = np.diff(ts)
+        end[sl] = sl.start + np.minimum(np.searchsorted(ts, ts + horizon - 1e-9), ts.size - 1)
+    cs = np.concatenate([np.zeros((1,) + values.shape[1:]), np.cumsum(dt.reshape((-1,) + (1,) * (values.ndim - 1)) * values, axis=0)])
+    return cs[end] - cs[np.arange(n)]
+
+
+def fit_icr_windows(case: Case, track_gauge: float, horizon: float) -> np.ndarray:
+    """ψ (N, 3) of the best constant MICR over each window [t_s, t_s + h) (module docstring)."""
+    vl, vr = case.v_left, case.v_right
+    dv, vbar = vr - vl, (vl + vr) / 2
+    r = np.stack([-case.twist[:, 1], case.twist[:, 0] - vbar, case.twist[:, 2]], -1)
+    sums = _window_sums(case, np.column_stack([dv[:, None] * r, dv**2]), horizon)
+    lam = RIDGE_SPEED**2 * horizon
+    psi0 = np.array([0.0, 0.0, 1.0 / track_gauge])
+    return (sums[:, :3] + lam * psi0) / (sums[:, 3:4] + lam)
+
+
+def fit_mpp_windows(case: Case, track_gauge: float, horizon: float) -> np.ndarray:
+    """(s_left, s_right, alpha) (N, 3) of the best constant MPP over each window (module docstring)."""
+    vl, vr = case.v_left, case.v_right
+    vx, vy, wz = case.twist.T
+    u_l, u_r = vx - wz * track_gauge / 2, vx + wz * track_gauge / 2
+    cols = np.column_stack([vl * u_l, vl**2, vr * u_r, vr**2, vl * vy, vr * vy, vl * vl, vl * vr, vr * vr])
+    s = _window_sums(case, cols, horizon)
+    lam = RIDGE_SPEED**2 * horizon
+    a_l = (s[:, 0] + lam) / (s[:, 1] + lam)
+    a_r = (s[:, 2] + lam) / (s[:, 3] + lam)
+    num = a_l / 2 * s[:, 4] + a_r / 2 * s[:, 5]
+    den = a_l**2 / 4 * s[:, 6] + a_l * a_r / 2 * s[:, 7] + a_r**2 / 4 * s[:, 8]
+    alpha = np.arctan(-num / (den + lam))
+    return np.column_stack([1 - a_l, 1 - a_r, alpha])
+
+
+def build_predictors(case: Case, track_gauge: float, filters: dict[str, FilterRun]) -> list[Predictor]:
+    """The predictors of the module table for one case."""
+    T = track_gauge
+    n = case.t.size
+    const = lambda p: (lambda h: np.broadcast_to(np.asarray(p, float), (n, np.size(p))))  # noqa: E731
+    return [
+        Predictor("nominal", "nominal", "nominal", "no parameters (2.1)", Nominal(T), const([T]), True),
+        Predictor("mpp_slip_ekf", "MPP · slip EKF", "MPP", "slip EKF (online)", MPP(T),
+                  lambda h: filters["slip_ekf"].params, True, "slip_ekf"),
+        Predictor("micr_icr_ekf", "MICR · ICR EKF", "MICR", "ICR EKF (online)", InverseICR.nominal(T),
+                  lambda h: filters["icr_ekf"].params, True, "icr_ekf"),
+        Predictor("mvir_vir_filter", "MVIR · VIR filter", "MVIR", "VIR filter (online)", InverseICR.nominal(T),
+                  lambda h: filters["vir_filter"].params, True, "vir_filter"),
+        Predictor("mpp_fit", "MPP · fit to true motion (oracle)", "MPP", "window fit to the true twist (oracle)",
+                  MPP(T), lambda h: fit_mpp_windows(case, T, h), False),
+        Predictor("micr_own_icr", "MICR/MVIR · own ICRs (oracle)", "MICR", "window fit of the own ICRs (2.13) (oracle)",
+                  InverseICR.nominal(T), lambda h: fit_icr_windows(case, T, h), False),
+    ]
