@@ -22,6 +22,7 @@ COMMANDS: dict[str, str] = {
     "steady": "steady",
     "validate": "validate",
     "render": "render",
+    "diagnose": "diagnose",
     "track": "track",
     "thesis": "thesis",
 }

@@ -34,7 +34,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--speed", metavar="M/S", type=finite_float, default=None, help="reference speed [m/s] (default 0.5)")
     parser.add_argument("--laps", metavar="N", type=finite_float, default=None, help="laps / turns of the path")
     parser.add_argument("--control-rate", metavar="HZ", type=finite_float, default=25.0,
-                        help="controller rate [Hz]; its period must be a multiple of the 4 ms time step (default 25)")
+                        help="controller rate [Hz]; its period must be a multiple of the simulation time step "
+                             "(default 25)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the measurement noise (default 0)")
     parser.add_argument("--no-noise", action="store_true", help="exact pose and twist measurements")
     parser.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder")

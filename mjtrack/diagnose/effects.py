@@ -1,0 +1,268 @@
+"""The effect vocabulary (CONTRACTS.md §4) as extensions of the surrogate model.
+
+A candidate model = the baseline + one effect with its parameters. Two kinds:
+
+* input effects transform the track-speed sequence before the ground model (exact, cheap):
+  ``track_speed_scale`` k: V = k V_cmd;  ``actuator_lag`` tau: V' = (V_cmd - V)/tau, discretised
+  exactly for a command held over each step, V_{k+1} = V_k + (1 - exp(-dt/tau))(V_cmd,k - V_k),
+  started at the first command of each segment;  ``command_delay`` d: V(t) = V_cmd(t - d), the
+  held command sequence interpolated linearly (the mean over a step of a delayed held signal),
+  held at its first value before the segment start;  ``speed_limit`` v: V = clip(V_cmd, -v, v).
+* ground effects change the skid-steer response (see :mod:`mjtrack.diagnose.surrogate`):
+  ``cg_offset_x``, ``cg_offset_y``, ``friction_asymmetry`` move the quasi-static ICRs q0
+  (tabulated exact Coulomb solves); ``friction_scale`` scales the inertial response by 1/fs;
+  ``slope`` + ``slope_direction`` add g sin(slope) u_up(yaw) to the effective acceleration, so
+  its signature changes along the path with the yaw; the extra effect ``icr_spread`` scales the
+  track ICRs (y_l, y_r) -> k (y_l, y_r): more (k > 1) or less skid in turns than modelled, the
+  generic symptom of a ground that is not Coulomb-like.
+
+Baselines: ``"coulomb"`` = the nominal robot's Coulomb response (quasi-static ICRs q0 plus the
+first-order inertial response); ``"kinematic"`` = the nominal model (2.1), ICRs (T/2, -T/2, 0),
+used when the description lacks the geometry the physics needs (track_length). With the
+kinematic baseline a ground effect moves the ICRs by the *change* that the Coulomb response of
+the (assumed) robot predicts, and ``friction_scale`` (inertia only) is not testable.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from scipy import signal
+
+from mjtrack.diagnose import surrogate as sg
+from mjtrack.diagnose.residuals import DriveData
+from mjtrack.errors import InputError
+from mjtrack.io.robot import G, Robot
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One effect: name, parameter names, kind ("input" or "ground"), meaning, and per-robot
+    ``nominal(robot)`` values, ``bounds(robot)`` ((P,), (P,)) and ``starts(robot, data)`` (S, P)."""
+
+    name: str
+    params: tuple[str, ...]
+    kind: str
+    meaning: str
+    signature: str
+    nominal: Callable[[Robot], tuple]
+    bounds: Callable[[Robot], tuple]
+    starts: Callable[[Robot, DriveData], np.ndarray]
+
+
+def _grid(*values) -> Callable:
+    return lambda robot, data: np.array(values, float).reshape(len(values), -1)
+
+
+def _max_speed(data: DriveData) -> float:
+    return float(max(np.max(np.abs(data.cmd)), 1e-3))
+
+
+def _cg_lim(robot: Robot, axis: str) -> float:
+    return 0.3 * robot.track_length if axis == "x" else 0.25 * robot.track_gauge
+
+
+EFFECTS: dict[str, Effect] = {e.name: e for e in (
+    Effect("track_speed_scale", ("track_speed_scale",), "input", "actual / commanded track speed, both tracks",
+           "speed and yaw rate both scaled: along-track error grows with speed, turn shape unchanged",
+           lambda r: (1.0,), lambda r: ((0.3,), (3.0,)), _grid(0.8, 0.95, 1.05, 1.25)),
+    Effect("actuator_lag", ("actuator_lag",), "input", "first-order time constant from command to track speed [s]",
+           "errors right after command changes, the model leads the measurement",
+           lambda r: (0.0,), lambda r: ((1e-3,), (3.0,)), _grid(0.02, 0.05, 0.1, 0.2, 0.4, 0.8, 1.6)),
+    Effect("command_delay", ("command_delay",), "input", "dead time from command to track speed [s]",
+           "errors right after command changes, the measurement follows the model shifted in time",
+           lambda r: (0.0,), lambda r: ((0.0,), (2.0,)),
+           # the fit to sampled speeds is V-shaped one sample wide: start on a grid of one sample
+           lambda r, d: np.arange(0.0, 1.0, max(float(np.median(np.diff(d.t))), 0.01)).reshape(-1, 1)),
+    Effect("speed_limit", ("speed_limit",), "input", "track speeds saturate at this magnitude [m/s]",
+           "errors only at high commanded speeds, the model too fast",
+           lambda r: (np.inf,), lambda r: ((0.02,), (np.inf,)),
+           lambda r, d: np.quantile(np.abs(d.cmd), [0.5, 0.7, 0.85, 0.95]).reshape(-1, 1)),
+    Effect("cg_offset_x", ("cg_offset_x",), "ground", "centre of mass ahead (+) / behind (-) the geometric centre [m]",
+           "the no-slip line x_c moves with the centre of mass: the robot slides to the outside (cg ahead) "
+           "of its turns, the same x_c for both turn directions",
+           lambda r: (r.cg_x,), lambda r: ((-_cg_lim(r, "x"),), (_cg_lim(r, "x"),)),
+           lambda r, d: np.array([[-0.1], [-0.03], [0.03], [0.1]]) * r.track_length),
+    Effect("cg_offset_y", ("cg_offset_y",), "ground", "centre of mass left (+) / right (-) [m]",
+           "the loaded track slips less: turning asymmetric (y_l, y_r shift together)",
+           lambda r: (r.cg_y,), lambda r: ((-_cg_lim(r, "y"),), (_cg_lim(r, "y"),)),
+           lambda r, d: np.array([[-0.15], [-0.05], [0.05], [0.15]]) * r.track_gauge),
+    Effect("friction_scale", ("friction_scale",), "ground", "ground friction / nominal",
+           "changes the skid only through the centripetal (inertial) response: visible in fast turns only",
+           lambda r: (1.0,), lambda r: ((0.05,), (20.0,)), _grid(0.3, 0.7, 1.5, 3.0)),
+    Effect("friction_asymmetry", ("friction_asymmetry",), "ground",
+           "left-track friction / right-track friction, the right track keeping the nominal mu",
+           "the grippier track slips less: turning asymmetric (y_l, y_r shift together)",
+           lambda r: (r.friction_left / r.friction_right,), lambda r: ((1 / 3,), (3.0,)), _grid(0.5, 0.8, 1.25, 2.0)),
+    Effect("slope", ("slope", "slope_direction"), "ground", "inclined ground: angle [rad], uphill direction (world) [rad]",
+           "a drift whose direction in the robot frame turns with the yaw: errors depend on the heading",
+           lambda r: (0.0, 0.0), lambda r: ((0.0, -np.inf), (0.5, np.inf)),
+           lambda r, d: np.array([[s, a] for s in (0.05, 0.15) for a in np.arange(8) * np.pi / 4])),
+    Effect("icr_spread", ("icr_spread",), "ground",
+           "track ICR spread / modelled (effective gauge factor): more (>1) or less (<1) skid in turns",
+           "yaw rate off by the same factor in all turns, straight driving exact",
+           lambda r: (1.0,), lambda r: ((0.3,), (4.0,)), _grid(0.7, 0.9, 1.1, 1.4)),
+)}
+
+
+class Surrogate:
+    """Baseline + effect -> per-sample body twist, for one robot and one drive log.
+
+    Args:
+        robot: the nominal robot description.
+        baseline: "coulomb" or "kinematic" (module docstring).
+    """
+
+    def __init__(self, robot: Robot, baseline: str) -> None:
+        if baseline not in ("coulomb", "kinematic"):
+            raise InputError(f"diagnose: baseline must be 'coulomb' or 'kinematic', got {baseline!r}")
+        self.robot = robot
+        self.baseline = baseline
+        self.resp = sg.ground_response(robot)
+        T = robot.track_gauge
+        self.q_nominal = self.resp.q0 if baseline == "coulomb" else np.array([T / 2, -T / 2, 0.0])
+        lim_x, lim_y = _cg_lim(robot, "x"), _cg_lim(robot, "y")
+        self._tables = {
+            "cg_offset_x": ("cg_x", np.linspace(-lim_x, lim_x, 25)),
+            "cg_offset_y": ("cg_y", np.linspace(-lim_y, lim_y, 25)),
+            "friction_asymmetry": ("friction_ratio", np.exp(np.linspace(-np.log(3.0), np.log(3.0), 25))),
+        }
+
+    def testable(self, effect: Effect) -> bool:
+        return not (effect.name == "friction_scale" and self.baseline == "kinematic")
+
+    def _static_q(self, name: str, value: float) -> np.ndarray:
+        field, grid = self._tables[name]
+        grid, table = sg.static_table(self.robot, field, grid)
+        x = np.log(grid) if name == "friction_asymmetry" else grid
+        v = np.log(value) if name == "friction_asymmetry" else value
+        q = np.array([np.interp(v, x, table[:, i]) for i in range(3)])
+        return self.q_nominal + (q - self.resp.q0)
+
+    # -- inputs -----------------------------------------------------------------------------
+    def inputs(self, data: DriveData, effect: Effect | None, theta, *, source: np.ndarray | None = None,
+               instant: bool = False) -> np.ndarray:
+        """Track speeds (N, 2) [m/s] that drive the ground model: ``source`` (default the commands)
+        transformed by an input effect, unchanged otherwise. ``instant``: the speeds at the sample
+        times (what a sensor reads) instead of their means over each held step (what drives the model)."""
+        v = data.cmd if source is None else source
+        if effect is None or effect.kind != "input":
+            return v
+        p = float(theta[0])
+        if effect.name == "track_speed_scale":
+            return p * v
+        if effect.name == "speed_limit":
+            return np.clip(v, -p, p)
+        if effect.name == "command_delay":
+            return _delay(data, v, p, _initial(data, v))
+        if effect.name == "actuator_lag":
+            return _lag(data, v, p, _initial(data, v), instant=instant)
+        raise InputError(f"diagnose: unknown input effect {effect.name!r}")  # pragma: no cover
+
+    # -- ground -----------------------------------------------------------------------------
+    def twist(self, data: DriveData, speeds: np.ndarray, effect: Effect | None = None, theta=()) -> np.ndarray:
+        """Body twist (N, 3) of the baseline (+ a ground effect) under track speeds (N, 2)."""
+        r = self.robot
+        q_s = self.q_nominal.copy()
+        cg = np.array([r.cg_x, r.cg_y])
+        fs, slope, inertia = 1.0, None, self.baseline == "coulomb"
+        name = effect.name if effect is not None and effect.kind == "ground" else None
+        if name in self._tables:
+            q_s = self._static_q(name, float(theta[0]))
+            if name == "cg_offset_x":
+                cg[0] = theta[0]
+            elif name == "cg_offset_y":
+                cg[1] = theta[0]
+        elif name == "icr_spread":
+            q_s = q_s * np.array([theta[0], theta[0], 1.0])
+        elif name == "friction_scale":
+            fs = float(theta[0])
+        elif name == "slope":
+            ang = theta[1] - data.poses[:, 2]
+            slope = G * np.sin(theta[0]) * np.stack([np.cos(ang), np.sin(ang)], -1)
+        vl, vr = speeds[:, 0], speeds[:, 1]
+        qs = np.broadcast_to(q_s, (vl.size, 3))
+        tw = sg.twist_from_q(qs, vl, vr)
+        if not inertia and slope is None:
+            return tw
+        sign = np.sign(vr - vl)
+        for _ in range(2):  # the centripetal acceleration depends on the twist: fixed point
+            a = sg.centripetal(tw, cg[0], cg[1]) if inertia else np.zeros((vl.size, 2))
+            if slope is not None:
+                a = a + slope
+            # (kinematic baseline: a is the slope's alone, with its full transfer + inertia response)
+            q = self.resp.icr(qs, sign, a, friction_scale=fs)
+            tw = sg.twist_from_q(q, vl, vr)
+            if not inertia:
+                break
+        return tw
+
+
+_LOOP_MAX = 400  # segments up to this many samples use the exact recursion, longer ones lfilter
+
+
+def _segments(data: DriveData):
+    cuts = np.flatnonzero(data.seg[1:] != data.seg[:-1]) + 1
+    return zip(np.r_[0, cuts], np.r_[cuts, data.n])
+
+
+def _initial(data: DriveData, v: np.ndarray) -> np.ndarray:
+    """(N, 2) track speeds before/at each segment start: measured where the log has them (a
+    segment may start while the tracks still run at the previous command), else the command."""
+    if data.meas is None:
+        return v
+    return np.where(np.isfinite(data.meas), data.meas, v)
+
+
+def _delay(data: DriveData, v: np.ndarray, d: float, init: np.ndarray) -> np.ndarray:
+    """Delayed held commands; before the segment start the tracks keep their initial speed."""
+    out = np.empty_like(v)
+    for lo, hi in _segments(data):
+        ts = data.t[lo:hi]
+        for j in range(2):
+            out[lo:hi, j] = np.interp(ts - d, ts, v[lo:hi, j], left=init[lo, j])
+            # between t0 - d and t0 the held signal moves from the initial speed to the first command
+            first = ts - d < ts[0]
+            out[lo:hi, j][first] = init[lo, j]
+    return out
+
+
+def _lag(data: DriveData, v: np.ndarray, tau: float, init: np.ndarray, *, instant: bool = False) -> np.ndarray:
+    """First-order lag, exact for held inputs; vectorised across segments (padded), looped over time.
+
+    y_k is the track speed at t_k; the twist of step k is held over [t_k, t_k+1), so by default
+    the mean speed over the step is returned, u_k + (y_k - u_k)(tau/h)(1 - exp(-h/tau));
+    ``instant=True`` returns y_k itself (what a speed sensor samples at t_k). ``init`` (N, 2):
+    y at each segment start is init[start].
+    """
+    bounds = list(_segments(data))
+    length = max(hi - lo for lo, hi in bounds)
+    nseg = len(bounds)
+    u = np.zeros((nseg, length, 2))
+    h_tau = np.zeros((nseg, length))
+    dt = data.step_dt()
+    for i, (lo, hi) in enumerate(bounds):
+        u[i, : hi - lo] = v[lo:hi]
+        h_tau[i, : hi - lo] = dt[lo:hi] / tau
+    alpha = -np.expm1(-h_tau)
+    y = np.empty_like(u)
+    y[:, 0] = init[[lo for lo, _ in bounds]]
+    if length <= _LOOP_MAX:  # short segments: exact recursion, vectorised across segments
+        for k in range(1, length):
+            y[:, k] = y[:, k - 1] + alpha[:, k - 1, None] * (u[:, k - 1] - y[:, k - 1])
+    else:  # long segments: IIR filter with the segment's median step (exact when dt is uniform)
+        for i, (lo, hi) in enumerate(bounds):
+            a = float(np.median(alpha[i, : hi - lo - 1])) if hi - lo > 1 else 1.0
+            for j in range(2):
+                # y_k = (1-a) y_{k-1} + a u_{k-1}: filter of the input delayed by one step
+                y[i, 1 : hi - lo, j] = signal.lfilter([a], [1.0, -(1 - a)], u[i, : hi - lo - 1, j],
+                                                      zi=np.array([(1 - a) * y[i, 0, j]]))[0]
+    if not instant:
+        frac = np.where(h_tau > 1e-12, alpha / np.where(h_tau > 1e-12, h_tau, 1.0), 1.0)
+        y = u + (y - u) * frac[..., None]
+    out = np.empty_like(v)
+    for i, (lo, hi) in enumerate(bounds):
+        out[lo:hi] = y[i, : hi - lo]
+    return out

@@ -1,0 +1,131 @@
+"""Parameter estimation of one candidate (baseline + effect) by nonlinear least squares.
+
+Objective. Ground effects (and input effects when the log has no track speeds) are fitted to
+the fixed-horizon prediction errors of the training windows: the residual of a window is its
+error in the start frame (along, across [m], yaw x T/2 [m]) -- the same prediction the ranking
+scores, so the fit minimises what is later measured on held-out data. When the log has
+measured track speeds, the ground model is driven by them (an input effect cannot leak into a
+ground estimate) and input effects are fitted to the speeds themselves (residual: transformed
+command minus measured speed, both tracks), which is direct and far better conditioned.
+
+Method. Multi-start (each effect's start grid, the cheapest start kept) then
+``scipy.optimize.least_squares`` (trust-region reflective, bounds, finite-difference
+Jacobian). Intervals are not taken from the Jacobian: the windows overlap and their errors are
+strongly correlated, so (J^T J)^-1 s^2 would be far too narrow. :mod:`mjtrack.diagnose.select`
+uses the delete-one-fold jackknife of the cross-validation fits instead.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize
+
+from mjtrack.diagnose.effects import Effect, Surrogate
+from mjtrack.diagnose.residuals import DriveData, window_errors
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Everything a fit needs, computed once per log.
+
+    data: the drive data; surrogate: baseline + effects; horizon_s [s]; dt: (N,) hold times [s];
+    starts, ends: (M,) windows; fold: (M,) fold of each window; sample_fold: (N,) fold of each
+    sample; fit_windows: (F,) indices into the windows used for fitting (a stride of them);
+    measured: (N, 2) measured track speeds with missing values replaced by the command, or None;
+    speed_ok: (N,) samples with both speeds measured; base: an effect with fixed parameters that
+    is part of the baseline (the secondary stage: other effects tested on top of the cause).
+    """
+
+    data: DriveData
+    surrogate: Surrogate
+    horizon_s: float
+    dt: np.ndarray
+    starts: np.ndarray
+    ends: np.ndarray
+    fold: np.ndarray
+    sample_fold: np.ndarray
+    fit_windows: np.ndarray
+    measured: np.ndarray | None
+    speed_ok: np.ndarray | None
+    base: tuple[Effect, np.ndarray] | None = None
+
+    @property
+    def yaw_scale(self) -> float:
+        return self.surrogate.robot.track_gauge / 2
+
+
+def twist(problem: Problem, effect: Effect | None, theta, *, drive: str = "command") -> np.ndarray:
+    """Body twist (N, 3) of baseline (+ base effect) + effect, driven by the commands (through the
+    input effect, if any) or, for fitting ground effects, by the measured speeds."""
+    s = problem.surrogate
+    parts = [(effect, theta)] + ([problem.base] if problem.base is not None else [])
+    inp = next(((e, p) for e, p in parts if e is not None and e.kind == "input"), (None, ()))
+    gnd = next(((e, p) for e, p in parts if e is not None and e.kind == "ground"), (None, ()))
+    if drive == "measured" and problem.measured is not None and (effect is None or effect.kind == "ground"):
+        speeds = problem.measured
+    else:
+        speeds = s.inputs(problem.data, inp[0], inp[1])
+    return s.twist(problem.data, speeds, gnd[0], gnd[1])
+
+
+def errors(problem: Problem, effect: Effect | None, theta, windows: np.ndarray, *, drive: str = "command") -> np.ndarray:
+    """Window errors (W, 3) (along, across [m], yaw [rad]) of baseline + effect on ``windows``."""
+    tw = twist(problem, effect, theta, drive=drive)
+    return window_errors(tw, problem.dt, problem.data.poses, problem.starts[windows], problem.ends[windows])
+
+
+def pos_rmse(err: np.ndarray) -> float:
+    """RMS position error [m] of window errors (W, 3)."""
+    return float(np.sqrt(np.mean(err[:, 0] ** 2 + err[:, 1] ** 2))) if err.size else float("nan")
+
+
+def speed_residuals(problem: Problem, effect: Effect, theta, samples: np.ndarray) -> np.ndarray:
+    """Transformed command minus measured track speed [m/s] on ``samples`` (boolean (N,)), flattened."""
+    v = problem.surrogate.inputs(problem.data, effect, theta, instant=True)
+    return (v[samples] - problem.data.meas[samples]).ravel()
+
+
+def uses_speeds(problem: Problem, effect: Effect) -> bool:
+    """Input effects are fitted to the measured track speeds when the log has them."""
+    return effect.kind == "input" and problem.speed_ok is not None and bool(problem.speed_ok.any())
+
+
+def fit(problem: Problem, effect: Effect, train_folds: np.ndarray) -> np.ndarray:
+    """Least-squares estimate (P,) of the effect's parameters on the folds ``train_folds``."""
+    robot = problem.surrogate.robot
+    lo, hi = (np.asarray(b, float) for b in effect.bounds(robot))
+    if uses_speeds(problem, effect):
+        samples = np.isin(problem.sample_fold, train_folds) & problem.speed_ok
+
+        def resid(p):
+            return speed_residuals(problem, effect, p, samples)
+    else:
+        w = problem.fit_windows[np.isin(problem.fold[problem.fit_windows], train_folds)]
+        ell = problem.yaw_scale
+
+        def resid(p):
+            e = errors(problem, effect, p, w, drive="measured")
+            e[:, 2] *= ell
+            return e.ravel()
+
+    starts = np.asarray(effect.starts(robot, problem.data), float)
+    inner_lo = np.where(np.isfinite(lo), lo + 1e-6 * (1 + np.abs(np.where(np.isfinite(lo), lo, 0))), -np.inf)
+    inner_hi = np.where(np.isfinite(hi), hi - 1e-6 * (1 + np.abs(np.where(np.isfinite(hi), hi, 0))), np.inf)
+    starts = np.clip(starts, inner_lo, inner_hi)
+    costs = [float(np.sum(resid(p) ** 2)) for p in starts]
+    x0 = starts[int(np.argmin(costs))]
+    res = optimize.least_squares(resid, x0, bounds=(lo, hi), method="trf", x_scale="jac", diff_step=1e-3,
+                                 xtol=1e-6, ftol=1e-8, max_nfev=60)
+    p = res.x
+    if "slope" in effect.params and p[0] < 0:  # a negative angle is the opposite direction
+        p = np.array([-p[0], p[1] + np.pi])
+    if "slope_direction" in effect.params:
+        p = p.copy()
+        p[1] = (p[1] + np.pi) % (2 * np.pi) - np.pi
+    log.debug("fit %s on folds %s: %s (cost %.4g, %d evaluations)", effect.name, list(train_folds), p, res.cost, res.nfev)
+    return p

@@ -1,0 +1,161 @@
+"""Fast surrogate of the tracked robot's skid-steer response, from the rigid-track Coulomb reference.
+
+Derivation (``mjtrack.models.coulomb``). On Coulomb contacts the sliding velocity of the
+contact point i is u_i = wz (y_side - y_i, x_i - x_c) written with the ICRs q = (y_l, y_r, x_c)
+(eq. 2.13), so the friction forces -mu_i N_i u_i/|u_i| depend on q and sign(wz) only, and they
+flip with sign(wz). Hence:
+
+1. Quasi-static (no inertia, flat ground): the balance F = 0, M = 0 fixes q = q0 whatever the
+   track speeds and the turn direction. The quasi-static robot *is* MICR (2.14) with constant
+   ICRs q0; q0 depends on the load distribution (cg_x, cg_y), the friction ratio mu_L/mu_R and
+   L/T, but not on the friction level or the mass.
+2. Inertia and slope enter through one body-frame "effective acceleration" of the CoM,
+       a_eff = a + g sin(slope) u_up,   a = (-wz (vy + wz c_x), wz (vx - wz c_y))
+   (centripetal acceleration of the steady twist; u_up the uphill unit vector in the body
+   frame). The steady balance reads  s fs W(q; N(a_eff)) = m a_eff  (s = sign(wz), fs the
+   friction scale, N the Wong loads with the load transfer c - h a_eff / g). To first order in
+   a_eff / (mu g):
+       q = q0 + B_s^transfer a_eff + B_s^inertia a_eff / fs,
+   with the 3x2 response matrices B_s computed here by finite differences of full nonlinear
+   solves (``_solve_icr``), one pair per turn direction s. B^inertia is the response with the
+   load transfer switched off; B^transfer the rest. Friction scale acts *only* through the
+   inertia term: it is identifiable only from fast turns (|a|/(mu g) not small).
+3. The static effects (cg offsets, friction ratio) change q0; they are tabulated by exact
+   quasi-static solves on a grid of the parameter and interpolated (``static_table``).
+
+Straight driving (V_L = V_R) gives wz = 0 and vx = V exactly (all contacts stick), whatever q:
+ground effects are visible only when the robot turns.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize
+
+from mjtrack.errors import MjtrackError
+from mjtrack.io.robot import Robot
+from mjtrack.models import coulomb
+
+log = logging.getLogger(__name__)
+
+_N_POINTS = 100  # contact points per track for the surrogate (the ICRs converge as 1/n^2)
+_DA = 0.05  # [m/s^2] finite-difference step of the acceleration response
+
+
+def _residual(robot: Robot, q: np.ndarray, s: float, a: np.ndarray, transfer: bool) -> np.ndarray:
+    """Steady balance (coulomb eq. 3) written with the ICRs q and wz = s = +-1, / (m g)."""
+    yl, yr, xc = q
+    # twist with wz = s and vx = 0: V_L = -s y_l, V_R = -s y_r, vy = -s x_c (eq. 2.13)
+    fx, fy, mz = coulomb.contact_wrench(robot, 0.0, -s * xc, s, -s * yl, -s * yr, n_points=_N_POINTS,
+                                        accel=tuple(a) if transfer else (0.0, 0.0))
+    m = robot.mass
+    mc = mz - (robot.cg_x * fy - robot.cg_y * fx)
+    return np.array([fx - m * a[0], fy - m * a[1], mc / robot.track_length]) / robot.weight
+
+
+def _solve_icr(robot: Robot, s: float, a=(0.0, 0.0), *, transfer: bool = True, q0=None) -> np.ndarray:
+    """ICRs (y_l, y_r, x_c) [m] of the steady turn with sign(wz) = s under the CoM acceleration a."""
+    a = np.asarray(a, dtype=float)
+    T = robot.track_gauge
+    start = np.array([0.65 * T, -0.65 * T, 0.0]) if q0 is None else np.asarray(q0, float)
+    sol = optimize.root(lambda z: _residual(robot, z * T, s, a, transfer), start / T, method="hybr",
+                        options={"xtol": 1e-12})
+    res = np.max(np.abs(_residual(robot, sol.x * T, s, a, transfer)))
+    if not res < 1e-9:
+        raise MjtrackError(f"surrogate: no Coulomb steady state for a={a.tolist()} (residual {res:.2g})")
+    return sol.x * T
+
+
+@dataclass(frozen=True)
+class GroundResponse:
+    """First-order Coulomb response of one robot (see module docstring).
+
+    q0: (3,) quasi-static ICRs (y_l, y_r, x_c) [m].
+    b_transfer, b_inertia: (2, 3, 2) dq/da_eff [m per m/s^2]; index 0 for wz > 0, 1 for wz < 0.
+    """
+
+    q0: np.ndarray
+    b_transfer: np.ndarray
+    b_inertia: np.ndarray
+
+    def icr(self, q_static: np.ndarray, wz_sign: np.ndarray, a_eff: np.ndarray, *, friction_scale=1.0,
+            inertia: bool = True) -> np.ndarray:
+        """ICRs (N, 3) for static ICRs q_static (N, 3), sign(wz) (N,), a_eff (N, 2) [m/s^2]."""
+        k = (wz_sign < 0).astype(int)
+        resp = self.b_transfer[k] + (self.b_inertia[k] / friction_scale if inertia else 0.0)
+        return q_static + np.einsum("nij,nj->ni", resp, a_eff)
+
+
+def _key(robot: Robot) -> tuple:
+    return (robot.track_gauge, robot.track_length, robot.mass, robot.cg_x, robot.cg_y, robot.cg_z,
+            robot.friction_left, robot.friction_right)
+
+
+@functools.lru_cache(maxsize=16)
+def _response_cached(key: tuple) -> GroundResponse:
+    T, L, m, cx, cy, cz, mul, mur = key
+    robot = Robot(track_gauge=T, track_length=L, mass=m, cg_x=cx, cg_y=cy, cg_z=cz, mu=mur, mu_left=mul, mu_right=mur)
+    q0 = np.array(coulomb.steady_state(robot, 0.0, 1.0, inertial=False, n_points=_N_POINTS).icr)
+    bt = np.zeros((2, 3, 2))
+    bi = np.zeros((2, 3, 2))
+    for k, s in enumerate((1.0, -1.0)):
+        for j in range(2):
+            da = np.zeros(2)
+            da[j] = _DA
+            for transfer, out in ((True, bt), (False, bi)):
+                qp = _solve_icr(robot, s, da, transfer=transfer, q0=q0)
+                qm = _solve_icr(robot, s, -da, transfer=transfer, q0=q0)
+                out[k, :, j] = (qp - qm) / (2 * _DA)
+    return GroundResponse(q0=q0, b_transfer=bt - bi, b_inertia=bi)
+
+
+def ground_response(robot: Robot) -> GroundResponse:
+    """The first-order Coulomb response of ``robot`` (cached per robot)."""
+    return _response_cached(_key(robot))
+
+
+@functools.lru_cache(maxsize=64)
+def _static_cached(key: tuple, field: str, values: tuple) -> tuple[np.ndarray, np.ndarray]:
+    T, L, m, cx, cy, cz, mul, mur = key
+    kept, out = [], []
+    for v in values:
+        kw = dict(track_gauge=T, track_length=L, mass=m, cg_x=cx, cg_y=cy, cg_z=cz, mu=mur, mu_left=mul, mu_right=mur)
+        if field == "friction_ratio":
+            kw["mu_left"] = v * mur
+        else:
+            kw[field] = v
+        try:  # the library solver has the robust fallbacks (shortened contact at large cg offsets)
+            out.append(coulomb.steady_state(Robot(**kw), 0.0, 1.0, inertial=False, n_points=_N_POINTS).icr)
+        except MjtrackError:  # a nearly unloaded track: no steady state, leave the value out
+            log.debug("surrogate: no quasi-static solution for %s = %g", field, v)
+            continue
+        kept.append(v)
+    return np.array(kept), np.array(out)
+
+
+def static_table(robot: Robot, field: str, values) -> tuple[np.ndarray, np.ndarray]:
+    """Quasi-static ICRs (G', 3) [m] with ``field`` (cg_x, cg_y or friction_ratio = mu_L/mu_R) set
+    to each of ``values`` (absolute values, not offsets); returns (values kept (G',), ICRs):
+    values without a solution (a nearly unloaded track) are left out."""
+    return _static_cached(_key(robot), field, tuple(float(v) for v in values))
+
+
+def twist_from_q(q: np.ndarray, v_left: np.ndarray, v_right: np.ndarray) -> np.ndarray:
+    """Eq. (2.14) for per-sample ICRs q (N, 3): body twist (N, 3)."""
+    yl, yr, xc = q[:, 0], q[:, 1], q[:, 2]
+    d = yl - yr
+    wz = (v_right - v_left) / d
+    return np.stack([(yl * v_right - yr * v_left) / d, -xc * wz, wz], -1)
+
+
+def centripetal(twist: np.ndarray, cg_x, cg_y) -> np.ndarray:
+    """Body-frame CoM acceleration (N, 2) [m/s^2] of the steady twist (N, 3)."""
+    vx, vy, wz = twist[:, 0], twist[:, 1], twist[:, 2]
+    return np.stack([-wz * (vy + wz * cg_x), wz * (vx - wz * cg_y)], -1)
+
+
+__all__ = ["GroundResponse", "ground_response", "static_table", "twist_from_q", "centripetal"]
