@@ -188,7 +188,7 @@ def test_generator_is_seeded_and_clean_log_follows_coulomb():
     a, _ = make_log(None, seed=3, duration=20.0)
     b, _ = make_log(None, seed=3, duration=20.0)
     assert a == b
-    t, vl, vr = a.t, a.v_left_cmd, a.v_right_cmd
+    vl, vr = a.v_left_cmd, a.v_right_cmd
     k = int(np.argmax(np.abs(vr - vl) > 0.2))  # a turning command: the table matches the exact solve
     pts = np.array([[vl[k] + 0.013, vr[k] - 0.021]])
     tw = np.array([f(pts)[0] for f in _table(ROBOT)])

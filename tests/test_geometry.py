@@ -1,5 +1,4 @@
 import numpy as np
-import pytest
 
 from mjtrack.geometry import (
     body_to_world_velocity,

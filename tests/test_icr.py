@@ -76,7 +76,7 @@ def test_virtual_robot_reproduces_twist_exactly(rng):
 def test_printed_sign_of_2_17_does_not_reproduce_twist():
     # The thesis prints y_o = (V_R + V_L - 2 vx)/(2 w); under the thesis's own conventions the
     # virtual robot built with it predicts a different vx (this is why we use the opposite sign).
-    vx, vy, wz, vl, vr = 0.5, 0.0, 0.4, 0.2, 0.5
+    vx, wz, vl, vr = 0.5, 0.4, 0.2, 0.5  # vy = 0
     printed_y_o = (vr + vl - 2 * vx) / (2 * wz)
     tv = (vr - vl) / wz
     assert abs(MVIR(0.0, printed_y_o, tv).twist(vl, vr)[0] - vx) > 0.1

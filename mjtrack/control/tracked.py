@@ -18,17 +18,16 @@ import numpy as np
 
 from mjtrack.errors import InputError
 from mjtrack.models.kinematic import KinematicModel
+from mjtrack.models.wheeled.base import PlanarKinematic
 
 
 @dataclass(frozen=True)
-class TrackedKinematic:
+class TrackedKinematic(PlanarKinematic):
     """Kinematic tracked robot: ``model`` gives the twist, ``track_gauge`` T [m] the adapter's gauge."""
 
     model: KinematicModel
     track_gauge: float
 
-    is_kinematic = True
-    n_state = 3
     n_input = 2
     input_names = ("v_left [m/s]", "v_right [m/s]")
 
@@ -36,18 +35,7 @@ class TrackedKinematic:
         if not (math.isfinite(self.track_gauge) and self.track_gauge > 0):
             raise InputError(f"TrackedKinematic: 'track_gauge' must be positive, got {self.track_gauge!r}")
 
-    def derivative(self, state: np.ndarray, u: np.ndarray) -> np.ndarray:
+    def body_twist(self, u) -> tuple[float, float, float]:
+        """The kinematic model's twist for track speeds u = (V_L, V_R) [m/s]."""
         vx, vy, wz = np.asarray(self.model.twist(u[0], u[1]), dtype=float)
-        c, s = math.cos(state[2]), math.sin(state[2])
-        return np.array([c * vx - s * vy, s * vx + c * vy, wz])
-
-    def initial_state(self, pose) -> np.ndarray:
-        return np.array(pose, dtype=float).reshape(3)
-
-    def pose(self, state: np.ndarray) -> np.ndarray:
-        return np.array(state[:3], dtype=float)
-
-    def twist(self, state: np.ndarray, u: np.ndarray | None = None) -> np.ndarray:
-        if u is None:
-            return np.zeros(3)
-        return np.asarray(self.model.twist(u[0], u[1]), dtype=float)
+        return float(vx), float(vy), float(wz)

@@ -22,10 +22,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
 
 from mjtrack.errors import InputError
-from mjtrack.models.wheeled.base import check_positive
+from mjtrack.models.wheeled.base import PlanarKinematic, check_positive
 
 THESIS_WHEELBASE = 0.3  # l [m]
 THESIS_TRACK = 0.15  # b [m] (printed ",5")
@@ -39,7 +38,7 @@ def steering_angles(radius: float, *, wheelbase: float, track: float) -> tuple[f
 
 
 @dataclass(frozen=True, kw_only=True)
-class Ackermann:
+class Ackermann(PlanarKinematic):
     """Kinematic Ackermann car (1.22) (``drive="rear"``) or (1.23) (``drive="front"``).
 
     Attributes:
@@ -52,8 +51,6 @@ class Ackermann:
     drive: str = "rear"
     max_steer: float = math.radians(40.0)
 
-    is_kinematic = True  # twist() needs the input u
-    n_state = 3
     n_input = 2
     input_names = ("speed [m/s]", "steer [rad]")
 
@@ -76,20 +73,7 @@ class Ackermann:
         """Radius [m] of the circle of B for steering angle theta: l/tan(theta)."""
         return self.wheelbase / math.tan(steer)
 
-    def derivative(self, state: np.ndarray, u: np.ndarray) -> np.ndarray:
+    def body_twist(self, u) -> tuple[float, float, float]:
+        """Body twist (v_B, 0, phidot) of B for input u = (speed, steer)."""
         v, omega = self.body_rates(u)
-        phi = state[2]
-        return np.array([v * math.cos(phi), v * math.sin(phi), omega])
-
-    def initial_state(self, pose) -> np.ndarray:
-        return np.array(pose, dtype=float).reshape(3)
-
-    def pose(self, state: np.ndarray) -> np.ndarray:
-        return np.array(state[:3], dtype=float)
-
-    def twist(self, state: np.ndarray, u: np.ndarray | None = None) -> np.ndarray:
-        """Body twist (v_B, 0, phidot) of B; set by the input ``u`` (zero if None)."""
-        if u is None:
-            return np.zeros(3)
-        v, omega = self.body_rates(u)
-        return np.array([v, 0.0, omega])
+        return v, 0.0, omega

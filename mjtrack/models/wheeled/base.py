@@ -49,6 +49,34 @@ class WheeledModel(Protocol):
     def twist(self, state: np.ndarray) -> np.ndarray: ...
 
 
+class PlanarKinematic:
+    """Shared part of the kinematic models: the state is the pose (x, y, yaw) and the input
+    sets the body twist. A subclass defines ``body_twist(u) -> (vx, vy, wz)`` [m/s, m/s, rad/s]."""
+
+    is_kinematic = True  # twist() needs the input u
+    n_state = 3
+
+    def body_twist(self, u) -> tuple[float, float, float]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def derivative(self, state: np.ndarray, u: np.ndarray) -> np.ndarray:
+        vx, vy, wz = self.body_twist(u)
+        c, s = math.cos(state[2]), math.sin(state[2])
+        return np.array([c * vx - s * vy, s * vx + c * vy, wz])
+
+    def initial_state(self, pose) -> np.ndarray:
+        return np.array(pose, dtype=float).reshape(3)
+
+    def pose(self, state: np.ndarray) -> np.ndarray:
+        return np.array(state[:3], dtype=float)
+
+    def twist(self, state: np.ndarray, u: np.ndarray | None = None) -> np.ndarray:
+        """Body twist set by the input ``u`` (zero if None)."""
+        if u is None:
+            return np.zeros(3)
+        return np.array(self.body_twist(u), dtype=float)
+
+
 def rk4_step(model: WheeledModel, state: np.ndarray, u, dt: float) -> np.ndarray:
     """One classical RK4 step of ``model`` from ``state`` with input ``u`` held for ``dt`` [s]."""
     u = np.asarray(u, dtype=float)

@@ -15,12 +15,10 @@ State (3,): x [m], y [m], phi [rad].  Input (2,): wheel angular speeds (omega_L,
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
-import numpy as np
 
-from mjtrack.models.wheeled.base import check_positive
+from mjtrack.models.wheeled.base import PlanarKinematic, check_positive
 
 # Thesis constants of the small (robot-soccer) differential-drive chassis, section 1.1.
 # The text extraction dropped the digits 0, 1, 2; the values below are the readings that make
@@ -42,7 +40,7 @@ def body_speeds(omega_left: float, omega_right: float, *, track: float, wheel_ra
 
 
 @dataclass(frozen=True, kw_only=True)
-class DiffDriveKinematic:
+class DiffDriveKinematic(PlanarKinematic):
     """No-slip differential drive (1.1)-(1.4).
 
     Attributes:
@@ -53,28 +51,13 @@ class DiffDriveKinematic:
     track: float = THESIS_TRACK
     wheel_radius: float = THESIS_WHEEL_RADIUS
 
-    is_kinematic = True  # twist() needs the input u
-    n_state = 3
     n_input = 2
     input_names = ("omega_left [rad/s]", "omega_right [rad/s]")
 
     def __post_init__(self) -> None:
         check_positive("DiffDriveKinematic", track=self.track, wheel_radius=self.wheel_radius)
 
-    def derivative(self, state: np.ndarray, u: np.ndarray) -> np.ndarray:
+    def body_twist(self, u) -> tuple[float, float, float]:
+        """(v, 0, omega) from the wheel speeds u = (omega_left, omega_right) [rad/s]."""
         v, omega = body_speeds(u[0], u[1], track=self.track, wheel_radius=self.wheel_radius)
-        phi = state[2]
-        return np.array([v * math.cos(phi), v * math.sin(phi), omega])
-
-    def initial_state(self, pose) -> np.ndarray:
-        return np.array(pose, dtype=float).reshape(3)
-
-    def pose(self, state: np.ndarray) -> np.ndarray:
-        return np.array(state[:3], dtype=float)
-
-    def twist(self, state: np.ndarray, u: np.ndarray | None = None) -> np.ndarray:
-        """Body twist (v, 0, omega); a kinematic model's twist is set by its input ``u`` (zero if None)."""
-        if u is None:
-            return np.zeros(3)
-        v, omega = body_speeds(u[0], u[1], track=self.track, wheel_radius=self.wheel_radius)
-        return np.array([v, 0.0, omega])
+        return v, 0.0, omega
