@@ -370,3 +370,20 @@ def test_inputs_from_log_feed_the_filters():
     r = run_slip_ekf(s.t, s.v_left, s.v_right, track_gauge=T, pose_meas=s.pose_meas, twist_meas=s.twist_meas)
     # 15 s of data only (the 0.01 target is stated for 30 s), hence 0.02
     assert np.all(np.abs(r.x_post[-1, 3:5] - model.params[:2]) < 0.02)
+
+
+def test_slip_ekf_survives_spin_turn_with_lateral_motion():
+    # Truth: a spin turn (V_L = -V_R) whose no-slip line is 6 cm ahead, as with a centre of gravity
+    # ahead of the geometric centre: v_x = 0 but v_y = -x_c w != 0. MPP can only approach this with
+    # |alpha| -> 90 deg, where it is undefined; the filter must stay inside its bound, not raise.
+    from mjtrack.estimation.slip_ekf import ALPHA_MAX, run_slip_ekf
+    from mjtrack.models import MICR, integrate
+
+    t = np.arange(0.0, 10.0, 0.05)
+    vl, vr = np.full(t.size, -0.3), np.full(t.size, 0.3)
+    poses = integrate(MICR(0.27, -0.27, 0.06), np.zeros(3), t, vl, vr)
+    res = run_slip_ekf(t, vl, vr, track_gauge=0.4, pose_meas=poses, pose_std=(0.01, 0.01, 0.005))
+    alpha = res.x_post[:, res.index("alpha")]
+    assert np.all(np.isfinite(res.x_post))
+    assert np.max(np.abs(alpha)) <= ALPHA_MAX
+    assert res.info["projected_steps"] > 0

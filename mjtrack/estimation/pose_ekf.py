@@ -112,6 +112,7 @@ def run_pose_param_ekf(
     pose0=None,
     pose_std0: Sequence[float] | None = None,
     step: str = "midpoint",
+    param_bounds: Sequence[tuple[float, float]] | None = None,
     name: str = "pose_param_ekf",
 ) -> FilterResult:
     """Run the pose-augmented EKF over a drive (see module docstring).
@@ -126,6 +127,10 @@ def run_pose_param_ekf(
         pose0: (3,) initial pose (default: the first pose measurement, else 0);
             pose_std0: its std (default: ``pose_std``).
         step: "midpoint" (default) or "euler" (the thesis's (3.11)).
+        param_bounds: optional (P,) (low, high) per parameter: after each update the estimate is
+            projected (clipped) into the box — the standard estimate-projection treatment of
+            hard parameter constraints, for parameters outside of which the model is undefined
+            (e.g. MPP's |alpha| < pi/2). The number of projected steps is in ``info``.
     Returns:
         :class:`FilterResult` of N−1 steps (t[1:]); states (x, y, theta, *model.param_names);
         measurements: pose and/or twist components.
@@ -156,6 +161,11 @@ def run_pose_param_ekf(
     R_full = np.diag(np.asarray(r_std, float) ** 2)
     meas_angles = (2,) if pm is not None else ()
     hist = History(3 + P_, len(meas_names))
+    if param_bounds is not None:
+        bounds = np.asarray(param_bounds, dtype=float)
+        if bounds.shape != (P_, 2) or np.any(bounds[:, 0] >= bounds[:, 1]):
+            raise InputError(f"{name}: param_bounds must be {P_} (low, high) pairs with low < high")
+    projected = 0
     for k in range(1, t.size):
         dt = t[k] - t[k - 1]
         fs, F = transition(model, s, vl[k - 1], vr[k - 1], dt, step=step)
@@ -166,9 +176,14 @@ def run_pose_param_ekf(
             ang = [i for i in meas_angles if mask[i]]
             ang = [int(np.sum(mask[:i])) for i in ang]
             s, P, e, S, K = update(s_pr, P_pr, Z[k, mask], h[mask], H[mask], R_full[np.ix_(mask, mask)], angle_idx=ang)
+            if param_bounds is not None:
+                clipped = np.clip(s[3:], bounds[:, 0], bounds[:, 1])
+                if np.any(clipped != s[3:]):
+                    projected += 1
+                    s = np.concatenate([s[:3], clipped])
             hist.add(t[k], s_pr, P_pr, s, P, Z[k], h, mask, e, S, K)
         else:
             s, P = s_pr, P_pr
             hist.add(t[k], s_pr, P_pr, s, P, Z[k], h)
     return hist.result(name, POSE_NAMES + tuple(model.param_names), meas_names, state_angles=(2,),
-                       meas_angles=meas_angles, info={"model": model.name})
+                       meas_angles=meas_angles, info={"model": model.name, "projected_steps": projected})

@@ -15,6 +15,14 @@ and v_y = −v_x tan α fixes α whenever v_x ≠ 0. In straight driving with eq
 lost either (the map (s_L, s_R) -> (v_x, ω) is invertible for V_L, V_R ≠ 0).
 
 A twist measurement can be added (``twist_meas``); the thesis's filter uses the pose only.
+
+Limits of the model, and how the filter survives them: MPP ties the lateral velocity to the
+forward one, v_y = −v_x tan α. In a turn on the spot (v_x ≈ 0) a robot whose centre of gravity
+is off the geometric centre still moves sideways, which MPP can only express with |α| → 90°,
+where the model is undefined. The filter therefore projects α into
+[−ALPHA_MAX, ALPHA_MAX] after each update (``info["projected_steps"]`` counts how often);
+the residual lateral motion stays unexplained — a structural limit of MPP that the ICR and
+virtual-robot models do not have.
 """
 
 from __future__ import annotations
@@ -28,6 +36,8 @@ from mjtrack.estimation.pose_ekf import run_pose_param_ekf
 from mjtrack.models import MPP
 
 PARAM_NAMES = MPP.param_names  # ("s_left", "s_right", "alpha")
+ALPHA_MAX = np.radians(85.0)  # [rad] bound of the slip angle estimate (MPP is undefined at 90 deg)
+SLIP_MAX = 5.0  # [-] bound of the slip estimates (|s| > 1 means a track turning against its command)
 
 
 def run_slip_ekf(
@@ -65,4 +75,5 @@ def run_slip_ekf(
         model, t, v_left, v_right, pose_meas=pose_meas, twist_meas=twist_meas, pose_std=pose_std,
         twist_std=twist_std, param_std0=param_std0, q_param_std=q_param_std, q_pose_std=q_pose_std,
         pose0=pose0, pose_std0=pose_std0, name="slip_ekf",
+        param_bounds=[(-SLIP_MAX, SLIP_MAX), (-SLIP_MAX, SLIP_MAX), (-ALPHA_MAX, ALPHA_MAX)],
     )
