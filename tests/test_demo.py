@@ -53,7 +53,7 @@ def test_demo_writes_report_metrics_rollout_and_video(demo):
     assert drive.duration == pytest.approx(DURATION, abs=0.05)
     doc = json.loads(demo.metrics.read_text())
     assert doc["headline"] == demo.headline
-    assert set(doc["headline"]["pos_rmse_m"]) == {"mujoco", "mpp"}
+    assert set(doc["headline"]["pos_rmse_m"]) == {"log", "mpp"}
     assert set(demo.stage_s) == {"rollout", "validate", "video"}
     assert demo.wall_s >= sum(demo.stage_s.values()) * 0.99
 

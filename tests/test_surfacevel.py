@@ -16,8 +16,10 @@ from mjtrack.sim.surfacevel import (
     TrackDrive,
     body_twist,
     build_surfacevel_model,
+    ground_contact,
     run_steady,
     set_track_speeds,
+    side_lookup,
     surfacevel_config,
     track_geom_ids,
 )
@@ -122,6 +124,49 @@ def test_contact_persists_in_a_steady_turn():
     assert abs(y_l - ref.y_l) < 0.1 * T / 2 and abs(y_r - ref.y_r) < 0.1 * T / 2
     assert abs(x_c - ref.x_c) < 0.02 * robot.track_length
     assert run.warnings == 0
+
+
+def test_ground_contact_lookup_matches_ids_and_sensors():
+    """The per-step fast path (side lookup) gives what the id dict and the contact sensors give."""
+    m = build_surfacevel_model(Robot(cg_x=0.05), CONFIG)
+    ids = track_geom_ids(m)
+    side_of = side_lookup(ids, m.ngeom)
+    assert sorted(np.flatnonzero(side_of == 0)) == sorted(ids["left"])
+    assert sorted(np.flatnonzero(side_of == 1)) == sorted(ids["right"])
+    assert np.count_nonzero(side_of >= 0) == 2 * CONFIG.n_rollers
+    d = mujoco.MjData(m)
+    set_track_speeds(m, 0.2, 0.6)
+    for _ in range(50):
+        mujoco.mj_step(m, d)
+    sensor = [any(d.sensor(f"ground_{s}_{i}").data[0] > 0 for i in range(CONFIG.n_rollers)) for s in ("left", "right")]
+    np.testing.assert_array_equal(ground_contact(d, side_of), ground_contact(d, ids))
+    np.testing.assert_array_equal(ground_contact(d, side_of), sensor)
+    assert ground_contact(d, side_of).all()
+    d.qpos[2] += 0.1  # lift the robot 10 cm: no contact on either track
+    mujoco.mj_forward(m, d)
+    np.testing.assert_array_equal(ground_contact(d, side_of), [False, False])
+    np.testing.assert_array_equal(ground_contact(d, ids), [False, False])
+
+
+# The worst cases of the issue-3 grid for this model (python experiments/fidelity.py
+# --track-model surfacevel): low friction, cg at +-0.1 L, the long robot, reverse driving.
+LONG = Robot(track_gauge=0.6, track_length=0.9, mass=60.0, cg_z=0.2)
+
+
+@pytest.mark.parametrize("robot, v_left, v_right", [
+    (Robot(cg_x=-0.05, mu=0.4), 0.8 * (1 - 0.2 / 2.0), 0.8 * (1 + 0.2 / 2.0)),  # default, R 2 m
+    (LONG.replace(cg_x=0.09, mu=0.4), -0.8 * (1 + 0.3 / 0.25), -0.8 * (1 - 0.3 / 0.25)),  # long, R 0.25 m, reverse
+    (LONG.replace(cg_x=-0.09, mu=0.4), -0.8, 0.8),  # long, pivot
+])
+def test_issue3_corner_cases_match_coulomb(robot, v_left, v_right):
+    from mjtrack.sim.steady import steady_state as sim_steady
+
+    res = sim_steady(robot, v_left, v_right, config=CONFIG)
+    ref = steady_state(robot, v_left, v_right)
+    half, L = robot.track_gauge / 2, robot.track_length
+    assert abs(res.y_l - ref.y_l) < 0.1 * half and abs(res.y_r - ref.y_r) < 0.1 * half
+    assert abs(res.x_c - ref.x_c) < 0.02 * L
+    assert min(res.contact_left, res.contact_right) >= 0.99
 
 
 def test_loads_follow_the_centre_of_mass():

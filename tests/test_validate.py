@@ -96,13 +96,13 @@ def test_mpp_truth_slip_ekf_recovers_the_known_slips(validation):
 
 
 def test_mujoco_truth_own_icr_micr_beats_nominal(validation):
-    head = validation.metrics["headline"]["pos_rmse_m"]["mujoco"]
+    head = validation.metrics["headline"]["pos_rmse_m"]["log"]
     # measured ~8x (16 s) and ~15x (60 s); demand 3x
     assert head["nominal"] > 3 * head["micr_own_icr"], head
 
 
 def test_own_icrs_are_masked_where_the_robot_does_not_turn(validation):
-    res = validation.results["mujoco"]
+    res = validation.results["log"]
     wz = res.case.twist[:, 2]
     assert not np.any(res.icr_true.valid[np.abs(wz) < 0.05])
     assert np.all(np.isnan(res.icr_true.y_l[~res.icr_true.valid]))
@@ -112,7 +112,7 @@ def test_own_icrs_are_masked_where_the_robot_does_not_turn(validation):
 def test_metrics_json_holds_every_predictor_horizon_and_the_verdicts(validation):
     doc = json.loads(validation.metrics_path.read_text())  # strict JSON: no NaN
     keys = {"nominal", "mpp_slip_ekf", "micr_icr_ekf", "mvir_vir_filter", "mpp_fit", "micr_own_icr"}
-    for truth in ("mujoco", "mpp"):
+    for truth in ("log", "mpp"):
         preds = doc["truths"][truth]["predictors"]
         assert set(preds) == keys
         for entry in preds.values():
@@ -152,7 +152,7 @@ def _spin_case():
     truth = MICR(0.25, -0.25, 0.08)
     pose = integrate(truth, np.zeros(3), t, vl, vr)
     twist = np.tile(twist_from_icr(0.25, -0.25, 0.08, -0.5, 0.5), (t.size, 1))
-    return Case("mujoco", "spin", t, vl, vr, pose, twist, pose.copy(), twist.copy(), np.zeros(t.size, int))
+    return Case("log", "spin", t, vl, vr, pose, twist, pose.copy(), twist.copy(), np.zeros(t.size, int))
 
 
 def test_mpp_cannot_express_a_spin_turn_with_offset_centre_but_its_filter_survives():

@@ -33,7 +33,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         for truth, table in head["pos_rmse_m"].items():
             row = ", ".join(f"{k} {v:.3g}" if v is not None else f"{k} failed" for k, v in table.items())
-            print(f"{head['horizon_s']:g}-s position RMSE [m] on {truth}: {row}")
+            print(f"{head['horizon_s']:g}-s position RMSE [m] on the {'MPP truth' if truth == 'mpp' else 'MuJoCo rollout'}: {row}")
     print(f"report:  {res.report}")
     print(f"metrics: {res.metrics}")
     print(f"rollout: {res.log} (robot: {res.log.with_suffix('.json').name})")

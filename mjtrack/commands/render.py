@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
     inputs = [args.log] if args.log else []
     out = check_out_file(args.out, suffixes=(".mp4",), inputs=inputs)
     gif = check_out_file(args.gif, suffixes=(".gif",), inputs=inputs) if args.gif else None
-    drive, robot, _ = source_from_args(args)
+    drive, robot, _, _ = source_from_args(args)
     stats = render_log(drive, robot, out, width=args.width, height=args.height, fps=args.fps, speed=args.speed,
                        quiet=args.quiet)
     print(f"wrote {out} ({stats.frames} frames, {stats.duration:.1f} s, {stats.width}x{stats.height})")

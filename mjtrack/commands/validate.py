@@ -37,7 +37,7 @@ def add_source_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def source_from_args(args: argparse.Namespace):
-    """(DriveLog, Robot, words) from ``LOG.csv`` or ``--scenario``; bad combinations raise InputError."""
+    """(DriveLog, Robot, words, truth title) from ``LOG.csv`` or ``--scenario``; bad combinations raise InputError."""
     from mjtrack.io.logs import read_log, robot_path_for
     from mjtrack.io.robot import read_robot
 
@@ -50,7 +50,7 @@ def source_from_args(args: argparse.Namespace):
         robot = robot_from_args(args)
         table, duration = scenario_commands(args.scenario, robot, duration=args.duration, seed=args.seed)
         words = f"MuJoCo rollout of the scenario '{args.scenario}' ({duration:g} s, seed {args.seed})"
-        return drive_log(robot, table, duration=duration), robot, words
+        return drive_log(robot, table, duration=duration), robot, words, "MuJoCo rollout"
     if args.duration is not None:
         raise InputError("--duration applies to --scenario only, not to a log")
     drive = read_log(args.log)
@@ -59,7 +59,7 @@ def source_from_args(args: argparse.Namespace):
     if base is None and args.robot is None and args.track_gauge is None:
         raise InputError(f"{args.log}: no robot description: {json_path} does not exist and neither --robot FILE "
                          "nor --track-gauge was given")
-    return drive, robot_from_args(args, base=base), f"drive log {args.log}"
+    return drive, robot_from_args(args, base=base), f"drive log {args.log}", "measured log"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -80,13 +80,13 @@ def run(args: argparse.Namespace) -> int:
 
     out = check_out_dir(args.out)
     noise = Noise(scale=args.noise_scale)
-    drive, robot, words = source_from_args(args)
-    val = validate(drive, robot, out, source=words, noise=noise, seed=args.seed, speeds=args.speeds,
+    drive, robot, words, title = source_from_args(args)
+    val = validate(drive, robot, out, source=words, truth_title=title, noise=noise, seed=args.seed, speeds=args.speeds,
                    quiet=args.quiet)
     if not args.quiet:
         head = val.metrics["headline"]
         for truth, table in head["pos_rmse_m"].items():
             row = ", ".join(f"{k} {v:.3g}" if v is not None else f"{k} failed" for k, v in table.items())
-            print(f"{head['horizon_s']:g}-s position RMSE [m] on {truth}: {row}")
+            print(f"{head['horizon_s']:g}-s position RMSE [m] on the {'MPP truth' if truth == 'mpp' else title}: {row}")
     print(f"wrote {val.report_path} and {val.metrics_path}")
     return 0

@@ -318,17 +318,27 @@ def body_twist(data: mujoco.MjData) -> np.ndarray:
     return np.array([lin[0], lin[1], ang[2]])
 
 
-def ground_contact(data: mujoco.MjData, ids: dict[str, np.ndarray]) -> np.ndarray:
+def ground_contact(data: mujoco.MjData, ids: dict[str, np.ndarray] | np.ndarray) -> np.ndarray:
     """Whether each track (left, right) has an active ground contact now, bool (2,).
 
     Active: a contact of the last collision pass with dist < margin (it enters the solver).
+    ``ids``: :func:`track_geom_ids`, or its :func:`side_lookup` (faster, for step loops).
     """
+    side_of = ids if isinstance(ids, np.ndarray) else side_lookup(ids, data.model.ngeom)
     n = data.ncon
     if n == 0:
         return np.zeros(2, dtype=bool)
-    touching = data.contact.dist[:n] < data.contact.includemargin[:n]
-    g = data.contact.geom[:n][touching].ravel()
-    return np.array([np.isin(ids[s], g).any() for s in SIDES])
+    con = data.contact
+    sides = side_of[con.geom[:n][con.dist[:n] < con.includemargin[:n]]]
+    return np.array([(sides == 0).any(), (sides == 1).any()])
+
+
+def side_lookup(ids: dict[str, np.ndarray], ngeom: int) -> np.ndarray:
+    """Track of every geom id: 0 left, 1 right, -1 none, int (ngeom,) (from :func:`track_geom_ids`)."""
+    out = np.full(ngeom, -1, dtype=int)
+    for k, s in enumerate(SIDES):
+        out[ids[s]] = k
+    return out
 
 
 def track_traction(model: mujoco.MjModel, data: mujoco.MjData, ids: dict[str, np.ndarray]) -> np.ndarray:
@@ -454,6 +464,7 @@ def run_steady(model: mujoco.MjModel, v_left: float, v_right: float, *,
     data = mujoco.MjData(model)
     ids = track_geom_ids(model)
     set_track_speeds(model, v_left, v_right, ids=ids)
+    side_of = side_lookup(ids, model.ngeom)
     mujoco.mj_forward(model, data)
     n, n_avg = int(round(duration / model.opt.timestep)), int(round(average / model.opt.timestep))
     twist = np.zeros((n_avg, 3))
@@ -464,7 +475,7 @@ def run_steady(model: mujoco.MjModel, v_left: float, v_right: float, *,
         if k == n - n_avg:
             p0, yaw0 = data.qpos[:2].copy(), _yaw(data)
         mujoco.mj_step(model, data)
-        contact[k] = ground_contact(data, ids)
+        contact[k] = ground_contact(data, side_of)
         if k >= n - n_avg:
             twist[k - n + n_avg] = body_twist(data)
             if k % 10 == 0:

@@ -96,9 +96,9 @@ def _ratio(results: dict[str, CaseResult], truth: str, key: str) -> float:
 
 def _why(p, results: dict[str, CaseResult]) -> str:
     """A plain-language reason for the outcomes the design explains (empty when none applies)."""
-    if p.key == "mpp_slip_ekf" and "mujoco" in results:
-        alpha = results["mujoco"].filters["slip_ekf"].params[:, 2]
-        if np.nanmax(np.abs(alpha), initial=0.0) > math.radians(60) or results["mujoco"].filters["slip_ekf"].error:
+    if p.key == "mpp_slip_ekf" and "log" in results:
+        alpha = results["log"].filters["slip_ekf"].params[:, 2]
+        if np.nanmax(np.abs(alpha), initial=0.0) > math.radians(60) or results["log"].filters["slip_ekf"].error:
             return ("On the physics its lateral slip α reached ±60° or more: in turns on the spot (v_x ≈ 0) an offset "
                     "centre of gravity moves the robot sideways, which MPP (v_y = −v_x tan α) can only express with "
                     "α → ±90°, and its predictions blow up.")
@@ -106,13 +106,13 @@ def _why(p, results: dict[str, CaseResult]) -> str:
         return ("Expected on the MPP truth: constant slip ratios mean ICRs that change with every command (with "
                 "equal track speeds the MPP robot still turns, which no finite ICRs can express), so a filter "
                 "tracking slowly varying ICRs lags behind each change.")
-    if p.key == "mpp_slip_ekf" and _ratio(results, "mujoco", "micr_own_icr") > _ratio(results, "mujoco", "mpp_fit") \
-            and _ratio(results, "mujoco", p.key) < 3:
+    if p.key == "mpp_slip_ekf" and _ratio(results, "log", "micr_own_icr") > _ratio(results, "log", "mpp_fit") \
+            and _ratio(results, "log", p.key) < 3:
         return ("On the physics, the slip is described better by ICRs that stay put than by slip ratios: the fitted "
                 "slips change with each manoeuvre (the ICR figure shows the MPP's implied ICRs jumping).")
     if p.key == "mpp_fit" and _ratio(results, "mpp", p.key) >= 1000:
         return "On the MPP truth it is exact by construction (the truth belongs to the family it fits)."
-    if p.key == "micr_own_icr" and _ratio(results, "mujoco", p.key) > _ratio(results, "mujoco", "mpp_fit"):
+    if p.key == "micr_own_icr" and _ratio(results, "log", p.key) > _ratio(results, "log", "mpp_fit"):
         return "On the physics, fixed ICRs describe the motion better than fixed slip ratios."
     return ""
 
@@ -139,8 +139,9 @@ def build_report(results: dict[str, CaseResult], robot: Robot, setup: dict, verd
     rep = Report("mjtrack validate: kinematic slip models against physics", intro=(
         "This report checks how well four kinematic models of a tracked robot (nominal differential drive, MPP slip "
         "parameters, MICR instantaneous centres of rotation, MVIR virtual wheeled robot) predict its motion a few "
-        "seconds ahead, with their parameters estimated online by three filters, against two truths: the MuJoCo "
-        "physics rollout and an analytic MPP truth with known slips. Lower errors are better."))
+        "seconds ahead, with their parameters estimated online by three filters, against two truths: the drive "
+        f"log ({next(iter(results.values())).case.title}) and an analytic MPP truth with known slips on the same "
+        "commands. Lower errors are better."))
     v = rep.section("Verdicts")
     for key, text in verdict.items():
         v.verdict(text, warn=("worse" in text or "failed" in text) and key != "nominal")

@@ -66,6 +66,7 @@ def validate(
     out_dir: str | os.PathLike,
     *,
     source: str = "drive log",
+    truth_title: str = "MuJoCo rollout",
     horizons=HORIZONS,
     noise: Noise = Noise(),
     seed: int = 0,
@@ -79,6 +80,8 @@ def validate(
 
     Args:
         source: words saying where the log came from (shown in the report).
+        truth_title: short name of the log as a truth in tables and figures ("MuJoCo rollout",
+            "measured log").
         horizons: prediction horizons [s]; noise: measurement noise given to the filters
             (:class:`~mjtrack.validate.truth.Noise`); seed: its seed.
         speeds: ``"cmd"``, ``"measured"`` or ``"auto"`` (measured if logged) track speeds drive the models.
@@ -94,7 +97,7 @@ def validate(
     own_bar = bar is None
     bar = bar or Progress(2 * (N_PREDICTORS + 1) + 1, label="validate", quiet=quiet)
     try:
-        mj = case_from_log(drive, speeds=speeds, noise=noise, seed=seed)
+        mj = case_from_log(drive, speeds=speeds, noise=noise, seed=seed, title=truth_title)
         cases = [mj, mpp_case(mj, robot, params=mpp_params, noise=noise, seed=seed)]
         results = {c.name: evaluate_case(c, robot.track_gauge, horizons=horizons, noise=noise, wz_min=wz_min, bar=bar)
                    for c in cases}
@@ -131,7 +134,8 @@ def _setup(drive, robot, source, horizons, noise, seed, speeds, mpp_params, wz_m
                       f"y, {math.degrees(ps[2]):.3g}° on yaw, {ts[0]:.3g} m/s on vx and vy, {ts[2]:.3g} rad/s on ω; "
                       "all errors are scored against the noise-free truth")
     return {
-        "summary": ("The MuJoCo truth is the drive log itself (MuJoCo logs are noise-free). The MPP truth drives the "
+        "summary": ("The first truth is the drive log itself (MuJoCo logs are noise-free; measured logs carry their "
+                    "own noise, so errors there include it). The MPP truth drives the "
                     "same commands through the MPP model with known slips, integrated exactly, so the filters can be "
                     "checked for recovering known parameters."),
         "source": source, "samples": int(drive.n_samples), "duration_s": float(drive.duration),

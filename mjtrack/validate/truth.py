@@ -2,7 +2,7 @@
 
 Two truths (the two columns of the report):
 
-* ``mujoco`` — a drive log (a MuJoCo rollout, or any log): the logged poses and twist are the
+* ``log`` — a drive log (a MuJoCo rollout, or any log): the logged poses and twist are the
   truth. MuJoCo logs are noise-free.
 * ``mpp`` — the MPP analytic truth (thesis 4.2): the *same* commands driven through the MPP
   model (2.9) with known constant slips (default s_L = 0.2, s_R = 0, α = 15°, the thesis's
@@ -63,7 +63,7 @@ class Case:
     """One truth with its filter inputs. Arrays (N,) or (N, 3), SI units.
 
     Attributes:
-        name: ``"mujoco"`` or ``"mpp"``; title: words for the report.
+        name: ``"log"`` or ``"mpp"``; title: words for the report.
         t: times [s]; v_left, v_right: track speeds driving the models [m/s].
         pose: true poses (x, y, yaw) [m, m, rad], yaw continuous per segment.
         twist: true body twist (vx, vy, wz) [m/s, m/s, rad/s].
@@ -123,7 +123,7 @@ def resolve_speeds(log: DriveLog, speeds: str) -> str:
 
 def case_from_log(log: DriveLog, *, speeds: str = "auto", noise: Noise = Noise(), seed: int = 0,
                   title: str = "MuJoCo rollout") -> Case:
-    """The ``mujoco`` case of a drive log.
+    """The ``log`` case of a drive log (``title`` names it in the report: a MuJoCo rollout or a measured log).
 
     ``speeds="measured"`` drives the models with the logged track speeds, ``"cmd"`` with the
     commanded ones, ``"auto"`` (default) with the measured ones when the log has them. The
@@ -155,7 +155,7 @@ def case_from_log(log: DriveLog, *, speeds: str = "auto", noise: Noise = Noise()
         raise InputError(f"{log.source or 'drive log'}: poses or twist contain NaN; validate needs complete rows")
     vl, vr = (log.v_left_cmd, log.v_right_cmd) if speeds == "cmd" else (log.v_left, log.v_right)
     pose_m, twist_m = _noisy(pose, twist, noise, seed)
-    return Case("mujoco", title, t, np.asarray(vl, float), np.asarray(vr, float), pose, twist, pose_m, twist_m,
+    return Case("log", title, t, np.asarray(vl, float), np.asarray(vr, float), pose, twist, pose_m, twist_m,
                 seg, None, {"twist_from": "log columns" if log.has_twist else "differenced poses",
                             "speeds": speeds})
 
