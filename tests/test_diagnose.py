@@ -235,7 +235,10 @@ def _mujoco_log(robot, seed=3, duration=90.0):
     rng = np.random.default_rng(seed)
     t, vl, vr = commands(rng, duration, 0.05)
     vl, vr = 0.6 * vl, 0.6 * vr
-    config = SimConfig()
+    # Stiff drives (torque limit 600 N m instead of 60): with the default drives the tracks take
+    # ~0.1 s to reach a step command, a real actuator lag that the diagnosis rightly reports on a
+    # log that is otherwise clean (tests/test_diagnose_mujoco.py covers that case separately).
+    config = SimConfig(torque_limit=600.0)
     out = simulate(robot, hold_commands(t, vl, vr, timestep=config.timestep, duration=t[-1] + 0.05),
                    config=config, log_rate=20.0)
     n = t.size

@@ -17,7 +17,9 @@ A candidate model = the baseline + one effect with its parameters. Two kinds:
   generic symptom of a ground that is not Coulomb-like.
 
 Baselines: ``"coulomb"`` = the nominal robot's Coulomb response (quasi-static ICRs q0 plus the
-first-order inertial response); ``"kinematic"`` = the nominal model (2.1), ICRs (T/2, -T/2, 0),
+first-order inertial response; with ``transient=True`` also the friction-limited transient after
+speed changes, :func:`mjtrack.diagnose.surrogate.accel_limited`, at a = fs mu_mean g, which the
+friction effects change with the friction they give); ``"kinematic"`` = the nominal model (2.1), ICRs (T/2, -T/2, 0),
 used when the description lacks the geometry the physics needs (track_length). With the
 kinematic baseline a ground effect moves the ICRs by the *change* that the Coulomb response of
 the (assumed) robot predicts, and ``friction_scale`` (inertia only) is not testable.
@@ -113,13 +115,18 @@ class Surrogate:
     Args:
         robot: the nominal robot description.
         baseline: "coulomb" or "kinematic" (module docstring).
+        transient: model the friction-limited transient after speed changes (coulomb baseline only).
+        causal_speeds: a measured speed at t_k is the one just before t_k (True, the MuJoCo logs'
+            convention), or already the response to the command of t_k (False); see :meth:`inputs`.
     """
 
-    def __init__(self, robot: Robot, baseline: str) -> None:
+    def __init__(self, robot: Robot, baseline: str, *, transient: bool = False, causal_speeds: bool = True) -> None:
         if baseline not in ("coulomb", "kinematic"):
             raise InputError(f"diagnose: baseline must be 'coulomb' or 'kinematic', got {baseline!r}")
         self.robot = robot
         self.baseline = baseline
+        self.transient = bool(transient) and baseline == "coulomb"
+        self.causal_speeds = bool(causal_speeds)
         self.resp = sg.ground_response(robot)
         T = robot.track_gauge
         self.q_nominal = self.resp.q0 if baseline == "coulomb" else np.array([T / 2, -T / 2, 0.0])
@@ -141,13 +148,38 @@ class Surrogate:
         q = np.array([np.interp(v, x, table[:, i]) for i in range(3)])
         return self.q_nominal + (q - self.resp.q0)
 
+    def effective_speeds(self, data: DriveData, speeds: np.ndarray, name: str | None, theta) -> np.ndarray:
+        """Track speeds (N, 2) as the body follows them: common and differential modes limited to
+        the Coulomb acceleration a = fs mu_mean g (:func:`mjtrack.diagnose.surrogate.accel_limited`)."""
+        r = self.robot
+        mu = 0.5 * (r.friction_left + r.friction_right)
+        if name == "friction_scale":
+            mu *= float(theta[0])
+        elif name == "friction_asymmetry":
+            mu = 0.5 * r.friction_right * (1.0 + float(theta[0]))
+        a = max(mu, 1e-3) * G
+        dt = data.step_dt()
+        starts = np.r_[True, data.seg[1:] != data.seg[:-1]]
+        common = sg.accel_limited(0.5 * (speeds[:, 0] + speeds[:, 1]), dt, a, starts)
+        diff = sg.accel_limited(0.5 * (speeds[:, 1] - speeds[:, 0]), dt, a, starts)
+        return np.stack([common - diff, common + diff], -1)
+
     # -- inputs -----------------------------------------------------------------------------
     def inputs(self, data: DriveData, effect: Effect | None, theta, *, source: np.ndarray | None = None,
                instant: bool = False) -> np.ndarray:
         """Track speeds (N, 2) [m/s] that drive the ground model: ``source`` (default the commands)
         transformed by an input effect, unchanged otherwise. ``instant``: the speeds at the sample
-        times (what a sensor reads) instead of their means over each held step (what drives the model)."""
+        times (what a sensor reads) instead of their means over each held step (what drives the
+        model). Causal: a row's command is in force from its time on, so the speed sampled at t_k
+        is the one just before t_k (the MuJoCo logs' convention, :func:`mjtrack.sim.rollout.simulate`):
+        for the static maps (none, scale, limit) the map of the previous command, the segment's
+        initial speed at its first sample. With ``causal_speeds=False`` (a log whose speed samples
+        already show the command of their row) the static maps apply to the row's own command and
+        the delayed command is sampled at t_k - d."""
         v = data.cmd if source is None else source
+        instant_causal = instant and self.causal_speeds
+        if instant_causal and (effect is None or effect.name in ("track_speed_scale", "speed_limit")):
+            v = _previous(data, v, _initial(data, v))
         if effect is None or effect.kind != "input":
             return v
         p = float(theta[0])
@@ -156,7 +188,7 @@ class Surrogate:
         if effect.name == "speed_limit":
             return np.clip(v, -p, p)
         if effect.name == "command_delay":
-            return _delay(data, v, p, _initial(data, v))
+            return _delay(data, v, p, _initial(data, v), instant=instant_causal)
         if effect.name == "actuator_lag":
             return _lag(data, v, p, _initial(data, v), instant=instant)
         raise InputError(f"diagnose: unknown input effect {effect.name!r}")  # pragma: no cover
@@ -182,6 +214,8 @@ class Surrogate:
         elif name == "slope":
             ang = theta[1] - data.poses[:, 2]
             slope = G * np.sin(theta[0]) * np.stack([np.cos(ang), np.sin(ang)], -1)
+        if self.transient:
+            speeds = self.effective_speeds(data, speeds, name, theta)
         vl, vr = speeds[:, 0], speeds[:, 1]
         qs = np.broadcast_to(q_s, (vl.size, 3))
         tw = sg.twist_from_q(qs, vl, vr)
@@ -216,15 +250,35 @@ def _initial(data: DriveData, v: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(data.meas), data.meas, v)
 
 
-def _delay(data: DriveData, v: np.ndarray, d: float, init: np.ndarray) -> np.ndarray:
-    """Delayed held commands; before the segment start the tracks keep their initial speed."""
+def _previous(data: DriveData, v: np.ndarray, init: np.ndarray) -> np.ndarray:
+    """(N, 2) the previous sample's value inside each segment, ``init`` at each segment start."""
+    out = np.empty_like(v)
+    out[1:] = v[:-1]
+    starts = np.r_[True, data.seg[1:] != data.seg[:-1]]
+    out[starts] = init[starts]
+    return out
+
+
+def _delay(data: DriveData, v: np.ndarray, d: float, init: np.ndarray, *, instant: bool = False) -> np.ndarray:
+    """Delayed held commands; before the segment start the tracks keep their initial speed.
+
+    By default the mean over each step [t_k, t_k+1) of the delayed held signal (what drives the
+    model): the held sequence interpolated linearly at t_k - d. ``instant=True``: what a speed
+    sensor samples at t_k, the signal just before t_k (the command of a row is in force from its
+    time on, so it cannot show in that row's measurement; the same causal convention as
+    :func:`_lag`'s ``instant`` and as the MuJoCo logs): the mean over the previous step, i.e. the
+    interpolation at t_k - h_{k-1} - d (a sample's speed at d = 0 is the previous command).
+    """
     out = np.empty_like(v)
     for lo, hi in _segments(data):
         ts = data.t[lo:hi]
+        at = ts - d
+        if instant and hi - lo > 1:
+            at = at - np.r_[ts[1] - ts[0], np.diff(ts)]
         for j in range(2):
-            out[lo:hi, j] = np.interp(ts - d, ts, v[lo:hi, j], left=init[lo, j])
+            out[lo:hi, j] = np.interp(at, ts, v[lo:hi, j], left=init[lo, j])
             # between t0 - d and t0 the held signal moves from the initial speed to the first command
-            first = ts - d < ts[0]
+            first = at < ts[0]
             out[lo:hi, j][first] = init[lo, j]
     return out
 

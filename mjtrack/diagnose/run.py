@@ -63,6 +63,7 @@ class Diagnosis:
     timings: dict[str, float] = field(default_factory=dict)
     secondary: list[CandidateResult] = field(default_factory=list)
     confirmation: dict | None = None
+    transient: bool = False
 
     @property
     def findings(self) -> list[CandidateResult]:
@@ -76,7 +77,8 @@ class Diagnosis:
     def baseline_text(self) -> str:
         if self.baseline == "coulomb":
             return ("nominal robot, rigid-track Coulomb steady-state surrogate (quasi-static ICRs + first-order "
-                    "inertial response), driven by the commanded track speeds")
+                    "inertial response" + (" + friction-limited transients" if self.transient else "")
+                    + "), driven by the commanded track speeds")
         return "nominal kinematic model (2.1), driven by the commanded track speeds"
 
     def evidence(self, r: CandidateResult) -> str:
@@ -166,9 +168,30 @@ def _folds(data: rs.DriveData, n_folds: int) -> np.ndarray:
     return (np.arange(data.n) * n_folds) // data.n
 
 
+def speed_timing(data: rs.DriveData) -> bool:
+    """Whether a log's measured track speed at t_k is the one just before t_k (True: causal, the
+    command of row k in force from t_k on cannot show in it) or already the response to the row's
+    command (False). The log format does not say; physical speeds are continuous, so a speed
+    sampled at t_k is causal, but loggers that write the command after reading the sensors, and
+    synthetic steady-state logs, give the other. The one under which the nominal model (speed =
+    command) fits the measured speeds better is kept: parameter-free, the command changes decide
+    it (True when the log has no speeds). Note the ambiguity it resolves: a dead time d logged
+    one way is a dead time d - dt logged the other way; no data can tell those apart.
+    """
+    if data.meas is None:
+        return True
+    same_seg = np.r_[False, data.seg[1:] == data.seg[:-1]]
+    ok = same_seg & np.all(np.isfinite(data.meas), axis=1) & np.r_[False, np.all(np.isfinite(data.meas[:-1]), axis=1)]
+    if not ok.any():
+        return True
+    prev = np.r_[data.cmd[:1], data.cmd[:-1]]
+    return bool(np.mean((data.meas[ok] - prev[ok]) ** 2) <= np.mean((data.meas[ok] - data.cmd[ok]) ** 2))
+
+
 def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float = 2.0, n_folds: int = 5, min_gain: float = 0.03,
              baseline: str = "auto", effects: list[str] | None = None, max_fit_windows: int = 3000,
-             secondary: bool = True, confirm: bool = False, quiet: bool = True) -> Diagnosis:
+             secondary: bool = True, confirm: bool = False, quiet: bool = True,
+             transient: bool | str = "auto") -> Diagnosis:
     """Diagnose what the nominal model gets wrong on a measured log, name the cause and its gain.
 
     Args:
@@ -182,6 +205,12 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float = 2.0, n_folds: i
         max_fit_windows: windows used per fit (a stride of them); scoring uses all windows.
         secondary: run the secondary stage (effects of the other kind on top of the cause).
         confirm: re-simulate with the MuJoCo robot, nominal and extended by the cause (:mod:`.confirm`).
+        transient: model the friction-limited transient after speed changes (coulomb baseline;
+            :func:`mjtrack.diagnose.surrogate.accel_limited`): True, False, or "auto" = whichever
+            of the two parameter-free nominal baselines predicts the log better (RMS position
+            error over all windows; nothing is fitted, so no held-out split is needed). A body
+            can never follow a step of its tracks faster than mu g, but logs whose speeds are
+            smoothed before they are logged (or synthetic steady-state logs) show no transient.
     Raises:
         InputError: horizon longer than every segment, too little data for the folds, unknown effect.
     """
@@ -211,11 +240,25 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float = 2.0, n_folds: i
         speed_ok = np.all(np.isfinite(data.meas), axis=1)
         measured = np.where(np.isfinite(data.meas), data.meas, data.cmd)
     base = choose_baseline(robot) if baseline == "auto" else baseline
-    surrogate = Surrogate(robot, base)
+    causal = speed_timing(data)
+    surrogate = Surrogate(robot, base, transient=transient is True, causal_speeds=causal)
+    if transient == "auto" and base == "coulomb":
+        with_tr = Surrogate(robot, base, transient=True, causal_speeds=causal)
+        rmse = [float(np.sqrt(np.mean(np.sum(rs.window_errors(s.twist(data, data.cmd), data.step_dt(), data.poses,
+                                                                  starts, ends)[:, :2] ** 2, 1))))
+                for s in (surrogate, with_tr)]
+        if rmse[1] < rmse[0]:
+            surrogate = with_tr
+        log.debug("diagnose: baseline without / with transients %.4g / %.4g m", *rmse)
+    transient_note = None
+    if surrogate.transient:
+        transient_note = ("the baseline includes the friction-limited transient after speed changes (the body follows "
+                          "its tracks at most at mu g)" + (f": it predicts this log better than the steady-state "
+                          f"baseline ({rmse[1]:.3g} vs {rmse[0]:.3g} m)" if transient == "auto" else ""))
     problem = Problem(data=data, surrogate=surrogate, horizon_s=float(horizon_s), dt=data.step_dt(), starts=starts,
                       ends=ends, fold=fold, sample_fold=sample_fold, fit_windows=np.arange(0, starts.size, stride),
                       measured=measured, speed_ok=speed_ok)
-    skipped, notes = {}, []
+    skipped, notes = {}, [transient_note] if transient_note else []
     if base == "kinematic":
         notes.append("the robot description lacks " + ", ".join(k for k in ("track_length", "mass", "mu")
                                                                  if robot.provided is not None and k not in robot.provided)
@@ -238,7 +281,9 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float = 2.0, n_folds: i
         notes.append("no turning in the log: only the input effects (speed scale, lag, delay, limit) can be tested")
     if data.meas is not None:
         notes.append("measured track speeds present: input effects are fitted to them, ground effects are fitted "
-                     "with the model driven by them")
+                     "with the model driven by them; a speed sample at t is taken as "
+                     + ("the speed just before the command of its row (causal)" if causal else
+                        "already the response to the command of its row (it fits the speeds better)"))
     clock["prepare"] = time.perf_counter()
     tested = [EFFECTS[n] for n in names if n not in skipped]
     _, results = evaluate(problem, tested, n_folds=n_folds, min_gain=min_gain, quiet=quiet)
@@ -258,7 +303,7 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float = 2.0, n_folds: i
                      duration_s=float(sum(data.t[s.stop - 1] - data.t[s.start] for s in log_.segment_slices())),
                      robot=robot, baseline=base, horizon_s=float(horizon_s), before=before, results=results,
                      skipped=skipped, notes=notes, data=data, starts=starts, ends=ends, base_errors=base_err,
-                     n_folds=n_folds, secondary=second)
+                     n_folds=n_folds, secondary=second, transient=surrogate.transient)
     diag.timings = {"prepare": clock["prepare"] - clock["start"], "candidates": clock["candidates"] - clock["prepare"],
                     "secondary": clock["secondary"] - clock["candidates"]}
     if confirm:

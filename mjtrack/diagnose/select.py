@@ -18,7 +18,10 @@ track speeds an input effect must, in addition, reduce the held-out track-speed 
 same test (the speeds say whether the actuators are the cause).
 
 Ties. Two findings whose paired per-fold RMSE differences are within noise (|t| below the same
-quantile) cannot be told apart: both are listed, each one's evidence says so, and among tied
+quantile), or whose pooled held-out RMSEs differ by less than the gain floor (min_gain x the
+baseline RMSE: a difference too small to be a finding cannot separate two findings either; two
+near-identical models give consistent, hence "significant", tiny fold differences) cannot be
+told apart: both are listed, each one's evidence says so, and among tied
 findings the one with fewer parameters goes first (one-standard-error rule); otherwise findings
 are ordered by pooled held-out gain.
 
@@ -111,7 +114,7 @@ def evaluate(problem: fitmod.Problem, effects: list[Effect], *, n_folds: int, mi
     t_q2 = float(stats.t.ppf(0.975, n_folds - 1))
     speeds = problem.speed_ok is not None and problem.speed_ok.any()
     if speeds:
-        cmd_err = problem.data.cmd - problem.data.meas
+        cmd_err = problem.surrogate.inputs(problem.data, None, (), instant=True) - problem.data.meas
         speed_fold_before = np.array([np.sqrt(np.mean(cmd_err[(problem.sample_fold == k) & problem.speed_ok] ** 2))
                                       for k in folds])
     results = []
@@ -153,7 +156,8 @@ def evaluate(problem: fitmod.Problem, effects: list[Effect], *, n_folds: int, mi
     if found:
         top = found[0]
         for r in found[1:]:
-            if abs(paired_t(r.fold_after, top.fold_after)) < t_q:
+            # within noise, or a difference below the gain floor (which no finding may be made of)
+            if abs(paired_t(r.fold_after, top.fold_after)) < t_q or r.after - top.after < min_gain * before:
                 r.tied_with.append(top.effect.name)
                 top.tied_with.append(r.effect.name)
         # one-standard-error rule: a simpler tied finding goes first

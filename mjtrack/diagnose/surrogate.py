@@ -25,6 +25,17 @@ flip with sign(wz). Hence:
 
 Straight driving (V_L = V_R) gives wz = 0 and vx = V exactly (all contacts stick), whatever q:
 ground effects are visible only when the robot turns.
+
+4. Transients (:func:`accel_limited`). The steady state is not reached at once: after a step of
+   the track speeds the body lags behind the tracks, every contact slides the same way and the
+   friction force is at its Coulomb limit, mu m g in the direction of the speed change, so the
+   body accelerates at mu g (mass-free). In track-speed terms the body moves as if driven by
+   "effective" track speeds whose common mode (V_L + V_R)/2 and differential mode (V_R - V_L)/2
+   change at most at a = fs mu g. Measured on the MuJoCo robot (step responses, ideal drives):
+   straight 0 -> 0.6 m/s equivalent dead time 0.041 s (model 0.6 / (2 mu g) = 0.038 s), spin
+   reversal +-0.5 m/s 0.067 s (model 0.064 s); entering a turn from straight is slower (0.06 s
+   measured, 0.02 s modelled: the contacts must first build the turning slip pattern);
+   ``python experiments/diagnose_mujoco_effects.py --steps`` prints these.
 """
 
 from __future__ import annotations
@@ -144,6 +155,41 @@ def static_table(robot: Robot, field: str, values) -> tuple[np.ndarray, np.ndarr
     return _static_cached(_key(robot), field, tuple(float(v) for v in values))
 
 
+def accel_limited(u: np.ndarray, dt: np.ndarray, a: float, starts: np.ndarray) -> np.ndarray:
+    """Per-step means (N,) of a speed that follows the held targets u (N,) [m/s] at most at ``a``
+    [m/s^2]; dt (N,) step lengths [s]; ``starts`` (N,) bool, segment starts (the speed is at its
+    target there: a segment is assumed to start in steady motion).
+
+    The state y_k (speed at t_k) moves towards u_k over step k by at most a h_k; the mean over
+    the step is y_k + s a h/2 while ramping, u_k - d tau/(2 h) when it arrives after tau = |d|/a.
+    Only jumps larger than a h_k start a ramp (a smaller change settles within the step and is
+    left as is), so the cost is the number of ramps, not of samples.
+    """
+    out = np.array(u, dtype=float)
+    n = out.size
+    lim = a * dt
+    jump = np.abs(np.diff(out, prepend=out[:1]))
+    jump[starts] = 0.0
+    done = -1
+    for k0 in np.flatnonzero(jump > lim):
+        if k0 <= done:
+            continue
+        y = float(u[k0 - 1])
+        k = k0
+        while k < n and (k == k0 or not starts[k]):
+            d, h = float(u[k]) - y, float(dt[k])
+            if abs(d) > a * h:
+                step = np.copysign(a * h, d)
+                out[k] = y + 0.5 * step
+                y += step
+                k += 1
+                continue
+            out[k] = u[k] - d * (abs(d) / a) / (2 * h) if h > 0 else u[k]
+            break
+        done = k
+    return out
+
+
 def twist_from_q(q: np.ndarray, v_left: np.ndarray, v_right: np.ndarray) -> np.ndarray:
     """Eq. (2.14) for per-sample ICRs q (N, 3): body twist (N, 3)."""
     yl, yr, xc = q[:, 0], q[:, 1], q[:, 2]
@@ -158,4 +204,4 @@ def centripetal(twist: np.ndarray, cg_x, cg_y) -> np.ndarray:
     return np.stack([-wz * (vy + wz * cg_x), wz * (vx - wz * cg_y)], -1)
 
 
-__all__ = ["GroundResponse", "ground_response", "static_table", "twist_from_q", "centripetal"]
+__all__ = ["GroundResponse", "ground_response", "static_table", "accel_limited", "twist_from_q", "centripetal"]
