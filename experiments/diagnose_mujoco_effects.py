@@ -71,30 +71,52 @@ STEPS = [((0.0, 0.0), (0.6, 0.6)), ((0.4, 0.4), (0.8, 0.8)), ((0.6, 0.6), (0.6, 
 
 def step_responses() -> list[dict]:
     """Equivalent dead time int (x_final - x)/(x_final - x_0) dt of vx and wz after a step of the
-    track speeds on the clean MuJoCo robot (ideal drives), against the friction-limited ramp of
-    the diagnosis's baseline: a step of D m/s in a track mode at a = mu g has dead time D / (2a)."""
+    track speeds on the clean MuJoCo robot (ideal drives), against the diagnosis's baseline with
+    its friction-limited transient (Surrogate(..., transient=True), surrogate.friction_limited),
+    the time-domain rigid-track Coulomb reference (coulomb.rollout, box yaw inertia) and the
+    mode-wise mu g ramp the baseline used before (dead time D / (2 mu g) for a step of D m/s)."""
     from mujoco_effects import DRIVES, ROBOT
 
+    from mjtrack.diagnose.effects import Surrogate
+    from mjtrack.diagnose.residuals import DriveData
     from mjtrack.io.robot import G
+    from mjtrack.models import coulomb
     from mjtrack.sim.rollout import simulate
 
     dt = DRIVES.timestep
     a = ROBOT.mu * G
+    surrogate = Surrogate(ROBOT, "coulomb", transient=True)
     rows = []
     for (l0, r0), (l1, r1) in STEPS:
         steps = np.concatenate([np.tile([l0, r0], (400, 1)), np.tile([l1, r1], (200, 1))])
         out = simulate(ROBOT, steps, config=DRIVES, log_rate=1.0 / dt)
+        n = steps.shape[0]
+        model = surrogate.twist(DriveData(t=np.arange(n) * dt, seg=np.zeros(n, int), cmd=steps, meas=None,
+                                          poses=np.zeros((n, 3))), steps)[400:]
+        tw0 = (l0, 0.0, 0.0) if l0 == r0 else tuple(coulomb.steady_state(ROBOT, l0, r0).twist)
+        ref = coulomb.rollout(ROBOT, np.arange(200) * dt, l1, r1, twist0=tw0, n_points=20).twist
         row = {"from": [l0, r0], "to": [l1, r1]}
-        for name, mode in (("vx", lambda lv, rv: (lv + rv) / 2), ("wz", lambda lv, rv: (rv - lv) / 2)):
+        for j, name, mode in ((0, "vx", lambda lv, rv: (lv + rv) / 2), (2, "wz", lambda lv, rv: (rv - lv) / 2)):
+            def dead(x, x0=None):  # samples from the step on (left sums), or per-step means with x0 given
+                x0, x1 = float(x[0] if x0 is None else x0), float(x[-1])
+                return float(np.sum((x1 - x) / (x1 - x0)) * dt) if abs(x1 - x0) > 1e-2 else None
+
             x = out[name][400:]
-            x0, x1 = float(out[name][400]), float(x[-1])
             change = abs(mode(l1, r1) - mode(l0, r0))
-            row[name] = {"measured_s": float(np.sum((x1 - x) / (x1 - x0)) * dt) if abs(x1 - x0) > 1e-2 else None,
-                         "model_s": change / (2 * a) if change > 0 else None}
+            # the model gives per-step means (their sum is the integral); x0: the first command's steady twist
+            x0 = surrogate.twist(DriveData(t=np.zeros(1), seg=np.zeros(1, int), cmd=steps[:1], meas=None,
+                                           poses=np.zeros((1, 3))), steps[:1])[0, j]
+            row[name] = {"measured_s": dead(x), "model_s": dead(model[:, j], x0), "coulomb_s": dead(ref[:, j]),
+                         "ramp_s": change / (2 * a) if change > 0 else None}
         rows.append(row)
-        print(f"  step {row['from']} -> {row['to']}: dead time vx {row['vx']['measured_s'] or float('nan'):.3f} s "
-              f"(model {row['vx']['model_s'] or 0:.3f}), wz {row['wz']['measured_s'] or float('nan'):.3f} s "
-              f"(model {row['wz']['model_s'] or 0:.3f})")
+
+        def f(v):
+            return f"{v:.3f}" if v is not None else "  -  "
+
+        print(f"  step {row['from']} -> {row['to']}: dead time [s] measured / model / coulomb / old ramp: "
+              f"vx {f(row['vx']['measured_s'])} / {f(row['vx']['model_s'])} / {f(row['vx']['coulomb_s'])} / "
+              f"{f(row['vx']['ramp_s'])}, wz {f(row['wz']['measured_s'])} / {f(row['wz']['model_s'])} / "
+              f"{f(row['wz']['coulomb_s'])} / {f(row['wz']['ramp_s'])}")
     return rows
 
 
@@ -115,7 +137,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     steps = None
     if args.steps:
-        print("step responses of the clean MuJoCo robot (equivalent dead time; model = friction-limited ramp):")
+        print("step responses of the clean MuJoCo robot (equivalent dead time; model = the baseline's friction-limited "
+              "transient, coulomb = rigid-track Coulomb rollout, old ramp = mode-wise mu g ramp):")
         steps = step_responses()
     rows = []
     print(f"{'effect':19s} {'variant':7s} {'injected':14s} {'cause':19s} {'estimate':14s} {'interval':26s} "

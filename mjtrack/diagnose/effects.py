@@ -17,9 +17,11 @@ A candidate model = the baseline + one effect with its parameters. Two kinds:
   generic symptom of a ground that is not Coulomb-like.
 
 Baselines: ``"coulomb"`` = the nominal robot's Coulomb response (quasi-static ICRs q0 plus the
-first-order inertial response; with ``transient=True`` also the friction-limited transient after
-speed changes, :func:`mjtrack.diagnose.surrogate.accel_limited`, at a = fs mu_mean g, which the
-friction effects change with the friction they give); ``"kinematic"`` = the nominal model (2.1), ICRs (T/2, -T/2, 0),
+first-order inertial response; with ``transient=True`` also the friction-limited transient of the
+rigid body after speed changes, :func:`mjtrack.diagnose.surrogate.friction_limited`: per-track force
+bounds fs mu_s g N_s/(m g), the yaw gain of the model's ICR spread and the turning resistance, which
+friction_scale, friction_asymmetry and cg_offset_y change with the friction and loads they give, so
+the friction level shows in every transient, turn entries and spins included); ``"kinematic"`` = the nominal model (2.1), ICRs (T/2, -T/2, 0),
 used when the description lacks the geometry the physics needs (track_length). With the
 kinematic baseline a ground effect moves the ICRs by the *change* that the Coulomb response of
 the (assumed) robot predicts, and ``friction_scale`` (inertia only) is not testable.
@@ -148,21 +150,32 @@ class Surrogate:
         q = np.array([np.interp(v, x, table[:, i]) for i in range(3)])
         return self.q_nominal + (q - self.resp.q0)
 
-    def effective_speeds(self, data: DriveData, speeds: np.ndarray, name: str | None, theta) -> np.ndarray:
-        """Track speeds (N, 2) as the body follows them: common and differential modes limited to
-        the Coulomb acceleration a = fs mu_mean g (:func:`mjtrack.diagnose.surrogate.accel_limited`)."""
+    def effective_speeds(self, data: DriveData, speeds: np.ndarray, name: str | None, theta,
+                         q: np.ndarray | None = None) -> np.ndarray:
+        """Track speeds (N, 2) as the rigid body follows them on its friction
+        (:func:`mjtrack.diagnose.surrogate.friction_limited`): per-track force bounds
+        b_s = fs mu_s g N_s/(m g), the yaw gain kappa = m T (y_l - y_r)/(4 I) with the box inertia
+        I = m (L^2 + T^2)/12 and the ICRs q of the model (default the nominal ones), and the
+        turning resistance resist_ratio (b_L + b_R). The friction effects change b (and the
+        resistance with it), cg_offset_y the load split."""
         r = self.robot
-        mu = 0.5 * (r.friction_left + r.friction_right)
+        mu_l, mu_r = r.friction_left, r.friction_right
+        cy = r.cg_y
         if name == "friction_scale":
-            mu *= float(theta[0])
+            mu_l, mu_r = mu_l * float(theta[0]), mu_r * float(theta[0])
         elif name == "friction_asymmetry":
-            mu = 0.5 * r.friction_right * (1.0 + float(theta[0]))
-        a = max(mu, 1e-3) * G
+            mu_l = mu_r * float(theta[0])
+        elif name == "cg_offset_y":
+            cy = float(theta[0])
+        T, L = r.track_gauge, r.track_length
+        share = float(np.clip(0.5 + cy / T, 0.05, 0.95))  # left track's load share (lever rule)
+        b_l, b_r = max(mu_l, 1e-3) * G * share, max(mu_r, 1e-3) * G * (1.0 - share)
+        q = self.q_nominal if q is None else q
+        kappa = 3.0 * T * float(q[0] - q[1]) / (L * L + T * T)
         dt = data.step_dt()
         starts = np.r_[True, data.seg[1:] != data.seg[:-1]]
-        common = sg.accel_limited(0.5 * (speeds[:, 0] + speeds[:, 1]), dt, a, starts)
-        diff = sg.accel_limited(0.5 * (speeds[:, 1] - speeds[:, 0]), dt, a, starts)
-        return np.stack([common - diff, common + diff], -1)
+        return sg.friction_limited(speeds, dt, starts, b_left=b_l, b_right=b_r, kappa=kappa,
+                                   resist=self.resp.resist_ratio * (b_l + b_r))
 
     # -- inputs -----------------------------------------------------------------------------
     def inputs(self, data: DriveData, effect: Effect | None, theta, *, source: np.ndarray | None = None,
@@ -215,7 +228,7 @@ class Surrogate:
             ang = theta[1] - data.poses[:, 2]
             slope = G * np.sin(theta[0]) * np.stack([np.cos(ang), np.sin(ang)], -1)
         if self.transient:
-            speeds = self.effective_speeds(data, speeds, name, theta)
+            speeds = self.effective_speeds(data, speeds, name, theta, q_s)
         vl, vr = speeds[:, 0], speeds[:, 1]
         qs = np.broadcast_to(q_s, (vl.size, 3))
         tw = sg.twist_from_q(qs, vl, vr)

@@ -61,16 +61,28 @@ class Problem:
 
 def twist(problem: Problem, effect: Effect | None, theta, *, drive: str = "command") -> np.ndarray:
     """Body twist (N, 3) of baseline (+ base effect) + effect, driven by the commands (through the
-    input effect, if any) or, for fitting ground effects, by the measured speeds."""
+    input effect, if any) or, for fitting ground effects, by the measured speeds (with causal
+    speed samples, :func:`mjtrack.diagnose.run.speed_timing`, step k runs at the speed sampled at
+    t_k+1: the one sampled at t_k is still the previous step's)."""
     s = problem.surrogate
     parts = [(effect, theta)] + ([problem.base] if problem.base is not None else [])
     inp = next(((e, p) for e, p in parts if e is not None and e.kind == "input"), (None, ()))
     gnd = next(((e, p) for e, p in parts if e is not None and e.kind == "ground"), (None, ()))
     if drive == "measured" and problem.measured is not None and (effect is None or effect.kind == "ground"):
         speeds = problem.measured
+        if s.causal_speeds:  # a speed sampled at t_k is the one just before t_k: step k runs at the next sample's
+            speeds = _next_in_segment(problem.data.seg, speeds)
     else:
         speeds = s.inputs(problem.data, inp[0], inp[1])
     return s.twist(problem.data, speeds, gnd[0], gnd[1])
+
+
+def _next_in_segment(seg: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(N, 2) the next sample's value inside each segment, the sample's own at each segment end."""
+    out = v.copy()
+    same = seg[1:] == seg[:-1]
+    out[:-1][same] = v[1:][same]
+    return out
 
 
 def errors(problem: Problem, effect: Effect | None, theta, windows: np.ndarray, *, drive: str = "command") -> np.ndarray:

@@ -206,11 +206,12 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float = 2.0, n_folds: i
         secondary: run the secondary stage (effects of the other kind on top of the cause).
         confirm: re-simulate with the MuJoCo robot, nominal and extended by the cause (:mod:`.confirm`).
         transient: model the friction-limited transient after speed changes (coulomb baseline;
-            :func:`mjtrack.diagnose.surrogate.accel_limited`): True, False, or "auto" = whichever
+            :func:`mjtrack.diagnose.surrogate.friction_limited`): True, False, or "auto" = whichever
             of the two parameter-free nominal baselines predicts the log better (RMS position
             error over all windows; nothing is fitted, so no held-out split is needed). A body
-            can never follow a step of its tracks faster than mu g, but logs whose speeds are
-            smoothed before they are logged (or synthetic steady-state logs) show no transient.
+            can never follow a step of its tracks faster than its track friction lets it (mu g
+            straight, ~0.27 mu g in yaw entering a turn), but logs whose speeds are smoothed
+            before they are logged (or synthetic steady-state logs) show no transient.
     Raises:
         InputError: horizon longer than every segment, too little data for the folds, unknown effect.
     """
@@ -252,8 +253,8 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float = 2.0, n_folds: i
         log.debug("diagnose: baseline without / with transients %.4g / %.4g m", *rmse)
     transient_note = None
     if surrogate.transient:
-        transient_note = ("the baseline includes the friction-limited transient after speed changes (the body follows "
-                          "its tracks at most at mu g)" + (f": it predicts this log better than the steady-state "
+        transient_note = ("the baseline includes the friction-limited transient after speed changes (the rigid body "
+                          "follows its tracks as fast as the track friction lets it, straight and in yaw)" + (f": it predicts this log better than the steady-state "
                           f"baseline ({rmse[1]:.3g} vs {rmse[0]:.3g} m)" if transient == "auto" else ""))
     problem = Problem(data=data, surrogate=surrogate, horizon_s=float(horizon_s), dt=data.step_dt(), starts=starts,
                       ends=ends, fold=fold, sample_fold=sample_fold, fit_windows=np.arange(0, starts.size, stride),

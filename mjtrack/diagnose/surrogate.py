@@ -26,22 +26,41 @@ flip with sign(wz). Hence:
 Straight driving (V_L = V_R) gives wz = 0 and vx = V exactly (all contacts stick), whatever q:
 ground effects are visible only when the robot turns.
 
-4. Transients (:func:`accel_limited`). The steady state is not reached at once: after a step of
-   the track speeds the body lags behind the tracks, every contact slides the same way and the
-   friction force is at its Coulomb limit, mu m g in the direction of the speed change, so the
-   body accelerates at mu g (mass-free). In track-speed terms the body moves as if driven by
-   "effective" track speeds whose common mode (V_L + V_R)/2 and differential mode (V_R - V_L)/2
-   change at most at a = fs mu g. Measured on the MuJoCo robot (step responses, ideal drives):
-   straight 0 -> 0.6 m/s equivalent dead time 0.041 s (model 0.6 / (2 mu g) = 0.038 s), spin
-   reversal +-0.5 m/s 0.067 s (model 0.064 s); entering a turn from straight is slower (0.06 s
-   measured, 0.02 s modelled: the contacts must first build the turning slip pattern);
-   ``python experiments/diagnose_mujoco_effects.py --steps`` prints these.
+4. Transients (:func:`friction_limited`). The steady state is not reached at once: after a step
+   of the track speeds the body lags behind its tracks, and it can catch up no faster than the
+   track friction lets it. Write the body's motion as "effective" track speeds e = (e_L, e_R)
+   (the speeds whose steady response, eq. 2.14 with the model's ICRs, is the body's twist), with
+   the common mode c = (e_L + e_R)/2 (vx) and the differential mode d = (e_R - e_L)/2 =
+   wz (y_l - y_r)/2. Lump each track's contact forces into one longitudinal force F_s at
+   y = +-T/2, bounded by Coulomb, |F_s| <= fs mu_s N_s (N_s the lever-rule load), and the lateral
+   friction into a turning resistance moment M_r opposing wz. Newton-Euler (per unit mass,
+   f_s = F_s/m, b_s = fs mu_s g N_s/(m g)):
+       c' = f_L + f_R,
+       I wz' = (T/2)(F_R - F_L) - M_r sign(wz)   ->   d' = kappa (f_R - f_L - r sign(d)),
+   kappa = m T (y_l - y_r)/(4 I) (mass-free with the uniform-box yaw inertia of the Coulomb
+   reference, I = m (L^2 + T^2)/12: kappa = 3 T (y_l - y_r)/(L^2 + T^2), 1.58 for the default
+   robot) and r = M_r/(m T/2). The resistance is the moment the tracks' longitudinal forces
+   supply in the steady turn, where they balance it: r = rho (b_L + b_R) with rho = s (F_R - F_L)
+   / sum mu_s N_s of the quasi-static turn (``resist_ratio``, 0.553 for the default robot), at
+   wz = 0 a static moment up to r. A track away from its command slides, f_s = b_s sign(V_s - e_s);
+   a track at its command holds it (e_s' = 0) with the force that takes, within its bound.
+   Both friction bounds and r scale with fs, so fs sets the time scale of every transient.
+   Straight start (V, V): f_L = f_R = b, the mu g ramp of (:func:`accel_limited`). Turn entry
+   (V, V) -> (V, 0): the outer track holds, f_L = ((kappa - 1) f_R - kappa m)/(1 + kappa) with
+   f_R = -b, m = -r, and d ramps at only kappa (f_R - f_L + r) = -0.27 mu g: the yaw reaches
+   the new rate with 0.070 s of dead time (MuJoCo 0.062 s, rigid Coulomb rollout 0.053 s), where
+   the mode-wise mu g ramp of :func:`accel_limited` gave 0.019 s. Spin reversal +-0.5 m/s:
+   0.042 s (Coulomb 0.044 s, MuJoCo 0.067 s); turn reversal (0.6, 0) -> (0, 0.6): 0.025 s
+   (Coulomb 0.026 s, MuJoCo 0.043 s). ``python experiments/diagnose_mujoco_effects.py --steps``
+   prints the step responses; tests/test_diagnose_units.py checks the closed forms and the
+   Coulomb rollout.
 """
 
 from __future__ import annotations
 
 import functools
 import logging
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -87,11 +106,14 @@ class GroundResponse:
 
     q0: (3,) quasi-static ICRs (y_l, y_r, x_c) [m].
     b_transfer, b_inertia: (2, 3, 2) dq/da_eff [m per m/s^2]; index 0 for wz > 0, 1 for wz < 0.
+    resist_ratio: turning resistance / available track force [-]: the differential longitudinal
+        track force (F_R - F_L) s of the quasi-static turn over sum mu_s N_s (item 4).
     """
 
     q0: np.ndarray
     b_transfer: np.ndarray
     b_inertia: np.ndarray
+    resist_ratio: float = 0.0
 
     def icr(self, q_static: np.ndarray, wz_sign: np.ndarray, a_eff: np.ndarray, *, friction_scale=1.0,
             inertia: bool = True) -> np.ndarray:
@@ -121,7 +143,24 @@ def _response_cached(key: tuple) -> GroundResponse:
                 qp = _solve_icr(robot, s, da, transfer=transfer, q0=q0)
                 qm = _solve_icr(robot, s, -da, transfer=transfer, q0=q0)
                 out[k, :, j] = (qp - qm) / (2 * _DA)
-    return GroundResponse(q0=q0, b_transfer=bt - bi, b_inertia=bi)
+    return GroundResponse(q0=q0, b_transfer=bt - bi, b_inertia=bi, resist_ratio=_resist_ratio(robot, q0))
+
+
+def _resist_ratio(robot: Robot, q0: np.ndarray) -> float:
+    """(F_R - F_L) s / sum mu_s N_s in the quasi-static turn, mean over both turn directions: the
+    moment (T/2)(F_R - F_L) the tracks' longitudinal forces must supply against the lateral
+    friction (the wrench is linear in each track's mu: one track's share is the wrench with the
+    other's mu set to ~0)."""
+    yl, yr, xc = q0
+    out = []
+    for s in (1.0, -1.0):
+        fx = []
+        for side in ("left", "right"):
+            other = "mu_right" if side == "left" else "mu_left"
+            r = robot.replace(mu_left=robot.friction_left, mu_right=robot.friction_right).replace(**{other: 1e-12})
+            fx.append(coulomb.contact_wrench(r, 0.0, -s * xc, s, -s * yl, -s * yr, n_points=_N_POINTS)[0])
+        out.append(s * (fx[1] - fx[0]))
+    return float(np.mean(out)) / (robot.weight * 0.5 * (robot.friction_left + robot.friction_right))
 
 
 def ground_response(robot: Robot) -> GroundResponse:
@@ -156,7 +195,8 @@ def static_table(robot: Robot, field: str, values) -> tuple[np.ndarray, np.ndarr
 
 
 def accel_limited(u: np.ndarray, dt: np.ndarray, a: float, starts: np.ndarray) -> np.ndarray:
-    """Per-step means (N,) of a speed that follows the held targets u (N,) [m/s] at most at ``a``
+    """One mode ramping at a fixed rate (the straight-start case of :func:`friction_limited`):
+    per-step means (N,) of a speed that follows the held targets u (N,) [m/s] at most at ``a``
     [m/s^2]; dt (N,) step lengths [s]; ``starts`` (N,) bool, segment starts (the speed is at its
     target there: a segment is assumed to start in steady motion).
 
@@ -190,6 +230,126 @@ def accel_limited(u: np.ndarray, dt: np.ndarray, a: float, starts: np.ndarray) -
     return out
 
 
+_TOL = 1e-9  # [m/s] an effective track speed this close to its command has arrived
+_MAX_EVENTS = 12  # contact-mode switches followed within one step (2-3 in practice)
+
+
+def _mode_accels(eL, eR, vL, vR, bL, bR, kappa, resist):
+    """Accelerations (eL', eR') [m/s^2] of the effective track speeds (:func:`friction_limited`).
+
+    A track whose speed differs from its command slides: force b sign(v - e). A track at its
+    command holds it with the force that keeps e' = 0, if that is within its bound (else it
+    slides at the bound). The lateral friction resists the yaw with ``resist`` sign(d) while
+    d = (eR - eL)/2 != 0, and up to ``resist`` (static) at d = 0."""
+    gl, gr = vL - eL, vR - eR
+    sl, sr = abs(gl) > _TOL, abs(gr) > _TOL
+    if not (sl or sr):
+        return 0.0, 0.0
+    d = 0.5 * (eR - eL)
+    turning = abs(d) > _TOL
+    fl = math.copysign(bL, gl) if sl else 0.0
+    fr = math.copysign(bR, gr) if sr else 0.0
+    if sl and sr:
+        m = math.copysign(resist, d) if turning else min(max(fr - fl, -resist), resist)
+    else:  # one track holds its speed
+        fo, b = (fr, bL) if sr else (fl, bR)
+        if not turning:
+            if 2.0 * abs(fo) <= resist and abs(fo) <= b:
+                return 0.0, 0.0  # static yaw (d' = 0) and f_held = -f_other (c' = 0): nothing moves
+            s = fo if sr else -fo  # the yaw starts the way the sliding track turns the body
+        else:
+            s = d
+        m = math.copysign(resist, s)
+        # held L: eL' = fL (1 + k) + fR (1 - k) + k m = 0;  held R: eR' = fR (1 + k) + fL (1 - k) - k m = 0
+        if sr:
+            fl = min(max(((kappa - 1.0) * fo - kappa * m) / (1.0 + kappa), -b), b)
+        else:
+            fr = min(max(((kappa - 1.0) * fo + kappa * m) / (1.0 + kappa), -b), b)
+    dd = kappa * (fr - fl - m)
+    cc = fl + fr
+    return cc - dd, cc + dd
+
+
+def _friction_step(eL, eR, vL, vR, h, bL, bR, kappa, resist):
+    """Advance (eL, eR) over one held step of length h [s]; returns (eL, eR, mean eL, mean eR)."""
+    sL = sR = 0.0
+    left = h
+    for _ in range(_MAX_EVENTS):
+        aL, aR = _mode_accels(eL, eR, vL, vR, bL, bR, kappa, resist)
+        if aL == 0.0 and aR == 0.0:
+            break
+        tau, event = left, 0
+        gap = vL - eL
+        if gap * aL > 0.0 and gap / aL < tau:
+            tau, event = gap / aL, 1
+        gap = vR - eR
+        if gap * aR > 0.0 and gap / aR < tau:
+            tau, event = gap / aR, 2
+        d, dd = eR - eL, aR - aL
+        if d * dd < 0.0 and abs(d) > 2 * _TOL and -d / dd < tau:
+            tau, event = -d / dd, 3
+        sL += (eL + 0.5 * aL * tau) * tau
+        sR += (eR + 0.5 * aR * tau) * tau
+        eL += aL * tau
+        eR += aR * tau
+        left -= tau
+        if event == 1:
+            eL = vL
+        elif event == 2:
+            eR = vR
+        elif event == 3:
+            eL = eR = 0.5 * (eL + eR)
+        if left <= 0.0:
+            break
+    sL += eL * left
+    sR += eR * left
+    return eL, eR, sL / h, sR / h
+
+
+def friction_limited(u: np.ndarray, dt: np.ndarray, starts: np.ndarray, *, b_left: float, b_right: float,
+                     kappa: float, resist: float) -> np.ndarray:
+    """Per-step means (N, 2) of the effective track speeds (e_L, e_R) that follow the held
+    commands u (N, 2) [m/s] as far as the track friction lets the rigid body follow; dt (N,)
+    step lengths [s]; ``starts`` (N,) bool segment starts (steady motion there).
+
+    Reduced rigid-body model (derivation in the module docstring, item 4): with c = (e_L + e_R)/2,
+    d = (e_R - e_L)/2 and per-mass track forces f_s in [-b_s, b_s] [m/s^2],
+        c' = f_L + f_R,     d' = kappa (f_R - f_L - resist sign(d)),
+    a sliding track (e_s != u_s) pulls with b_s sign(u_s - e_s), a track at its command holds
+    it (e_s' = 0) within its bound. Integrated exactly (piecewise-constant accelerations between
+    mode switches); only the samples after a change larger than b_min h / 2 are simulated (a
+    smaller one is left as a step: it settles within the step, mean error Delta^2 / (2 a h) with
+    a >= ~1.1 b_min the slowest track acceleration (the turn entry), <= 0.12 b_min h, 0.02 m/s
+    over one 0.05 s step at mu = 0.8), so the cost is the number of ramps, not of samples.
+    """
+    u = np.asarray(u, dtype=float)
+    out = u.copy()
+    n = u.shape[0]
+    # like accel_limited, a change that settles early in its step is left as is (measured speeds
+    # jitter at every sample, an input lag smooths them): only jumps beyond half the slowest
+    # track's reach start a ramp
+    lim = 0.5 * min(b_left, b_right) * np.asarray(dt, dtype=float)
+    change = (np.max(np.abs(np.diff(u, axis=0, prepend=u[:1])), axis=1) > lim) & ~starts
+    done = -1
+    for k0 in np.flatnonzero(change):
+        if k0 <= done:
+            continue
+        eL, eR = float(u[k0 - 1, 0]), float(u[k0 - 1, 1])
+        k = k0
+        while k < n and (k == k0 or not starts[k]):
+            vL, vR, h = float(u[k, 0]), float(u[k, 1]), float(dt[k])
+            if h <= 0.0:
+                eL, eR = vL, vR
+                k += 1
+                continue
+            eL, eR, out[k, 0], out[k, 1] = _friction_step(eL, eR, vL, vR, h, b_left, b_right, kappa, resist)
+            if abs(eL - vL) <= _TOL and abs(eR - vR) <= _TOL:
+                break
+            k += 1
+        done = k
+    return out
+
+
 def twist_from_q(q: np.ndarray, v_left: np.ndarray, v_right: np.ndarray) -> np.ndarray:
     """Eq. (2.14) for per-sample ICRs q (N, 3): body twist (N, 3)."""
     yl, yr, xc = q[:, 0], q[:, 1], q[:, 2]
@@ -204,4 +364,5 @@ def centripetal(twist: np.ndarray, cg_x, cg_y) -> np.ndarray:
     return np.stack([-wz * (vy + wz * cg_x), wz * (vx - wz * cg_y)], -1)
 
 
-__all__ = ["GroundResponse", "ground_response", "static_table", "accel_limited", "twist_from_q", "centripetal"]
+__all__ = ["GroundResponse", "ground_response", "static_table", "accel_limited", "friction_limited", "twist_from_q",
+           "centripetal"]
