@@ -1,6 +1,12 @@
-"""Fidelity of the MuJoCo roller-chain robot against the rigid-track Coulomb reference.
+"""Fidelity of the MuJoCo track models against the rigid-track Coulomb reference.
 
     python experiments/fidelity.py [--out experiments/results/fidelity] [--quick]
+                                   [--track-model rollers|surfacevel|both]
+
+Both track models (``--track-model both``, the default), each with its measured settings
+``mjtrack.sim.config.sim_config(track_model)``: the roller chain (``mjtrack.sim.builder``) and
+the moving contact surfaces (``mjtrack.sim.surfacevel``). Same grid, geometries and checks
+for both.
 
 Grid (issue 3): turns of nominal radius R in {pivot, 0.25, 0.5, 1, 2} m at v in {0.3, 0.8}
 m/s (pivot: track speeds +-v), turning left and right, driving forward and backward; cg_x in {-0.1, 0, +0.1} L; mu in
@@ -8,23 +14,26 @@ m/s (pivot: track speeds +-v), turning left and right, driving forward and backw
 (T = 0.6, L = 0.9 m, 60 kg, cg_z = 0.2 m). Commands from the nominal model:
 w = v/R, V_L = v - w T/2, V_R = v + w T/2.
 
-Each case: settle 3 s at the constant command, average 2 s (``mjtrack.sim.steady``; the
-window standard deviation of w is reported); ICRs by (2.13) from the window means with
-the measured track speeds; reference ``mjtrack.models.coulomb.steady_state`` at the same
-(measured) track speeds. Pass: |y_l - y_l*|, |y_r - y_r*| <= 0.1 T/2, |x_c - x_c*| <= 0.02 L,
-each track in ground contact in >= 99 % of the steps (settle + window).
+Each case: 3 s at the constant command, then averages over 2 s (``mjtrack.sim.steady``;
+rollers: from the settled rest state, window standard deviation of w reported; surfacevel:
+from rest, 5 s run, no window std); ICRs by (2.13) from the window means with the measured
+track speeds; reference ``mjtrack.models.coulomb.steady_state`` at the same track speeds.
+Pass: |y_l - y_l*|, |y_r - y_r*| <= 0.1 T/2, |x_c - x_c*| <= 0.02 L, each track in ground
+contact in >= 99 % of the steps (whole run).
 
-Also measured: convergence (halving the time step, doubling the roller count: largest ICR
-change on the default robot over all radii, cg_x and mu at 0.8 m/s) and straight driving
-(|v_x - V|/V and lateral drift per metre at 0.3, 0.8, 2 m/s). Writes fidelity.json and
-fidelity.png into --out and prints the tables. Runs in under a minute on one core.
+Also measured per model: convergence (halving the time step, doubling the roller/element
+count: largest ICR change on the default robot over all radii, cg_x and mu at 0.8 m/s; pass
+< 0.03 T/2 and < 0.03 L) and straight driving (|v_x - V|/V < 1 % and lateral drift per metre
+< 1 mm/m at 0.3, 0.8, 2 m/s). Writes, into --out, fidelity.json + fidelity.png (rollers),
+fidelity_surfacevel.json + fidelity_surfacevel.png and, for both, fidelity_combined.json (the
+combined table); prints the tables; exit 1 if any check fails. About 1 min (rollers) + 3 min
+(surfacevel) on one core.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 from pathlib import Path
@@ -33,7 +42,7 @@ import numpy as np
 
 from mjtrack.io.robot import Robot
 from mjtrack.models.coulomb import steady_state as coulomb_steady
-from mjtrack.sim.config import SimConfig
+from mjtrack.sim.config import TRACK_MODELS, SimConfig, sim_config
 from mjtrack.sim.rollout import drive_log
 from mjtrack.sim.steady import steady_batch
 
@@ -48,6 +57,11 @@ GEOMETRIES = {
     "long": Robot(track_gauge=0.6, track_length=0.9, mass=60.0, cg_z=0.2),
 }
 TOL_Y, TOL_X, TOL_CONTACT = 0.10, 0.02, 0.99
+TOL_CONV = 0.03  # largest ICR change under refinement, in units of T/2 (y) and L (x_c)
+TOL_SPEED, TOL_DRIFT = 0.01, 1.0  # straight driving: |vx - V| / V, lateral drift [mm/m]
+STRAIGHT_SPEEDS = (0.3, 0.8, 2.0)
+# output files per track model (the roller chain keeps the names it always had)
+FILES = {"rollers": "fidelity", "surfacevel": "fidelity_surfacevel"}
 
 
 def commands_for(robot: Robot, radius, v: float, direction: int, travel: int = 1) -> tuple[float, float]:
@@ -73,11 +87,11 @@ def grid_cases(geometry: str, quick: bool):
                                        cg_frac=cgf, mu=mu), robot, commands_for(robot, radius, v, direction, travel)
 
 
-def run_grid(quick: bool) -> list[dict]:
+def run_grid(quick: bool, config: SimConfig) -> list[dict]:
     rows = []
     for geometry in GEOMETRIES:
         cases = list(grid_cases(geometry, quick))
-        results = steady_batch([c[1] for c in cases], np.array([c[2] for c in cases]))
+        results = steady_batch([c[1] for c in cases], np.array([c[2] for c in cases]), config=config)
         for (meta, robot, _), res in zip(cases, results):
             ref = coulomb_steady(robot, res.v_left, res.v_right)
             half, L = robot.track_gauge / 2, robot.track_length
@@ -90,7 +104,7 @@ def run_grid(quick: bool) -> list[dict]:
     return rows
 
 
-def convergence() -> dict:
+def convergence(config: SimConfig) -> dict:
     """Largest ICR change over the default robot's grid at 0.8 m/s (left turns, forward)."""
     base = Robot()
     robots, cmds = [], []
@@ -101,8 +115,8 @@ def convergence() -> dict:
                 robots.append(robot)
                 cmds.append(commands_for(robot, radius, 0.8, 1))
     cmds = np.array(cmds)
-    variants = {"base": SimConfig(), "half_dt": SimConfig(timestep=SimConfig().timestep / 2),
-                "double_rollers": SimConfig(n_rollers=2 * SimConfig().n_rollers)}
+    variants = {"base": config, "half_dt": config.replace(timestep=config.timestep / 2),
+                "double_rollers": config.replace(n_rollers=2 * config.n_rollers)}
     res = {k: steady_batch(robots, cmds, config=c) for k, c in variants.items()}
     out = {}
     for k in ("half_dt", "double_rollers"):
@@ -113,10 +127,10 @@ def convergence() -> dict:
     return out
 
 
-def straight() -> list[dict]:
+def straight(config: SimConfig) -> list[dict]:
     out = []
-    for v in (0.3, 0.8, 2.0):
-        log = drive_log(Robot(), (np.array([0.0]), np.array([v]), np.array([v])), duration=10.0)
+    for v in STRAIGHT_SPEEDS:
+        log = drive_log(Robot(), (np.array([0.0]), np.array([v]), np.array([v])), duration=10.0, config=config)
         k = log.t >= 3.0  # after the start transient
         V = float(np.mean(log.v_left[k] + log.v_right[k]) / 2)
         dist = float(np.hypot(log.x[-1] - log.x[0], log.y[-1] - log.y[0]))
@@ -126,7 +140,7 @@ def straight() -> list[dict]:
     return out
 
 
-def figure(rows: list[dict], path: Path) -> None:
+def figure(rows: list[dict], path: Path, title: str) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -143,41 +157,51 @@ def figure(rows: list[dict], path: Path) -> None:
         ax.set_xlabel(f"Coulomb reference {label}")
         ax.set_ylabel(f"MuJoCo {label}")
         ax.legend()
-    fig.suptitle("Steady-state ICRs: MuJoCo roller chain vs rigid-track Coulomb reference")
+    fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--out", type=Path, default=Path("experiments/results/fidelity"))
-    p.add_argument("--quick", action="store_true", help="3 radii instead of 5")
-    args = p.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-    rows = run_grid(args.quick)
-    conv = convergence()
-    straight_rows = straight()
-    elapsed = time.perf_counter() - t0
-
-    print(f"{'geom':8s} {'R':>6s} {'v':>4s} {'dir':>3s} {'fwd':>3s} {'cg/L':>5s} {'mu':>4s} {'y_l':>7s} {'ref':>7s} {'y_r':>7s} "
-          f"{'ref':>7s} {'x_c':>7s} {'ref':>7s} {'errY':>5s} {'errX':>6s} {'wz_std':>7s} {'cont':>5s}")
-    for r in rows:
-        print(f"{r['geometry']:8s} {str(r['radius']):>6s} {r['v']:4.1f} {r['direction']:3d} {r['travel']:3d} {r['cg_frac']:5.2f} "
-              f"{r['mu']:4.1f} {r['y_l']:7.4f} {r['ref_y_l']:7.4f} {r['y_r']:7.4f} {r['ref_y_r']:7.4f} "
-              f"{r['x_c']:7.4f} {r['ref_x_c']:7.4f} {r['err_y']:5.3f} {r['err_x']:6.4f} {r['wz_std']:7.4f} "
-              f"{r['contact_min']:5.3f}{'' if r['pass'] else '  FAIL'}")
+def summarise(rows: list[dict], conv: dict, straight_rows: list[dict]) -> dict:
+    """Per geometry: cases, passed, worst errors, contact; plus the convergence/straight verdicts."""
     summary = {}
     for geometry in GEOMETRIES:
         sel = [r for r in rows if r["geometry"] == geometry]
+        wz_std = [r["wz_std"] for r in sel if r["wz_std"] is not None]
         summary[geometry] = {
             "cases": len(sel), "passed": sum(r["pass"] for r in sel),
             "max_err_y_over_half_gauge": max(r["err_y"] for r in sel),
             "max_err_x_over_length": max(r["err_x"] for r in sel),
             "min_contact_fraction": min(r["contact_min"] for r in sel),
-            "max_wz_std": max(r["wz_std"] for r in sel),
+            "max_wz_std": max(wz_std) if wz_std else None,  # None: not measured (surfacevel)
         }
+    summary["convergence_pass"] = all(c["max_dy_over_half_gauge"] < TOL_CONV and c["max_dx_over_length"] < TOL_CONV
+                                      for c in conv.values())
+    summary["straight_pass"] = all(s["rel_speed_err"] < TOL_SPEED and s["drift_mm_per_m"] < TOL_DRIFT
+                                   for s in straight_rows)
+    return summary
+
+
+def run_model(track_model: str, quick: bool, out: Path, command: str) -> dict:
+    """The whole study for one track model: prints its tables, writes its JSON and figure."""
+    config = sim_config(track_model)
+    t0 = time.perf_counter()
+    rows = run_grid(quick, config)
+    conv = convergence(config)
+    straight_rows = straight(config)
+    elapsed = time.perf_counter() - t0
+
+    print(f"\n=== track model: {track_model} ===")
+    print(f"{'geom':8s} {'R':>6s} {'v':>4s} {'dir':>3s} {'fwd':>3s} {'cg/L':>5s} {'mu':>4s} {'y_l':>7s} {'ref':>7s} {'y_r':>7s} "
+          f"{'ref':>7s} {'x_c':>7s} {'ref':>7s} {'errY':>5s} {'errX':>6s} {'wz_std':>7s} {'cont':>5s}")
+    for r in rows:
+        wz_std = f"{r['wz_std']:7.4f}" if r["wz_std"] is not None else f"{'-':>7s}"
+        print(f"{r['geometry']:8s} {str(r['radius']):>6s} {r['v']:4.1f} {r['direction']:3d} {r['travel']:3d} {r['cg_frac']:5.2f} "
+              f"{r['mu']:4.1f} {r['y_l']:7.4f} {r['ref_y_l']:7.4f} {r['y_r']:7.4f} {r['ref_y_r']:7.4f} "
+              f"{r['x_c']:7.4f} {r['ref_x_c']:7.4f} {r['err_y']:5.3f} {r['err_x']:6.4f} {wz_std} "
+              f"{r['contact_min']:5.3f}{'' if r['pass'] else '  FAIL'}")
+    summary = summarise(rows, conv, straight_rows)
     print("\nsummary:", json.dumps(summary, indent=1))
     print("convergence (largest ICR change):", json.dumps(conv))
     print("straight driving:")
@@ -185,13 +209,82 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  v_cmd {s['v_cmd']:.1f}: V {s['V_measured']:.4f} vx {s['vx']:.4f} |vx-V|/V {s['rel_speed_err']:.2e} "
               f"drift {s['drift_mm_per_m']:.3g} mm/m")
     print(f"elapsed {elapsed:.1f} s")
-    doc = {"config": SimConfig().to_dict(), "tolerances": {"y": TOL_Y, "x": TOL_X, "contact": TOL_CONTACT},
+    doc = {"track_model": track_model, "config": config.to_dict(),
+           "tolerances": {"y": TOL_Y, "x": TOL_X, "contact": TOL_CONTACT, "convergence": TOL_CONV,
+                          "speed": TOL_SPEED, "drift_mm_per_m": TOL_DRIFT},
            "summary": summary, "convergence": conv, "straight": straight_rows, "cases": rows,
-           "elapsed_s": elapsed, "command": "python experiments/fidelity.py" + (" --quick" if args.quick else "")}
-    (args.out / "fidelity.json").write_text(json.dumps(doc, indent=1, default=_json_default) + "\n")
-    figure(rows, args.out / "fidelity.png")
-    print(f"wrote {args.out / 'fidelity.json'} and {args.out / 'fidelity.png'}")
-    return 0 if all(r["pass"] for r in rows) else 1
+           "elapsed_s": elapsed, "command": command}
+    stem = out / FILES[track_model]
+    stem.with_suffix(".json").write_text(json.dumps(doc, indent=1, default=_json_default) + "\n")
+    figure(rows, stem.with_suffix(".png"),
+           "Steady-state ICRs: MuJoCo roller chain vs rigid-track Coulomb reference" if track_model == "rollers"
+           else f"Steady-state ICRs: MuJoCo {track_model} tracks vs rigid-track Coulomb reference")
+    print(f"wrote {stem.with_suffix('.json')} and {stem.with_suffix('.png')}")
+    return doc
+
+
+def combined_table(docs: dict[str, dict]) -> list[dict]:
+    """One row per (track model, geometry): the issue-3 numbers side by side."""
+    table = []
+    for track_model, doc in docs.items():
+        conv, st = doc["convergence"], doc["straight"]
+        for geometry in GEOMETRIES:
+            s = doc["summary"][geometry]
+            table.append({
+                "track_model": track_model, "geometry": geometry, "cases": s["cases"], "passed": s["passed"],
+                "max_err_y_over_half_gauge": s["max_err_y_over_half_gauge"],
+                "max_err_x_over_length": s["max_err_x_over_length"],
+                "min_contact_fraction": s["min_contact_fraction"],
+                # convergence and straight driving are measured on the default robot only
+                "conv_half_dt_dy": conv["half_dt"]["max_dy_over_half_gauge"] if geometry == "default" else None,
+                "conv_half_dt_dx": conv["half_dt"]["max_dx_over_length"] if geometry == "default" else None,
+                "conv_2n_dy": conv["double_rollers"]["max_dy_over_half_gauge"] if geometry == "default" else None,
+                "conv_2n_dx": conv["double_rollers"]["max_dx_over_length"] if geometry == "default" else None,
+                "straight_max_rel_speed_err": max(x["rel_speed_err"] for x in st) if geometry == "default" else None,
+                "straight_max_drift_mm_per_m": max(x["drift_mm_per_m"] for x in st) if geometry == "default" else None,
+                "elapsed_s": doc["elapsed_s"],
+            })
+    return table
+
+
+def print_combined(table: list[dict]) -> None:
+    def f(x, fmt):
+        return format(x, fmt) if x is not None else "-"
+
+    print("\n=== combined (errors: max over the grid; conv and straight: default robot, max over cases/speeds) ===")
+    print(f"{'model':10s} {'geom':8s} {'pass':>9s} {'errY/(T/2)':>10s} {'errX/L':>7s} {'contact':>7s} "
+          f"{'dt/2 dY':>8s} {'dt/2 dX':>8s} {'2N dY':>7s} {'2N dX':>7s} {'|vx-V|/V':>9s} {'drift':>7s}")
+    for r in table:
+        print(f"{r['track_model']:10s} {r['geometry']:8s} {r['passed']:4d}/{r['cases']:<4d} "
+              f"{r['max_err_y_over_half_gauge']:10.4f} {r['max_err_x_over_length']:7.4f} {r['min_contact_fraction']:7.4f} "
+              f"{f(r['conv_half_dt_dy'], '8.4f'):>8s} {f(r['conv_half_dt_dx'], '8.4f'):>8s} "
+              f"{f(r['conv_2n_dy'], '7.4f'):>7s} {f(r['conv_2n_dx'], '7.4f'):>7s} "
+              f"{f(r['straight_max_rel_speed_err'], '9.2e'):>9s} {f(r['straight_max_drift_mm_per_m'], '7.3f'):>7s}")
+    print("(drift in mm/m; dt/2, 2N: largest ICR change when halving the time step / doubling the elements)")
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", type=Path, default=Path("experiments/results/fidelity"))
+    p.add_argument("--quick", action="store_true", help="3 radii instead of 5")
+    p.add_argument("--track-model", choices=(*TRACK_MODELS, "both"), default="both",
+                   help="which MuJoCo track model(s) to measure (default both)")
+    args = p.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    command = "python experiments/fidelity.py" + (" --quick" if args.quick else "") + (
+        f" --track-model {args.track_model}" if args.track_model != "both" else "")
+    models = TRACK_MODELS if args.track_model == "both" else (args.track_model,)
+    docs = {m: run_model(m, args.quick, args.out, command) for m in models}
+    table = combined_table(docs)
+    print_combined(table)
+    ok = all(d["summary"][g]["passed"] == d["summary"][g]["cases"] for d in docs.values() for g in GEOMETRIES)
+    ok = ok and all(d["summary"]["convergence_pass"] and d["summary"]["straight_pass"] for d in docs.values())
+    if len(docs) > 1:
+        path = args.out / "fidelity_combined.json"
+        path.write_text(json.dumps({"command": command, "all_pass": ok, "table": table}, indent=1,
+                                   default=_json_default) + "\n")
+        print(f"wrote {path}")
+    return 0 if ok else 1
 
 
 def _json_default(x):

@@ -71,6 +71,10 @@ Result (default robot, 60 steady turns, both directions, cg_x -0.05/0/0.05, 0.3 
 ICRs within 0.024 T/2 and 0.011 L of the Coulomb reference, contact on 99.96 % of the steps
 (all but the first two), straight |vx - V| <= 6.5e-4 V (chassis pitch), no drift, timestep
 halving moves ICRs <= 0.0017 T/2; about 3x the roller chain's steps/s (study: "speed").
+The full issue-3 grid (``python experiments/fidelity.py --track-model surfacevel``: 432 turns,
+default and long robot, mu 0.4/0.8, cg_x 0/+-0.1 L, forward and reverse): all pass, ICRs
+within 0.031 T/2 and 0.011 L, contact 99.96 %; comparison with the roller chain in
+``assets/README.md``.
 """
 
 from __future__ import annotations
