@@ -199,7 +199,9 @@ def _check_explicit_stability(config: SimConfig, damping: float, roller_mass: fl
         )
 
 
-def _set_options(spec: mujoco.MjSpec, config: SimConfig) -> None:
+def apply_solver_options(spec: mujoco.MjSpec, config: SimConfig) -> mujoco.MjOption:
+    """The solver settings of ``config`` that both track models share (time step, integrator,
+    cone, impratio, noslip, iterations, tolerance, Newton solver, Jacobian); returns the option."""
     opt = spec.option
     opt.timestep = config.timestep
     opt.integrator = _INTEGRATORS[config.integrator]
@@ -209,6 +211,12 @@ def _set_options(spec: mujoco.MjSpec, config: SimConfig) -> None:
     opt.iterations = config.iterations
     opt.tolerance = config.tolerance
     opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
+    opt.jacobian = mujoco.mjtJacobian.mjJAC_SPARSE if config.jacobian == "sparse" else mujoco.mjtJacobian.mjJAC_DENSE
+    return opt
+
+
+def _set_options(spec: mujoco.MjSpec, config: SimConfig) -> None:
+    opt = apply_solver_options(spec, config)
     # Constraint forces are computed with M alone; damping that an implicit step adds later
     # (joint dampers, servo kv) is invisible to the friction solve and bends the friction
     # direction away from the slip (assets/README.md). Euler without implicit damping keeps
@@ -216,7 +224,6 @@ def _set_options(spec: mujoco.MjSpec, config: SimConfig) -> None:
     if config.integrator == "Euler" and not config.implicit_damping:
         opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EULERDAMP
     opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET  # divergence -> NaN, not a silent reset
-    opt.jacobian = mujoco.mjtJacobian.mjJAC_SPARSE if config.jacobian == "sparse" else mujoco.mjtJacobian.mjJAC_DENSE
 
 
 def _add_sprocket(chassis, side: str, robot: Robot, config: SimConfig, y: float) -> None:

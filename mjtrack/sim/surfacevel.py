@@ -90,6 +90,7 @@ import numpy as np
 
 from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
+from mjtrack.sim.builder import apply_solver_options
 from mjtrack.sim.config import SimConfig
 
 log = logging.getLogger(__name__)
@@ -98,13 +99,6 @@ SIDES = ("left", "right")
 ELEMENTS = ("sphere", "capsule", "box")
 CHASSIS_HEIGHT = 0.15  # [m] height of the box whose inertia the chassis is given (as builder)
 FLOOR_FRICTION = 1e-3  # the contact pairs carry the track friction; the floor's is unused
-_JACOBIANS = {"sparse": mujoco.mjtJacobian.mjJAC_SPARSE, "dense": mujoco.mjtJacobian.mjJAC_DENSE}
-_INTEGRATORS = {
-    "Euler": mujoco.mjtIntegrator.mjINT_EULER,
-    "RK4": mujoco.mjtIntegrator.mjINT_RK4,
-    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
-    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-}
 
 
 # Settings measured for this model (experiments/surfacevel_study.py), pinned here: the SimConfig
@@ -252,17 +246,7 @@ def _add_element(body, element: str, *, name: str, x: float, r: float, cell: flo
 def add_scene(spec: mujoco.MjSpec, robot: Robot, config: SimConfig | None = None) -> mujoco.MjSpec:
     """Options, floor ``floor``, one contact pair per element and a light (in place)."""
     config = config or surfacevel_config()
-    opt = spec.option
-    opt.timestep = config.timestep
-    opt.integrator = _INTEGRATORS[config.integrator]
-    opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC if config.cone == "elliptic" else mujoco.mjtCone.mjCONE_PYRAMIDAL
-    opt.impratio = config.impratio
-    opt.noslip_iterations = config.noslip_iterations
-    opt.iterations = config.iterations
-    opt.tolerance = config.tolerance
-    opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
-    if getattr(config, "jacobian", None) in _JACOBIANS:  # identical physics either way
-        opt.jacobian = _JACOBIANS[config.jacobian]
+    apply_solver_options(spec, config)
     spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[50, 50, 0.1],
                             friction=[FLOOR_FRICTION, 0, 0], rgba=[0.8, 0.8, 0.75, 1])
     elements = [g.name for g in spec.geoms if g.name.startswith("track_")]
