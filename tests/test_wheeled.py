@@ -21,6 +21,7 @@ from mjtrack.models.wheeled import (
     DiffDriveDynamic2,
     DiffDriveKinematic,
     SkidSteer4,
+    rk4,
     rk4_step,
     simulate,
     steering_angles,
@@ -80,11 +81,7 @@ def test_dynamic1_opposite_forces_spin_up():
     state = m.initial_state((0, 0, 0))
     dt = 1e-3
     for _ in range(1000):
-        k1 = m.derivative_from_forces(state, -1.0, 1.0)
-        k2 = m.derivative_from_forces(state + 0.5 * dt * k1, -1.0, 1.0)
-        k3 = m.derivative_from_forces(state + 0.5 * dt * k2, -1.0, 1.0)
-        k4 = m.derivative_from_forces(state + dt * k3, -1.0, 1.0)
-        state = state + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        state = rk4(lambda x: m.derivative_from_forces(x, -1.0, 1.0), state, dt)
     assert (2.0 * m.track / 2 / m.inertia) == pytest.approx(130.0)
     assert state[4] == pytest.approx(130.0, rel=1e-9)
     assert state[2] == pytest.approx(65.0, rel=1e-9)

@@ -9,6 +9,7 @@ with the fixed-step RK4 of :func:`~mjtrack.models.wheeled.base.rk4_step`.
 from mjtrack.models.wheeled.ackermann import Ackermann as Ackermann
 from mjtrack.models.wheeled.ackermann import steering_angles as steering_angles
 from mjtrack.models.wheeled.base import WheeledModel as WheeledModel
+from mjtrack.models.wheeled.base import rk4 as rk4
 from mjtrack.models.wheeled.base import rk4_step as rk4_step
 from mjtrack.models.wheeled.base import simulate as simulate
 from mjtrack.models.wheeled.base import wheel_friction as wheel_friction

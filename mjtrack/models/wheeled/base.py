@@ -77,14 +77,19 @@ class PlanarKinematic:
         return np.array(self.body_twist(u), dtype=float)
 
 
+def rk4(f: Callable[[np.ndarray], np.ndarray], state: np.ndarray, dt: float) -> np.ndarray:
+    """One classical RK4 step of the autonomous ODE state' = f(state) over ``dt`` [s]."""
+    k1 = f(state)
+    k2 = f(state + 0.5 * dt * k1)
+    k3 = f(state + 0.5 * dt * k2)
+    k4 = f(state + dt * k3)
+    return state + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+
+
 def rk4_step(model: WheeledModel, state: np.ndarray, u, dt: float) -> np.ndarray:
     """One classical RK4 step of ``model`` from ``state`` with input ``u`` held for ``dt`` [s]."""
     u = np.asarray(u, dtype=float)
-    k1 = model.derivative(state, u)
-    k2 = model.derivative(state + 0.5 * dt * k1, u)
-    k3 = model.derivative(state + 0.5 * dt * k2, u)
-    k4 = model.derivative(state + dt * k3, u)
-    return state + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return rk4(lambda x: model.derivative(x, u), state, dt)
 
 
 def simulate(

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjtrack.models.wheeled.ackermann import Ackermann
-from mjtrack.models.wheeled.base import simulate
+from mjtrack.models.wheeled.base import rk4, simulate
 from mjtrack.models.wheeled.diffdrive import DiffDriveKinematic, wheel_speeds
 from mjtrack.models.wheeled.dynamic1 import DiffDriveDynamic1
 from mjtrack.models.wheeled.dynamic2 import DiffDriveDynamic2
@@ -74,11 +74,7 @@ def _dynamic1() -> list[Check]:
     spin = m.initial_state((0, 0, 0))
     dt = 1e-3
     for _ in range(1000):
-        k1 = m.derivative_from_forces(spin, -1.0, 1.0)
-        k2 = m.derivative_from_forces(spin + 0.5 * dt * k1, -1.0, 1.0)
-        k3 = m.derivative_from_forces(spin + 0.5 * dt * k2, -1.0, 1.0)
-        k4 = m.derivative_from_forces(spin + dt * k3, -1.0, 1.0)
-        spin = spin + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        spin = rk4(lambda x: m.derivative_from_forces(x, -1.0, 1.0), spin, dt)
     rate = 2.0 * 0.5 * m.track / m.inertia
     return [
         Check("dynamic1 straight start reaches 99% of 2 m/s", m.mass * v_req / (2 * m.force_max), t99, 0.01, "s",
