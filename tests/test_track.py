@@ -134,7 +134,7 @@ def test_mujoco_loop_reports_in_the_pose0_frame_and_matches_a_rollout():
 
     robot = Robot()
     pose0 = np.array([1.0, 2.0, 0.7])
-    res = run_mujoco_loop(robot, lambda t, p, tw, u: (0.3, 0.5), 2.0, control_dt=0.04, pose0=pose0)
+    res = run_mujoco_loop(robot, lambda t, p, tw, u, ts: (0.3, 0.5), 2.0, control_dt=0.04, pose0=pose0)
     np.testing.assert_allclose(res.poses[0], pose0, atol=1e-3)
     log = drive_log(robot, (np.array([0.0]), np.array([0.3]), np.array([0.5])), duration=2.0, log_rate=25.0)
     np.testing.assert_allclose(res.twists[-1], [log.vx[-1], log.vy[-1], log.wz[-1]], atol=1e-6)

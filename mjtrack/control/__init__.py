@@ -23,6 +23,7 @@ from mjtrack.control.paths import ParametricPath as ParametricPath
 from mjtrack.control.paths import Polyline as Polyline
 from mjtrack.control.paths import circle_path as circle_path
 from mjtrack.control.paths import figure_eight_path as figure_eight_path
+from mjtrack.control.paths import lane_change_path as lane_change_path
 from mjtrack.control.posture import PolarPostureController as PolarPostureController
 from mjtrack.control.posture import polar_error as polar_error
 from mjtrack.control.reactive import ReactiveController as ReactiveController

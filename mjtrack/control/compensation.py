@@ -41,6 +41,7 @@ import numpy as np
 
 from mjtrack.control.feedforward import Reference, ReferenceState
 from mjtrack.errors import InputError
+from mjtrack.estimation.icr_ekf import icr_from_psi
 from mjtrack.estimation.online import OnlineICREstimator
 
 log = logging.getLogger(__name__)
@@ -50,6 +51,13 @@ MODES = ("none", "icr", "vir")
 # run (the robot accelerating from rest, which no kinematic model describes) cannot throw the
 # estimate far off (with the batch filters' (2, 2, 4) psi_y reached 12 within 0.1 s).
 PSI_STD0 = (0.2, 0.2, 0.5)
+# Inflation of the estimator's psi std in the trust weight: the pose-fed ICR EKF is
+# over-confident on MuJoCo data (parameter NEES 22.6 for 3 states, issue 14: sqrt(22.6/3) = 2.7).
+TRUST_SCALE = 3.0
+# Physically admissible ICRs of a tracked robot, in units of the gauge T and the track length L:
+# T <= y_l - y_r (slip only moves the track ICRs outwards; 0.8 T leaves room for estimator noise),
+# y_l - y_r <= 4 T, |ybar| <= T/2, |x_c| <= L/2. An estimate outside is not used at all.
+SPACING_RANGE = (0.8, 4.0)
 
 
 def inverse_micr(v: float, w: float, y_l: float, y_r: float) -> np.ndarray:
@@ -75,6 +83,62 @@ def heading_correction(x_o: float, v: float, w: float, *, max_alpha: float = 0.5
     return float(np.clip(math.asin(float(np.clip(x_o * w / abs(v), -1.0, 1.0))), -max_alpha, max_alpha))
 
 
+def velocity_deviation(psi_used, psi_true, w: float) -> np.ndarray:
+    """(δv_x, δy, δω): how the plant's motion departs from what a compensated controller expects.
+
+    The controller commands (v, w) through the map of ``psi_used`` (:func:`track_speeds_from_psi`,
+    ΔV = w/ψu_z) and expects the drift-free point (x_cu, 0), x_cu = ψu_x/ψu_z, to move with
+    (v, 0) and the body to turn at w. A robot whose true parameter is ``psi_true`` gives
+    δv_x = w (ψt_y − ψu_y)/ψu_z, δy = w (ψt_z x_cu − ψt_x)/ψu_z (sideways velocity of that
+    point), δω = w (ψt_z/ψu_z − 1). ``psi_used`` = nominal (0, 0, 1/T) is no compensation.
+    """
+    pu, pt = np.asarray(psi_used, float), np.asarray(psi_true, float)
+    k = w / pu[2]
+    x_cu = pu[0] / pu[2]
+    return np.array([k * (pt[1] - pu[1]), k * (pt[2] * x_cu - pt[0]), k * (pt[2] - pu[2])])
+
+
+def static_error_map(v_d: float, w_d: float, poles) -> np.ndarray:
+    """(3, 3) map S from a constant velocity deviation δ to the tracker's steady error e* = S δ.
+
+    The error dynamics (3.14) of the tracker with the plant moving δ = (δv_x, δy, δω) off what
+    it expects read ė = (A − B K) e − δ near e = 0, so e* = (A − B K)⁻¹ δ; e*_2, the sideways
+    error in the robot frame, is the steady cross-track error.
+    """
+    from mjtrack.control.tracking import B_MATRIX, error_matrix, placement_gains
+
+    A = error_matrix(v_d, w_d)
+    return np.linalg.inv(A - B_MATRIX @ placement_gains(v_d, w_d, poles))
+
+
+def trust_weight(psi, psi_cov, psi_nominal, v_d: float, w_d: float, *, poles=(-1.0, -2.0, -4.0),
+                 scale: float = TRUST_SCALE) -> float:
+    """Scalar weight λ in [0, 1] of the compensation ψ₀ + λ (ψ̂ − ψ₀) (derivation below).
+
+    With the truth ψ and the estimate ψ̂ = ψ + ε, ε ~ N(0, P), the steady cross-track error of
+    the compensated tracker is, to first order, E(λ) = (1 − λ) E₀ − λ gᵀε: E₀ the error without
+    compensation predicted with ψ̂ (row 2 of :func:`static_error_map` times
+    :func:`velocity_deviation`), g its sensitivity to the estimate's error. Its expected square
+    (1 − λ)² E₀² + λ² gᵀPg is smallest at λ = E₀² / (E₀² + gᵀPg) (P inflated by ``scale``²
+    for an over-confident filter). A blend along the whole correction never raises the
+    predicted error above none's ((1 − λ) |E₀| <= |E₀|); blending each component separately can
+    — with the centre of gravity behind, the yaw deficit (outwards) and the sideways drift
+    (inwards) partly cancel, and correcting the yaw alone leaves the drift (issue 14).
+    λ is evaluated at the reference's (v_d, w_d) with |w_d| floored at 0.1 rad/s (all δ scale
+    with w; the floor keeps λ defined on straight stretches, where it does not act).
+    """
+    v_d = max(abs(v_d), 0.05)
+    w_d = math.copysign(max(abs(w_d), 0.1), w_d if w_d != 0 else 1.0)
+    row = static_error_map(v_d, w_d, poles)[1]
+    psi = np.asarray(psi, float)
+    e0 = float(row @ velocity_deviation(psi_nominal, psi, w_d))
+    x_c = psi[0] / psi[2]
+    jac = (w_d / psi[2]) * np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, x_c], [0.0, 0.0, 1.0]])  # ∂δ/∂ψ_true at ψ̂
+    g = row @ jac
+    var = scale**2 * float(g @ np.asarray(psi_cov, float) @ g)
+    return e0 * e0 / (e0 * e0 + var) if e0 * e0 + var > 0 else 0.0
+
+
 class SlipCompensation:
     """Maps body commands to track speeds, with the chosen compensation (module docstring).
 
@@ -83,59 +147,108 @@ class SlipCompensation:
         mode: "none", "icr" or "vir".
         estimator: the online estimator (default: :class:`OnlineICREstimator` with its defaults
             and the prior std :data:`PSI_STD0`; unused for "none").
-        psi_z_min: smallest ψ_z [1/m] trusted (default 0.2 / T).
+        track_length: L [m] of the admissible-ICR box (|x_c| <= L/2; default T).
+        trust_scale: σ inflation of :func:`trust_weight` (0: use the estimate as it is, the
+            behaviour of the first version).
+        poles: the tracker's poles, for the predicted static error in :func:`trust_weight`.
         max_alpha: clip of the heading correction [rad].
+        estimator_input: "measured" (the estimator is fed the measured track speeds when
+            :meth:`observe` gets them, else the commands) or "command" (always the commands).
+        drift_free_point: mode "icr" only: the feedback acts on the drift-free point
+            (:meth:`control_pose`); False: on the centre (the first version, for ablation).
     """
 
     def __init__(self, track_gauge: float, mode: str = "icr", *, estimator: OnlineICREstimator | None = None,
-                 psi_z_min: float | None = None, max_alpha: float = 0.5) -> None:
+                 track_length: float | None = None, trust_scale: float = TRUST_SCALE, max_alpha: float = 0.5,
+                 estimator_input: str = "measured", drift_free_point: bool = True,
+                 poles=(-1.0, -2.0, -4.0)) -> None:
         if mode not in MODES:
             raise InputError(f"compensation must be one of {', '.join(MODES)}, got {mode!r}")
+        if estimator_input not in ("measured", "command"):
+            raise InputError(f"estimator_input must be 'measured' or 'command', got {estimator_input!r}")
         self.track_gauge = float(track_gauge)
+        self.track_length = self.track_gauge if track_length is None else float(track_length)
         self.mode = mode
         self.estimator = None if mode == "none" else (estimator or OnlineICREstimator(track_gauge, psi_std0=PSI_STD0))
-        self.psi_z_min = 0.2 / track_gauge if psi_z_min is None else float(psi_z_min)
+        self.psi_nominal = np.array([0.0, 0.0, 1.0 / self.track_gauge])
+        self.trust_scale = float(trust_scale)
         self.max_alpha = max_alpha
+        self.estimator_input = estimator_input
+        self.drift_free_point = bool(drift_free_point)
         self._started = False
         self._warned = False
-        self.history: list[tuple[float, float, float, float]] = []  # (t, y_l, y_r, x_c)
+        self._applied = self.psi_nominal.copy()
+        self.poles = tuple(poles)
+        self.weight = 0.0
+        self._last_command = (0.0, 0.0)
+        self.history: list[tuple[float, float, float, float]] = []  # (t, y_l, y_r, x_c) of the estimate
+        self.applied_history: list[tuple[float, float, float, float]] = []  # (t, y_l, y_r, x_c) applied
+        self.weight_history: list[tuple[float, float]] = []  # (t, λ)
 
-    def observe(self, t: float, u_prev, pose, twist) -> None:
-        """Feed one measurement (pose, twist at t; u_prev the track speeds held before t)."""
+    def observe(self, t: float, u_prev, pose, twist, track_speed=None) -> None:
+        """Feed one measurement: pose, twist at t; u_prev the track speeds commanded before t;
+        track_speed the measured track speeds at t (encoders), fed to the estimator in place of
+        the command when given (mode "measured"), so that the drive's lag is not read as slip."""
         if self.estimator is None:
             return
         if not self._started:
             self.estimator.reset(t, pose)
             self._started = True
         else:
-            self.estimator.step(t, float(u_prev[0]), float(u_prev[1]), pose=pose, twist=twist)
+            u = u_prev if (track_speed is None or self.estimator_input == "command") else track_speed
+            self.estimator.step(t, float(u[0]), float(u[1]), pose=pose, twist=twist)
+        self._applied = self._trusted_psi()
         self.history.append((t, *self.estimator.icr()))
+        self.weight_history.append((t, self.weight))
+        self.applied_history.append((t, *map(float, icr_from_psi(self._applied))))
 
-    def _psi(self) -> np.ndarray | None:
-        if self.estimator is None or not self._started:
-            return None
+    def admissible(self, psi) -> bool:
+        """Whether ψ describes physically possible ICRs (:data:`SPACING_RANGE`, |ȳ| <= T/2, |x_c| <= L/2)."""
+        if not (np.all(np.isfinite(psi)) and psi[2] > 0):
+            return False
+        spacing, ybar, x_c = 1.0 / psi[2], psi[1] / psi[2], psi[0] / psi[2]
+        lo, hi = SPACING_RANGE
+        return (lo * self.track_gauge <= spacing <= hi * self.track_gauge and abs(ybar) <= 0.5 * self.track_gauge
+                and abs(x_c) <= 0.5 * self.track_length)
+
+    def _trusted_psi(self) -> np.ndarray:
         psi = self.estimator.psi
-        if not (np.all(np.isfinite(psi)) and psi[2] >= self.psi_z_min):
+        if not self.admissible(psi):
             if not self._warned:
-                log.info("slip compensation: estimate psi = %s not trusted (psi_z < %.3g); nominal map used", psi, self.psi_z_min)
+                log.info("slip compensation: estimate psi = %s outside the admissible ICRs; nominal map used", psi)
                 self._warned = True
-            return None
-        return psi
+            self.weight = 0.0
+            return self.psi_nominal.copy()
+        v, w = self._last_command
+        self.weight = trust_weight(psi, self.estimator.psi_cov, self.psi_nominal, v, w, poles=self.poles,
+                                   scale=self.trust_scale)
+        return self.psi_nominal + self.weight * (psi - self.psi_nominal)
+
+    @property
+    def psi_applied(self) -> np.ndarray:
+        """The ψ the maps use now: nominal for "none" and before the first estimate."""
+        return self._applied.copy()
 
     def track_speeds(self, v: float, w: float) -> np.ndarray:
         """(V_L, V_R) [m/s] for the body command (v, w)."""
-        psi = self._psi()
-        if psi is None:
-            half = 0.5 * self.track_gauge * w
-            return np.array([v - half, v + half])
-        return track_speeds_from_psi(v, w, psi)
+        self._last_command = (float(v), float(w))
+        return track_speeds_from_psi(v, w, self._applied)
+
+    def control_pose(self, pose) -> np.ndarray:
+        """The pose the feedback acts on. Mode "icr": the point (x_c, 0) of the body on the line
+        of the ICRs, whose velocity under the inverse-MICR map is (v, 0) — no sideways drift,
+        a unicycle for the tracker; otherwise the geometric centre."""
+        pose = np.asarray(pose, float)
+        if self.mode != "icr" or not self.drift_free_point:
+            return pose
+        x_c = self._applied[0] / self._applied[2]
+        return np.array([pose[0] + x_c * math.cos(pose[2]), pose[1] + x_c * math.sin(pose[2]), pose[2]])
 
     def heading_offset(self, v: float, w: float) -> float:
         """(2.21) α [rad] for the reference speeds (0 unless mode "vir")."""
-        psi = self._psi()
-        if self.mode != "vir" or psi is None:
+        if self.mode != "vir":
             return 0.0
-        return heading_correction(psi[0] / psi[2], v, w, max_alpha=self.max_alpha)
+        return heading_correction(self._applied[0] / self._applied[2], v, w, max_alpha=self.max_alpha)
 
 
 @dataclass(frozen=True)
@@ -169,13 +282,16 @@ TRACK_SCENARIOS: dict[str, dict] = {
                      "text": "lemniscate of Gerono, A = 1.5 m (tip radius 1.5 m), 2 laps at 0.5 m/s"},
     "circle": {"path": "circle", "size": 1.0, "laps": 1.5, "speed": 0.5,
                "text": "circle of radius 1 m, 1.5 turns CCW at 0.5 m/s"},
+    "lane_change": {"path": "lane_change", "size": 1.0, "laps": 1.0, "speed": 0.5,
+                    "text": "1.5 m straight, 1 m shift to the left over 3 m (continuous curvature, peak 0.70 1/m), "
+                            "1.5 m straight, at 0.5 m/s"},
 }
 
 
 def scenario_reference(name: str, *, speed: float | None = None, laps: float | None = None) -> Reference:
     """The :class:`Reference` of a tracking scenario (:data:`TRACK_SCENARIOS`)."""
     from mjtrack.control.feedforward import ConstantSpeedProfile
-    from mjtrack.control.paths import circle_path, figure_eight_path
+    from mjtrack.control.paths import circle_path, figure_eight_path, lane_change_path
 
     if name not in TRACK_SCENARIOS:
         raise InputError(f"unknown tracking scenario {name!r}; choose one of {', '.join(TRACK_SCENARIOS)}")
@@ -186,6 +302,8 @@ def scenario_reference(name: str, *, speed: float | None = None, laps: float | N
         raise InputError(f"tracking scenario: laps and speed must be positive, got {laps}, {speed}")
     if sc["path"] == "figure_eight":
         path = figure_eight_path(size=sc["size"], laps=laps)
+    elif sc["path"] == "lane_change":  # laps scale the manoeuvre's length (a longer, gentler shift)
+        path = lane_change_path(shift=sc["size"], length=3.0 * laps)
     else:
         path = circle_path(radius=sc["size"], turns=laps)
     return Reference(path, ConstantSpeedProfile(path.length, speed))
@@ -195,7 +313,8 @@ def cross_track_errors(reference: Reference, positions: np.ndarray, *, t=None, w
                        spacing_m: float = 1e-3) -> np.ndarray:
     """(N,) distance [m] of each position (N, 2+) to the reference path.
 
-    The path is sampled every ``spacing_m`` of arc length (distance error <= spacing²/(8 R)).
+    The path is sampled every ``spacing_m`` of arc length (distance error <= spacing²/(8 R)) and
+    continued along its end tangents for ``window_m`` beyond both ends.
     Without ``t``: the nearest point of the whole path. With ``t`` (N,) [s]: the nearest point
     whose arc length is within ``window_m`` of the reference's s(t) — on a self-crossing path
     (figure-eight) the other branch near the crossing is then not mistaken for the path being
@@ -206,6 +325,15 @@ def cross_track_errors(reference: Reference, positions: np.ndarray, *, t=None, w
     path = reference.path
     s = np.linspace(0.0, path.length, max(2, int(math.ceil(path.length / spacing_m)) + 1))
     pts = path.point(path.u_at(s))
+    # Both ends continue along their tangents for window_m: a robot a little past the end of an
+    # open path (or short of its start) is measured sideways, not by its along-track distance
+    # to the end point.
+    ext = np.arange(1, int(math.ceil(window_m / spacing_m)) + 1) * spacing_m
+    h0, h1 = float(path.heading(path.u_start)), float(path.heading(path.u_end))
+    pre = pts[0] - ext[::-1, None] * np.array([math.cos(h0), math.sin(h0)])
+    post = pts[-1] + ext[:, None] * np.array([math.cos(h1), math.sin(h1)])
+    pts = np.concatenate([pre, pts, post])
+    s = np.concatenate([-ext[::-1], s, path.length + ext])
     xy = np.asarray(positions, float)[:, :2]
     if t is None:
         return cKDTree(pts).query(xy)[0]
@@ -234,6 +362,7 @@ class TrackingResult:
     metrics: dict
     icr_history: np.ndarray
     settings: dict
+    applied_icr_history: np.ndarray | None = None
 
 
 def run_tracking(
@@ -248,8 +377,10 @@ def run_tracking(
     laps: float | None = None,
     pose_noise=(0.01, 0.01, 0.01),
     twist_noise=(0.02, 0.02, 0.02),
+    track_speed_noise: float = 0.01,
     seed: int = 0,
     config=None,
+    compensation_options: dict | None = None,
 ) -> TrackingResult:
     """Track a scenario's reference with the MuJoCo robot (:mod:`mjtrack.control.mujoco_plant`).
 
@@ -271,19 +402,21 @@ def run_tracking(
     if controller not in ("tracker", "feedforward"):
         raise InputError(f"controller must be 'tracker' or 'feedforward', got {controller!r}")
     reference = scenario_reference(scenario, speed=speed, laps=laps)
-    comp = SlipCompensation(robot.track_gauge, compensation)
+    comp = SlipCompensation(robot.track_gauge, compensation, track_length=robot.track_length, poles=poles,
+                            **(compensation_options or {}))
     ref = CorrectedReference(reference, comp)
     ctrl = TrajectoryTracker(ref, poles=poles) if controller == "tracker" else FeedForward(ref)
     ctrl.reset()
 
-    def policy(t, pose, twist, u_prev):
-        comp.observe(t, u_prev, pose, twist)
-        v, w = ctrl.command(t, pose, twist)
+    def policy(t, pose, twist, u_prev, track_speed):
+        comp.observe(t, u_prev, pose, twist, track_speed)
+        v, w = ctrl.command(t, comp.control_pose(pose), twist)
         return comp.track_speeds(v, w)
 
     duration = reference.duration
     loop = run_mujoco_loop(robot, policy, duration, control_dt=control_dt, pose0=reference.start_pose(), config=config,
-                           pose_noise=tuple(pose_noise), twist_noise=tuple(twist_noise), seed=seed)
+                           pose_noise=tuple(pose_noise), twist_noise=tuple(twist_noise),
+                           track_speed_noise=track_speed_noise, seed=seed)
     ct = cross_track_errors(reference, loop.poses, t=loop.t)
     end = reference.at(duration).pose
     metrics = {
@@ -291,9 +424,13 @@ def run_tracking(
         "max_cross_track_m": float(np.max(ct)),
         "final_pos_err_m": float(math.hypot(loop.poses[-1, 0] - end[0], loop.poses[-1, 1] - end[1])),
     }
+    if comp.weight_history:
+        metrics["mean_trust_weight"] = float(np.mean([wgt for _, wgt in comp.weight_history]))
     hist = np.array(comp.history, float).reshape(-1, 4)
+    applied = np.array(comp.applied_history, float).reshape(-1, 4)
     settings = {"scenario": scenario, "compensation": compensation, "controller": controller,
                 "poles": [float(p) for p in poles], "control_dt": control_dt, "duration_s": duration,
                 "speed_m_s": reference.profile.speed_value, "path_length_m": reference.path.length,
-                "pose_noise": list(pose_noise), "twist_noise": list(twist_noise), "seed": seed}
-    return TrackingResult(loop, reference, metrics, hist, settings)
+                "pose_noise": list(pose_noise), "twist_noise": list(twist_noise),
+                "track_speed_noise": track_speed_noise, "seed": seed, "compensation_options": dict(compensation_options or {})}
+    return TrackingResult(loop, reference, metrics, hist, settings, applied)

@@ -4,9 +4,10 @@
 settle at rest (:func:`mjtrack.sim.rollout.settled_state`) and then, every ``control_dt``:
 
 1. reads the sensors: pose of the ``centre`` site (x, y, heading) and the body twist
-   (velocimeter / gyro, chassis frame), the same columns as a drive log
-   (:func:`mjtrack.sim.rollout.log_columns`); optionally adds seeded Gaussian noise;
-2. calls ``policy(t, pose, twist, u_prev)`` for the track speeds (V_L, V_R) [m/s] (a controller
+   (velocimeter / gyro, chassis frame) and the track speeds (encoders: sprocket speed × radius),
+   the same columns as a drive log (:func:`mjtrack.sim.rollout.log_columns`); optionally adds
+   seeded Gaussian noise;
+2. calls ``policy(t, pose, twist, u_prev, track_speed)`` for the track speeds (V_L, V_R) [m/s] (a controller
    with an adapter or a slip compensation, :mod:`mjtrack.control.compensation`);
 3. holds them (zero-order hold, through :func:`mjtrack.sim.builder.control_matrix`) for
    ``round(control_dt / timestep)`` ``mujoco.mj_step`` calls.
@@ -40,7 +41,7 @@ from mjtrack.sim.rollout import STATE_SPEC, SensorMap, settled_state, yaw_of
 
 log = logging.getLogger(__name__)
 
-Policy = Callable[[float, np.ndarray, np.ndarray, np.ndarray], "tuple[float, float] | np.ndarray"]
+Policy = Callable[[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray], "tuple[float, float] | np.ndarray"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,15 +137,19 @@ def run_mujoco_loop(
     config: SimConfig | None = None,
     pose_noise: tuple[float, float, float] = (0.0, 0.0, 0.0),
     twist_noise: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    track_speed_noise: float = 0.0,
     seed: int = 0,
 ) -> MujocoLoopResult:
     """Drive the MuJoCo robot with ``policy`` for ``duration`` [s] (module docstring).
 
     Args:
-        policy: ``policy(t, pose, twist, u_prev) -> (V_L, V_R)`` [m/s].
+        policy: ``policy(t, pose, twist, u_prev, track_speed) -> (V_L, V_R)`` [m/s]; ``track_speed``
+            is the measured (V_L, V_R) at t.
         control_dt: control period [s], a multiple of the simulation time step.
         pose0: start pose in the reported frame.
-        pose_noise, twist_noise: std of seeded Gaussian noise on what the policy sees.
+        pose_noise, twist_noise, track_speed_noise: std of seeded Gaussian noise on what the
+            policy sees (track speeds: both tracks; drawn after pose and twist, so a run without
+            it sees the same pose and twist noise as before).
     Returns:
         :class:`MujocoLoopResult` with N = round(duration / control_dt) + 1 samples.
     """
@@ -163,7 +168,8 @@ def run_mujoco_loop(
         mt = twist + rng.normal(size=3) * np.asarray(twist_noise)
         rows["poses"][k], rows["twists"][k], rows["measured_poses"][k], rows["measured_twists"][k] = pose, twist, mp, mt
         speed[k] = plant.track_speeds()
-        u = np.asarray(policy(t, mp, mt, u_prev.copy()), float).reshape(2)
+        ms = speed[k] + (rng.normal(size=2) * track_speed_noise if track_speed_noise else 0.0)
+        u = np.asarray(policy(t, mp, mt, u_prev.copy(), ms), float).reshape(2)
         if not np.all(np.isfinite(u)):
             raise MjtrackError(f"run_mujoco_loop: the policy returned non-finite track speeds {u} at t = {t:g} s")
         cmd[k] = u
@@ -173,4 +179,5 @@ def run_mujoco_loop(
     return MujocoLoopResult(np.arange(n + 1) * control_dt, rows["poses"], rows["twists"], rows["measured_poses"],
                             rows["measured_twists"], cmd, speed,
                             info={"control_dt": control_dt, "timestep": float(plant.model.opt.timestep),
-                                  "pose_noise": list(pose_noise), "twist_noise": list(twist_noise), "seed": seed})
+                                  "pose_noise": list(pose_noise), "twist_noise": list(twist_noise),
+                                  "track_speed_noise": track_speed_noise, "seed": seed})

@@ -118,6 +118,32 @@ def figure_eight_path(*, size: float = 1.0, centre=(0.0, 0.0), laps: float = 1.0
     )
 
 
+def lane_change_path(*, shift: float = 1.0, length: float = 3.0, lead_in: float = 1.5, lead_out: float = 1.5,
+                     start=(0.0, 0.0)) -> ParametricPath:
+    """Straight ``lead_in`` [m], a lateral shift of ``shift`` [m] (left if positive) over ``length`` [m]
+    of travel along x, straight ``lead_out`` [m]; heading 0 at both ends.
+
+    Shift profile y = h (σ − sin(2π σ)/(2π)), σ = (x − lead_in)/length in [0, 1]: y' = (h/ℓ)(1 − cos 2πσ)
+    and y'' = (2π h/ℓ²) sin 2πσ vanish at both ends, so the curvature is continuous (no step in
+    the yaw-rate command, unlike a cosine blend); it turns left then right (or the reverse for a
+    negative shift), peak curvature ≈ 2π h/ℓ² (0.70 1/m for h = 1 m, ℓ = 3 m) at σ = 1/4, 3/4.
+    """
+    if not (length > 0 and lead_in >= 0 and lead_out >= 0):
+        raise InputError(f"lane_change_path: need length > 0, lead_in and lead_out >= 0, got {length}, {lead_in}, {lead_out}")
+    x0, y0 = start
+    h, ell, two_pi = float(shift), float(length), 2 * math.pi
+
+    def sig(u):
+        return np.clip((np.asarray(u, float) - x0 - lead_in) / ell, 0.0, 1.0)
+
+    return ParametricPath(
+        lambda u: np.asarray(u, float), lambda u: y0 + h * (sig(u) - np.sin(two_pi * sig(u)) / two_pi),
+        lambda u: np.ones_like(np.asarray(u, float)), lambda u: h / ell * (1 - np.cos(two_pi * sig(u))),
+        lambda u: np.zeros_like(np.asarray(u, float)), lambda u: two_pi * h / ell**2 * np.sin(two_pi * sig(u)),
+        u_start=x0, u_end=x0 + lead_in + ell + lead_out,
+    )
+
+
 @dataclass(frozen=True)
 class Polyline:
     """A line on the floor: (N, 2) vertices [m], N >= 2, no zero-length segment."""
