@@ -41,7 +41,7 @@ import numpy as np
 
 from mjtrack.control.feedforward import Reference, ReferenceState
 from mjtrack.errors import InputError
-from mjtrack.estimation.icr_ekf import icr_from_psi
+from mjtrack.estimation.icr_ekf import InverseICR, icr_from_psi
 from mjtrack.estimation.online import OnlineICREstimator
 
 log = logging.getLogger(__name__)
@@ -53,11 +53,14 @@ MODES = ("none", "icr", "vir")
 PSI_STD0 = (0.2, 0.2, 0.5)
 # Inflation of the estimator's psi std in the trust weight: the pose-fed ICR EKF is
 # over-confident on MuJoCo data (parameter NEES 22.6 for 3 states, issue 14: sqrt(22.6/3) = 2.7).
-TRUST_SCALE = 3.0
+TRUST_SCALE = 1.0
 # Physically admissible ICRs of a tracked robot, in units of the gauge T and the track length L:
 # T <= y_l - y_r (slip only moves the track ICRs outwards; 0.8 T leaves room for estimator noise),
 # y_l - y_r <= 4 T, |ybar| <= T/2, |x_c| <= L/2. An estimate outside is not used at all.
 SPACING_RANGE = (0.8, 4.0)
+# Time constant [s] of the running means of the twist residuals (module docstring, "trust").
+FIT_TAU = 1.0
+WEIGHT_RISE_TAUS = 2.0
 
 
 def inverse_micr(v: float, w: float, y_l: float, y_r: float) -> np.ndarray:
@@ -156,11 +159,13 @@ class SlipCompensation:
             :meth:`observe` gets them, else the commands) or "command" (always the commands).
         drift_free_point: mode "icr" only: the feedback acts on the drift-free point
             (:meth:`control_pose`); False: on the centre (the first version, for ablation).
+        split_feedback: the feedback's correction goes through the nominal map
+            (:meth:`track_speeds`); False: the whole command through the compensated one.
     """
 
     def __init__(self, track_gauge: float, mode: str = "icr", *, estimator: OnlineICREstimator | None = None,
                  track_length: float | None = None, trust_scale: float = TRUST_SCALE, max_alpha: float = 0.5,
-                 estimator_input: str = "measured", drift_free_point: bool = True,
+                 estimator_input: str = "measured", drift_free_point: bool = True, split_feedback: bool = True,
                  poles=(-1.0, -2.0, -4.0)) -> None:
         if mode not in MODES:
             raise InputError(f"compensation must be one of {', '.join(MODES)}, got {mode!r}")
@@ -175,11 +180,15 @@ class SlipCompensation:
         self.max_alpha = max_alpha
         self.estimator_input = estimator_input
         self.drift_free_point = bool(drift_free_point)
+        self.split_feedback = bool(split_feedback)
         self._started = False
         self._warned = False
         self._applied = self.psi_nominal.copy()
         self.poles = tuple(poles)
         self.weight = 0.0
+        self.nis_mean = 1.0
+        self._fit_est = self._fit_nom = 0.0
+        self._t_weight: float | None = None
         self._last_command = (0.0, 0.0)
         self.history: list[tuple[float, float, float, float]] = []  # (t, y_l, y_r, x_c) of the estimate
         self.applied_history: list[tuple[float, float, float, float]] = []  # (t, y_l, y_r, x_c) applied
@@ -196,11 +205,39 @@ class SlipCompensation:
             self._started = True
         else:
             u = u_prev if (track_speed is None or self.estimator_input == "command") else track_speed
+            if twist is not None:
+                self._track_consistency(t - self.estimator.t, u, twist)
             self.estimator.step(t, float(u[0]), float(u[1]), pose=pose, twist=twist)
         self._applied = self._trusted_psi()
         self.history.append((t, *self.estimator.icr()))
         self.weight_history.append((t, self.weight))
         self.applied_history.append((t, *map(float, icr_from_psi(self._applied))))
+
+    def _track_consistency(self, dt: float, u, twist) -> None:
+        """Running means (time constant :data:`FIT_TAU`) of the twist residuals of the estimate
+        and of the nominal map, and of the estimate's NIS per dof (module docstring)."""
+        twist = np.asarray(twist, float)
+        if not np.all(np.isfinite(twist)):
+            return
+        r_std2 = np.asarray(self.estimator.twist_std, float) ** 2
+        est, nom = InverseICR(*self.estimator.psi), InverseICR(*self.psi_nominal)
+        vl, vr = float(u[0]), float(u[1])
+        r = twist - est.twist(vl, vr)
+        r0 = twist - nom.twist(vl, vr)
+        J = est.twist_jacobian(vl, vr)
+        S = J @ self.estimator.psi_cov @ J.T + np.diag(r_std2)
+        a = min(1.0, dt / FIT_TAU)
+        self.nis_mean += a * (float(r @ np.linalg.solve(S, r)) / 3.0 - self.nis_mean)
+        self._fit_est += a * (float(np.sum(r * r / r_std2)) - self._fit_est)
+        self._fit_nom += a * (float(np.sum(r0 * r0 / r_std2)) - self._fit_nom)
+
+    @property
+    def explained(self) -> float:
+        """κ = 1 − (residual of the estimate)/(residual of the nominal map), clipped to [0, 1]:
+        the share of the nominal map's twist misfit that the estimate explains (recent FIT_TAU)."""
+        if not self._fit_nom > 0:
+            return 0.0
+        return float(np.clip(1.0 - self._fit_est / self._fit_nom, 0.0, 1.0))
 
     def admissible(self, psi) -> bool:
         """Whether ψ describes physically possible ICRs (:data:`SPACING_RANGE`, |ȳ| <= T/2, |x_c| <= L/2)."""
@@ -217,11 +254,17 @@ class SlipCompensation:
             if not self._warned:
                 log.info("slip compensation: estimate psi = %s outside the admissible ICRs; nominal map used", psi)
                 self._warned = True
-            self.weight = 0.0
+            self.weight, self._t_weight = 0.0, self.estimator.t
             return self.psi_nominal.copy()
         v, w = self._last_command
-        self.weight = trust_weight(psi, self.estimator.psi_cov, self.psi_nominal, v, w, poles=self.poles,
-                                   scale=self.trust_scale)
+        scale = self.trust_scale * math.sqrt(max(1.0, self.nis_mean))
+        lam = self.explained * trust_weight(psi, self.estimator.psi_cov, self.psi_nominal, v, w,
+                                            poles=self.poles, scale=scale)
+        # the weight falls at once but rises no faster than the evidence for it accumulates
+        # (the residual means lag by FIT_TAU): at most 1/(WEIGHT_RISE_TAUS · FIT_TAU) per second
+        dt = self.estimator.t - self._t_weight if self._t_weight is not None else 0.0
+        self._t_weight = self.estimator.t
+        self.weight = min(lam, self.weight + dt / (WEIGHT_RISE_TAUS * FIT_TAU))
         return self.psi_nominal + self.weight * (psi - self.psi_nominal)
 
     @property
@@ -229,10 +272,18 @@ class SlipCompensation:
         """The ψ the maps use now: nominal for "none" and before the first estimate."""
         return self._applied.copy()
 
-    def track_speeds(self, v: float, w: float) -> np.ndarray:
-        """(V_L, V_R) [m/s] for the body command (v, w)."""
-        self._last_command = (float(v), float(w))
-        return track_speeds_from_psi(v, w, self._applied)
+    def track_speeds(self, v: float, w: float, feedforward: tuple[float, float] | None = None) -> np.ndarray:
+        """(V_L, V_R) [m/s] for the body command (v, w).
+
+        With ``feedforward`` = (v_d, w_d), the part of the command (v, w) that comes from the
+        reference: only it goes through the compensated map, the feedback's correction
+        (v − v_d, w − w_d) through the nominal one (``split_feedback``, module docstring).
+        """
+        self._last_command = (float(v), float(w)) if feedforward is None else tuple(map(float, feedforward))
+        if feedforward is None or not self.split_feedback:
+            return track_speeds_from_psi(v, w, self._applied)
+        v_d, w_d = feedforward
+        return track_speeds_from_psi(v_d, w_d, self._applied) + track_speeds_from_psi(v - v_d, w - w_d, self.psi_nominal)
 
     def control_pose(self, pose) -> np.ndarray:
         """The pose the feedback acts on. Mode "icr": the point (x_c, 0) of the body on the line
@@ -411,7 +462,8 @@ def run_tracking(
     def policy(t, pose, twist, u_prev, track_speed):
         comp.observe(t, u_prev, pose, twist, track_speed)
         v, w = ctrl.command(t, comp.control_pose(pose), twist)
-        return comp.track_speeds(v, w)
+        r = ref.at(t)
+        return comp.track_speeds(v, w, feedforward=(r.v, r.w))
 
     duration = reference.duration
     loop = run_mujoco_loop(robot, policy, duration, control_dt=control_dt, pose0=reference.start_pose(), config=config,
