@@ -1,4 +1,5 @@
-"""Decorations drawn into a rendered scene: ground grid, path trail, point markers, camera framing.
+"""Decorations drawn into a rendered scene: ground grid, path trail, point markers, camera framing,
+track belts with moving grousers.
 
 All of them assume flat ground at z = 0 (the floor of :func:`mjtrack.sim.builder.add_scene`)
 and are drawn a few millimetres above it so that they do not z-fight with the plane.
@@ -7,6 +8,7 @@ and are drawn a few millimetres above it so that they do not z-fight with the pl
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -64,11 +66,17 @@ def draw_markers(renderer: OffscreenRenderer, points: np.ndarray, origin, *, rad
         renderer.add_connector(_LINE, 1.0, (origin[0], origin[1], z_line), (p[0], p[1], z_line), rgba)
 
 
-def subtree_radius(model: mujoco.MjModel, data: mujoco.MjData, body_id: int) -> float:
-    """Radius [m] of a sphere about the body's origin holding every non-plane geom of its subtree."""
+def _in_subtree(model: mujoco.MjModel, body_id: int) -> np.ndarray:
+    """(nbody,) bool: the body and its descendants."""
     in_subtree = np.zeros(model.nbody, dtype=bool)
     for b in range(model.nbody):  # parents precede children in MuJoCo's body order
         in_subtree[b] = b == body_id or (b > 0 and in_subtree[model.body_parentid[b]])
+    return in_subtree
+
+
+def subtree_radius(model: mujoco.MjModel, data: mujoco.MjData, body_id: int) -> float:
+    """Radius [m] of a sphere about the body's origin holding every non-plane geom of its subtree."""
+    in_subtree = _in_subtree(model, body_id)
     radius = 0.0
     for g in range(model.ngeom):
         if in_subtree[model.geom_bodyid[g]] and model.geom_type[g] != mujoco.mjtGeom.mjGEOM_PLANE:
@@ -109,3 +117,155 @@ def icr_markers(poses: np.ndarray, icr) -> np.ndarray:
     body = np.stack([np.stack([x_c, np.asarray(y, dtype=float)], axis=-1)
                      for y in (icr.y_l, icr.y_r, icr.y_c)], axis=1)
     return body_to_world_points(poses, body)
+
+
+# --- track belts -----------------------------------------------------------------------------
+
+BELT_RGBA = (0.12, 0.12, 0.13, 1.0)
+GROUSER_RGBA = (0.95, 0.75, 0.1, 1.0)
+FRAME_RGBA = (0.28, 0.29, 0.31, 1.0)
+WHEEL_RGBA = (0.55, 0.55, 0.58, 1.0)
+_BOX = mujoco.mjtGeom.mjGEOM_BOX
+_CYLINDER = mujoco.mjtGeom.mjGEOM_CYLINDER
+_WHEEL_AXES = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # local z (the axle) along body y
+
+
+@dataclass(frozen=True)
+class BeltGeometry:
+    """One track belt in the frame of the body that carries it: a stadium in the x-z plane.
+
+    The belt runs along the bottom from the front (x_front) to the rear (x_rear) at height
+    ``z_bottom``, round a rear arc of radius ``radius``, forwards along the top and round the
+    front arc; material moves in that sense at the track speed, so that its bottom run is still
+    on the ground when the robot drives forwards without slip. Arc length s is measured from
+    the front end of the bottom run; perimeter 2 (x_front − x_rear) + 2 π radius.
+    """
+
+    y: float
+    x_front: float
+    x_rear: float
+    z_bottom: float
+    radius: float
+    width: float
+    thickness: float = 0.008
+    grouser_pitch: float = 0.05
+
+    @property
+    def straight(self) -> float:
+        return self.x_front - self.x_rear
+
+    @property
+    def perimeter(self) -> float:
+        return 2 * self.straight + 2 * math.pi * self.radius
+
+    def point(self, s) -> tuple[np.ndarray, np.ndarray]:
+        """Body-frame points (K, 3) of the belt's centre line at arc lengths ``s`` (K,) and unit tangents (K, 3)."""
+        s = np.mod(np.asarray(s, float), self.perimeter)
+        a, r, zc = self.straight, self.radius, self.z_bottom + self.radius
+        half = math.pi * r
+        p, tng = np.zeros((len(s), 3)), np.zeros((len(s), 3))
+        p[:, 1] = self.y
+        bottom, rear, top = s < a, (s >= a) & (s < a + half), (s >= a + half) & (s < 2 * a + half)
+        front = s >= 2 * a + half
+        p[bottom, 0], p[bottom, 2], tng[bottom, 0] = self.x_front - s[bottom], self.z_bottom, -1.0
+        phi = (s[rear] - a) / r  # 0 at the bottom, pi at the top, round the rear centre
+        p[rear, 0], p[rear, 2] = self.x_rear - r * np.sin(phi), zc - r * np.cos(phi)
+        tng[rear, 0], tng[rear, 2] = -np.cos(phi), np.sin(phi)
+        p[top, 0], p[top, 2], tng[top, 0] = self.x_rear + (s[top] - a - half), zc + r, 1.0
+        phi = (s[front] - 2 * a - half) / r  # 0 at the top, pi at the bottom, round the front centre
+        p[front, 0], p[front, 2] = self.x_front + r * np.sin(phi), zc + r * np.cos(phi)
+        tng[front, 0], tng[front, 2] = np.cos(phi), -np.sin(phi)
+        return p, tng
+
+
+def roller_geoms(model: mujoco.MjModel, body_id: int) -> list[int]:
+    """Sphere geoms of the bodies below ``body_id``: the rollers that :func:`belt_geometry` wraps."""
+    in_subtree = _in_subtree(model, body_id)
+    return [g for g in range(model.ngeom)
+            if in_subtree[model.geom_bodyid[g]] and model.geom_bodyid[g] != body_id
+            and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_SPHERE]
+
+
+def belt_geometry(model: mujoco.MjModel, body_id: int, *, width: float | None = None,
+                  radius: float | None = None) -> list[BeltGeometry]:
+    """Belts (left, right) wrapped round the sphere geoms (rollers) of ``body_id``'s subtree, one per
+    side of the body's x-z plane, at the model's reference configuration ``qpos0``.
+
+    ``radius``: the belt's end radius (default: half the height from the rollers' bottoms to
+    their tops, at least the roller radius); ``width``: default the roller diameter. Empty
+    when the subtree has no sphere geoms on both sides.
+    """
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    rot = data.xmat[body_id].reshape(3, 3)
+    spheres = roller_geoms(model, body_id)
+    if not spheres:
+        return []
+    local = np.array([rot.T @ (data.geom_xpos[g] - data.xpos[body_id]) for g in spheres])
+    r = model.geom_size[spheres, 0]
+    belts = []
+    for side in (1.0, -1.0):  # left (+y) first
+        sel = np.sign(local[:, 1]) == side
+        if not np.any(sel):
+            return []
+        x, z, rs = local[sel, 0], local[sel, 2], r[sel]
+        lo, hi = float(np.min(z - rs)), float(np.max(z + rs))
+        rad = radius if radius is not None else max(0.5 * (hi - lo), float(np.max(rs)))
+        x_lo, x_hi = float(np.min(x - rs)) + rad, float(np.max(x + rs)) - rad
+        if x_hi <= x_lo:
+            x_lo = x_hi = 0.5 * (x_lo + x_hi)
+        belts.append(BeltGeometry(y=float(np.mean(local[sel, 1])), x_front=x_hi, x_rear=x_lo, z_bottom=lo,
+                                  radius=rad, width=width if width is not None else 2 * float(np.max(rs))))
+    return belts
+
+
+def _frame(tangent: np.ndarray) -> np.ndarray:
+    """Body-frame rotation (3, 3) with columns tangent, lateral (0, 1, 0), outward normal."""
+    t = tangent / np.linalg.norm(tangent)
+    return np.column_stack([t, [0.0, 1.0, 0.0], [-t[2], 0.0, t[0]]])
+
+
+def draw_belt(renderer: OffscreenRenderer, belt: BeltGeometry, xpos, xmat, travel: float, *,
+              arc_segments: int = 10) -> None:
+    """Draw ``belt`` on the body at (xpos (3,), xmat (9,)): the band as boxes along its outline
+    and grousers every ``grouser_pitch`` whose positions advance with the belt's ``travel`` [m]
+    (∫ track speed dt), so the belt is seen to move."""
+    rot = np.asarray(xmat, float).reshape(3, 3)
+    pos = np.asarray(xpos, float)
+    a, r = belt.straight, belt.radius
+    half = math.pi * r
+    # band: the two straight runs, and each arc in arc_segments chords
+    pieces = [(0.5 * a, a), (a + half + 0.5 * a, a)]
+    step = half / arc_segments
+    chord = 2 * r * math.sin(0.5 * step / r) if r > 0 else step
+    for start in (a, 2 * a + half):
+        pieces += [(start + (i + 0.5) * step, chord) for i in range(arc_segments)]
+    s_mid = np.array([p[0] for p in pieces])
+    pts, tng = belt.point(s_mid)
+    for (s, length), p, t in zip(pieces, pts, tng):
+        if length <= 0:
+            continue
+        if r > 0 and (a <= s < a + half or s >= 2 * a + half):  # the chord lies inside the arc
+            p = p + (1 - math.cos(0.5 * step / r)) * r * _frame(t)[:, 2] * -1
+        mat = rot @ _frame(t)
+        size = (0.5 * length + 0.002, 0.5 * belt.width, 0.5 * belt.thickness)
+        if not renderer.add_geom(_BOX, size, pos + rot @ p, BELT_RGBA, mat=mat):
+            return
+    # the track's side frame between the runs and a wheel (sprocket / idler) in each end arc
+    centre = np.array([0.5 * (belt.x_front + belt.x_rear), belt.y, belt.z_bottom + r])
+    renderer.add_geom(_BOX, (0.5 * a, 0.45 * belt.width, 0.8 * r), pos + rot @ centre, FRAME_RGBA, mat=rot)
+    axle = rot @ _WHEEL_AXES
+    for x in (belt.x_front, belt.x_rear):
+        renderer.add_geom(_CYLINDER, (0.85 * r, 0.47 * belt.width, 0.0), pos + rot @ np.array([x, belt.y, belt.z_bottom + r]),
+                          WHEEL_RGBA, mat=axle)
+    n = max(1, int(round(belt.perimeter / belt.grouser_pitch)))
+    pitch = belt.perimeter / n  # a whole number of grousers: the pattern closes on itself
+    s = np.arange(n) * pitch + travel
+    pts, tng = belt.point(s)
+    h = 1.5 * belt.thickness
+    for p, t in zip(pts, tng):
+        fr = _frame(t)
+        centre = p + fr[:, 2] * (0.5 * belt.thickness + 0.5 * h)
+        if not renderer.add_geom(_BOX, (0.15 * pitch, 0.5 * belt.width, 0.5 * h), pos + rot @ centre,
+                                 GROUSER_RGBA, mat=rot @ fr):
+            return

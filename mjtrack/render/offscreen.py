@@ -89,10 +89,17 @@ class OffscreenRenderer:
         mujoco.mjv_connector(geom, int(gtype), float(width), np.asarray(start, float), np.asarray(end, float))
         return True
 
-    def render(self) -> np.ndarray:
-        """The current scene as a new (height, width, 3) uint8 RGB image, row 0 at the top."""
+    def render(self, overlay: str | None = None) -> np.ndarray:
+        """The current scene as a new (height, width, 3) uint8 RGB image, row 0 at the top.
+
+        ``overlay``: text drawn in the top-left corner (MuJoCo's font: ASCII only; tabs
+        separate columns, newlines lines).
+        """
         self._gl.make_current()
         mujoco.mjr_render(self._rect, self.scene, self._mjr)
+        if overlay:
+            mujoco.mjr_overlay(mujoco.mjtFont.mjFONT_BIG, mujoco.mjtGridPos.mjGRID_TOPLEFT, self._rect, overlay, "",
+                               self._mjr)
         mujoco.mjr_readPixels(self._pixels, None, self._rect, self._mjr)
         return np.flipud(self._pixels).copy()
 

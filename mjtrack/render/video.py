@@ -19,13 +19,14 @@ and renamed at the end, so a failure leaves no partial video.
 from __future__ import annotations
 
 import contextlib
+import copy
 import dataclasses
 import logging
 import os
 import tempfile
 import time
 from pathlib import Path
-from typing import Iterator
+from typing import Iterator, Sequence
 
 import mujoco
 import numpy as np
@@ -101,7 +102,32 @@ def interpolate_qpos(model: mujoco.MjModel, qpos_traj: np.ndarray, times: np.nda
     return out
 
 
-def _check_inputs(model, qpos_traj, times, out_path, width, height, fps, speed, follow_body, icr):
+def _segment_bounds(segment_starts, n: int) -> list[int]:
+    """[0, start_1, ..., n]: sample index bounds of the segments (InputError if not increasing in 1..n-1)."""
+    starts = sorted({int(i) for i in (segment_starts or [])} - {0})
+    if any(not 0 < i < n for i in starts):
+        raise InputError(f"render_video: segment_starts must lie in 1..{n - 1}, got {list(segment_starts)}")
+    return [0, *starts, n]
+
+
+def track_travel_from_speeds(times: np.ndarray, v_left: np.ndarray, v_right: np.ndarray) -> np.ndarray:
+    """(N, 2) belt travel [m] of the left and right tracks, ∫ V dt by the trapezoid rule from 0."""
+    t = np.asarray(times, dtype=float)
+    v = np.column_stack([np.asarray(v_left, dtype=float), np.asarray(v_right, dtype=float)])
+    v = np.where(np.isfinite(v), v, 0.0)
+    out = np.zeros_like(v)
+    out[1:] = np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t)[:, None], axis=0)
+    return out
+
+
+def clock_text(t: float, speed: float, label: str = "") -> str:
+    """The text drawn on a frame: simulated time and playback speed, e.g. ``t = 12.3 s   x1.0``."""
+    speed_txt = f"{speed:.2f}".rstrip("0").rstrip(".") if speed != int(speed) else f"{speed:.1f}"
+    return f"{label}{'   ' if label else ''}t = {t:.1f} s   x{speed_txt} playback"
+
+
+def _check_inputs(model, qpos_traj, times, out_path, width, height, fps, speed, follow_body, icr,
+                  segment_starts=None, track_travel=None):
     """Validated arrays and ids; raises InputError with a one-line message."""
     if not isinstance(model, mujoco.MjModel):
         raise InputError(f"render_video: model must be a mujoco.MjModel, got {type(model).__name__}")
@@ -115,10 +141,20 @@ def _check_inputs(model, qpos_traj, times, out_path, width, height, fps, speed, 
         raise InputError("render_video: need at least 2 samples")
     if not (np.all(np.isfinite(times)) and np.all(np.isfinite(qpos_traj))):
         raise InputError("render_video: times and qpos_traj must be finite")
-    bad = np.flatnonzero(np.diff(times) <= 0)
+    bounds = _segment_bounds(segment_starts, len(times))
+    steps = np.diff(times)
+    steps[np.asarray(bounds[1:-1], int) - 1] = 1.0  # a segment may start at any time
+    bad = np.flatnonzero(steps <= 0)
     if bad.size:
-        raise InputError(f"render_video: times must be strictly increasing (sample {bad[0] + 1}: "
+        raise InputError(f"render_video: times must be strictly increasing within a segment (sample {bad[0] + 1}: "
                          f"{times[bad[0] + 1]:g} after {times[bad[0]]:g})")
+    if any(b - a < 2 for a, b in zip(bounds[:-1], bounds[1:])):
+        raise InputError("render_video: every segment needs at least 2 samples")
+    if track_travel is not None:
+        track_travel = np.asarray(track_travel, dtype=float)
+        if track_travel.shape != (len(times), 2) or not np.all(np.isfinite(track_travel)):
+            raise InputError(f"render_video: track_travel must be finite with shape ({len(times)}, 2), "
+                             f"got {track_travel.shape}")
     for name, value in (("width", width), ("height", height)):
         if int(value) != value or value < 2 or value % 2:
             raise InputError(f"render_video: {name} must be an even number of pixels >= 2 "
@@ -140,7 +176,7 @@ def _check_inputs(model, qpos_traj, times, out_path, width, height, fps, speed, 
                              f"got {np.shape(icr)}")
         if icr.shape[2] == 2:
             icr = np.concatenate([icr, np.zeros(icr.shape[:2] + (1,))], axis=2)
-    return qpos_traj, times, body_id, icr
+    return qpos_traj, times, body_id, icr, bounds, track_travel
 
 
 def render_video(
@@ -161,6 +197,10 @@ def render_video(
     grid: float | None = 0.5,
     trail: bool = True,
     icr: np.ndarray | None = None,
+    track_travel: np.ndarray | None = None,
+    belts: bool | Sequence[decor.BeltGeometry] = True,
+    clock: bool = True,
+    segment_starts=None,
     shadows: bool = False,
     progress: bool | Progress = True,
 ) -> VideoStats:
@@ -168,7 +208,8 @@ def render_video(
 
     Args:
         width, height: frame size [px], even.
-        fps: frames per second of the video; speed: playback speed (2 = twice as fast).
+        fps: frames per second of the video; speed: playback speed (1 = real time, 2 = twice
+            as fast); written on every frame with the time when ``clock``.
         follow_body: body whose path is trailed and that the camera looks at.
         follow: the camera moves with the body (fixed orientation, so the world grid slides
             under it); ``False``: one fixed camera framing the whole path.
@@ -177,6 +218,15 @@ def render_video(
         grid: spacing [m] of grid lines drawn on the z = 0 ground, ``None`` for none.
         trail: draw the body's path so far on the ground.
         icr: optional world-frame points (N, 2|3) or (N, K, 2|3) [m] drawn as markers (NaN: none).
+        track_travel: (N, 2) belt travel [m] of the left and right tracks (∫ track speed dt,
+            :func:`track_travel_from_speeds`): the grousers of the belts move by it.
+        belts: draw a belt round each side's rollers (``True``: :func:`decor.belt_geometry` with
+            its defaults; or the (left, right) :class:`decor.BeltGeometry`) and hide the rollers;
+            the belts stand still without ``track_travel``.
+        clock: write "t = … s   x… playback" (and the segment) in the top-left corner.
+        segment_starts: sample indices where a new segment begins (a log of several
+            windows): the segments are shown one after the other, each with its own trail;
+            times increase within a segment only.
         shadows: render shadows (about 3-5x slower with Mesa's software rasteriser).
         progress: show a progress line on a terminal (or update the given :class:`Progress`).
 
@@ -188,26 +238,43 @@ def render_video(
         RenderUnavailableError: no offscreen OpenGL backend works here.
     """
     start = time.perf_counter()
-    qpos_traj, times, body_id, icr = _check_inputs(
-        model, qpos_traj, times, out_path, width, height, fps, speed, follow_body, icr)
+    qpos_traj, times, body_id, icr, bounds, track_travel = _check_inputs(
+        model, qpos_traj, times, out_path, width, height, fps, speed, follow_body, icr, segment_starts, track_travel)
     import imageio.v2 as imageio  # heavy; only needed here
 
-    t_frames = frame_times(times, fps=fps, speed=speed)
-    q_frames = interpolate_qpos(model, qpos_traj, times, t_frames)
+    if isinstance(belts, bool):
+        belt_list = decor.belt_geometry(model, body_id) if belts else []
+    else:
+        belt_list = list(belts)
+    if belt_list:  # the belts replace the rollers on screen (a copy: the caller's model is not changed)
+        model = copy.copy(model)
+        for g in decor.roller_geoms(model, body_id):
+            model.geom_rgba[g, 3] = 0.0
+    segments = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        t_seg = times[a:b]
+        t_frames = frame_times(t_seg, fps=fps, speed=speed)
+        q_frames = interpolate_qpos(model, qpos_traj[a:b], t_seg, t_frames)
+        travel = None if track_travel is None else np.column_stack(
+            [np.interp(t_frames, t_seg, track_travel[a:b, i]) for i in range(2)])
+        icr_index = a + np.clip(np.searchsorted(t_seg, t_frames, side="right") - 1, 0, b - a - 1)
+        segments.append((t_frames, q_frames, travel, icr_index))
+    n_frames = sum(len(seg[0]) for seg in segments)
     data = mujoco.MjData(model)
-    body_pos = np.empty((len(t_frames), 3))
-    for k, q in enumerate(q_frames):
-        data.qpos[:] = q
-        mujoco.mj_kinematics(model, data)
-        body_pos[k] = data.xpos[body_id]
-    data.qpos[:] = q_frames[0]
+    body_pos = []
+    for _, q_frames, _, _ in segments:
+        pos = np.empty((len(q_frames), 3))
+        for k, q in enumerate(q_frames):
+            data.qpos[:] = q
+            mujoco.mj_kinematics(model, data)
+            pos[k] = data.xpos[body_id]
+        body_pos.append(pos)
+    data.qpos[:] = segments[0][1][0]
     mujoco.mj_kinematics(model, data)
     size = max(decor.subtree_radius(model, data, body_id), 0.05)
-    icr_index = np.clip(np.searchsorted(times, t_frames, side="right") - 1, 0, len(times) - 1)
-    trail_stride = max(1, int(np.ceil(len(t_frames) / MAX_TRAIL_POINTS)))
+    trail_stride = max(1, int(np.ceil(max(len(seg[0]) for seg in segments) / MAX_TRAIL_POINTS)))
 
-    bar = progress if isinstance(progress, Progress) else Progress(
-        len(t_frames), label="render", quiet=not progress)
+    bar = progress if isinstance(progress, Progress) else Progress(n_frames, label="render", quiet=not progress)
     render_s = 0.0
     with OffscreenRenderer(model, width=width, height=height) as renderer, atomic_path(out_path) as tmp:
         cam = renderer.camera
@@ -215,7 +282,8 @@ def render_video(
         if follow:
             cam.distance = distance or decor.fit_distance(model, 3.0 * size)
         else:
-            lo, hi = body_pos.min(axis=0), body_pos.max(axis=0)
+            every = np.vstack(body_pos)
+            lo, hi = every.min(axis=0), every.max(axis=0)
             cam.lookat[:] = (lo + hi) / 2
             cam.distance = distance or decor.fit_distance(model, max(np.linalg.norm(hi - lo) / 2, 3.0 * size))
         grid_half = 1.5 * cam.distance
@@ -223,32 +291,37 @@ def render_video(
             tmp, format="FFMPEG", mode="I", fps=fps, codec="libx264", pixelformat="yuv420p",
             macro_block_size=2, ffmpeg_log_level="error", output_params=["-preset", "veryfast"])
         try:
-            for k, q in enumerate(q_frames):
-                data.qpos[:] = q
-                mujoco.mj_kinematics(model, data)
-                mujoco.mj_comPos(model, data)
-                mujoco.mj_camlight(model, data)
-                if follow:
-                    cam.lookat[:] = body_pos[k]
-                tic = time.perf_counter()
-                renderer.update_scene(data)
-                renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
-                if grid:
-                    decor.draw_grid(renderer, cam.lookat, spacing=grid, half_size=grid_half)
-                if trail:
-                    points = np.vstack([body_pos[: k + 1 : trail_stride, :2], body_pos[k, :2]])
-                    decor.draw_polyline(renderer, points, width_px=max(2.0, height / 100))
-                if icr is not None:
-                    decor.draw_markers(renderer, icr[icr_index[k]], body_pos[k], radius=0.15 * size)
-                frame = renderer.render()
-                render_s += time.perf_counter() - tic
-                writer.append_data(frame)
-                bar.update()
+            for j, ((t_frames, q_frames, travel, icr_index), pos) in enumerate(zip(segments, body_pos)):
+                label = f"segment {j + 1}/{len(segments)}" if len(segments) > 1 else ""
+                for k, q in enumerate(q_frames):
+                    data.qpos[:] = q
+                    mujoco.mj_kinematics(model, data)
+                    mujoco.mj_comPos(model, data)
+                    mujoco.mj_camlight(model, data)
+                    if follow:
+                        cam.lookat[:] = pos[k]
+                    tic = time.perf_counter()
+                    renderer.update_scene(data)
+                    renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
+                    if grid:
+                        decor.draw_grid(renderer, cam.lookat, spacing=grid, half_size=grid_half)
+                    if trail:
+                        points = np.vstack([pos[: k + 1 : trail_stride, :2], pos[k, :2]])
+                        decor.draw_polyline(renderer, points, width_px=max(2.0, height / 100))
+                    if icr is not None:
+                        decor.draw_markers(renderer, icr[icr_index[k]], pos[k], radius=0.15 * size)
+                    for i, belt in enumerate(belt_list):
+                        decor.draw_belt(renderer, belt, data.xpos[body_id], data.xmat[body_id],
+                                        0.0 if travel is None else float(travel[k, i]))
+                    frame = renderer.render(clock_text(float(t_frames[k]), speed, label) if clock else None)
+                    render_s += time.perf_counter() - tic
+                    writer.append_data(frame)
+                    bar.update()
         finally:
             writer.close()
             if bar is not progress:
                 bar.close()
-    stats = VideoStats(Path(out_path), len(t_frames), float(fps), width, height, render_s,
+    stats = VideoStats(Path(out_path), n_frames, float(fps), width, height, render_s,
                        time.perf_counter() - start)
     logger.info("wrote %s: %d frames %dx%d, %.1f frames/s rendered", out_path, stats.frames, width, height,
                 stats.frames / max(render_s, 1e-9))

@@ -5,7 +5,9 @@ pose, the chassis at its rest height, the other joints at rest), so any log — 
 measured — can be shown. The camera follows the robot, its path so far is trailed on the
 ground, and the log's own ICRs (2.13) of the left track, right track and body are drawn on
 the ground where the true |ω| ≥ ``wz_min`` (they run off to infinity in straight driving).
-A log with several segments shows its first segment (each segment has its own start).
+A log with several segments shows them one after the other (each with its own start and
+trail, its number on screen); the GIF shows the first segment. The tracks are drawn as belts
+whose grousers move with the logged track speeds; time and playback speed are on every frame.
 
 The GIF is a top view of the true path and the open-loop paths of the nominal model and of
 the online filter models (:mod:`mjtrack.validate.predictors`).
@@ -38,19 +40,31 @@ def first_segment(drive: DriveLog) -> DriveLog:
 
 def render_log(drive: DriveLog, robot: Robot, out_path: str | os.PathLike, *, width: int = 640, height: int = 480,
                fps: float = 30.0, speed: float = 1.0, wz_min: float = WZ_MIN, quiet: bool = False):
-    """Render ``drive`` (first segment) to the MP4 ``out_path``; returns :class:`~mjtrack.render.VideoStats`.
+    """Render ``drive`` (every segment, one after the other) to the MP4 ``out_path``; returns
+    :class:`~mjtrack.render.VideoStats`. The belts move with the log's track speeds (measured
+    where the log has them, else the commands), integrated per segment.
 
     Raises :class:`~mjtrack.render.RenderUnavailableError` when no offscreen OpenGL works here.
     """
-    from mjtrack.render import icr_markers, qpos_from_poses, render_video
+    import mujoco
+
+    from mjtrack.render import icr_markers, qpos_from_poses, render_video, track_travel_from_speeds
+    from mjtrack.render.decor import belt_geometry
     from mjtrack.sim.builder import build_model
 
-    case = case_from_log(first_segment(drive), noise=Noise(scale=0.0))
+    case = case_from_log(drive, noise=Noise(scale=0.0))
     model = build_model(robot)
+    chassis = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "chassis")
+    belts = belt_geometry(model, chassis, width=robot.track_width, radius=robot.sprocket_radius)
     qpos = qpos_from_poses(model, case.pose)
     icr = icr_from_twist(*case.twist.T, case.v_left, case.v_right, wz_min=wz_min, on_singular="mask")
+    starts = (np.flatnonzero(case.segments[1:] != case.segments[:-1]) + 1).tolist()
+    travel = np.zeros((len(case.t), 2))
+    for a, b in zip([0, *starts], [*starts, len(case.t)]):
+        travel[a:b] = track_travel_from_speeds(case.t[a:b], case.v_left[a:b], case.v_right[a:b])
     return render_video(model, qpos, case.t, out_path, width=width, height=height, fps=fps, speed=speed,
-                        icr=icr_markers(case.pose, icr), progress=not quiet)
+                        icr=icr_markers(case.pose, icr), track_travel=travel, belts=belts, segment_starts=starts,
+                        progress=not quiet)
 
 
 def model_paths(case: Case, robot: Robot) -> dict[str, np.ndarray]:
