@@ -18,8 +18,15 @@ from mjtrack.errors import InputError
 from mjtrack.render import gl
 from mjtrack.icr import icr_from_twist
 from mjtrack.render.animation import animate_paths, footprint_corners
-from mjtrack.render.decor import icr_markers
-from mjtrack.render.video import frame_times, interpolate_qpos, qpos_from_poses, render_video
+from mjtrack.render.decor import BeltGeometry, belt_geometry, icr_markers, roller_geoms
+from mjtrack.render.video import (
+    clock_text,
+    frame_times,
+    interpolate_qpos,
+    qpos_from_poses,
+    render_video,
+    track_travel_from_speeds,
+)
 
 imageio = pytest.importorskip("imageio.v2")
 
@@ -145,6 +152,10 @@ def test_footprint_corners_rotate_a_rectangle():
         (dict(speed=0.0), "fps and speed must be positive"),
         (dict(out_path="video.avi"), r"must be a \.mp4 file"),
         (dict(icr=np.zeros((101, 4))), r"icr must have shape"),
+        (dict(track_travel=np.zeros((101, 3))), r"track_travel must be finite with shape \(101, 2\)"),
+        (dict(segment_starts=[101]), r"segment_starts must lie in 1..100"),
+        (dict(segment_starts=[100]), "every segment needs at least 2 samples"),
+        (dict(times=np.r_[np.linspace(0, 1, 50), np.linspace(0, 1, 51)]), "strictly increasing within a segment"),
     ],
 )
 def test_render_video_refuses_bad_input(model, tmp_path, change, match):
@@ -266,7 +277,7 @@ def test_frames_wider_than_the_model_buffer_leave_the_model_alone(model, backend
 def test_failure_while_rendering_leaves_no_file(model, backend, tmp_path, monkeypatch):
     from mjtrack.render import offscreen
 
-    def boom(self):
+    def boom(self, *args):
         raise RuntimeError("boom")
 
     monkeypatch.setattr(offscreen.OffscreenRenderer, "render", boom)
@@ -297,3 +308,99 @@ def test_animated_paths_gif_has_distinct_frames(tmp_path):
     assert len({f.tobytes() for f in frames}) == len(frames)
     assert np.abs(frames[0] - frames[-1]).mean() > 0.5
     assert [p.name for p in tmp_path.iterdir()] == ["paths.gif"]
+
+
+# --- belts, clock, segments ---------------------------------------------------------------------
+
+TRACKED_XML = """
+<mujoco model="belt_test">
+  <worldbody>
+    <light name="sun" pos="0 0 4" dir="0 0 -1" directional="true"/>
+    <geom name="floor" type="plane" size="20 20 0.1" rgba="0.8 0.8 0.75 1"/>
+    <body name="chassis" pos="0 0 0">
+      <freejoint name="root"/>
+      <geom name="hull" type="box" pos="0 0 0.15" size="0.3 0.15 0.05" rgba="0.2 0.3 0.8 1"/>
+""" + "".join(
+    f'      <body name="r{side}{i}" pos="{x} {y} 0.04"><geom type="sphere" size="0.04" rgba="0.1 0.9 0.1 1"/></body>\n'
+    for side, y in (("l", 0.22), ("r", -0.22)) for i, x in enumerate((-0.25, -0.083, 0.083, 0.25))
+) + """    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.fixture(scope="module")
+def tracked():
+    return mujoco.MjModel.from_xml_string(TRACKED_XML)
+
+
+def test_belt_geometry_wraps_the_rollers_of_each_side(tracked):
+    belts = belt_geometry(tracked, 1, radius=0.05)
+    assert [b.y for b in belts] == pytest.approx([0.22, -0.22])
+    for b in belts:
+        assert b.z_bottom == pytest.approx(0.0) and b.width == pytest.approx(0.08)
+        assert b.x_front - b.x_rear == pytest.approx(0.58 - 0.1)  # roller extent 0.58 m minus two end radii
+    assert len(roller_geoms(tracked, 1)) == 8
+
+
+def test_belt_outline_is_a_closed_stadium_and_travel_moves_the_bottom_run_back():
+    """Closed form of the stadium: points at arc length s; material on the bottom run moves by -travel in x."""
+    b = BeltGeometry(y=0.2, x_front=0.3, x_rear=-0.1, z_bottom=0.0, radius=0.05, width=0.06)
+    assert b.perimeter == pytest.approx(2 * 0.4 + 2 * math.pi * 0.05)
+    s = np.linspace(0, b.perimeter, 2001)
+    p, t = b.point(s)
+    np.testing.assert_allclose(p[0], p[-1], atol=1e-12)  # closed
+    np.testing.assert_allclose(np.linalg.norm(np.diff(p, axis=0), axis=1), s[1] - s[0], rtol=1e-3)  # unit speed
+    np.testing.assert_allclose(np.linalg.norm(t, axis=1), 1.0)
+    zc = b.z_bottom + b.radius  # every point is on a run or on an end circle
+    on_run = np.isclose(p[:, 2], b.z_bottom) | np.isclose(p[:, 2], b.z_bottom + 2 * b.radius)
+    on_arc = np.isclose(np.hypot(np.minimum(np.abs(p[:, 0] - b.x_front), np.abs(p[:, 0] - b.x_rear)), p[:, 2] - zc), b.radius)
+    assert np.all(on_run | on_arc)
+    q, _ = b.point(np.array([0.05, 0.1]) + 0.07)
+    p2, _ = b.point(np.array([0.05, 0.1]))
+    np.testing.assert_allclose(q - p2, [[-0.07, 0, 0]] * 2, atol=1e-12)
+
+
+def test_track_travel_integrates_speeds_and_clock_text():
+    t = np.linspace(0, 2, 41)
+    travel = track_travel_from_speeds(t, np.full_like(t, 0.3), 0.5 * t)
+    np.testing.assert_allclose(travel[-1], [0.6, 1.0])  # 0.3 * 2 and the integral of 0.5 t
+    assert clock_text(12.34, 1.0) == "t = 12.3 s   x1.0 playback"
+    assert clock_text(3.0, 0.25, "segment 2/3") == "segment 2/3   t = 3.0 s   x0.25 playback"
+
+
+@pytest.fixture(scope="module")
+def belt_video(tracked, backend, tmp_path_factory):
+    """2 s of the tracked test robot standing still, its belts running at 0.1 m/s, two segments."""
+    t = np.r_[np.linspace(0.0, 1.0, 11), np.linspace(0.0, 1.0, 11)]
+    qpos = qpos_from_poses(tracked, np.zeros((22, 3)))
+    travel = np.column_stack([np.r_[0.1 * t[:11], 0.1 * t[11:]]] * 2)
+    out = tmp_path_factory.mktemp("belts") / "belts.mp4"
+    stats = render_video(tracked, qpos, t, out, width=320, height=240, fps=10, grid=None, trail=False,
+                         track_travel=travel, segment_starts=[11], azimuth=90, elevation=-15, distance=1.2,
+                         progress=False)
+    return stats, np.stack(imageio.mimread(out)).astype(int)
+
+
+def test_belts_hide_the_rollers_and_their_grousers_move(tracked, belt_video):
+    stats, frames = belt_video
+    assert stats.frames == len(frames) == 2 * 11  # both segments, 1 s each at 10 fps
+    assert tracked.geom_rgba[2, 3] == 1.0  # the caller's model keeps its roller colour
+    green = [colour_mask(f, (0.1, 0.9, 0.1)).sum() for f in frames]
+    assert max(green) < 20  # rollers hidden
+    yellow = colour_mask(frames[0], (0.95, 0.75, 0.1))
+    assert yellow.sum() > 100  # grousers drawn
+    body = np.s_[60:, :]  # below the clock text: the robot stands still, only the grousers move
+    moving = np.abs(frames[3][body] - frames[0][body]).mean()
+    assert moving > 0.3
+    # 0.5 s of travel later (0.05 m = one grouser pitch) the pattern is back where it was
+    assert np.abs(frames[5][body] - frames[0][body]).mean() < 0.5 * moving
+
+
+def test_clock_is_written_and_each_segment_restarts(belt_video):
+    _, frames = belt_video
+    text = np.s_[:40, :200]
+    assert np.abs(frames[1][text] - frames[0][text]).mean() > 1.0  # t = 0.0 s -> 0.1 s
+    # frame 11 is the second segment's t = 0: only the segment label differs from frame 0
+    assert np.abs(frames[11][60:] - frames[0][60:]).mean() < 0.5
+    assert np.abs(frames[11][text] - frames[0][text]).mean() > 1.0

@@ -98,8 +98,8 @@ class OffscreenRenderer:
         self._gl.make_current()
         mujoco.mjr_render(self._rect, self.scene, self._mjr)
         if overlay:
-            mujoco.mjr_overlay(mujoco.mjtFont.mjFONT_BIG, mujoco.mjtGridPos.mjGRID_TOPLEFT, self._rect, overlay, "",
-                               self._mjr)
+            font = mujoco.mjtFont.mjFONT_BIG if self.height >= 480 else mujoco.mjtFont.mjFONT_NORMAL
+            mujoco.mjr_overlay(font, mujoco.mjtGridPos.mjGRID_TOPLEFT, self._rect, overlay, "", self._mjr)
         mujoco.mjr_readPixels(self._pixels, None, self._rect, self._mjr)
         return np.flipud(self._pixels).copy()
 
