@@ -109,21 +109,144 @@ def test_online_estimator_refuses_bad_use():
         est.step(0.0, 0.1, 0.2, pose=np.zeros(3))
 
 
+def _circle_radius(xy: np.ndarray) -> float:
+    """Least-squares (Kasa) circle through points (N, 2): x² + y² = 2 a x + 2 b y + c, R² = c + a² + b²."""
+    A = np.column_stack([2 * xy[:, 0], 2 * xy[:, 1], np.ones(len(xy))])
+    a, b, c = np.linalg.lstsq(A, np.sum(xy**2, axis=1), rcond=None)[0]
+    return math.sqrt(c + a * a + b * b)
+
+
 def test_compensation_on_a_kinematic_slipping_robot_removes_the_drift():
-    """Open-loop feed-forward on an MICR truth with x_c = 0: icr compensation tracks a circle, none does not."""
+    """Open-loop (v, w) = (0.5, 0.5) on an MICR truth with x_c = 0: with icr compensation the robot
+    drives the commanded 1 m circle once the estimate is trusted (radius fitted to the last 4 s),
+    with none a circle of radius (y_l - y_r)/T times larger."""
     truth = MICR(0.3, -0.3, 0.0)
     T, dt, v, w = 0.4, 0.04, 0.5, 0.5
-    errs = {}
+    radius, weight = {}, {}
     for mode in ("none", "icr"):
         comp = SlipCompensation(T, mode, estimator=OnlineICREstimator(T, psi_std0=(0.2, 0.2, 0.5)))
-        pose, u = np.array([0.0, -1.0, 0.0]), np.zeros(2)
+        pose, u, path = np.array([0.0, -1.0, 0.0]), np.zeros(2), []
         for k in range(int(12.0 / dt)):
             comp.observe(k * dt, u, pose, truth.twist(*u))
             u = comp.track_speeds(v, w)
             pose = se2_step(pose, truth.twist(*u), dt)
-        errs[mode] = abs(math.hypot(pose[0], pose[1]) - 1.0)
-    assert errs["none"] > 0.1
-    assert errs["icr"] < 0.02
+            path.append(pose[:2])
+        radius[mode], weight[mode] = _circle_radius(np.array(path[-100:])), comp.weight
+    assert radius["none"] == pytest.approx(1.0 * 0.6 / T, rel=0.01)
+    # the trust weight lambda blends psi_z = 1/T + lambda (1/0.6 - 1/T); the robot turns at
+    # w (1/0.6) / psi_z, radius v / omega. lambda stays below 1 by the estimate's own std
+    # (random-walk floor 0.01): 0.969 measured.
+    lam = weight["icr"]
+    assert 0.95 < lam <= 1.0
+    assert radius["icr"] == pytest.approx((1 / T + lam * (1 / 0.6 - 1 / T)) * 0.6, rel=2e-3)
+
+
+# --- why the first compensation could be worse than none, and the safe design ----------------
+
+PSI0 = np.array([0.0, 0.0, 1 / 0.4])
+
+
+def _kinematic_circle(truth, psi_used, *, drift_free: bool, radius=1.0, speed=0.5, duration=40.0, dt=0.02):
+    """Tracker on a circle driving a kinematic truth through the map of a fixed psi_used; the
+    tracking error (robot frame) and the cross-track error at the end (a steady state)."""
+    from mjtrack.control import ConstantSpeedProfile, Plant, Reference, TrajectoryTracker, TrackedKinematic, circle_path, run_closed_loop
+
+    path = circle_path(radius=radius, turns=duration * speed / (2 * math.pi * radius))
+    ref = Reference(path, ConstantSpeedProfile(path.length, speed))
+    x_c = psi_used[0] / psi_used[2] if drift_free else 0.0
+    tracker = TrajectoryTracker(ref)
+
+    class Split:  # feed-forward through psi_used, the feedback's correction through the nominal map
+        def reset(self):
+            tracker.reset()
+
+        def command(self, t, pose, twist=None):
+            r = ref.at(t)
+            v, w = tracker.command(t, np.array([pose[0] + x_c * math.cos(pose[2]), pose[1] + x_c * math.sin(pose[2]), pose[2]]))
+            return v, w, r.v, r.w
+
+    ctrl = Split()
+    plant = Plant(TrackedKinematic(truth, 0.4), lambda v, w: np.zeros(2))  # replaced below
+
+    def adapter(cmd_v, cmd_w):
+        return ctrl.last
+
+    class Controller:
+        def reset(self):
+            ctrl.reset()
+
+        def command(self, t, pose, twist=None):
+            v, w, v_d, w_d = ctrl.command(t, pose)
+            ctrl.last = track_speeds_from_psi(v_d, w_d, psi_used) + track_speeds_from_psi(v - v_d, w - w_d, PSI0)
+            return v, w
+
+    plant = Plant(TrackedKinematic(truth, 0.4), adapter)
+    res = run_closed_loop(plant, Controller(), duration - 1.0, dt, pose0=ref.start_pose(), substeps=2)
+    ct = abs(math.hypot(*res.poses[-1, :2]) - radius)
+    return tracker.last_error, ct
+
+
+@pytest.mark.parametrize("x_c", [-0.05, 0.05])
+def test_static_error_map_predicts_the_kinematic_closed_loop(x_c):
+    """e* = (A - B K)^-1 delta (static_error_map, velocity_deviation) against the simulated tracker
+    on an MICR truth (RK4 of the kinematic model): without compensation and with the yaw-only one."""
+    from mjtrack.control.compensation import static_error_map, velocity_deviation
+
+    truth = MICR(0.27, -0.25, x_c)
+    psi_t = InverseICR.from_icr(0.27, -0.25, x_c).params
+    v, w = 0.5, 0.5
+    for psi_u in (np.array([0.0, 0.0, 1 / 0.4]), np.array([0.0, psi_t[1], psi_t[2]])):
+        e_sim, _ = _kinematic_circle(truth, psi_u, drift_free=False)
+        d_fb = velocity_deviation(PSI0, psi_t, 1.0)  # the feedback goes through the nominal map
+        e_lin = static_error_map(v, w, (-1.0, -2.0, -4.0), d_fb) @ velocity_deviation(psi_u, psi_t, w)
+        np.testing.assert_allclose(e_sim, e_lin, rtol=0.1, atol=2e-3)
+
+
+def test_yaw_only_compensation_is_worse_than_none_with_the_cg_behind_and_the_drift_free_point_is_not():
+    """Issue 14's finding, on a kinematic truth: with x_c < 0 the yaw deficit (outwards) and the
+    drift v_y = -x_c w (inwards) of the uncompensated robot partly cancel; correcting the yaw
+    alone (the first icr mode) leaves the drift and a larger error; the full ICR map with the
+    feedback on the drift-free point (x_c, 0) leaves none."""
+    truth = MICR(0.27, -0.25, -0.05)
+    psi_t = InverseICR.from_icr(0.27, -0.25, -0.05).params
+    _, none = _kinematic_circle(truth, np.array([0.0, 0.0, 1 / 0.4]), drift_free=False)
+    _, yaw_only = _kinematic_circle(truth, psi_t, drift_free=False)
+    _, full = _kinematic_circle(truth, psi_t, drift_free=True)
+    assert yaw_only > 1.5 * none  # 0.050 vs 0.026 m in the MuJoCo run of the issue
+    assert full < 0.1 * none
+
+
+def test_trust_weight_limits_and_what_the_blend_predicts():
+    """lambda -> 1 for an exact estimate, -> 0 for a useless one or where none's predicted error
+    vanishes. Along the blend psi0 + a (psi - psi0) the predicted error falls like (1 - a) E0 to
+    first order only: the deviation is nonlinear in psi_used (1/psi_z, x_c = psi_x/psi_z), so
+    where none's components cancel (x_c < 0 here: E0 = 3e-5 m) a partial blend is worse than
+    none (5e-4 m at a = 0.1) - which is why lambda must be ~0 there, and is."""
+    from mjtrack.control.compensation import static_error_map, trust_weight, velocity_deviation
+
+    psi0 = np.array([0.0, 0.0, 2.5])
+    for x_c in (0.04, -0.04):
+        psi = InverseICR.from_icr(0.3, -0.25, x_c).params
+        assert trust_weight(psi, np.zeros((3, 3)), psi0, 0.5, 0.5) == pytest.approx(1.0)
+        assert trust_weight(psi, np.eye(3) * 100.0, psi0, 0.5, 0.5) < 0.01
+        assert trust_weight(psi0, np.eye(3) * 1e-4, psi0, 0.5, 0.5) == 0.0
+        row = static_error_map(0.5, 0.5, (-1.0, -2.0, -4.0), velocity_deviation(psi0, psi, 1.0))[1]
+        e = [abs(row @ velocity_deviation(psi0 + a * (psi - psi0), psi, 0.5)) for a in np.linspace(0, 1, 11)]
+        lam = trust_weight(psi, np.eye(3) * 1e-4, psi0, 0.5, 0.5)
+        if x_c > 0:  # no cancellation: 5 cm without compensation, falling along the blend
+            assert e[0] > 0.04 and np.all(np.diff(e) < 0) and lam > 0.9
+        else:
+            assert e[0] < 1e-4 and max(e) > 5 * e[0] and lam < 0.01
+
+
+def test_an_inadmissible_or_unexplaining_estimate_is_not_used():
+    comp = SlipCompensation(0.4, "icr", track_length=0.5)
+    assert comp.admissible(InverseICR.from_icr(0.27, -0.25, 0.05).params)
+    for icr in [(-163.0, -314.0, 3.8), (0.21, -0.13, 0.0), (0.27, -0.25, 0.3), (2.0, -2.0, 0.0)]:
+        assert not comp.admissible(InverseICR.from_icr(*icr).params), icr
+    comp.observe(0.0, np.zeros(2), np.zeros(3), np.zeros(3))
+    np.testing.assert_allclose(comp.track_speeds(0.5, 0.5), TrackSpeedAdapter(0.4)(0.5, 0.5))
+    assert comp.weight == 0.0 and comp.explained == 0.0
 
 
 # --- MuJoCo loop and tracking ------------------------------------------------------------

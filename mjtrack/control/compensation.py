@@ -101,17 +101,20 @@ def velocity_deviation(psi_used, psi_true, w: float) -> np.ndarray:
     return np.array([k * (pt[1] - pu[1]), k * (pt[2] * x_cu - pt[0]), k * (pt[2] - pu[2])])
 
 
-def static_error_map(v_d: float, w_d: float, poles) -> np.ndarray:
+def static_error_map(v_d: float, w_d: float, poles, fb_deviation=(0.0, 0.0, 0.0)) -> np.ndarray:
     """(3, 3) map S from a constant velocity deviation δ to the tracker's steady error e* = S δ.
 
-    The error dynamics (3.14) of the tracker with the plant moving δ = (δv_x, δy, δω) off what
-    it expects read ė = (A − B K) e − δ near e = 0, so e* = (A − B K)⁻¹ δ; e*_2, the sideways
-    error in the robot frame, is the steady cross-track error.
+    The error dynamics (3.14) of the tracker, linearised about e = 0, with the plant moving δ
+    off what it expects: ė = (A − B K) e − δ. The feedback's own yaw command k₂ᵀe moves the
+    plant off as well, by ``fb_deviation`` d per unit of w (:func:`velocity_deviation` at
+    w = 1 of the map the feedback goes through): ė = (A − B K − d k₂ᵀ) e − δ, so
+    e* = (A − B K − d k₂ᵀ)⁻¹ δ; e*_2, the sideways error in the robot frame, is the steady
+    cross-track error.
     """
     from mjtrack.control.tracking import B_MATRIX, error_matrix, placement_gains
 
-    A = error_matrix(v_d, w_d)
-    return np.linalg.inv(A - B_MATRIX @ placement_gains(v_d, w_d, poles))
+    K = placement_gains(v_d, w_d, poles)
+    return np.linalg.inv(error_matrix(v_d, w_d) - B_MATRIX @ K - np.outer(np.asarray(fb_deviation, float), K[1]))
 
 
 def trust_weight(psi, psi_cov, psi_nominal, v_d: float, w_d: float, *, poles=(-1.0, -2.0, -4.0),
@@ -121,23 +124,29 @@ def trust_weight(psi, psi_cov, psi_nominal, v_d: float, w_d: float, *, poles=(-1
     With the truth ψ and the estimate ψ̂ = ψ + ε, ε ~ N(0, P), the steady cross-track error of
     the compensated tracker is, to first order, E(λ) = (1 − λ) E₀ − λ gᵀε: E₀ the error without
     compensation predicted with ψ̂ (row 2 of :func:`static_error_map` times
-    :func:`velocity_deviation`), g its sensitivity to the estimate's error. Its expected square
+    :func:`velocity_deviation` of the feed-forward (v_d, w_d), the feedback going through the
+    nominal map in both cases), g its sensitivity to the estimate's error. Its expected square
     (1 − λ)² E₀² + λ² gᵀPg is smallest at λ = E₀² / (E₀² + gᵀPg) (P inflated by ``scale``²
-    for an over-confident filter). A blend along the whole correction never raises the
-    predicted error above none's ((1 − λ) |E₀| <= |E₀|); blending each component separately can
-    — with the centre of gravity behind, the yaw deficit (outwards) and the sideways drift
-    (inwards) partly cancel, and correcting the yaw alone leaves the drift (issue 14).
+    for an over-confident filter). To first order a blend along the whole correction never
+    raises the predicted error above none's ((1 − λ) |E₀| <= |E₀|); correcting one part alone
+    can — with the centre of gravity behind, the yaw deficit (outwards) and the sideways drift
+    (inwards) partly cancel, and correcting the yaw alone leaves the drift (issue 14). Beyond
+    first order (δ is nonlinear in ψ) a partial blend can also be worse where E₀ ≈ 0 through
+    such a cancellation; there λ ≈ 0.
     λ is evaluated at the reference's (v_d, w_d) with |w_d| floored at 0.1 rad/s (all δ scale
     with w; the floor keeps λ defined on straight stretches, where it does not act).
     """
     v_d = max(abs(v_d), 0.05)
     w_d = math.copysign(max(abs(w_d), 0.1), w_d if w_d != 0 else 1.0)
-    row = static_error_map(v_d, w_d, poles)[1]
-    psi = np.asarray(psi, float)
-    e0 = float(row @ velocity_deviation(psi_nominal, psi, w_d))
+    psi, psi_nominal = np.asarray(psi, float), np.asarray(psi_nominal, float)
+    d_none = velocity_deviation(psi_nominal, psi, 1.0)
+    e0 = float(static_error_map(v_d, w_d, poles, d_none)[1] @ d_none) * w_d
+    # compensated: feed-forward through psi (no deviation at the truth psi), feedback through the
+    # nominal map about the drift-free point (x_c, 0)
     x_c = psi[0] / psi[2]
+    d_fb = velocity_deviation(np.array([x_c * psi_nominal[2], 0.0, psi_nominal[2]]), psi, 1.0)
     jac = (w_d / psi[2]) * np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, x_c], [0.0, 0.0, 1.0]])  # ∂δ/∂ψ_true at ψ̂
-    g = row @ jac
+    g = static_error_map(v_d, w_d, poles, d_fb)[1] @ jac
     var = scale**2 * float(g @ np.asarray(psi_cov, float) @ g)
     return e0 * e0 / (e0 * e0 + var) if e0 * e0 + var > 0 else 0.0
 
