@@ -31,6 +31,7 @@ from mjtrack.control import (
     circle_path,
     error_matrix,
     figure_eight_path,
+    lane_change_path,
     placement_gains,
     polar_error,
     run_closed_loop,
@@ -87,6 +88,24 @@ def test_figure_eight_arc_length_matches_quadrature():
     for u in (0.7, 2.0, 5.5, 2 * math.pi):
         exact = quad(lambda x: 2.0 * math.hypot(math.cos(x), math.cos(2 * x)), 0.0, u, limit=200)[0]
         assert path.arc_length(u) == pytest.approx(exact, abs=1e-5)
+
+
+def test_lane_change_path_shifts_with_continuous_curvature():
+    path = lane_change_path(shift=1.0, length=3.0, lead_in=1.5, lead_out=1.5)
+    np.testing.assert_allclose(path.point(np.array([0.0, 1.5, 4.5, 6.0])), [[0, 0], [1.5, 0], [4.5, 1.0], [6.0, 1.0]], atol=1e-12)
+    u = np.linspace(0.2, 5.8, 29)
+    h = 1e-5
+    heading = path.heading(np.stack([u - h, u + h]))
+    ds = np.hypot(*(path.point(u + h) - path.point(u - h)).T)
+    np.testing.assert_allclose((heading[1] - heading[0]) / ds, path.curvature(u), rtol=1e-4, atol=1e-6)
+    np.testing.assert_allclose(path.curvature(np.array([1.5, 3.0, 4.5])), 0.0, atol=1e-12)  # no step at the ends
+    k_max = np.max(np.abs(path.curvature(np.linspace(1.5, 4.5, 3001))))
+    assert k_max == pytest.approx(0.617, abs=0.002)  # y'' peaks at 2 pi h / l^2 = 0.70, reduced by the slope
+    assert path.curvature(2.25) > 0 > path.curvature(3.75)
+    from scipy.integrate import quad
+
+    exact = 3.0 + quad(lambda x: math.hypot(1.0, (1 - math.cos(2 * math.pi * x / 3)) / 3), 0, 3)[0]
+    assert path.length == pytest.approx(exact, rel=1e-6)
 
 
 def test_polyline_signed_distance():

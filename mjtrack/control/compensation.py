@@ -343,7 +343,7 @@ TRACK_SCENARIOS: dict[str, dict] = {
     "circle": {"path": "circle", "size": 1.0, "laps": 1.5, "speed": 0.5,
                "text": "circle of radius 1 m, 1.5 turns CCW at 0.5 m/s"},
     "lane_change": {"path": "lane_change", "size": 1.0, "laps": 1.0, "speed": 0.5,
-                    "text": "1.5 m straight, 1 m shift to the left over 3 m (continuous curvature, peak 0.70 1/m), "
+                    "text": "1.5 m straight, 1 m shift to the left over 3 m (continuous curvature, peak 0.62 1/m), "
                             "1.5 m straight, at 0.5 m/s"},
 }
 

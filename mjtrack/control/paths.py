@@ -126,7 +126,8 @@ def lane_change_path(*, shift: float = 1.0, length: float = 3.0, lead_in: float 
     Shift profile y = h (σ − sin(2π σ)/(2π)), σ = (x − lead_in)/length in [0, 1]: y' = (h/ℓ)(1 − cos 2πσ)
     and y'' = (2π h/ℓ²) sin 2πσ vanish at both ends, so the curvature is continuous (no step in
     the yaw-rate command, unlike a cosine blend); it turns left then right (or the reverse for a
-    negative shift), peak curvature ≈ 2π h/ℓ² (0.70 1/m for h = 1 m, ℓ = 3 m) at σ = 1/4, 3/4.
+    negative shift); y'' peaks at 2π h/ℓ² (σ = 1/4, 3/4), the curvature y''/(1 + y'²)^1.5 at
+    0.617 1/m for h = 1 m, ℓ = 3 m (radius 1.6 m).
     """
     if not (length > 0 and lead_in >= 0 and lead_out >= 0):
         raise InputError(f"lane_change_path: need length > 0, lead_in and lead_out >= 0, got {length}, {lead_in}, {lead_out}")
