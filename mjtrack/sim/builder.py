@@ -90,7 +90,7 @@ def suspension_stiffness(robot: Robot, config: SimConfig) -> float:
 
 def build_spec(robot: Robot, config: SimConfig | None = None) -> mujoco.MjSpec:
     """The robot alone (no floor) as an ``MjSpec``, with simulation options set."""
-    config = config or SimConfig()
+    config = (config or SimConfig()).for_robot_mass(robot.mass)  # drive scaled to the robot
     spec = mujoco.MjSpec()
     spec.modelname = "tracked_robot"
     _set_options(spec, config)
@@ -201,7 +201,7 @@ def _check_explicit_stability(config: SimConfig, damping: float, roller_mass: fl
 
 def apply_solver_options(spec: mujoco.MjSpec, config: SimConfig) -> mujoco.MjOption:
     """The solver settings of ``config`` that both track models share (time step, integrator,
-    cone, impratio, noslip, iterations, tolerance, Newton solver, Jacobian); returns the option."""
+    cone, impratio, noslip, solver, iterations, tolerance, Jacobian); returns the option."""
     opt = spec.option
     opt.timestep = config.timestep
     opt.integrator = _INTEGRATORS[config.integrator]
@@ -210,7 +210,8 @@ def apply_solver_options(spec: mujoco.MjSpec, config: SimConfig) -> mujoco.MjOpt
     opt.noslip_iterations = config.noslip_iterations
     opt.iterations = config.iterations
     opt.tolerance = config.tolerance
-    opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
+    opt.solver = {"Newton": mujoco.mjtSolver.mjSOL_NEWTON, "PGS": mujoco.mjtSolver.mjSOL_PGS,
+                  "CG": mujoco.mjtSolver.mjSOL_CG}[config.solver]
     opt.jacobian = mujoco.mjtJacobian.mjJAC_SPARSE if config.jacobian == "sparse" else mujoco.mjtJacobian.mjJAC_DENSE
     return opt
 

@@ -17,6 +17,7 @@ from typing import Any
 from mjtrack.errors import InputError
 
 TRACK_MODELS = ("rollers", "surfacevel")
+SOLVERS = ("Newton", "PGS", "CG")
 
 
 @dataclass(frozen=True)
@@ -42,6 +43,14 @@ class SimConfig:
             rollers of a track move together (assets/README.md, item 5).
         kv: velocity-servo gain of a track drive [N/(m/s)] (kv / N per roller servo).
         torque_limit: sprocket torque limit [N m] (track force limit torque/R_s).
+        drive_reference_mass: robot mass [kg] for which ``track_mass``, ``kv`` and
+            ``torque_limit`` are given; the roller chain scales all three by
+            robot.mass / drive_reference_mass (:meth:`for_robot_mass`), so that every robot
+            has the default robot's drive stiffness per unit of traction (track speeds within
+            F/kv = 2.6 mm/s of the command at full traction, same spin-up acceleration and
+            the same explicit-damper margin kv dt / track_mass). ``None``: absolute values
+            (before: a 150 kg robot had the 20 kg robot's drive and its gentle turns lost most
+            of the commanded speed difference, experiments/fidelity.py --wide).
         lag: first-order time constant from command to servo set-point [s] (0 = none).
         contact_timeconst: contact solref time constant [s] (0 = 2 timesteps).
         contact_dampratio: contact solref damping ratio [-].
@@ -64,8 +73,14 @@ class SimConfig:
         impratio: friction-to-normal impedance ratio (elliptic cones) [-]; 1e-4 keeps the
             friction rows of the main solve far inside the cone (no sliding lift-off); the
             noslip pass then supplies hard Coulomb friction.
-        noslip_iterations: post-solve iterations of the un-regularised friction solver.
-        iterations, tolerance: main (Newton) solver settings.
+        noslip_iterations: post-solve iterations of the un-regularised friction solver. It
+            converges in 5 at the defaults; 4 changes the ICRs by <= 0.004 T/2, 3 by 0.06 T/2
+            (``experiments/bench_sim.py``, assets/README.md "Speed").
+        solver: main constraint solver, ``"Newton"``, ``"PGS"`` or ``"CG"``. PGS: with
+            impratio 1e-4 the main solve carries only the normal rows and PGS reaches
+            Newton's forces (ICRs equal to 1e-7) without Newton's nv x nv factorisation, on the
+            matrix that noslip needs anyway.
+        iterations, tolerance: main solver settings.
         jacobian: ``"dense"`` or ``"sparse"``. With friction in the noslip pass (which
             works on the dense constraint matrix) dense measured ~15 % faster at 10 rollers;
             sparse was 2-6x faster when the main Newton solve carried the friction.
@@ -85,6 +100,7 @@ class SimConfig:
     kv: float = 30000.0
     torque_limit: float = 60.0
     lag: float = 0.0
+    drive_reference_mass: float | None = 20.0
     contact_timeconst: float = 0.0
     contact_dampratio: float = 1.0
     solimp: tuple[float, float, float, float, float] = (0.95, 0.99, 0.001, 0.5, 2.0)
@@ -94,7 +110,8 @@ class SimConfig:
     coupling: str = "servo"
     cone: str = "elliptic"
     impratio: float = 1e-4
-    noslip_iterations: int = 20
+    noslip_iterations: int = 4
+    solver: str = "PGS"
     iterations: int = 50
     tolerance: float = 1e-6
     jacobian: str = "dense"
@@ -115,6 +132,11 @@ class SimConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise InputError(f"sim config: '{name}' must be a number >= 0, got {value!r}")
+        if self.drive_reference_mass is not None and not (
+                isinstance(self.drive_reference_mass, (int, float)) and math.isfinite(self.drive_reference_mass)
+                and self.drive_reference_mass > 0):
+            raise InputError(f"sim config: 'drive_reference_mass' must be a positive number or None, "
+                             f"got {self.drive_reference_mass!r}")
         if not isinstance(self.n_rollers, int) or self.n_rollers < 2:
             raise InputError(f"sim config: 'n_rollers' must be an integer >= 2, got {self.n_rollers!r}")
         for name in ("noslip_iterations", "iterations"):
@@ -127,6 +149,8 @@ class SimConfig:
             raise InputError(f"sim config: 'cone' must be elliptic or pyramidal, got {self.cone!r}")
         if self.coupling not in ("servo", "equality"):
             raise InputError(f"sim config: 'coupling' must be servo or equality, got {self.coupling!r}")
+        if self.solver not in SOLVERS:
+            raise InputError(f"sim config: 'solver' must be one of {SOLVERS}, got {self.solver!r}")
         if self.jacobian not in ("sparse", "dense"):
             raise InputError(f"sim config: 'jacobian' must be sparse or dense, got {self.jacobian!r}")
         if self.integrator not in ("implicitfast", "Euler", "implicit", "RK4"):
@@ -151,6 +175,15 @@ class SimConfig:
         """Mass of one roller [kg] for a robot of ``robot_mass`` [kg]."""
         return self.unsprung_fraction * robot_mass / (2 * self.n_rollers)
 
+    def for_robot_mass(self, robot_mass: float) -> "SimConfig":
+        """The drive settings (track_mass, kv, torque_limit) scaled to a robot of ``robot_mass``
+        [kg] (see ``drive_reference_mass``); unchanged when it is None."""
+        if self.drive_reference_mass is None:
+            return self
+        s = robot_mass / self.drive_reference_mass
+        return self.replace(track_mass=self.track_mass * s, kv=self.kv * s, torque_limit=self.torque_limit * s,
+                            drive_reference_mass=None)
+
     def replace(self, **changes: Any) -> "SimConfig":
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)
@@ -159,6 +192,17 @@ class SimConfig:
         d = dataclasses.asdict(self)
         d["solimp"] = list(self.solimp)
         return d
+
+
+# The roller chain's defaults before the speed study (experiments/bench_sim.py --compare):
+# Newton main solver, 20 noslip iterations, one drive for every robot mass. Kept so that the benchmark can time old and
+# new settings in one run (ratios survive a loaded machine better than absolute numbers).
+PREVIOUS_ROLLER_DEFAULTS = dict(solver="Newton", noslip_iterations=20, drive_reference_mass=None)
+
+
+def previous_defaults() -> SimConfig:
+    """The roller chain's settings before the speed study (:data:`PREVIOUS_ROLLER_DEFAULTS`)."""
+    return SimConfig(**PREVIOUS_ROLLER_DEFAULTS)
 
 
 def sim_config(track_model: str = "rollers", *, timestep: float | None = None) -> SimConfig:
