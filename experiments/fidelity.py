@@ -222,6 +222,8 @@ def run_wide(quick: bool, config: SimConfig, *, half_dt: bool) -> list[dict]:
                 row["dt_dy"] = max(abs(res.y_l - f.y_l), abs(res.y_r - f.y_r)) / half
                 row["dt_dx"] = abs(res.x_c - f.x_c) / L
             row["contact_min"] = min(res.contact_left, res.contact_right)
+            # lateral slip speed at the track ends, |w| L/2: what the time-stepped friction must resolve
+            row["end_slip"] = abs(res.wz) * L / 2
             row["pass"] = bool(row["err_y"] <= TOL_WIDE_Y and row["err_x"] <= TOL_WIDE_X
                                and row["contact_min"] >= TOL_CONTACT
                                and (fine is None or row["dt_dy"] < TOL_WIDE_DT))
@@ -250,6 +252,13 @@ def wide_summary(rows: list[dict]) -> dict:
     fails = [r for r in rows if not r["pass"]]
     out["failing_radii"] = sorted({str(r["radius"]) for r in fails})
     out["failing_speeds"] = sorted({r["v"] for r in fails})
+    # pass counts per (radius, speed): where on the grid it fails
+    table: dict[str, list[int]] = {}
+    for r in rows:
+        cell = table.setdefault(f"R {r['radius']} v {r['v']}", [0, 0])
+        cell[0] += bool(r["pass"])
+        cell[1] += 1
+    out["passed_by_radius_speed"] = {k: f"{a}/{b}" for k, (a, b) in table.items()}
     return out
 
 
