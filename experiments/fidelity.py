@@ -2,6 +2,8 @@
 
     python experiments/fidelity.py [--out experiments/results/fidelity] [--quick]
                                    [--track-model rollers|surfacevel|both]
+    python experiments/fidelity.py --wide [--quick] [--track-model ...] [--timestep DT]
+                                   [--previous-defaults]
 
 Both track models (``--track-model both``, the default), each with its measured settings
 ``mjtrack.sim.config.sim_config(track_model)``: the roller chain (``mjtrack.sim.builder``) and
@@ -28,6 +30,16 @@ count: largest ICR change on the default robot over all radii, cg_x and mu at 0.
 fidelity_surfacevel.json + fidelity_surfacevel.png and, for both, fidelity_combined.json (the
 combined table); prints the tables; exit 1 if any check fails. About 1 min (rollers) + 3 min
 (surfacevel) on one core.
+
+``--wide`` (issue 11): 8 robots of 5-150 kg and L/T 0.6-2 (six written out, two drawn with
+seed ``WIDE_SEED``; cg_y 0.05 T on every second one), pivot and R = 0.5-10 m at 0.2, 0.7
+and 2 m/s (turns with nominal v^2/R above 0.5 mu g left out: the robot slides out), left and
+right, forward and reverse, cg_x +-0.1 L: 928 turns (``--quick``: 4 robots, 4 radii, 0.2 and
+2 m/s, forward only: 112). Against the Coulomb reference with load transfer; pass = |dy| <=
+0.05 T/2, |dx_c| <= 0.02 L, contact >= 99 % and, for the roller chain, halving dt moves y by
+< 0.02 T/2, in every case. Prints every case, the worst case of each error with its case,
+the medians and the pass counts per (radius, speed); writes fidelity_wide[_quick][_model].json.
+About 10 min (rollers, with the dt-halved rerun) on a loaded 2-core machine.
 """
 
 from __future__ import annotations
@@ -42,7 +54,7 @@ import numpy as np
 
 from mjtrack.io.robot import Robot
 from mjtrack.models.coulomb import steady_state as coulomb_steady
-from mjtrack.sim.config import TRACK_MODELS, SimConfig, sim_config
+from mjtrack.sim.config import TRACK_MODELS, SimConfig, previous_defaults, sim_config
 from mjtrack.sim.rollout import drive_log
 from mjtrack.sim.steady import steady_batch
 
@@ -274,20 +286,26 @@ def print_wide(track_model: str, rows: list[dict], summary: dict) -> None:
     print("summary:", json.dumps(summary, indent=1, default=_json_default))
 
 
-def run_wide_study(quick: bool, out: Path, command: str, models) -> bool:
-    """The wide grid for each track model (dt halving for the roller chain); writes fidelity_wide.json."""
+def run_wide_study(quick: bool, out: Path, command: str, models, timestep: float | None = None,
+                   previous: bool = False) -> bool:
+    """The wide grid for each track model (dt halving for the roller chain); writes fidelity_wide.json
+    (``timestep``: another time step than the model's default, named in the file)."""
     doc = {"command": command, "seed": WIDE_SEED, "robots": {k: r.to_dict() for k, r in wide_robots().items()},
            "tolerances": {"y": TOL_WIDE_Y, "x": TOL_WIDE_X, "dt_halving_y": TOL_WIDE_DT, "contact": TOL_CONTACT}}
     ok = True
     for m in models:
         t0 = time.perf_counter()
-        rows = run_wide(quick, sim_config(m), half_dt=(m == "rollers"))
+        config = sim_config(m, timestep=timestep)
+        if previous and m == "rollers":
+            config = previous_defaults().replace(timestep=config.timestep)
+        rows = run_wide(quick, config, half_dt=(m == "rollers"))
         summary = wide_summary(rows)
         summary["elapsed_s"] = time.perf_counter() - t0
         print_wide(m, rows, summary)
-        doc[m] = {"config": sim_config(m).to_dict(), "summary": summary, "cases": rows}
+        doc[m] = {"config": config.to_dict(), "summary": summary, "cases": rows}
         ok = ok and (m != "rollers" or summary["passed"] == summary["cases"])
-    path = out / ("fidelity_wide" + ("_quick" if quick else "") + ("" if len(models) > 1 else f"_{models[0]}") + ".json")
+    path = out / ("fidelity_wide" + ("_quick" if quick else "") + ("" if len(models) > 1 else f"_{models[0]}")
+                  + (f"_dt{timestep:g}" if timestep else "") + ("_previous" if previous else "") + ".json")
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(doc, indent=1, default=_json_default) + "\n")
     tmp.replace(path)
@@ -426,15 +444,22 @@ def main(argv: list[str] | None = None) -> int:
                    help="the wider grid instead (8 robots of 5-150 kg and L/T 0.6-2, radii to 10 m, 0.2-2 m/s, "
                         "both turn directions, forward and reverse, cg_x +-0.1 L; tolerances 0.05 T/2, 0.02 L, "
                         "dt halving < 0.02 T/2 for the roller chain); writes fidelity_wide.json")
+    p.add_argument("--previous-defaults", action="store_true",
+                   help="--wide only: the roller chain with its settings before the speed study")
+    p.add_argument("--timestep", type=float, default=None,
+                   help="--wide only: run at this time step [s] instead of each model's default")
     p.add_argument("--track-model", choices=(*TRACK_MODELS, "both"), default="both",
                    help="which MuJoCo track model(s) to measure (default both)")
     args = p.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.timestep is not None and not (args.wide and args.timestep > 0):
+        p.error("--timestep needs --wide and a positive value")
     command = "python experiments/fidelity.py" + (" --wide" if args.wide else "") + (" --quick" if args.quick else "") + (
+        f" --timestep {args.timestep:g}" if args.timestep else "") + (" --previous-defaults" if args.previous_defaults else "") + (
         f" --track-model {args.track_model}" if args.track_model != "both" else "")
     models = TRACK_MODELS if args.track_model == "both" else (args.track_model,)
     if args.wide:
-        return 0 if run_wide_study(args.quick, args.out, command, models) else 1
+        return 0 if run_wide_study(args.quick, args.out, command, models, args.timestep, args.previous_defaults) else 1
     docs = {m: run_model(m, args.quick, args.out, command) for m in models}
     table = combined_table(docs)
     print_combined(table)
