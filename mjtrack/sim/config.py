@@ -73,9 +73,10 @@ class SimConfig:
         impratio: friction-to-normal impedance ratio (elliptic cones) [-]; 1e-4 keeps the
             friction rows of the main solve far inside the cone (no sliding lift-off); the
             noslip pass then supplies hard Coulomb friction.
-        noslip_iterations: post-solve iterations of the un-regularised friction solver. It
-            converges in 5 at the defaults; 4 changes the ICRs by <= 0.004 T/2, 3 by 0.06 T/2
-            (``experiments/bench_sim.py``, assets/README.md "Speed").
+        noslip_iterations: most post-solve iterations of the un-regularised friction solver
+            (it stops at its tolerance: 5 iterations in turns). Fewer cost accuracy where it
+            needs more: 4 moves turn ICRs by <= 0.004 T/2 but straight driving drifts 2 mm/m
+            at 2 m/s (20: 0.09 mm/m); assets/README.md "Speed".
         solver: main constraint solver, ``"Newton"``, ``"PGS"`` or ``"CG"``. PGS: with
             impratio 1e-4 the main solve carries only the normal rows and PGS reaches
             Newton's forces (ICRs equal to 1e-7) without Newton's nv x nv factorisation, on the
@@ -110,7 +111,7 @@ class SimConfig:
     coupling: str = "servo"
     cone: str = "elliptic"
     impratio: float = 1e-4
-    noslip_iterations: int = 4
+    noslip_iterations: int = 20
     solver: str = "PGS"
     iterations: int = 50
     tolerance: float = 1e-6
