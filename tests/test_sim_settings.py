@@ -28,6 +28,8 @@ def test_solver_and_drive_settings_are_validated():
     base = SimConfig()
     assert (cfg.kv, cfg.track_mass, cfg.torque_limit) == (4 * base.kv, 4 * base.track_mass, 4 * base.torque_limit)
     assert cfg.drive_reference_mass is None and cfg.for_robot_mass(5.0) == cfg  # scaled once only
+    light = base.for_robot_mass(5.0)  # never softer than the default robot's drive
+    assert (light.kv, light.track_mass, light.torque_limit) == (base.kv, base.track_mass, base.torque_limit)
     assert SimConfig(drive_reference_mass=None).for_robot_mass(80.0).kv == base.kv
 
 

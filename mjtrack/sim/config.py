@@ -44,13 +44,14 @@ class SimConfig:
         kv: velocity-servo gain of a track drive [N/(m/s)] (kv / N per roller servo).
         torque_limit: sprocket torque limit [N m] (track force limit torque/R_s).
         drive_reference_mass: robot mass [kg] for which ``track_mass``, ``kv`` and
-            ``torque_limit`` are given; the roller chain scales all three by
-            robot.mass / drive_reference_mass (:meth:`for_robot_mass`), so that every robot
-            has the default robot's drive stiffness per unit of traction (track speeds within
-            F/kv = 2.6 mm/s of the command at full traction, same spin-up acceleration and
-            the same explicit-damper margin kv dt / track_mass). ``None``: absolute values
-            (before: a 150 kg robot had the 20 kg robot's drive and its gentle turns lost most
-            of the commanded speed difference, experiments/fidelity.py --wide).
+            ``torque_limit`` are given; the roller chain scales all three up by
+            max(1, robot.mass / drive_reference_mass) (:meth:`for_robot_mass`), so that no
+            robot has a softer drive per unit of traction than the default one (track speeds
+            within F/kv = 2.6 mm/s of the command at full traction, same spin-up acceleration
+            and explicit-damper margin kv dt / track_mass). Not scaled down: a 5 kg robot with
+            a quarter of the drive missed Coulomb by up to 3.9 T/2 in 10 m turns at 0.2 m/s
+            against 0.42 with the full one. ``None``: absolute values (before: a 150 kg robot
+            had the 20 kg robot's drive, experiments/fidelity.py --wide --previous-defaults).
         lag: first-order time constant from command to servo set-point [s] (0 = none).
         contact_timeconst: contact solref time constant [s] (0 = 2 timesteps).
         contact_dampratio: contact solref damping ratio [-].
@@ -177,11 +178,11 @@ class SimConfig:
         return self.unsprung_fraction * robot_mass / (2 * self.n_rollers)
 
     def for_robot_mass(self, robot_mass: float) -> "SimConfig":
-        """The drive settings (track_mass, kv, torque_limit) scaled to a robot of ``robot_mass``
-        [kg] (see ``drive_reference_mass``); unchanged when it is None."""
+        """The drive settings (track_mass, kv, torque_limit) scaled up to a robot of ``robot_mass``
+        [kg] (see ``drive_reference_mass``); unchanged when it is None or the robot is lighter."""
         if self.drive_reference_mass is None:
             return self
-        s = robot_mass / self.drive_reference_mass
+        s = max(1.0, robot_mass / self.drive_reference_mass)
         return self.replace(track_mass=self.track_mass * s, kv=self.kv * s, torque_limit=self.torque_limit * s,
                             drive_reference_mass=None)
 
