@@ -15,7 +15,9 @@
 ``--compare`` times the previous roller defaults (``mjtrack.sim.config.previous_defaults``)
 and the current ones side by side, repeats interleaved, so that the ratio new/old is measured
 under the same load. The machine's load average is printed before and after: on a shared
-machine absolute numbers move with the load, ratios much less.
+machine absolute numbers move with the load, ratios much less. The real-time factor is also
+given per CPU second of this process (``time.process_time``): on an oversubscribed machine
+wall time includes waiting for a core, CPU time much less (cache sharing still slows it).
 """
 
 from __future__ import annotations
@@ -43,14 +45,19 @@ STAGES = ("POSITION", "POS_KINEMATICS", "POS_INERTIA", "POS_COLLISION", "POS_MAK
           "VELOCITY", "ACTUATION", "CONSTRAINT", "ADVANCE")
 
 
-def _interleaved(fns: dict, repeats: int = REPEATS) -> dict:
-    """Median wall time of each callable, repeats interleaved (same load for all)."""
+def _interleaved(fns: dict, repeats: int = REPEATS, *, cpu: dict | None = None) -> dict:
+    """Median wall time of each callable, repeats interleaved (same load for all); with ``cpu``
+    (a dict) also the median CPU time of this process per call, into cpu[k]."""
     times = {k: [] for k in fns}
+    cpus = {k: [] for k in fns}
     for _ in range(repeats):
         for k, fn in fns.items():
-            t0 = time.perf_counter()
+            c0, t0 = time.process_time(), time.perf_counter()
             fn()
             times[k].append(time.perf_counter() - t0)
+            cpus[k].append(time.process_time() - c0)
+    if cpu is not None:
+        cpu.update({k: statistics.median(v) for k, v in cpus.items()})
     return {k: statistics.median(v) for k, v in times.items()}
 
 
@@ -64,8 +71,11 @@ def realtime_factor(configs: dict[str, SimConfig], duration: float = 20.0) -> di
         s0 = settled_state(model)[None]
         nsteps[name] = cmds.shape[1]
         fns[name] = (lambda m=model, c=cmds, s=s0: run_batch([m], c, state0=s))
-    wall = _interleaved(fns)
+    cpu: dict = {}
+    wall = _interleaved(fns, cpu=cpu)
+    # per CPU second: what one core gives when this process has it to itself (the machine is shared)
     return {k: {"sim_seconds": duration, "wall_seconds": t, "realtime_factor": duration / t,
+                "cpu_seconds": cpu[k], "realtime_factor_per_cpu_second": duration / cpu[k],
                 "steps_per_second": nsteps[k] / t, "timestep": configs[k].timestep} for k, t in wall.items()}
 
 
@@ -181,9 +191,10 @@ def main(argv: list[str] | None = None) -> int:
         c = configs[name]
         print(f"{name:4s} default robot (dt {c.timestep} s, {c.n_rollers} rollers/track, {c.solver}, noslip "
               f"{c.noslip_iterations}): {r['realtime_factor']:.0f}x real time ({r['steps_per_second']:.0f} steps/s, "
-              f"median of {REPEATS})")
+              f"median of {REPEATS}); {r['realtime_factor_per_cpu_second']:.0f}x per CPU second")
     if args.compare:
-        print(f"new / old speed: {rtf['new']['realtime_factor'] / rtf['old']['realtime_factor']:.2f}x")
+        print(f"new / old speed: {rtf['new']['realtime_factor'] / rtf['old']['realtime_factor']:.2f}x wall, "
+              f"{rtf['new']['realtime_factor_per_cpu_second'] / rtf['old']['realtime_factor_per_cpu_second']:.2f}x CPU")
     print("\nper step [ms] (MuJoCo timers, default robot turning):")
     print(f"{'':6s} {'step':>7s} " + " ".join(f"{s.lower():>11s}" for s in STAGES) + "  solver it/step  nefc")
     rows = dict(profile, **({"surfacevel": surf["profile"]} if surf else {}))
