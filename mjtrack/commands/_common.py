@@ -2,7 +2,8 @@
 
 Robot options (CONTRACTS.md §3) on every command that simulates::
 
-    --robot FILE  --cg-x M  --cg-y M  --mu X  --mass KG  --track-gauge M  --track-length M
+    --robot FILE  --cg-x M  --cg-y M  --mu X  --mu-left X  --mu-right X  --mass KG
+    --track-gauge M  --track-length M
 
 :func:`robot_from_args` builds the :class:`~mjtrack.io.robot.Robot`: the ``--robot`` file if
 given, else the caller's ``base`` (a scenario's robot, a log's ``LOG.json``), else the default
@@ -30,6 +31,8 @@ ROBOT_OPTIONS: dict[str, tuple[str, str, str]] = {
     "cg_x": ("cg_x", "M", "centre of mass ahead (+) / behind (-) the geometric centre [m]"),
     "cg_y": ("cg_y", "M", "centre of mass left (+) / right (-) of the geometric centre [m]"),
     "mu": ("mu", "X", "ground friction coefficient, both tracks [-]"),
+    "mu_left": ("mu_left", "X", "ground friction coefficient of the left track (overrides --mu there) [-]"),
+    "mu_right": ("mu_right", "X", "ground friction coefficient of the right track (overrides --mu there) [-]"),
     "mass": ("mass", "KG", "total mass [kg]"),
     "track_gauge": ("track_gauge", "M", "distance between the track centre lines [m]"),
     "track_length": ("track_length", "M", "length of each track's ground contact [m]"),
