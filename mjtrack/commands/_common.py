@@ -90,6 +90,25 @@ def robot_from_args(args: argparse.Namespace, base: Robot | None = None) -> Robo
         raise InputError(f"{exc} (options: {given}{origin})") from None
 
 
+TERRAIN_HELP = ("terrain under the simulated robot: flat (default), incline:ANGLE[:DIR] (rad; DIR the uphill "
+                "direction, default 0 = +x), step:HEIGHT:X (a step across the ground from x = X on), "
+                "hfield:FILE:SIZE_X:SIZE_Y:HEIGHT (.npy or .png heights scaled 0-1, centred at the origin), "
+                "patches:FILE.json (rectangles {x, y, size_x, size_y, mu}) or FILE.json combining "
+                "incline/steps/hfield/patches")
+
+
+def add_terrain_option(parser: argparse.ArgumentParser) -> None:
+    """Add ``--terrain SPEC`` (parsed by :func:`terrain_from_args`)."""
+    parser.add_argument("--terrain", metavar="SPEC", default="flat", help=TERRAIN_HELP)
+
+
+def terrain_from_args(args: argparse.Namespace):
+    """The :class:`~mjtrack.sim.terrain.Terrain` of ``--terrain`` (bad specs: InputError)."""
+    from mjtrack.sim.terrain import parse_terrain
+
+    return parse_terrain(getattr(args, "terrain", "flat"))
+
+
 def add_output_options(parser: argparse.ArgumentParser) -> None:
     """Add ``-q/--quiet`` (no progress display)."""
     parser.add_argument("-q", "--quiet", action="store_true",

@@ -132,6 +132,17 @@ class Terrain:
         return h
 
 
+def with_terrain(robot, terrain: Terrain):
+    """The robot description to write beside a log: ``robot`` with key ``terrain`` (the terrain's
+    :meth:`Terrain.to_dict`) when the terrain is not flat, without it when it is."""
+    import dataclasses
+
+    extra = {k: v for k, v in robot.extra.items() if k != "terrain"}
+    if not terrain.is_flat:
+        extra["terrain"] = terrain.to_dict()
+    return dataclasses.replace(robot, extra=extra)
+
+
 def _incline_quat(angle: float, direction: float) -> np.ndarray:
     """Rotation about the horizontal axis z x u (u the uphill direction) by -angle: rises along u."""
     k = np.array([-math.sin(direction), math.cos(direction), 0.0])
