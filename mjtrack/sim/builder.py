@@ -60,6 +60,7 @@ import math
 import mujoco
 import numpy as np
 
+from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_of
@@ -193,6 +194,7 @@ def suspension_range(config: SimConfig) -> list[float]:
     return [-config.roller_radius / 2, config.roller_radius]
 
 
+STEP_CLEARANCE = 0.02  # [m] a step edge must be this far beyond the robot's ends at the start
 IDLER_CLEARANCE = 0.5  # idler bottom this many roller radii above the ground plane
 
 
@@ -355,6 +357,12 @@ def add_ground(spec: mujoco.MjSpec, robot: Robot, terrain: Terrain, contacts: li
     """The scene both track models share: terrain geoms, contact pairs, the robot's initial pose on
     the terrain (at the origin, aligned with the ground, on its highest point under the tracks),
     a light. Idlers touch only steps and height fields (they are above a plane: no pairs there)."""
+    reach = robot.track_length / 2 + robot.sprocket_radius  # front/rear idler ends
+    for st in terrain.steps:
+        if abs(st.x) <= reach + STEP_CLEARANCE:
+            # measured: a robot spawned across an edge can be launched (20 kg, step 4 cm at x 0.3 m)
+            raise InputError(f"--terrain {terrain.spec}: the step edge at x = {st.x:g} m lies under the robot's "
+                             f"start footprint (|x| <= {reach + STEP_CLEARANCE:.3g} m); put it farther from the origin")
     if terrain.hfield is None and not terrain.steps:
         contacts = [c for c in contacts if not c[0].startswith("idler_")]
     add_terrain(spec, terrain, contacts, nominal_mu=robot.mu, pair_options=pair_options)

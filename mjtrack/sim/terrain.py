@@ -43,6 +43,7 @@ import mujoco
 import numpy as np
 
 from mjtrack.errors import InputError
+from mjtrack.models.coulomb import incline_rotation
 
 PATCH_THICKNESS = 0.001  # [m] patches are this thick, lying on the ground
 STEP_DEPTH = 100.0  # [m] extent of a step box beyond its edge
@@ -144,9 +145,10 @@ def with_terrain(robot, terrain: Terrain):
 
 
 def _incline_quat(angle: float, direction: float) -> np.ndarray:
-    """Rotation about the horizontal axis z x u (u the uphill direction) by -angle: rises along u."""
-    k = np.array([-math.sin(direction), math.cos(direction), 0.0])
-    return np.concatenate([[math.cos(-angle / 2)], math.sin(-angle / 2) * k])
+    """The ground frame's orientation (w, x, y, z): :func:`mjtrack.models.coulomb.incline_rotation`."""
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, incline_rotation(angle, direction).ravel())
+    return q
 
 
 def _num(text: str, what: str, spec: str) -> float:
