@@ -404,3 +404,32 @@ def test_clock_is_written_and_each_segment_restarts(belt_video):
     # frame 11 is the second segment's t = 0: only the segment label differs from frame 0
     assert np.abs(frames[11][60:] - frames[0][60:]).mean() < 0.5
     assert np.abs(frames[11][text] - frames[0][text]).mean() > 1.0
+
+
+def test_qpos_from_poses_places_height_roll_and_pitch_like_a_terrain_log(model):
+    """Z-Y-X Euler angles: read back with the rollout's own yaw_of / roll_pitch_of."""
+    from mjtrack.sim.rollout import roll_pitch_of, yaw_of
+
+    poses = np.array([[1.0, 2.0, 0.7], [0.0, 0.0, -2.0], [0.5, -0.5, 3.0]])
+    roll, pitch, z = np.array([0.1, -0.2, 0.0]), np.array([0.2, 0.05, -0.3]), np.array([0.3, 0.1, 0.0])
+    q = qpos_from_poses(model, poses, z=z, roll=roll, pitch=pitch)
+    np.testing.assert_allclose(q[:, 2], z)
+    np.testing.assert_allclose(np.linalg.norm(q[:, 3:7], axis=1), 1.0)
+    r, p = roll_pitch_of(q[:, 3:7])
+    np.testing.assert_allclose(r, roll, atol=1e-12)
+    np.testing.assert_allclose(p, pitch, atol=1e-12)
+    np.testing.assert_allclose(np.unwrap(yaw_of(q[:, 3:7])), np.unwrap(poses[:, 2]), atol=1e-12)
+
+
+@pytest.mark.parametrize("spec", ["incline:0.2", "step:0.04:0.6"])
+def test_terrain_geoms_are_in_the_groups_the_renderer_shows(spec):
+    from mjtrack.io.robot import Robot
+    from mjtrack.sim.builder import build_model
+    from mjtrack.sim.terrain import parse_terrain
+
+    m = build_model(Robot(), terrain=parse_terrain(spec))
+    shown = np.asarray(mujoco.MjvOption().geomgroup)
+    world = [g for g in range(m.ngeom) if m.geom_bodyid[g] == 0]  # floor and terrain
+    assert len(world) >= 2 or spec.startswith("incline")
+    assert all(shown[m.geom_group[g]] for g in world)
+    assert all(m.geom_rgba[g, 3] > 0 for g in world)

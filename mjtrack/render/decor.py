@@ -42,12 +42,15 @@ def draw_grid(renderer: OffscreenRenderer, centre, *, spacing: float, half_size:
 
 
 def draw_polyline(renderer: OffscreenRenderer, points: np.ndarray, *, width_px: float, rgba=TRAIL_RGBA) -> None:
-    """Line segments through ``points`` (M, 2) [m], on the ground; stops quietly when the scene is full."""
+    """Line segments through ``points`` (M, 2) on the z = 0 ground or (M, 3) on the ground at their
+    own height (a body's path on terrain) [m]; stops quietly when the scene is full."""
     if len(points) < 2:
         return
-    z = GROUND_LIFT
-    for a, b in zip(points[:-1], points[1:]):
-        if not renderer.add_connector(_LINE, width_px, (a[0], a[1], z), (b[0], b[1], z), rgba):
+    points = np.asarray(points, dtype=float)
+    z = points[:, 2] + GROUND_LIFT if points.shape[1] > 2 else np.full(len(points), GROUND_LIFT)
+    for i in range(len(points) - 1):
+        a, b = points[i], points[i + 1]
+        if not renderer.add_connector(_LINE, width_px, (a[0], a[1], z[i]), (b[0], b[1], z[i + 1]), rgba):
             return
 
 

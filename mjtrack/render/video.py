@@ -215,8 +215,11 @@ def render_video(
             under it); ``False``: one fixed camera framing the whole path.
         distance: camera distance [m]; default: fit the body's subtree (following) or the path.
         azimuth, elevation: camera direction [deg], MuJoCo free-camera convention.
-        grid: spacing [m] of grid lines drawn on the z = 0 ground, ``None`` for none.
-        trail: draw the body's path so far on the ground.
+        grid: spacing [m] of grid lines drawn on the z = 0 ground, ``None`` for none (terrain
+            geoms above z = 0, e.g. a step or an incline, hide it there; the terrain itself is
+            drawn: every geom group MuJoCo shows by default is left visible).
+        trail: draw the body's path so far, at the body origin's height (on the ground for a
+            robot whose origin is its contact centre).
         icr: optional world-frame points (N, 2|3) or (N, K, 2|3) [m] drawn as markers (NaN: none).
         track_travel: (N, 2) belt travel [m] of the left and right tracks (∫ track speed dt,
             :func:`track_travel_from_speeds`): the grousers of the belts move by it.
@@ -306,7 +309,7 @@ def render_video(
                     if grid:
                         decor.draw_grid(renderer, cam.lookat, spacing=grid, half_size=grid_half)
                     if trail:
-                        points = np.vstack([pos[: k + 1 : trail_stride, :2], pos[k, :2]])
+                        points = np.vstack([pos[: k + 1 : trail_stride], pos[k]])  # at the body's height
                         decor.draw_polyline(renderer, points, width_px=max(2.0, height / 100))
                     if icr is not None:
                         decor.draw_markers(renderer, icr[icr_index[k]], pos[k], radius=0.15 * size)
@@ -329,12 +332,14 @@ def render_video(
 
 
 def qpos_from_poses(model: mujoco.MjModel, poses: np.ndarray, *, body: str = "chassis",
-                    z: float | None = None) -> np.ndarray:
+                    z=None, roll=None, pitch=None) -> np.ndarray:
     """Configurations (N, nq) placing ``body``'s free joint at planar ``poses`` (N, 3) = (x, y, yaw) [m, rad].
 
-    For rendering a log or a kinematic model's path: the other joints keep ``model.qpos0``,
-    the body's height is ``z`` [m] (default: its height in ``qpos0``), roll = pitch = 0 and
-    the quaternion is (cos(yaw/2), 0, 0, sin(yaw/2)).
+    For rendering a log or a kinematic model's path: the other joints keep ``model.qpos0``.
+    The body's height is ``z`` [m] (a number or (N,); default: its height in ``qpos0``); its
+    orientation the Z-Y-X Euler angles yaw, ``pitch``, ``roll`` [rad] ((N,) or None for 0,
+    the convention of a log on terrain: pitch positive nose down, roll positive left side up),
+    q = q_z(yaw) q_y(pitch) q_x(roll).
     """
     poses = np.asarray(poses, dtype=float)
     if poses.ndim != 2 or poses.shape[1] != 3:
@@ -346,11 +351,21 @@ def qpos_from_poses(model: mujoco.MjModel, poses: np.ndarray, *, body: str = "ch
     if model.body_jntnum[body_id] < 1 or model.jnt_type[jnt] != mujoco.mjtJoint.mjJNT_FREE:
         raise InputError(f"qpos_from_poses: body {body!r} has no free joint")
     adr = model.jnt_qposadr[jnt]
-    qpos = np.tile(model.qpos0, (len(poses), 1))
+    n = len(poses)
+    angles = []
+    for name, value in (("roll", roll), ("pitch", pitch)):
+        a = np.zeros(n) if value is None else np.broadcast_to(np.asarray(value, dtype=float), (n,))
+        if not np.all(np.isfinite(a)):
+            raise InputError(f"qpos_from_poses: {name} must be finite")
+        angles.append(a)
+    r, p, y = angles[0] / 2, angles[1] / 2, poses[:, 2] / 2
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    qpos = np.tile(model.qpos0, (n, 1))
     qpos[:, adr] = poses[:, 0]
     qpos[:, adr + 1] = poses[:, 1]
-    qpos[:, adr + 2] = model.qpos0[adr + 2] if z is None else z
-    qpos[:, adr + 3] = np.cos(poses[:, 2] / 2)
-    qpos[:, adr + 4 : adr + 6] = 0.0
-    qpos[:, adr + 6] = np.sin(poses[:, 2] / 2)
+    qpos[:, adr + 2] = model.qpos0[adr + 2] if z is None else np.broadcast_to(np.asarray(z, dtype=float), (n,))
+    qpos[:, adr + 3] = cy * cp * cr + sy * sp * sr
+    qpos[:, adr + 4] = cy * cp * sr - sy * sp * cr
+    qpos[:, adr + 5] = cy * sp * cr + sy * cp * sr
+    qpos[:, adr + 6] = sy * cp * cr - cy * sp * sr
     return qpos

@@ -5,7 +5,8 @@ pose, the chassis at its rest height, the other joints at rest), so any log — 
 measured — can be shown. The camera follows the robot, its path so far is trailed on the
 ground, and the log's own ICRs (2.13) of the left track, right track and body are drawn on
 the ground where the true |ω| ≥ ``wz_min`` (they run off to infinity in straight driving).
-A log with several segments shows them one after the other (each with its own start and
+A log driven on terrain (its robot description records it) is shown on that terrain, the chassis
+at the logged height, roll and pitch. A log with several segments shows them one after the other (each with its own start and
 trail, its number on screen); the GIF shows the first segment. The tracks are drawn as belts
 whose grousers move with the logged track speeds; time and playback speed are on every frame.
 
@@ -53,10 +54,12 @@ def render_log(drive: DriveLog, robot: Robot, out_path: str | os.PathLike, *, wi
     from mjtrack.sim.builder import build_model
 
     case = case_from_log(drive, noise=Noise(scale=0.0))
-    model = build_model(robot)
+    terrain = log_terrain(robot)
+    model = build_model(robot, terrain=terrain)
     chassis = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "chassis")
     belts = belt_geometry(model, chassis, width=robot.track_width, radius=robot.sprocket_radius)
-    qpos = qpos_from_poses(model, case.pose)
+    lifted = drive.z is not None and len(drive.z) == len(case.t)  # a log on terrain: 3-D pose
+    qpos = qpos_from_poses(model, case.pose, **({"z": drive.z, "roll": drive.roll, "pitch": drive.pitch} if lifted else {}))
     icr = icr_from_twist(*case.twist.T, case.v_left, case.v_right, wz_min=wz_min, on_singular="mask")
     starts = (np.flatnonzero(case.segments[1:] != case.segments[:-1]) + 1).tolist()
     travel = np.zeros((len(case.t), 2))
@@ -65,6 +68,17 @@ def render_log(drive: DriveLog, robot: Robot, out_path: str | os.PathLike, *, wi
     return render_video(model, qpos, case.t, out_path, width=width, height=height, fps=fps, speed=speed,
                         icr=icr_markers(case.pose, icr), track_travel=travel, belts=belts, segment_starts=starts,
                         progress=not quiet)
+
+
+def log_terrain(robot: Robot):
+    """The terrain a log was driven on: its robot description's ``terrain`` (recorded by
+    ``mjtrack simulate``; rebuilt from its spec), else flat."""
+    from mjtrack.sim.terrain import Terrain, parse_terrain
+
+    recorded = robot.extra.get("terrain")
+    if isinstance(recorded, dict) and isinstance(recorded.get("spec"), str):
+        return parse_terrain(recorded["spec"])
+    return Terrain()
 
 
 def model_paths(case: Case, robot: Robot) -> dict[str, np.ndarray]:
