@@ -1,14 +1,18 @@
 """Slip-compensated trajectory tracking with the MuJoCo tracked robot.
 
 Drives the MuJoCo robot along a tracking scenario's reference (figure_eight: lemniscate of
-Gerono, A = 1.5 m, 2 laps; circle: radius 1 m, 1.5 turns; both at 0.5 m/s unless --speed)
-with a controller (tracker: feed-forward + pole-placement feedback; feedforward: open loop)
-whose body commands (v, w) go to the tracks through a compensation:
-none (nominal V_L,R = v -+ w T/2), icr (inverse MICR with the online ICR estimate) or vir
-(the same speed map plus the virtual-robot heading correction (2.21)). Same controller and
-gains for all compensations. Writes DIR/tracking.json (rms_cross_track_m, max_cross_track_m,
-final_pos_err_m, the settings, the robot, the final ICR estimate) and DIR/tracking.png
-(path vs reference, cross-track error over time).
+Gerono, A = 1.5 m, 2 laps; circle: radius 1 m, 1.5 turns; lane_change: 1.5 m straight, a 1 m
+shift to the left over 3 m with continuous curvature, 1.5 m straight; all at 0.5 m/s unless
+--speed) with a controller (tracker: feed-forward + pole-placement feedback; feedforward: open
+loop) whose body commands (v, w) go to the tracks through a compensation: none (nominal
+V_L,R = v -+ w T/2), icr (inverse ICR map of the online estimate for the feed-forward, feedback
+on the body point that does not drift sideways) or vir (the same map plus the virtual-robot
+heading correction 2.21). The estimate is applied with a trust weight in [0, 1]: 0 while it is
+unconverged, physically impossible, or no better than the nominal map at explaining the
+measured motion; so compensation fades out where it cannot help. Same controller and gains for
+all compensations. Writes DIR/tracking.json (rms_cross_track_m, max_cross_track_m,
+final_pos_err_m, mean_trust_weight, the settings, the robot, the final ICR estimate) and
+DIR/tracking.png (path vs reference, cross-track error over time).
 """
 
 from __future__ import annotations
@@ -28,7 +32,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenario", choices=list(TRACK_SCENARIOS), default="figure_eight",
                         help="reference path (default figure_eight)")
     parser.add_argument("--compensation", choices=list(MODES), default="vir",
-                        help="slip compensation: none, icr (inverse MICR feed-forward), vir (icr + heading correction 2.21); default vir")
+                        help="slip compensation: none, icr (inverse ICR map + drift-free control point), vir (inverse ICR map + "
+                             "heading correction 2.21); default vir")
     parser.add_argument("--controller", choices=["tracker", "feedforward"], default="tracker",
                         help="tracker: feed-forward + state feedback (default); feedforward: open loop")
     parser.add_argument("--speed", metavar="M/S", type=finite_float, default=None, help="reference speed [m/s] (default 0.5)")
