@@ -242,7 +242,7 @@ def test_trust_weight_limits_and_what_the_blend_predicts():
 def test_an_inadmissible_or_unexplaining_estimate_is_not_used():
     comp = SlipCompensation(0.4, "icr", track_length=0.5)
     assert comp.admissible(InverseICR.from_icr(0.27, -0.25, 0.05).params)
-    for icr in [(-163.0, -314.0, 3.8), (0.21, -0.13, 0.0), (0.27, -0.25, 0.3), (2.0, -2.0, 0.0)]:
+    for icr in [(-163.0, -314.0, 3.8), (0.15, -0.13, 0.0), (0.27, -0.25, 0.3), (2.0, -2.0, 0.0)]:
         assert not comp.admissible(InverseICR.from_icr(*icr).params), icr
     comp.observe(0.0, np.zeros(2), np.zeros(3), np.zeros(3))
     np.testing.assert_allclose(comp.track_speeds(0.5, 0.5), TrackSpeedAdapter(0.4)(0.5, 0.5))
