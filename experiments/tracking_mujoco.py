@@ -11,7 +11,9 @@ Controllers, the same gains with every compensation:
 * ``feedforward``: the reference's (v_d, w_d) only (open loop).
 
 Compensations (mjtrack.control.compensation): ``none`` (nominal V_L,R = v -+ w T/2), ``icr``
-(inverse MICR with the online ICR estimate), ``vir`` (the same + the (2.21) heading correction).
+(inverse ICR map of the online estimate for the feed-forward, feedback on the drift-free body
+point), ``vir`` (the same map + the (2.21) heading correction); both weighted by the trust
+weight of the estimate (see experiments/compensation_grid.py for the grid of cases).
 Measurements seen by the controller and estimator: pose and twist with seeded noise (1 cm,
 0.01 rad; 0.02 m/s, 0.02 rad/s). Cross-track error: distance of the true centre to the path.
 Pass: RMS cross-track with ``vir`` <= 50 % of ``none`` for the tracker on the figure-eight,
