@@ -2,10 +2,13 @@
 
 The robot is placed at the log's poses (any log: simulated or measured), the camera follows
 it, its path is trailed on the ground and the log's own ICRs (2.13) of the left track, right
-track and body are drawn on the ground while it turns. --gif FILE.gif also writes an
-animated top view of the true path and the open-loop paths of the nominal model and of the
-models whose parameters the filters estimate online. A log with several segments shows the
-first one.
+track and body are drawn on the ground while it turns. Each track is drawn as a belt whose
+grousers advance with the log's track speeds (measured where logged, else commanded); every
+frame shows the time and the playback speed. A log simulated on terrain (recorded in its
+JSON) is shown on that terrain at the logged height, roll and pitch. A log with several
+segments plays them one after the other. --gif FILE.gif also writes an animated top view of
+the true path and the open-loop paths of the nominal model and of the models whose
+parameters the filters estimate online (first segment).
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--width", type=_even_int, default=640, help="frame width [px], even (default 640)")
     parser.add_argument("--height", type=_even_int, default=480, help="frame height [px], even (default 480)")
     parser.add_argument("--fps", type=finite_float, default=30.0, help="frames per second (default 30)")
-    parser.add_argument("--speed", type=finite_float, default=1.0, help="playback speed, 2 = twice as fast (default 1)")
+    parser.add_argument("--speed", type=finite_float, default=1.0, help="playback speed, 1 = real time, 2 = twice as fast; shown on every frame (default 1)")
     parser.add_argument("--gif", metavar="FILE.gif", type=Path, default=None,
                         help="also write an animated plot of the true and model paths")
     add_output_options(parser)
