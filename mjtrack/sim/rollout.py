@@ -32,7 +32,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_commands
-from mjtrack.sim.terrain import Terrain
+from mjtrack.sim.terrain import Terrain, timestep_for
 
 logger = logging.getLogger(__name__)
 
@@ -217,7 +217,8 @@ def simulate(
 
     Returns a dict of (nsample,) arrays with the columns t, v_left_cmd, v_right_cmd, x, y, yaw,
     v_left, v_right, vx, vy, wz, and z, roll, pitch on a terrain other than flat; the first row
-    is the settled rest state at t = 0.
+    is the settled rest state at t = 0. On terrain with edges use a time step of at most
+    :data:`mjtrack.sim.terrain.EDGE_TIMESTEP` (:func:`drive_log` and ``steady`` do so themselves).
     """
     config = config or SimConfig()
     commands = np.asarray(commands, dtype=float)
@@ -320,6 +321,7 @@ def drive_log(robot: Robot, table: tuple[np.ndarray, np.ndarray, np.ndarray], *,
     from mjtrack.io.logs import DriveLog
 
     config = config or SimConfig()
+    config = config.replace(timestep=timestep_for(config.timestep, terrain))  # smaller on edges
     commands = hold_commands(*table, timestep=config.timestep, duration=duration)
     return DriveLog.from_columns(simulate(robot, commands, config=config, log_rate=log_rate, terrain=terrain))
 

@@ -33,7 +33,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_commands
-from mjtrack.sim.terrain import Terrain
+from mjtrack.sim.terrain import Terrain, timestep_for
 from mjtrack.sim.rollout import SensorMap, run_batch, settled_state
 
 logger = logging.getLogger(__name__)
@@ -89,6 +89,7 @@ def steady_batch(
     friction, mass or geometry.
     """
     config = config or SimConfig()
+    config = config.replace(timestep=timestep_for(config.timestep, terrain))  # smaller on edges
     commands = np.atleast_2d(np.asarray(commands, dtype=float))
     if config.track_model == "surfacevel":
         return [_surfacevel(r, c, config, settle_s, window_s, terrain) for r, c in zip(robots, commands)]
