@@ -32,6 +32,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_commands
+from mjtrack.sim.surfacevel import TrackDrive
 from mjtrack.sim.terrain import Terrain, timestep_for
 
 logger = logging.getLogger(__name__)
@@ -266,8 +267,6 @@ def _simulate_surfacevel(robot: Robot, commands: np.ndarray, *, config: SimConfi
     its track speeds are model fields set every step by its ``TrackDrive`` (no actuators, so
     ``mujoco.rollout`` cannot drive it). Same columns and sampling as :func:`simulate`; the
     track speeds logged are the drive's."""
-    from mjtrack.sim.surfacevel import TrackDrive
-
     model = build_model(robot, config, terrain)
     stride = steps_per_sample(model.opt.timestep, log_rate)
     data = mujoco.MjData(model)
