@@ -3,6 +3,7 @@ scales with the robot, and the wider fidelity grid (issue 11) as far as it passe
 
 from __future__ import annotations
 
+import functools
 import sys
 import time
 from pathlib import Path
@@ -68,6 +69,7 @@ def test_heavy_robot_keeps_the_commanded_speed_difference():
     assert max(abs(res.y_l - ref.y_l), abs(res.y_r - ref.y_r)) < 0.08 * robot.track_gauge / 2
 
 
+@functools.lru_cache(maxsize=1)
 def _wide_rows():
     sys.path.insert(0, str(EXPERIMENTS))
     try:
