@@ -94,6 +94,7 @@ class FilterResult:
         updated: (N,) bool, False where the step had no update.
         state_angles / meas_angles: indices of angle components (wrapped in errors).
         info: free-form extras (e.g. the filter's settings), JSON-friendly.
+        mode_prob: (N,) probability of the fast mode of an adaptive (IMM) filter, else None.
     """
 
     name: str
@@ -113,6 +114,7 @@ class FilterResult:
     state_angles: tuple[int, ...] = ()
     meas_angles: tuple[int, ...] = ()
     info: dict = field(default_factory=dict)
+    mode_prob: np.ndarray | None = None
 
     def __post_init__(self):
         N, n, m = len(self.t), len(self.state_names), len(self.meas_names)
@@ -155,8 +157,10 @@ class History:
     def __init__(self, n: int, m: int):
         self.n, self.m = n, m
         self.rows: list[tuple] = []
+        self.modes: list = []
 
-    def add(self, t, x_prior, P_prior, x_post, P_post, z, z_pred, mask=None, innovation=None, S=None, K=None):
+    def add(self, t, x_prior, P_prior, x_post, P_post, z, z_pred, mask=None, innovation=None, S=None, K=None,
+            mode_prob=None):
         """Record one step; ``mask`` (m,) marks the measurement components used (None: all)."""
         m, n = self.m, self.n
         mask = np.ones(m, bool) if mask is None else np.asarray(mask, bool)
@@ -167,6 +171,7 @@ class History:
             full_S[np.ix_(mask, mask)] = S
             full_K[:, mask] = K
         self.rows.append((t, x_prior, P_prior, x_post, P_post, z, z_pred, full_e, full_S, full_K, updated))
+        self.modes.append(mode_prob)
 
     def result(self, name, state_names, meas_names, *, state_angles=(), meas_angles=(), info=None) -> FilterResult:
         cols = list(zip(*self.rows)) if self.rows else [[] for _ in range(11)]
@@ -176,7 +181,8 @@ class History:
         arr = [a if len(self.rows) else np.zeros(s) for a, s in zip(arr, empty)]
         return FilterResult(name, arr[0], tuple(state_names), tuple(meas_names), arr[1], arr[3], arr[2], arr[4],
                             arr[5], arr[6], arr[7], arr[8], arr[9], np.asarray(cols[10], bool),
-                            tuple(state_angles), tuple(meas_angles), dict(info or {}))
+                            tuple(state_angles), tuple(meas_angles), dict(info or {}),
+                            None if not self.modes or self.modes[0] is None else np.asarray(self.modes, float))
 
 
 def chi2_band(dof: int, runs: int = 1, p: float = 0.95) -> tuple[float, float]:

@@ -32,11 +32,15 @@ from typing import Sequence
 import numpy as np
 
 from mjtrack.estimation.common import FilterResult
+from mjtrack.estimation.imm import IMMSettings, imm_settings
 from mjtrack.estimation.pose_ekf import run_pose_param_ekf
 from mjtrack.models import MPP
 
 PARAM_NAMES = MPP.param_names  # ("s_left", "s_right", "alpha")
 ALPHA_MAX = np.radians(85.0)  # [rad] bound of the slip angle estimate (MPP is undefined at 90 deg)
+# IMM pair for adaptive="imm": the slips' fast mode is 100x the slow intensity (0.1 /sqrt(s),
+# 5 deg/sqrt(s) on alpha at the defaults) with 3x the measurement std (tuned on the default robot only)
+SLIP_IMM = IMMSettings(fast_factor=100.0, fast_meas_factor=3.0)
 SLIP_MAX = 5.0  # [-] bound of the slip estimates (|s| > 1 means a track turning against its command)
 
 
@@ -56,6 +60,8 @@ def run_slip_ekf(
     q_pose_std: Sequence[float] = (0.005, 0.005, 0.002),
     pose0=None,
     pose_std0=None,
+    adaptive=None,
+    param_cov0=None,
 ) -> FilterResult:
     """Slip EKF over a drive.
 
@@ -67,6 +73,9 @@ def run_slip_ekf(
         params0: initial (s_L, s_R, α) [-, -, rad] (default: no slip); param_std0: their std.
         q_param_std: random-walk intensity [1/√s, 1/√s, rad/√s]; q_pose_std: pose process
             noise [m/√s, m/√s, rad/√s] (covers Euler's error and unmodelled motion).
+        adaptive: None, "imm" or :class:`~mjtrack.estimation.imm.IMMSettings` (slow/fast IMM pair,
+            :mod:`mjtrack.estimation.imm`); param_cov0: (3, 3) initial covariance overriding
+            ``param_std0``.
     Returns:
         :class:`FilterResult` with states (x, y, theta, s_left, s_right, alpha).
     """
@@ -74,6 +83,6 @@ def run_slip_ekf(
     return run_pose_param_ekf(
         model, t, v_left, v_right, pose_meas=pose_meas, twist_meas=twist_meas, pose_std=pose_std,
         twist_std=twist_std, param_std0=param_std0, q_param_std=q_param_std, q_pose_std=q_pose_std,
-        pose0=pose0, pose_std0=pose_std0, name="slip_ekf",
+        pose0=pose0, pose_std0=pose_std0, name="slip_ekf", adaptive=imm_settings(adaptive, SLIP_IMM), param_cov0=param_cov0,
         param_bounds=[(-SLIP_MAX, SLIP_MAX), (-SLIP_MAX, SLIP_MAX), (-ALPHA_MAX, ALPHA_MAX)],
     )
