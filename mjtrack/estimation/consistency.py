@@ -95,37 +95,52 @@ def steady_truth(t: np.ndarray, values: np.ndarray, stretch: np.ndarray, *, sett
     return out
 
 
-def summary(result: FilterResult, param_true: np.ndarray | None = None, *, t_from: float | None = None,
-            param_slice: slice = slice(3, None)) -> dict:
-    """``{nis_mean, nis_dof, nees_mean, nees_dof, band95, n_nis, n_nees}`` of one run.
+def nis_nees(result: FilterResult, param_true: np.ndarray | None = None, *,
+             param_slice: slice = slice(3, None)) -> tuple[np.ndarray, np.ndarray]:
+    """(NIS (N,), parameter NEES (N,)) of one run; NaN where no update / no truth (rows of NaN in ``param_true``)."""
+    nis = result.nis()
+    nees = np.full(result.t.size, np.nan)
+    if param_true is not None:
+        idx = list(range(result.x_post.shape[1]))[param_slice]
+        pt = np.asarray(param_true, float)
+        good = np.all(np.isfinite(pt), axis=1)
+        full = np.array(result.x_post, float)
+        full[:, idx] = np.where(good[:, None], pt, full[:, idx])
+        nees = np.where(good, result.nees(full, idx=idx), np.nan)
+    return nis, nees
+
+
+def summary(result, param_true=None, *, t_from: float | None = None, param_slice: slice = slice(3, None)) -> dict:
+    """``{nis_mean, nis_dof, nees_mean, nees_dof, band95, n_nis, n_nees}`` of one run or several.
 
     Args:
-        result: the filter's history (N steps).
-        param_true: (N, P) true parameters per step (NaN rows are left out), or None (no truth:
-            ``nees_mean`` is None).
+        result: a :class:`FilterResult` (N steps) or a sequence of them (segments of one log).
+        param_true: (N, P) true parameters per step (NaN rows are left out), a sequence of them
+            (one per result), or None (no truth: ``nees_mean`` is None).
         t_from: steps before this time [s] are left out of both means (initial convergence).
         param_slice: the parameter block of the state (default: after the pose).
     """
-    keep = np.ones(result.t.size, bool) if t_from is None else result.t >= t_from - 1e-9
-    nis = result.nis()
-    ok = keep & np.isfinite(nis)
-    dof = int(np.median(np.sum(np.isfinite(result.innovation[ok]), axis=1))) if ok.any() else len(result.meas_names)
-    n_par = len(result.state_names[param_slice])
-    out = {"nis_mean": float(np.mean(nis[ok])) if ok.any() else None, "nis_dof": dof,
-           "nees_mean": None, "nees_dof": n_par,
-           "band95": {"nis": list(chi2_band(dof)), "nees": list(chi2_band(n_par))},
-           "n_nis": int(ok.sum()), "n_nees": 0}
-    if param_true is not None:
-        idx = list(range(result.x_post.shape[1]))[param_slice]
-        full = np.array(result.x_post, float)
-        pt = np.asarray(param_true, float)
-        good = keep & np.all(np.isfinite(pt), axis=1)
-        full[:, idx] = np.where(good[:, None], pt, full[:, idx])
-        nees = result.nees(full, idx=idx)
-        if good.any():
-            out["nees_mean"] = float(np.mean(nees[good]))
-            out["n_nees"] = int(good.sum())
-    return out
+    results = [result] if isinstance(result, FilterResult) else list(result)
+    truths = [param_true] if isinstance(result, FilterResult) else (
+        [None] * len(results) if param_true is None else list(param_true))
+    nis_all, nees_all, dofs = [], [], []
+    for r, pt in zip(results, truths):
+        nis, nees = nis_nees(r, pt, param_slice=param_slice)
+        keep = np.ones(r.t.size, bool) if t_from is None else r.t >= t_from - 1e-9
+        nis_all.append(nis[keep])
+        nees_all.append(nees[keep])
+        ok = keep & np.isfinite(nis)
+        dofs.append(np.sum(np.isfinite(r.innovation[ok]), axis=1))
+    nis, nees = np.concatenate(nis_all or [np.zeros(0)]), np.concatenate(nees_all or [np.zeros(0)])
+    dofs = np.concatenate(dofs or [np.zeros(0)])
+    dof = int(np.median(dofs)) if dofs.size else (len(results[0].meas_names) if results else 0)
+    n_par = len(results[0].state_names[param_slice]) if results else 0
+    ok_nis, ok_nees = np.isfinite(nis), np.isfinite(nees)
+    have_truth = param_true is not None
+    return {"nis_mean": float(np.mean(nis[ok_nis])) if ok_nis.any() else None, "nis_dof": dof,
+            "nees_mean": float(np.mean(nees[ok_nees])) if have_truth and ok_nees.any() else None, "nees_dof": n_par,
+            "band95": {"nis": list(chi2_band(dof)) if dof else None, "nees": list(chi2_band(n_par)) if n_par else None},
+            "n_nis": int(ok_nis.sum()), "n_nees": int(ok_nees.sum())}
 
 
 def per_dof(c: dict) -> tuple[float, float]:

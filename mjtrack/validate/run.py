@@ -7,7 +7,8 @@ measurements and every predictor (:mod:`mjtrack.validate.predictors`) is scored
 self-contained file: verdicts, setup, definitions, error-vs-horizon figure and tables, paths,
 ICRs over time, parameter recovery, filters) and ``metrics.json`` (the same numbers:
 ``setup``, ``definitions``, ``verdicts``, ``headline`` (2-s errors per truth and predictor),
-``truths.<name>.predictors.<key>.horizons.<h>.{pos_rmse_m, yaw_rmse_deg, n}``, ...).
+``truths.<name>.predictors.<key>.horizons.<h>.{pos_rmse_m, yaw_rmse_deg, n}``,
+``truths.<name>.filters.<filter>.consistency.{nis_mean, nis_dof, nees_mean, nees_dof, band95}``, ...).
 """
 
 from __future__ import annotations
@@ -75,6 +76,7 @@ def validate(
     wz_min: float = WZ_MIN,
     quiet: bool = False,
     bar: Progress | None = None,
+    log_noise_free: bool | None = None,
 ) -> Validation:
     """Validate all models and filters on ``drive`` (with ``robot``); write report and metrics to ``out_dir``.
 
@@ -88,6 +90,9 @@ def validate(
         mpp_params: the MPP truth's (s_left, s_right, alpha) (default thesis 4.2).
         wz_min: |ω| [rad/s] below which ICRs are not compared.
         bar: a progress display to advance (one is made otherwise, silent with ``quiet``).
+        log_noise_free: whether the log is a noise-free simulation, so that the filters' parameter
+            NEES can be scored against its own parameters (default: unless ``truth_title`` is
+            "measured log").
     """
     speeds = resolve_speeds(drive, speeds)
     horizons = tuple(sorted(float(h) for h in horizons))
@@ -97,7 +102,8 @@ def validate(
     own_bar = bar is None
     bar = bar or Progress(2 * (N_PREDICTORS + 1) + 1, label="validate", quiet=quiet)
     try:
-        mj = case_from_log(drive, speeds=speeds, noise=noise, seed=seed, title=truth_title)
+        noise_free = truth_title != "measured log" if log_noise_free is None else bool(log_noise_free)
+        mj = case_from_log(drive, speeds=speeds, noise=noise, seed=seed, title=truth_title, noise_free=noise_free)
         cases = [mj, mpp_case(mj, robot, params=mpp_params, noise=noise, seed=seed)]
         results = {c.name: evaluate_case(c, robot.track_gauge, horizons=horizons, noise=noise, wz_min=wz_min, bar=bar)
                    for c in cases}
@@ -147,7 +153,10 @@ def _setup(drive, robot, source, horizons, noise, seed, speeds, mpp_params, wz_m
                       f"α = {math.degrees(mpp_params['alpha']):g}° (thesis 4.2)"),
         "mpp_truth_params": mpp_params, "noise": applied, "noise_text": noise_text, "seed": seed,
         "filters_text": ("slip EKF (MPP; measures pose and twist), improved ICR EKF (MICR; measures the pose), "
-                         "improved VIR filter (MVIR; measures the twist); each starts from the nominal parameters "
-                         "and runs online through the log"),
+                         "improved VIR filter (MVIR; measures the twist); each with adaptive process noise (a slow "
+                         "and a fast random walk of its parameters mixed as an interacting multiple model), starts "
+                         "from the nominal parameters and runs online through the log; on a log of several windows "
+                         "the parameters are carried from one window to the next (their covariance grown over the "
+                         "gap) and only the pose restarts"),
         "horizons_s": list(horizons), "wz_min": wz_min,
     }
