@@ -7,10 +7,11 @@ Run: nice -n 10 python experiments/filter_consistency.py [--out experiments/resu
 | case | robot | drive |
 |---|---|---|
 | ``tuning``  | default (T 0.4, L 0.5, 20 kg, μ 0.8), cg 5 cm forward | random steps, 60 s, seed 1 |
+| ``tuning_circle`` | the same robot | circle (0.5 m/s, nominal R 1 m), 30 s |
 | ``heavy``   | 40 kg, T 0.5, L 0.7, μ 0.5, cg 5 cm *behind* | random steps, 60 s, seed 2 |
 | ``lateral`` | default size, μ 1.0, cg 4 cm to the left | circle (0.5 m/s, nominal R 1 m), 30 s |
 
-The IMM settings (:mod:`mjtrack.estimation.imm`) were chosen on ``tuning`` only; ``heavy`` and
+The IMM settings (:mod:`mjtrack.estimation.imm`) were chosen on the two ``tuning`` cases only; ``heavy`` and
 ``lateral`` are robots the filters were not tuned on.
 
 **Filters** as ``mjtrack validate`` runs them: slip EKF (MPP; pose + twist), ICR EKF (ψ; pose),
@@ -68,10 +69,12 @@ POSE_STD = (0.01, 0.01, 0.01)
 TWIST_STD = (0.02, 0.02, 0.02)
 T_FROM = 5.0  # [s] initial convergence left out of the means
 SEEDS = (0, 1, 2)
+GC_SEEDS = (0, 1, 2, 3, 4, 5)  # the ground change is cheap: more seeds
 NIS_BAND = (0.5, 2.0)
 NEES_BAND = (1 / 3, 3.0)
 CASES = {
     "tuning": (Robot(cg_x=0.05), "random_steps", 60.0, 1),
+    "tuning_circle": (Robot(cg_x=0.05), "circle", 30.0, 0),
     "heavy": (Robot(mass=40.0, track_gauge=0.5, track_length=0.7, mu=0.5, cg_x=-0.05), "random_steps", 60.0, 2),
     "lateral": (Robot(mu=1.0, cg_y=0.04), "circle", 30.0, 0),
 }
@@ -107,14 +110,14 @@ def truths(log, robot: Robot) -> dict:
     return {"slip_ekf": slips, "icr_ekf": psi, "vir_filter": psi}
 
 
-def consistency_case(name: str) -> dict:
+def consistency_case(name: str, variants=(None, "imm")) -> dict:
     robot, scenario, duration, cmd_seed = CASES[name]
     table, dur = scenario_commands(scenario, robot, duration=duration, seed=cmd_seed)
     log = drive_log(robot, table, duration=dur, log_rate=LOG_RATE)
     truth = truths(log, robot)
     out = {"robot": robot.to_dict(), "scenario": scenario, "duration_s": duration, "command_seed": cmd_seed,
            "filters": {}}
-    for adaptive in (None, "imm"):
+    for adaptive in variants:
         for seed in SEEDS:
             for f, r in run_filters(log, robot, seed, adaptive).items():
                 c = cons.summary(r, truth[f][1:], t_from=T_FROM)
@@ -169,18 +172,41 @@ def recovery(log, robot: Robot, est: OnlineICREstimator, seed: int) -> dict:
     own = np.stack([own.y_l, own.y_r, own.x_c], -1)
     ref_before = np.nanmean(own[(t >= 10.0) & (t < CHANGE_T)], 0)
     ref = np.nanmean(own[t >= REF_FROM], 0)
-    tol = 0.05 * robot.track_gauge / 2
-    bad = np.any(np.abs(icr - ref) > tol, axis=1) | ~np.all(np.isfinite(icr), axis=1)
     after = t >= CHANGE_T
-    last_bad = np.flatnonzero(bad & after)
-    if last_bad.size and last_bad[-1] == t.size - 1:
-        rec = None
-    else:
-        rec = float(t[last_bad[-1] + 1] - CHANGE_T) if last_bad.size else 0.0
+
+    def back_within(frac: float):
+        bad = np.any(np.abs(icr - ref) > frac * robot.track_gauge / 2, axis=1) | ~np.all(np.isfinite(icr), axis=1)
+        last_bad = np.flatnonzero(bad & after)
+        if last_bad.size and last_bad[-1] == t.size - 1:
+            return None
+        return float(t[last_bad[-1] + 1] - CHANGE_T) if last_bad.size else 0.0
+
     steady = t >= CHANGE_T + 5.0
-    return {"seed": seed, "recovery_s": rec, "ref_before": ref_before.tolist(), "ref_after": ref.tolist(),
+    return {"seed": seed, "recovery_s": back_within(0.05), "recovery_10pct_s": back_within(0.10), "ref_before": ref_before.tolist(), "ref_after": ref.tolist(),
             "max_err_after_5s_over_half_gauge": float(np.max(np.abs(icr[steady] - ref)) / (robot.track_gauge / 2)),
             "final_err_over_half_gauge": (np.abs(icr[-1] - ref) / (robot.track_gauge / 2)).tolist()}
+
+
+def oracle_error(log, seed: int, window_s: float = 2.0) -> list[float]:
+    """|ICR − reference| / (T/2) of the best any estimator can do from the twist alone 2 s after the change.
+
+    A least-squares fit of a constant ψ to the noisy twist samples in (CHANGE_T, CHANGE_T + window_s]
+    (it knows when the ground changed, which no online estimator does): ψ_x = −Σ v_y ΔV / Σ ΔV²,
+    ψ_y = Σ (v_x − V̄) ΔV / Σ ΔV², ψ_z = Σ ω ΔV / Σ ΔV². Its error is set by the measurement noise
+    alone (plus the 0.3 s of the ground change's own transient it includes): the information limit
+    the 2-s target is up against.
+    """
+    _, twist = measurements(log, seed)
+    t = np.asarray(log.t)
+    m = (t > CHANGE_T) & (t <= CHANGE_T + window_s + 1e-9)
+    vl, vr = log.v_left_cmd[m], log.v_right_cmd[m]
+    dv, vbar = vr - vl, (vl + vr) / 2
+    den = np.sum(dv**2)
+    psi = np.array([-np.sum(twist[m, 1] * dv), np.sum((twist[m, 0] - vbar) * dv), np.sum(twist[m, 2] * dv)]) / den
+    icr = np.array([(psi[1] + 0.5) / psi[2], (psi[1] - 0.5) / psi[2], psi[0] / psi[2]])
+    own = icr_from_twist(log.vx, log.vy, log.wz, log.v_left_cmd, log.v_right_cmd, on_singular="mask")
+    ref = np.nanmean(np.stack([own.y_l, own.y_r, own.x_c], -1)[t >= REF_FROM], 0)
+    return (np.abs(icr - ref) / (Robot().track_gauge / 2)).tolist()
 
 
 def ground_change() -> dict:
@@ -193,7 +219,8 @@ def ground_change() -> dict:
     out = {"robot": robot.to_dict(), "change": f"left mu {MU_BEFORE} -> {MU_AFTER} at {CHANGE_T:g} s",
            "tolerance_m": 0.05 * T / 2, "runs": {}}
     for label, extra in settings.items():
-        out["runs"][label] = [recovery(log, robot, OnlineICREstimator(T, **kw, **extra), s) for s in SEEDS]
+        out["runs"][label] = [recovery(log, robot, OnlineICREstimator(T, **kw, **extra), s) for s in GC_SEEDS]
+    out["oracle_2s_err_over_half_gauge"] = [oracle_error(log, s) for s in GC_SEEDS]
     return out
 
 
@@ -216,7 +243,7 @@ def main(argv=None) -> int:
             wn = nis[np.argmax(np.abs(np.log(nis)))]
             we = nees[np.argmax(np.abs(np.log(nees)))]
             ok = all(_ok(v, NIS_BAND) for v in nis) and all(_ok(v, NEES_BAND) for v in nees)
-            if key.endswith("_imm") and name != "tuning":
+            if key.endswith("_imm") and not name.startswith("tuning"):
                 all_ok &= ok
             res.setdefault("pass", {})[key] = ok
             print(f"{name:8s} {key:15s} NIS/dof {np.median(nis):7.2f} [{wn:7.2f}]  NEES/dof {np.median(nees):9.2f} "
@@ -232,8 +259,13 @@ def main(argv=None) -> int:
         ok = all(r is not None and r <= 2.0 for r in rec)
         if label.startswith("adaptive"):
             all_ok &= ok
-        print(f"  {label:22s} back within 0.05 T/2 after {rec} s; max error from 25 s on {np.round(mx, 3).tolist()} T/2"
-              f"  {'pass' if ok else 'FAIL'}")
+        rec10 = [r["recovery_10pct_s"] for r in runs]
+        print(f"  {label:22s} back within 0.05 T/2 after {[None if r is None else round(r, 2) for r in rec]} s "
+              f"(0.1 T/2: {[None if r is None else round(r, 2) for r in rec10]} s); max error from 25 s on "
+              f"{np.round(mx, 3).tolist()} T/2  {'pass' if ok else 'FAIL'}")
+    orc = np.max(gc["oracle_2s_err_over_half_gauge"], axis=1)
+    print(f"  information limit: a least-squares fit to the twist of the first 2 s after the change (knowing "
+          f"when it happened) is off by {np.round(orc, 3).tolist()} T/2 (max of y_l, y_r, x_c; seeds {GC_SEEDS})")
     report["all_pass"] = bool(all_ok)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(report, indent=1, default=float))

@@ -15,10 +15,19 @@ identical in everything else (pose transition, measurement model, R):
 
     slow:  Q_s = diag(q_pose², q²)·Δt,        fast:  Q_f = diag(q_pose², (c·q)²)·Δt,   c > 1,
 
-and the hypothesis itself is a Markov chain in continuous time with mean dwell times τ_s, τ_f
-[s]: over a step the chain stays with probability π_jj = exp(−Δt/τ_j) and switches with
-1 − π_jj. With a slow mode whose q is the filter's own (default: the thesis filters' settings)
-and a fast one c times faster, the pair describes "still, with occasional bursts of change".
+and the hypothesis itself is a Markov chain. Its switching hazard over a step of Δt has two
+sources:
+
+    slow → fast:  h_s = Δt/τ_s + |Δu|/u_c,     fast → slow:  h_f = Δt/τ_f,     π_jj = exp(−h_j),
+
+τ_s, τ_f [s] mean dwell times, Δu [m/s] the change of the track speeds (V_L, V_R) over the step
+(Euclidean norm) and u_c [m/s] a command scale. The first term is the ground changing by itself
+(rare: τ_s long); the second is physics the kinematic models leave out: the ICRs are functions of
+the command (centripetal load transfer grows with v·ω, the drives' transient follows every step of
+the command), so a change of the command is an *announced* moment at which the parameters may
+jump — a change of |Δu| = u_c makes the switch e⁻¹ likely. With a slow mode whose q is the filter's
+own (default: the thesis filters' settings) and a fast one c times faster, the pair describes
+"still, with bursts of change when the command or the ground changes".
 
 **Filter (Blom & Bar-Shalom 1988, one cycle k).** Inputs: the mode-conditioned posteriors
 (x_j, P_j) and the mode probabilities μ_j from step k−1.
@@ -46,12 +55,16 @@ before the update is the mixture ẑ = Σ_j c̄_j h_j with covariance
 S = Σ_j c̄_j (S_j + (h_j − ẑ)(h_j − ẑ)ᵀ); the recorded innovation is z ⊖ ẑ and NIS = εᵀ S⁻¹ ε.
 The recorded gain is Σ_j μ_j K_j (for plotting only: the IMM's update is not linear in ε).
 
-**Choice of the settings** (:class:`IMMSettings`; tuned on the default robot of
-``experiments/filters_on_mujoco.py`` only, and checked on robots it was not tuned on by
-``experiments/filter_consistency.py``): c = 30 (a fast-mode random walk that moves ψ by its
-full range in about a second at the noise levels of the examples), τ_s = 20 s (changes of the
-ground are rare compared with the measurement rate), τ_f = 1 s (a burst of change lasts about
-one transient of the drive).
+**Choice of the settings** (:class:`IMMSettings`; chosen on the default robot of
+``experiments/filters_on_mujoco.py`` only — random steps and a circle — and checked on robots it
+was not tuned on by ``experiments/filter_consistency.py``): c = 300 on ψ (slow 1e-3, fast 0.3 /√s:
+ψ moves by its whole range in about a second) and r = 2 (the kinematic model describes the
+motion less well while the parameters move); τ_s = 1000 s, u_c = 0.2 m/s (a typical step of the
+command is 0.5–1 m/s: it triggers the fast mode; the time term only matters while the command is
+constant); τ_f = 1 s (a burst lasts about one drive transient). With τ_s = 20 s and no command
+term the constant-command runs came out under-confident (parameter NEES/dof 0.2–0.4: the mixing
+feeds the fast mode's covariance into the slow one at the rate the chain assumes) and the
+random-step runs over-confident. The slip EKF uses c = 100, r = 3 (``slip_ekf.SLIP_IMM``).
 """
 
 from __future__ import annotations
@@ -74,31 +87,40 @@ class IMMSettings:
         fast_meas_factor: r, the fast mode's measurement noise std over the slow one's.
         dwell_s: mean dwell times (τ_slow, τ_fast) [s] of the mode chain.
         prior: initial probabilities (slow, fast).
+        command_scale: u_c [m/s] of the command-triggered switch (module docstring), None: off.
     """
 
     fast_factor: float = 300.0
     fast_meas_factor: float = 2.0
-    dwell_s: tuple[float, float] = (20.0, 1.0)
+    dwell_s: tuple[float, float] = (1000.0, 1.0)
     prior: tuple[float, float] = (0.5, 0.5)
+    command_scale: float | None = 0.2
 
     def __post_init__(self):
         if not (math.isfinite(self.fast_factor) and self.fast_factor > 0):
             raise InputError(f"IMM: fast_factor must be a positive number, got {self.fast_factor!r}")
         if not (math.isfinite(self.fast_meas_factor) and self.fast_meas_factor >= 1):
             raise InputError(f"IMM: fast_meas_factor must be a number >= 1, got {self.fast_meas_factor!r}")
+        if self.command_scale is not None and not (math.isfinite(self.command_scale) and self.command_scale > 0):
+            raise InputError(f"IMM: command_scale must be a positive speed [m/s] or None, got {self.command_scale!r}")
         if len(self.dwell_s) != 2 or not all(math.isfinite(d) and d > 0 for d in self.dwell_s):
             raise InputError(f"IMM: dwell_s must be two positive times [s], got {self.dwell_s!r}")
         p = np.asarray(self.prior, float)
         if p.shape != (2,) or np.any(p < 0) or not math.isclose(float(p.sum()), 1.0, rel_tol=1e-9):
             raise InputError(f"IMM: prior must be two probabilities summing to 1, got {self.prior!r}")
 
-    def transition_matrix(self, dt: float) -> np.ndarray:
-        """π (2, 2), π[i, j] = P(mode j at k | mode i at k−1) over a step of ``dt`` [s]."""
-        stay = np.exp(-dt / np.asarray(self.dwell_s, float))
+    def transition_matrix(self, dt: float, du: float = 0.0) -> np.ndarray:
+        """π (2, 2), π[i, j] = P(mode j at k | mode i at k−1) over a step of ``dt`` [s] in which the
+        track speeds changed by ``du`` [m/s] (Euclidean norm of the change of (V_L, V_R))."""
+        hazard = dt / np.asarray(self.dwell_s, float)
+        if self.command_scale is not None:
+            hazard[0] += abs(du) / self.command_scale
+        stay = np.exp(-hazard)
         return np.array([[stay[0], 1 - stay[0]], [1 - stay[1], stay[1]]])
 
     def to_dict(self) -> dict:
-        return {"fast_factor": self.fast_factor, "fast_meas_factor": self.fast_meas_factor, "dwell_s": list(self.dwell_s), "prior": list(self.prior)}
+        return {"fast_factor": self.fast_factor, "fast_meas_factor": self.fast_meas_factor,
+                "command_scale": self.command_scale, "dwell_s": list(self.dwell_s), "prior": list(self.prior)}
 
 
 def imm_settings(adaptive, default: IMMSettings | None = None) -> IMMSettings | None:

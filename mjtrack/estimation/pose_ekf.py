@@ -132,6 +132,7 @@ class PoseParamFilter:
         """Restart from (s0, P0); mode probabilities from ``mode_prob`` or the IMM prior."""
         s0, P0 = np.asarray(s0, float).copy(), np.asarray(P0, float).copy()
         self.s, self.P = s0, P0
+        self.u_last = None
         if self.imm is not None:
             self.xs, self.Ps = [s0.copy(), s0.copy()], [P0.copy(), P0.copy()]
             self.mu = np.asarray(self.imm.prior if mode_prob is None else mode_prob, float).copy()
@@ -175,7 +176,10 @@ class PoseParamFilter:
             s_pr, P_pr, h, self.s, self.P, upd = self._one(self.s, self.P, self.q2, dt, u_pred, u_meas, z, R, pose,
                                                           twist, mask, ang)
             return s_pr, P_pr, h, mask, upd
-        pi = self.imm.transition_matrix(dt)
+        u_now = np.asarray(u_pred, float)
+        du = 0.0 if self.u_last is None else float(np.hypot(*(u_now - self.u_last)))
+        self.u_last = u_now
+        pi = self.imm.transition_matrix(dt, du)
         x0, P0, cbar = mix(self.xs, self.Ps, self.mu, pi)
         Rs = (R, R * self.imm.fast_meas_factor**2)
         outs = [self._one(x0[j], P0[j], self._q2(j), dt, u_pred, u_meas, z, Rs[j], pose, twist, mask, ang)
