@@ -28,7 +28,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.progress import Progress
 from mjtrack.validate.evaluate import HORIZONS, WZ_MIN, CaseResult, evaluate_case
 from mjtrack.validate.report import DEFINITIONS, VERDICT_HORIZON, build_report, verdicts
-from mjtrack.validate.truth import MPP_TRUTH, Noise, case_from_log, mpp_case, resolve_speeds
+from mjtrack.validate.truth import MPP_TRUTH, Noise, case_from_log, estimate_noise, mpp_case, resolve_speeds
 
 log = logging.getLogger(__name__)
 
@@ -105,10 +105,20 @@ def validate(
         noise_free = truth_title != "measured log" if log_noise_free is None else bool(log_noise_free)
         mj = case_from_log(drive, speeds=speeds, noise=noise, seed=seed, title=truth_title, noise_free=noise_free)
         cases = [mj, mpp_case(mj, robot, params=mpp_params, noise=noise, seed=seed)]
-        results = {c.name: evaluate_case(c, robot.track_gauge, horizons=horizons, noise=noise, wz_min=wz_min, bar=bar)
-                   for c in cases}
+        # a measured log's filters get the log's own noise as R (estimated), a simulation's the noise added
+        filter_noise = {"log": noise if noise_free else estimate_noise(mj), "mpp": noise}
+        results = {c.name: evaluate_case(c, robot.track_gauge, horizons=horizons, noise=filter_noise[c.name],
+                                         wz_min=wz_min, bar=bar) for c in cases}
         verdict = verdicts(results)
         setup = _setup(drive, robot, source, horizons, noise, seed, speeds, mpp_params, wz_min)
+        if not noise_free:
+            est = filter_noise["log"]
+            setup["filter_noise_log"] = {"pose_std": list(est.pose_std), "twist_std": list(est.twist_std),
+                                         "how": "estimated from the log (second differences of the poses)"}
+            setup["noise_text"] += (f"; on the measured log the filters' measurement noise is estimated from the log "
+                                    f"itself: σ = {est.pose_std[0]:.3g} m, {est.pose_std[1]:.3g} m, "
+                                    f"{math.degrees(est.pose_std[2]):.3g}° on the pose, {est.twist_std[0]:.3g} m/s, "
+                                    f"{est.twist_std[1]:.3g} m/s, {est.twist_std[2]:.3g} rad/s on the twist")
         report = build_report(results, robot, setup, verdict)
         bar.update(note="report")
         metrics = _json_safe({
