@@ -276,3 +276,19 @@ def test_a_log_without_twist_uses_the_differenced_poses(drive):
     # the mean twist over each 20 ms step vs the sampled one: equal up to the step's change
     # of speed (accelerations up to ~2 m/s^2 at command steps -> a few cm/s there)
     assert np.median(np.abs(case.twist - ref.twist)) < 2e-3
+
+
+def test_measured_log_noise_is_estimated_from_the_poses():
+    """A smooth circle sampled at 20 Hz plus known white pose noise: the estimate recovers it (±10 %)."""
+    from mjtrack.validate.truth import estimate_noise
+
+    t = np.arange(4000) * 0.05
+    true = np.stack([np.sin(0.5 * t), 1 - np.cos(0.5 * t), 0.5 * t], -1)
+    std = np.array([0.012, 0.008, math.radians(2.0)])
+    meas = true + np.random.default_rng(7).normal(size=true.shape) * std
+    twist = np.zeros_like(true)
+    case = Case("log", "measured log", t, np.ones(t.size), np.ones(t.size), meas, twist, meas, twist,
+                np.repeat(np.arange(40), 100), None, {"twist_from": "differenced poses"}, None, False)
+    est = estimate_noise(case)
+    np.testing.assert_allclose(est.pose_std, std, rtol=0.1)
+    np.testing.assert_allclose(est.twist_std, math.sqrt(2) * std / 0.05, rtol=0.1)
