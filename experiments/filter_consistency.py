@@ -45,7 +45,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import sys
 from pathlib import Path
@@ -61,7 +60,7 @@ from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model
 from mjtrack.sim.config import SimConfig
-from mjtrack.sim.rollout import SensorMap, _rest_row, hold_commands, log_columns, run_batch, settled_state, drive_log
+from mjtrack.sim.rollout import SensorMap, drive_log, hold_commands, log_columns, run_batch, settled_state
 from mjtrack.sim.scenarios import nominal_speeds, scenario_commands
 
 LOG_RATE = 25.0
@@ -149,12 +148,10 @@ def friction_change_log(robot: Robot, v: float, w: float) -> DriveLog:
     _, sd2 = run_batch([model], cmd[None, n1:], state0=st1[:, -1])
     sd = np.concatenate([sd1[0], sd2[0]])
     cols = log_columns(sd, cmd, SensorMap.of(model), timestep=dt, stride=stride)
-    model.pair_friction[left, :2] = MU_BEFORE
-    first = _rest_row(model, s0)
-    out = {k: np.concatenate([[first[k]], c]) for k, c in cols.items()}
+    out = dict(cols)
     out["yaw"] = np.unwrap(out["yaw"])
-    n = out["t"].size
-    idx = np.minimum(np.arange(n) * stride, len(cmd) - 1)
+    # the log convention: a row's command is the one in force from its time on
+    idx = np.minimum(np.arange(1, out["t"].size + 1) * stride, len(cmd) - 1)
     out["v_left_cmd"], out["v_right_cmd"] = cmd[idx, 0].copy(), cmd[idx, 1].copy()
     return DriveLog.from_columns(out)
 
