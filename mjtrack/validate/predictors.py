@@ -10,7 +10,9 @@
 | ``micr_own_icr`` | MICR = MVIR | the truth's own ICRs (2.13): least-squares fit over each prediction window (oracle) |
 
 Online predictors are causal: a prediction starting at sample s uses the parameters the
-filter had after the measurement at s, held over the horizon. The oracles are not causal:
+filter had after the measurement at s, held over the horizon. The filters run with adaptive
+process noise (``adaptive="imm"``, :mod:`mjtrack.estimation.imm`) and carry their parameters
+across the segments (windows) of a log (:func:`_run_segments`). The oracles are not causal:
 they fit the best *constant* parameters to the true motion inside the window they then
 predict, so they bound what any constant-parameter model of their family can do over that
 horizon (the per-sample own ICRs would reproduce the true twist exactly and bound nothing).
