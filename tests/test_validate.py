@@ -188,8 +188,8 @@ def test_filters_carry_parameters_across_segments_and_restart_the_pose(drive):
     n = drive.n_samples
     window = np.where(np.arange(n) < n // 2, 0, 1)
     case = case_from_log(drive.replace(window=window), noise=Noise(scale=0.0))
-    carried = run_filters(case, T)
-    restarted = run_filters(case, T, carry=False)
+    carried = run_filters(case, T, adaptive=None)  # single random walks: the carrying is the same, at half the cost
+    restarted = run_filters(case, T, adaptive=None, carry=False)
     np.testing.assert_array_equal(restarted["slip_ekf"].params[n // 2], [0.0, 0.0, 0.0])
     np.testing.assert_allclose(restarted["icr_ekf"].params[n // 2], InverseICR.nominal(T).params)
     for name in ("slip_ekf", "icr_ekf", "vir_filter"):
