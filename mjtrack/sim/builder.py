@@ -62,6 +62,7 @@ import numpy as np
 
 from mjtrack.io.robot import G, Robot
 from mjtrack.sim.config import SimConfig
+from mjtrack.sim.ground import apply_ground, require_supported
 
 logger = logging.getLogger(__name__)
 
@@ -300,9 +301,10 @@ def build_model(robot: Robot, config: SimConfig | None = None) -> mujoco.MjModel
     """Compiled robot + floor, the model every rollout uses."""
     config = config or SimConfig()
     if config.track_model == "surfacevel":
+        require_supported(robot, config)
         return _build_surfacevel(robot, config)
     spec = add_scene(build_spec(robot, config), robot, config)
-    return spec.compile()
+    return apply_ground(spec, robot, config).compile()
 
 
 def _build_surfacevel(robot: Robot, config: SimConfig) -> mujoco.MjModel:
