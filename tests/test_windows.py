@@ -123,3 +123,27 @@ def test_unknown_parameter_and_empty_windows_are_refused(log, sim):
         simulate_windows(sim, log, ws, [{"grip": 1.0}])
     with pytest.raises(InputError, match="no window"):
         simulate_windows(sim, log, make_windows(log.slice(0, 10), 2.0))
+
+
+def test_geometry_and_ground_variants_rebuild_the_robot(robot, log, sim):
+    ws = make_windows(log, 2.0).subset(slice(1, 3))
+    a = simulate_windows(sim, log, ws, [{"track_length": 0.4}])
+    b = simulate_windows(WindowSim(robot.replace(track_length=0.4)), log, ws)
+    np.testing.assert_allclose(a.poses, b.poses, atol=1e-9)
+    aniso = robot.replace(ground={"model": "anisotropic", "lateral_ratio": 0.5})
+    c = simulate_windows(WindowSim(aniso), log, ws, [{"lateral_ratio": 0.7}])
+    d = simulate_windows(WindowSim(robot.replace(ground={"model": "anisotropic", "lateral_ratio": 0.7})), log, ws)
+    np.testing.assert_allclose(c.poses, d.poses, atol=1e-6)
+    with pytest.raises(InputError, match="anisotropic"):
+        simulate_windows(sim, log, ws, [{"lateral_ratio": 0.7}])
+
+
+def test_delayed_commands_are_continuous_in_the_delay(log, sim):
+    ws = make_windows(log, 2.0)
+    before = start_speeds(log, ws)
+    d = np.linspace(0.1, 0.12, 41)
+    c = np.array([window_commands(log, ws, sim.dt, 400, delay=x, scale=1.0, before=before) for x in d])
+    jumps = np.abs(np.diff(c, axis=0)).max()
+    # 0.5 ms of delay moves a command step by a tenth of a 5 ms step: at most 10 % of the step
+    # size (plain holding would jump by the whole step)
+    assert jumps < 0.11 * np.abs(np.diff(c[0], axis=1)).max()

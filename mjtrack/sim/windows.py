@@ -50,10 +50,15 @@ from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.rollout import STATE_SPEC, SensorMap, settled_state, yaw_of
 
-#: parameters that :func:`variant_model` sets on a compiled model or applies to the commands
-MODEL_PARAMS = ("mu", "mu_left", "mu_right", "cg_x", "cg_y", "drive_lag", "drive_force_limit")
+#: parameters that :meth:`WindowSim.variant_model` sets on a compiled model (``lateral_ratio``: the
+#: anisotropic ground's lateral / longitudinal friction, on a robot built with that ground)
+MODEL_PARAMS = ("mu", "mu_left", "mu_right", "cg_x", "cg_y", "drive_lag", "drive_force_limit", "lateral_ratio")
+#: parameters applied to the commands
 COMMAND_PARAMS = ("drive_delay", "track_speed_scale")
-WINDOW_PARAMS = MODEL_PARAMS + COMMAND_PARAMS
+#: parameters that change the model's structure: a robot rebuilt per distinct value (contact
+#: length; the road-wheel ground's load concentration and span)
+GEOMETRY_PARAMS = ("track_length", "concentration", "span")
+WINDOW_PARAMS = MODEL_PARAMS + COMMAND_PARAMS + GEOMETRY_PARAMS
 #: drivetrain keys of the robot description; None: as the model was built (no delay, no scale)
 DRIVE_DEFAULTS = {"drive_lag": None, "drive_delay": None, "drive_force_limit": None, "track_speed_scale": None}
 MIN_LAG = 1e-4  # [s] a lag this short acts as none (the filtered drive needs lag > 0)
@@ -163,8 +168,26 @@ def drive_params(robot: Robot) -> dict[str, float | None]:
 
 def robot_params(robot: Robot) -> dict[str, float | None]:
     """Every window parameter's value for ``robot`` as described (the baseline variant)."""
+    g = dict(robot.ground.params)
     return {"mu": robot.mu, "mu_left": robot.mu_left, "mu_right": robot.mu_right,
-            "cg_x": robot.cg_x, "cg_y": robot.cg_y, **drive_params(robot)}
+            "cg_x": robot.cg_x, "cg_y": robot.cg_y, **drive_params(robot), "track_length": robot.track_length,
+            "lateral_ratio": g.get("lateral_ratio"), "concentration": g.get("concentration"), "span": g.get("span")}
+
+
+def geometry_robot(robot: Robot, params: Mapping[str, float | None]) -> Robot:
+    """``robot`` with the structural parameters of ``params`` (:data:`GEOMETRY_PARAMS`) applied."""
+    changes: dict = {}
+    if params.get("track_length") is not None and params["track_length"] != robot.track_length:
+        changes["track_length"] = float(params["track_length"])
+    ground = dict(robot.ground.params)
+    new = {k: float(params[k]) for k in ("concentration", "span") if params.get(k) is not None}
+    if new:
+        if robot.ground.model != "road_wheels":
+            raise InputError(f"windows: {sorted(new)} need a robot built with the road_wheels ground "
+                             "(robot key ground: {\"model\": \"road_wheels\"})")
+        if any(ground[k] != v for k, v in new.items()):
+            changes["ground"] = type(robot.ground)(robot.ground.model, tuple({**ground, **new}.items()))
+    return robot.replace(**changes) if changes else robot
 
 
 class WindowSim:
@@ -201,6 +224,21 @@ class WindowSim:
         self.cg_site = int(m.site("cg").id)
         self.pair_side = np.array([0 if m.pair(i).name.startswith("contact_left") else 1 for i in range(m.npair)])
         self._settled: dict[tuple, np.ndarray] = {}
+        self._builds: dict[tuple, "WindowSim"] = {}
+        self._lagged = lagged
+
+    def for_params(self, params: Mapping[str, float | None]) -> "WindowSim":
+        """The simulator of the robot with the structural parameters of ``params`` (this one when
+        they are unchanged; rebuilt once per distinct geometry, the last few kept)."""
+        robot = geometry_robot(self.robot, params)
+        if robot is self.robot:
+            return self
+        key = (robot.track_length, robot.ground.params)
+        if key not in self._builds:
+            if len(self._builds) >= 24:
+                self._builds.pop(next(iter(self._builds)))
+            self._builds[key] = WindowSim(robot, self.config, lagged=self._lagged)
+        return self._builds[key]
 
     # -- variants ---------------------------------------------------------------------------------
     def variant_model(self, params: Mapping[str, float | None]) -> mujoco.MjModel:
@@ -208,13 +246,23 @@ class WindowSim:
         m = copy.copy(self.model)
         robot = self.robot
         mu = params.get("mu")
+        rho = params.get("lateral_ratio")
+        if rho is not None and self.robot.ground.model != "anisotropic":
+            raise InputError("windows: 'lateral_ratio' needs a robot built with the anisotropic ground "
+                             "(robot key ground: {\"model\": \"anisotropic\"})")
+        if rho is None and self.robot.ground.model == "anisotropic":
+            rho = self.robot.ground["lateral_ratio"]
+        if rho is not None and not 0 < rho <= 1.5:
+            raise InputError(f"windows: 'lateral_ratio' must be in (0, 1.5], got {rho!r}")
         for side, key in ((0, "mu_left"), (1, "mu_right")):
             v = params.get(key)
             v = v if v is not None else mu
             if v is not None:
                 if not v > 0:
                     raise InputError(f"windows: friction '{key}' must be > 0, got {v!r}")
-                m.pair_friction[self.pair_side == side, 0:2] = v
+                # first tangent: across the track for the anisotropic ground's capsules
+                m.pair_friction[self.pair_side == side, 0] = v * (rho if rho is not None else 1.0)
+                m.pair_friction[self.pair_side == side, 1] = v
         if params.get("cg_x") is not None or params.get("cg_y") is not None:
             cg = np.array([params.get("cg_x", robot.cg_x) if params.get("cg_x") is not None else robot.cg_x,
                            params.get("cg_y", robot.cg_y) if params.get("cg_y") is not None else robot.cg_y])
@@ -309,21 +357,29 @@ class WindowResult:
 
 def window_commands(log: DriveLog, ws: WindowSet, dt: float, nstep: int, *, delay: float, scale: float,
                     before: np.ndarray) -> np.ndarray:
-    """Per-step track-speed commands (M, nstep, 2) of each window: the log's commands held, delayed
-    by ``delay`` [s] and scaled; before the segment's first row the delayed drive follows
-    ``before`` (M, 2) (the track speeds at the window's start)."""
+    """Per-step track-speed commands (M, nstep, 2) of each window: the log's commands (zero-order
+    hold), delayed by ``delay`` [s] and scaled; before the segment's first row the delayed drive
+    follows ``before`` (M, 2) (the track speeds at the window's start).
+
+    Each step gets the mean of the delayed command over the step (exact integral of the held
+    commands), so the result is continuous in ``delay`` -- a finite-difference derivative with
+    respect to the delay is then not zero between step multiples -- and equals plain holding when
+    the log's rows and the delay fall on the step grid.
+    """
     slices = log.segment_slices()
     out = np.empty((len(ws), nstep, 2))
-    tk = np.arange(nstep) * dt - delay
+    edges = np.arange(nstep + 1) * dt - delay  # step k covers [edges[k], edges[k+1]) in log time
     for j, (s, k) in enumerate(zip(ws.starts, ws.segment)):
         sl = slices[k]
-        t = log.t[sl] - log.t[s]
-        cmd = np.stack([log.v_left_cmd[sl], log.v_right_cmd[sl]], -1)
-        i = np.searchsorted(t, tk + 1e-9 * dt, side="right") - 1
-        c = cmd[np.clip(i, 0, t.size - 1)]
-        pre = i < 0
-        c[pre] = before[j]
-        out[j] = c
+        t = np.asarray(log.t[sl], float) - log.t[s]
+        cmd = np.stack([log.v_left_cmd[sl], log.v_right_cmd[sl]], -1).astype(float)
+        # integral of the held command from t[0]: F(t_i) at the rows, linear in between
+        F_rows = np.concatenate([np.zeros((1, 2)), np.cumsum(cmd[:-1] * np.diff(t)[:, None], axis=0)])
+        i = np.clip(np.searchsorted(t, edges, side="right") - 1, 0, t.size - 1)
+        F = F_rows[i] + cmd[i] * (edges - t[i])[:, None]
+        pre = edges < t[0]
+        F[pre] = before[j][None] * (edges[pre] - t[0])[:, None]  # before the segment: ``before`` held
+        out[j] = np.diff(F, axis=0) / dt
     return out * scale
 
 
@@ -368,10 +424,11 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
     datas = [mujoco.MjData(sim.model) for _ in range(max(1, nthread))]
     total, done = P * M, 0
     for p, params in enumerate(variants):
-        model = sim.variant_model(params)
+        vsim = sim.for_params(params)
+        model = vsim.variant_model(params)
         key = (params.get("cg_x"), params.get("cg_y"))
-        rest = sim.settled(model, key)
-        state0 = sim.initial_states(model, rest, poses0, twists, speeds0)
+        rest = vsim.settled(model, key)
+        state0 = vsim.initial_states(model, rest, poses0, twists, speeds0)
         scale = 1.0 if params.get("track_speed_scale") is None else float(params["track_speed_scale"])
         delay = float(params.get("drive_delay") or 0.0)
         if delay < 0 or not scale > 0:
@@ -429,6 +486,6 @@ def measured_window_poses(log: DriveLog, ws: WindowSet) -> np.ndarray:
     return out
 
 
-__all__ = ["COMMAND_PARAMS", "MODEL_PARAMS", "WINDOW_PARAMS", "WindowResult", "WindowSet", "WindowSim",
+__all__ = ["COMMAND_PARAMS", "GEOMETRY_PARAMS", "MODEL_PARAMS", "WINDOW_PARAMS", "geometry_robot", "WindowResult", "WindowSet", "WindowSim",
            "drive_params", "make_windows", "measured_window_poses", "robot_params", "simulate_windows",
            "start_speeds", "start_twists", "window_commands", "window_errors"]
