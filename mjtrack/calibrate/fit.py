@@ -137,13 +137,12 @@ def _multistart(obj: Objective, z0: np.ndarray) -> tuple[np.ndarray, list[tuple[
             z = z0.copy()
             z[i] = v / obj.specs[n].scale
             cands.append(z)
-    if "drive_lag" in names:
+    if "drive_lag" in names:  # each turning start also with a drive lag of 0.3 s
         i = names.index("drive_lag")
         for z in list(cands):
-            for v in (0.25, 0.5):
-                zz = z.copy()
-                zz[i] = v / obj.specs["drive_lag"].scale
-                cands.append(zz)
+            zz = z.copy()
+            zz[i] = 0.3 / obj.specs["drive_lag"].scale
+            cands.append(zz)
     Z = np.stack(cands, -1)
     lo = np.array([obj.specs[n].lo for n in names]) / obj.scales
     hi = np.array([obj.specs[n].hi for n in names]) / obj.scales
@@ -153,7 +152,7 @@ def _multistart(obj: Objective, z0: np.ndarray) -> tuple[np.ndarray, list[tuple[
     return Z[:, int(np.argmin(costs))], tried
 
 
-def fit(obj: Objective, start: dict[str, float], *, max_iter: int = 12, multistart: bool = True,
+def fit(obj: Objective, start: dict[str, float], *, max_iter: int = 8, multistart: bool = True,
         on_iter: Callable[[int, float], None] | None = None) -> FitResult:
     """Fit ``obj.names`` from ``start`` (physical values); see the module docstring."""
     import mujoco.sysid as sysid

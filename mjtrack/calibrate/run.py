@@ -274,7 +274,7 @@ def _sentence(robot: Robot, cal_values: dict[str, float], meas: dict, before: di
 
 def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None, track_model: str = "rollers",
               names: str | list[str] | None = None, horizon_s: float = 2.0, n_rollers: int | None = None,
-              max_iter: int = 12, nthread: int = 2, quiet: bool = True, train_path: str | None = None,
+              max_iter: int = 8, nthread: int = 2, quiet: bool = True, train_path: str | None = None,
               test_path: str | None = None) -> Calibration:
     """Fit the MuJoCo robot to ``train`` (see the module docstring); bad input raises InputError."""
     from mjtrack.progress import Progress

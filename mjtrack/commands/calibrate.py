@@ -57,7 +57,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="MuJoCo track model (windows need rollers: surfacevel is refused)")
     parser.add_argument("--params", metavar="NAMES", default=None, help="parameters to fit, comma separated")
     parser.add_argument("--horizon", metavar="S", type=_positive, default=2.0, help="window length [s] (default 2)")
-    parser.add_argument("--max-iter", metavar="N", type=_count, default=12, help="optimiser iterations (default 12)")
+    parser.add_argument("--max-iter", metavar="N", type=_count, default=8, help="optimiser iterations (default 8)")
     parser.add_argument("--rollers", metavar="N", type=_count, default=None,
                         help="contact rollers per track in the simulation (default 10; 6 is ~2x faster)")
     parser.add_argument("--threads", metavar="N", type=_count, default=2, help="rollout threads (default 2)")
