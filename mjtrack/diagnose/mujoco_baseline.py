@@ -115,6 +115,19 @@ def can_build(robot: Robot) -> tuple[bool, str]:
                    "on an assumed geometry; run 'mjtrack calibrate' and pass its robot.json, or give track_length")
 
 
+def choose_simulator(requested: str, robot: Robot) -> tuple[bool, str]:
+    """(use MuJoCo?, why) for ``--baseline`` ``requested`` (auto|mujoco|surrogate|kinematic).
+    ``mujoco`` on a robot that cannot be built is refused (InputError); ``auto`` falls back."""
+    ok, why = can_build(robot)
+    if requested == "mujoco":
+        if not ok:
+            raise InputError(f"--baseline mujoco: {why}")
+        return True, f"requested; {why}"
+    if requested == "auto":
+        return (True, f"auto: {why}") if ok else (False, f"auto chose the surrogate because {why}")
+    return False, f"requested {requested}"
+
+
 # -- simulation of the effects --------------------------------------------------------------------
 class _Sloped(WindowSim):
     """The window simulator with gravity of an inclined plane (the log's x, y in the plane)."""
