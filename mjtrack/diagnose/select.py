@@ -30,7 +30,10 @@ two tracks under Coulomb friction). Among tied findings the one with fewer param
 
 Intervals: 95 %, estimate +- t x se with se the larger of the block-robust sandwich
 (:func:`mjtrack.diagnose.stats.sandwich`, a linearised block bootstrap over windows whose
-residuals carry the surrogate's own error) and the delete-one-fold jackknife of the fold fits.
+residuals carry the surrogate's own error) and the delete-one-fold jackknife of the fold fits,
+with, in quadrature, the surrogate's own error on the effect's size (:data:`MODEL_REL`, measured
+on an independent physics: MuJoCo), which no resampling of one log can show: a systematic error
+is the same in every block.
 """
 
 from __future__ import annotations
@@ -114,13 +117,38 @@ def _jackknife_se(folds: np.ndarray, angular: np.ndarray) -> np.ndarray:
     return np.sqrt((k - 1) / k * np.sum(dev**2, 0))
 
 
+# The surrogate's own error on an effect's size, 1 sigma, as a share of the size |theta - nominal|:
+# the RMS relative error of the 16 estimates of last round's MuJoCo matrix (an independent physics,
+# experiments/results/diagnose_mujoco_effects.json; python experiments/diagnose_benchmark.py prints it).
+MODEL_REL = 0.065
+
+
+def model_se(eff: Effect, theta: np.ndarray, problem: fitmod.Problem) -> np.ndarray:
+    """Standard error (P,) of the surrogate's own approximation (:data:`MODEL_REL` of the effect's
+    size); zero for an input effect fitted to measured track speeds (an exact transform)."""
+    if fitmod.uses_speeds(problem, eff):
+        return np.zeros(len(eff.params))
+    robot, data = problem.surrogate.robot, problem.data
+    nominal = np.array(eff.nominal(robot), float)
+    if eff.name == "speed_limit":
+        nominal = np.array([np.max(np.abs(data.cmd))])
+    elif eff.name == "yaw_rate_limit":
+        nominal = np.array([np.max(np.abs(data.cmd[:, 1] - data.cmd[:, 0])) / robot.track_gauge])
+    size = np.abs(np.asarray(theta, float) - nominal)
+    if eff.name == "slope":
+        size = np.array([abs(float(theta[0])), 1.0])  # the direction: MODEL_REL rad
+    return MODEL_REL * np.where(np.isfinite(size), size, 0.0)
+
+
 def interval(full: np.ndarray, fold_estimates: np.ndarray, cov: np.ndarray, angular: np.ndarray,
-             n_blocks: int) -> tuple[np.ndarray, np.ndarray]:
+             n_blocks: int, se_model: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """95 % interval (P, 2) and its standard error (P,): the larger of the block-robust sandwich
-    and the delete-one-fold jackknife (module docstring)."""
+    and the delete-one-fold jackknife, and the surrogate's own error in quadrature (module docstring)."""
     se_j = _jackknife_se(fold_estimates, angular)
     se_s = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     se = np.where(np.isfinite(se_s), np.maximum(se_s, se_j), se_j)
+    if se_model is not None:
+        se = np.sqrt(se**2 + se_model**2)
     q = st.t_quantile(n_blocks)
     return np.stack([full - q * se, full + q * se], -1), se
 
@@ -162,7 +190,7 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
     sq_a = np.sum(after_err[:, :2] ** 2, 1)
     before, after = fitmod.pos_rmse(base_err), fitmod.pos_rmse(after_err)
     gt = st.gain_test(sq_b, sq_a, wblock)
-    ivl, se = interval(full, ests, cov, angular, gt.blocks)
+    ivl, se = interval(full, ests, cov, angular, gt.blocks, model_se(eff, full, problem))
     passed = gt.lower > 0.0 and gt.relative >= min_gain
     why = (f"held-out position RMSE {before:.3g} -> {after:.3g} m ({100 * gt.relative:.1f} %, one-sided 95 % bound "
            f"{100 * gt.lower:.1f} % by blocked bootstrap over {gt.blocks} blocks of windows; gain floor "
