@@ -171,3 +171,29 @@ def fit(problem: Problem, effect: Effect, train_folds: np.ndarray, *, covariance
     cov[at_bound, :] = np.nan
     cov[:, at_bound] = np.nan
     return p, cov
+
+
+def fit_inputs_jointly(problem: Problem, parts: list, train_folds: np.ndarray) -> list[np.ndarray]:
+    """Joint least-squares estimates of several input effects ((Effect, theta) start pairs) fitted
+    to the measured track speeds of ``train_folds`` (the other effects of ``problem.base`` fixed):
+    coupled effects (a scale and a limit, a lag and a delay) are not separable one at a time."""
+    effects = [e for e, _ in parts]
+    sizes = [len(e.params) for e in effects]
+    robot = problem.surrogate.robot
+    lo = np.concatenate([np.asarray(e.bounds(robot)[0], float) for e in effects])
+    hi = np.concatenate([np.asarray(e.bounds(robot)[1], float) for e in effects])
+    x0 = np.concatenate([np.asarray(t, float) for _, t in parts])
+    x0 = np.clip(x0, np.where(np.isfinite(lo), lo + 1e-6, -np.inf), np.where(np.isfinite(hi), hi - 1e-6, np.inf))
+    samples = np.isin(problem.sample_fold, train_folds) & problem.speed_ok
+    fixed = [(e, p) for e, p in problem.base if e.kind == "input" and e not in effects]
+
+    def split(x):
+        return np.split(x, np.cumsum(sizes)[:-1])
+
+    def resid(x):
+        v = problem.surrogate.inputs_of(problem.data, fixed + list(zip(effects, split(x))), instant=True)
+        return (v[samples] - problem.data.meas[samples]).ravel()
+
+    res = optimize.least_squares(resid, x0, bounds=(lo, hi), method="trf", x_scale="jac", diff_step=1e-3,
+                                 xtol=1e-6, ftol=1e-8, max_nfev=100)
+    return split(res.x)

@@ -53,7 +53,7 @@ class Diagnosis:
 
     @property
     def findings(self) -> list[CandidateResult]:
-        return all_findings(self.steps)
+        return all_findings(self.steps, self.chosen)
 
     @property
     def cause(self) -> str:
@@ -63,7 +63,7 @@ class Diagnosis:
     @property
     def final_after(self) -> float:
         """Held-out RMSE [m] of the model with every effect found (the baseline's when none)."""
-        return float(self.chosen[-1].after) if self.chosen else float(self.before)
+        return float(min(r.after for r in self.chosen)) if self.chosen else float(self.before)
 
     @property
     def unexplained(self) -> float:

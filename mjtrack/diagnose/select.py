@@ -18,8 +18,11 @@ when it helps the pose error.
 Forward selection (:func:`forward_select`). Step 1 scores every effect against the baseline;
 the best finding is added to the baseline at its estimate, and step 2 scores every remaining
 effect (either kind) on top of it, and so on until no candidate passes (at most
-``max_effects``); the effects found are then refitted each with the others fixed (one round),
-which removes the bias a missed second effect gives the first.
+``max_effects``). With two or more effects found, each is then refitted and scored with the
+others fixed at their estimates (two rounds), which removes the bias a missed second effect
+gives the first; its reported gain is then its own on top of all the others. An effect that no
+longer passes on top of the others is dropped (backward elimination; e.g. a speed scale found
+first as a stand-in for a speed limit found later) and the rest refitted.
 
 Ties. Two findings of one step are tied when the blocked bootstrap interval of their difference
 (as a share of the baseline RMSE) contains zero or the difference is below the gain floor; and,
@@ -89,6 +92,7 @@ class CandidateResult:
     tie_notes: list[str] = field(default_factory=list)
     on_top_of: tuple[str, ...] = ()
     se: np.ndarray | None = None
+    speed_errors: np.ndarray | None = None
 
     @property
     def relative(self) -> float:
@@ -206,9 +210,36 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
         if not (sg.lower > 0.0 and sg.relative >= min_gain):
             passed = False
             why += ": refuted, the measured track speeds do not show this effect"
+        contra = _contradiction(problem, eff, full)
+        if contra:
+            passed = False
+            why += "; refuted: " + contra
     return CandidateResult(eff, full, ests, ivl, fold_before, fold_after, before, after,
                            paired_t(fold_before, fold_after), sb, sa, stt, passed, why, after_err, gain=gt,
-                           speed_gain=sg, on_top_of=tuple(e.name for e, _ in problem.base), se=se)
+                           speed_gain=sg, on_top_of=tuple(e.name for e, _ in problem.base), se=se,
+                           speed_errors=speed_res)
+
+
+def _contradiction(problem: fitmod.Problem, eff: Effect, theta) -> str | None:
+    """A limit the measured speeds exceed: most samples commanded beyond it measure beyond it
+    by more than 5 % (a saturation cannot be exceeded), or None."""
+    if eff.name not in ("speed_limit", "yaw_rate_limit") or not np.isfinite(theta[0]):
+        return None
+    ok = problem.speed_ok
+    cmd, meas = problem.data.cmd[ok], problem.data.meas[ok]
+    if eff.name == "speed_limit":
+        over = np.abs(cmd) > theta[0]
+        beyond = over & (np.abs(meas) > 1.05 * theta[0])
+        unit = "m/s"
+    else:
+        T = problem.surrogate.robot.track_gauge
+        over = np.abs(cmd[:, 1] - cmd[:, 0]) / T > theta[0]
+        beyond = over & (np.abs(meas[:, 1] - meas[:, 0]) / T > 1.05 * theta[0])
+        unit = "rad/s"
+    if over.sum() >= 10 and beyond.sum() > 0.5 * over.sum():
+        return (f"{100 * beyond.sum() / over.sum():.0f} % of the samples commanded beyond {theta[0]:.3g} {unit} "
+                f"measure more than 5 % beyond it")
+    return None
 
 
 # -- physics of ties -------------------------------------------------------------------------
@@ -257,6 +288,13 @@ def _rank(found: list[CandidateResult], robot, problem, base_err, min_gain: floa
     found = sorted(found, key=lambda r: r.after)
     if not found:
         return found
+    sblock = problem.sample_block if problem.sample_block is not None else problem.sample_fold
+    if len(found) > 1 and speed_order(found[0], found[1], sblock, min_gain) == 1:
+        sq0 = np.sum(base_err[problem.scored][:, :2] ** 2, 1)
+        d, lo, hi = st.difference_test(sq0, np.sum(found[0].held_out_errors[:, :2] ** 2, 1),
+                                       np.sum(found[1].held_out_errors[:, :2] ** 2, 1), problem.window_block[problem.scored])
+        if not (lo > 0.0 and d >= min_gain):  # tied on the pose: the measured speeds rank them
+            found[0], found[1] = found[1], found[0]
     top = found[0]
     sq0 = np.sum(base_err[problem.scored][:, :2] ** 2, 1)
     sq_top = np.sum(top.held_out_errors[:, :2] ** 2, 1)
@@ -270,6 +308,10 @@ def _rank(found: list[CandidateResult], robot, problem, base_err, min_gain: floa
                                                problem.window_block[problem.scored])
             if not (lo > 0.0 and d >= min_gain):
                 why = "held-out gains equal within noise"
+        if why is not None and not r.tie_notes and speed_order(top, r, sblock, min_gain) == -1:
+            why = None  # tied on the pose, but the measured track speeds tell them apart
+            top.tie_notes.append(f"ties with {r.effect.name} on the pose error, but the measured track speeds "
+                                 f"favour {top.effect.name} ({top.speed_after:.3g} vs {r.speed_after:.3g} m/s)")
         if why is not None:
             r.tied_with.append(top.effect.name)
             top.tied_with.append(r.effect.name)
@@ -278,6 +320,23 @@ def _rank(found: list[CandidateResult], robot, problem, base_err, min_gain: floa
     found.remove(tied[0])
     found.insert(0, tied[0])
     return found
+
+
+def speed_order(a: CandidateResult, b: CandidateResult, block: np.ndarray, min_gain: float) -> int:
+    """-1 when a's held-out track-speed errors are smaller than b's beyond noise (blocked bootstrap
+    interval of the difference excludes zero and it exceeds the floor), 1 when b's are, 0 when
+    the speeds cannot tell (or are missing)."""
+    if a.speed_errors is None or b.speed_errors is None:
+        return 0
+    ok = np.isfinite(a.speed_errors) & np.isfinite(b.speed_errors)
+    if ok.sum() < 10:
+        return 0
+    d, lo, hi = st.difference_test(b.speed_errors[ok], a.speed_errors[ok], b.speed_errors[ok], block[ok])
+    if lo > 0 and d >= min_gain:
+        return -1
+    if hi < 0 and -d >= min_gain:
+        return 1
+    return 0
 
 
 @dataclass
@@ -294,16 +353,21 @@ class Step:
         return self.results[0] if self.results and self.results[0].passed else None
 
 
+def _speed_base(problem: fitmod.Problem) -> np.ndarray | None:
+    """(N,) squared track-speed errors of the problem's baseline (NaN where not measured), or None."""
+    if problem.speed_ok is None or not problem.speed_ok.any():
+        return None
+    v = problem.surrogate.inputs_of(problem.data, list(problem.base), instant=True)
+    return np.where(problem.speed_ok, np.sum((v - problem.data.meas) ** 2, 1), np.nan)
+
+
 def evaluate(problem: fitmod.Problem, effects: list[Effect], *, n_folds: int, min_gain: float,
              quiet: bool = True) -> tuple[dict, list[CandidateResult]]:
     """Score every effect against the problem's baseline; returns (baseline summary, results
     ordered as findings first, ties marked)."""
     allw = np.arange(problem.starts.size)
     base_err = fitmod.errors(problem, None, (), allw)
-    speed_base = None
-    if problem.speed_ok is not None and problem.speed_ok.any():
-        v = problem.surrogate.inputs_of(problem.data, list(problem.base), instant=True)
-        speed_base = np.where(problem.speed_ok, np.sum((v - problem.data.meas) ** 2, 1), np.nan)
+    speed_base = _speed_base(problem)
     results = []
     with Progress(total=len(effects) * (n_folds + 1), label="candidates", quiet=quiet) as bar:
         for eff in effects:
@@ -333,32 +397,42 @@ def forward_select(problem: fitmod.Problem, effects: list[Effect], *, n_folds: i
         drop = {best.effect.name} | {r.effect.name for r in results if r.tie_notes and best.effect.name in r.tied_with}
         remaining = [e for e in remaining if e.name not in drop]
         current = dataclasses.replace(current, base=current.base + ((best.effect, best.estimate),))
-    if len(chosen) > 1:  # one round of refits, each with the others fixed at their estimates
-        refit = []
-        for i, r in enumerate(chosen):
-            others = tuple((c.effect, c.estimate) for j, c in enumerate(chosen) if j != i)
-            p = dataclasses.replace(problem, base=others)
-            base_err = fitmod.errors(p, None, (), np.arange(p.starts.size))
-            speed_base = None
-            if p.speed_ok is not None and p.speed_ok.any():
-                v = p.surrogate.inputs_of(p.data, list(p.base), instant=True)
-                speed_base = np.where(p.speed_ok, np.sum((v - p.data.meas) ** 2, 1), np.nan)
-            new = score(p, r.effect, n_folds=n_folds, min_gain=min_gain, base_err=base_err, speed_base=speed_base)
-            # keep the step's gain (the order found) but the refitted estimate and interval
-            r.estimate, r.interval, r.fold_estimates, r.se = new.estimate, new.interval, new.fold_estimates, new.se
-            refit.append(r)
-            chosen[i] = r
+    while len(chosen) > 1:  # refits, each with the others fixed; drop one that no longer passes
+        inputs = [c for c in chosen if fitmod.uses_speeds(problem, c.effect)]
+        if len(inputs) > 1:  # coupled input effects: fitted jointly to the measured speeds first
+            thetas = fitmod.fit_inputs_jointly(problem, [(c.effect, c.estimate) for c in inputs], np.arange(n_folds))
+            for c, th in zip(inputs, thetas):
+                c.estimate = th
+        for _ in range(2):  # two rounds of refits (Gauss-Seidel), the second scores the final estimates
+            rescored = []
+            for i, r in enumerate(chosen):
+                others = tuple((c.effect, c.estimate) for j, c in enumerate(chosen) if j != i)
+                p = dataclasses.replace(problem, base=others)
+                base_err = fitmod.errors(p, None, (), np.arange(p.starts.size))
+                new = score(p, r.effect, n_folds=n_folds, min_gain=min_gain, base_err=base_err,
+                            speed_base=_speed_base(p))
+                new.tied_with, new.tie_notes = r.tied_with, r.tie_notes
+                chosen[i] = new
+                rescored.append(new)
+        weak = [i for i, n in enumerate(rescored) if not n.passed]
+        if not weak:
+            break
+        drop = min(weak, key=lambda i: rescored[i].relative)
+        log.debug("forward selection: %s no longer passes on top of the others (%s): dropped",
+                  chosen[drop].effect.name, rescored[drop].why)
+        chosen.pop(drop)
     return steps, chosen
 
 
-def all_findings(steps: list[Step]) -> list[CandidateResult]:
-    """Each step's chosen effect followed by the findings tied with it, in the order found."""
+def all_findings(steps: list[Step], chosen: list[CandidateResult]) -> list[CandidateResult]:
+    """The effects found (``chosen``, in the order found), each followed by the findings of its
+    step tied with it."""
     out = []
-    for s in steps:
-        if s.chosen is None:
-            break
-        out.append(s.chosen)
-        out.extend(r for r in s.results[1:] if r.passed and s.chosen.effect.name in r.tied_with)
+    for c in chosen:
+        out.append(c)
+        step = next((s for s in steps if s.chosen is not None and s.chosen.effect.name == c.effect.name), None)
+        if step is not None:
+            out.extend(r for r in step.results[1:] if r.passed and c.effect.name in r.tied_with)
     return out
 
 
