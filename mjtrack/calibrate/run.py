@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from mjtrack.calibrate.fit import FitResult, fit, objective
-from mjtrack.calibrate.params import parse_names, specs_for, start_values
+from mjtrack.calibrate.params import parse_names, start_values
 from mjtrack.diagnose import residuals as rs
 from mjtrack.errors import InputError
 from mjtrack.geometry import _sinc_terms, relative_pose
@@ -128,19 +128,6 @@ def _chord_twist(p0: np.ndarray, p1: np.ndarray, dur: np.ndarray) -> np.ndarray:
     den = (s * s + c * c) * dur
     return np.stack([(s * rel[:, 0] + c * rel[:, 1]) / den, (-c * rel[:, 0] + s * rel[:, 1]) / den,
                      rel[:, 2] / dur], -1)
-
-
-def _window_speeds(lg: DriveLog, ws: WindowSet) -> np.ndarray:
-    """Mean track speeds (M, 2) of each window: measured where present, else commanded."""
-    out = np.empty((len(ws), 2))
-    for j, (s, e) in enumerate(zip(ws.starts, ws.ends)):
-        sl = slice(s, e + 1)
-        cmd = np.stack([lg.v_left_cmd[sl], lg.v_right_cmd[sl]], -1)
-        if lg.has_track_speeds:
-            meas = np.stack([lg.v_left[sl], lg.v_right[sl]], -1)
-            cmd = np.where(np.isfinite(meas), meas, cmd)
-        out[j] = cmd.mean(axis=0)
-    return out
 
 
 def steady_mask(lg: DriveLog, ws: WindowSet) -> np.ndarray:
@@ -400,4 +387,4 @@ def check_same_robot(train_robot: Robot, test_robot: Robot, test_path: str) -> N
                              f"{a:g} m for the training log)")
 
 
-__all__ = ["Calibration", "calibrate", "calibrated_robot", "check_same_robot", "specs_for", "write_outputs"]
+__all__ = ["Calibration", "calibrate", "calibrated_robot", "check_same_robot", "write_outputs"]

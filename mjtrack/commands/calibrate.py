@@ -24,28 +24,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjtrack.commands._common import (add_output_options, add_robot_options, check_out_dir, finite_float,
-                                      robot_from_args)
+from mjtrack.commands._common import (add_output_options, add_robot_options, check_out_dir, positive_float,
+                                      positive_int, robot_from_args)
 from mjtrack.errors import InputError
 
 HELP = "fit the MuJoCo robot to a measured log (windows from the measured state): robot.json + calibration.json + report.html"
-
-
-def _positive(text: str) -> float:
-    value = finite_float(text)
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
-    return value
-
-
-def _count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
-    return value
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -56,11 +39,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--track-model", choices=("rollers", "surfacevel"), default="rollers",
                         help="MuJoCo track model (windows need rollers: surfacevel is refused)")
     parser.add_argument("--params", metavar="NAMES", default=None, help="parameters to fit, comma separated")
-    parser.add_argument("--horizon", metavar="S", type=_positive, default=2.0, help="window length [s] (default 2)")
-    parser.add_argument("--max-iter", metavar="N", type=_count, default=8, help="optimiser iterations (default 8)")
-    parser.add_argument("--rollers", metavar="N", type=_count, default=None,
+    parser.add_argument("--horizon", metavar="S", type=positive_float, default=2.0, help="window length [s] (default 2)")
+    parser.add_argument("--max-iter", metavar="N", type=positive_int, default=8, help="optimiser iterations (default 8)")
+    parser.add_argument("--rollers", metavar="N", type=positive_int, default=None,
                         help="contact rollers per track in the simulation (default 10; 6 is ~2x faster)")
-    parser.add_argument("--threads", metavar="N", type=_count, default=2, help="rollout threads (default 2)")
+    parser.add_argument("--threads", metavar="N", type=positive_int, default=2, help="rollout threads (default 2)")
     add_robot_options(parser)
     add_output_options(parser)
 
