@@ -57,11 +57,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "log's segments allow (3/4 of the median segment) when they are shorter, with a note")
     parser.add_argument("--folds", metavar="K", type=_folds, default=5, help="cross-validation folds (default 5)")
     parser.add_argument("--confirm", action="store_true",
-                        help="re-simulate the log with the MuJoCo robot, nominal and extended by the cause")
+                        help="re-simulate the log with the MuJoCo robot, nominal and extended by the cause "
+                             "(surrogate and kinematic baselines; the mujoco baseline is MuJoCo throughout)")
     parser.add_argument("--baseline", choices=BASELINES, default="auto",
-                        help="what is diagnosed: 'surrogate' (the rigid-track Coulomb surrogate of the robot, or the "
-                             "kinematic model when the description lacks the contact length), 'kinematic' (the "
-                             "kinematic skid-steer model), 'auto' (default; the report says which it chose and why)")
+                        help="what is diagnosed: 'mujoco' (the MuJoCo robot itself: windows simulated from the "
+                             "measured state, every candidate effect an extension of the MuJoCo robot, gains measured "
+                             "by MuJoCo on held-out windows; needs track_length in the robot file, e.g. a robot.json "
+                             "from 'mjtrack calibrate'), 'surrogate' (the rigid-track Coulomb surrogate of the robot, "
+                             "or the kinematic model when the description lacks the contact length), 'kinematic' (the "
+                             "kinematic skid-steer model), 'auto' (default: mujoco when the robot can be built, else "
+                             "surrogate; diagnosis.json and the report say which it chose and why)")
     parser.add_argument("--test", metavar="LOG2", type=Path, default=None,
                         help="fit on LOG, score on LOG2 (a log of the same robot) instead of cross-validating")
     add_robot_options(parser)
