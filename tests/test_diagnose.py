@@ -343,3 +343,16 @@ def test_mujoco_log_named_and_confirmed_in_mujoco(cg_x):
     assert d.findings[0].estimate[0] == pytest.approx(cg_x, rel=0.25)
     conf = d.to_json()["validation"]["mujoco"]
     assert conf["run"] and conf["relative"] > 0.5 and conf["held_out"] is False
+
+
+@pytest.mark.slow
+def test_selection_does_not_flip_with_the_fold_count():
+    """A speed limit of 0.45 m/s that only the faster commands reach (about a sixth of the log):
+    found at 3, 5 and 10 folds alike (the gain test is over blocks of windows, not over folds)."""
+    from diagnose_physics import make_log as physics_log
+
+    log, robot = physics_log({"speed_limit": 0.45}, seed=12, duration=180.0, vmax=0.5)
+    for k in (3, 5, 10):
+        d = _diagnose(log, robot, n_folds=k, max_effects=1)
+        assert d.cause == "speed_limit", (k, [r.why for r in d.results[:2]])
+        assert d.findings[0].estimate[0] == pytest.approx(0.45, rel=0.05)

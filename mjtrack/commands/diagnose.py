@@ -21,7 +21,6 @@ from pathlib import Path
 
 from mjtrack.commands._common import (add_output_options, add_robot_options, check_out_dir, finite_float,
                                       robot_from_args)
-from mjtrack.diagnose.run import BASELINES
 from mjtrack.errors import InputError
 
 HELP = "what the nominal model gets wrong on a measured log, the cause and its gain: report.html + diagnosis.json"
@@ -58,7 +57,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--folds", metavar="K", type=_folds, default=5, help="cross-validation folds (default 5)")
     parser.add_argument("--confirm", action="store_true",
                         help="re-simulate the log with the MuJoCo robot, nominal and extended by the cause")
-    parser.add_argument("--baseline", choices=BASELINES, default="auto",
+    # the names of mjtrack.diagnose.run.BASELINES (which validates them again), spelled here so that
+    # building the parser does not import the diagnosis (scipy) for every command
+    parser.add_argument("--baseline", choices=("auto", "surrogate", "kinematic"), default="auto",
                         help="what is diagnosed: 'surrogate' (the rigid-track Coulomb surrogate of the robot, or the "
                              "kinematic model when the description lacks the contact length), 'kinematic' (the "
                              "kinematic skid-steer model), 'auto' (default; the report says which it chose and why)")
