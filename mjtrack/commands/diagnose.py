@@ -21,7 +21,6 @@ from pathlib import Path
 
 from mjtrack.commands._common import (add_output_options, add_robot_options, check_out_dir, finite_float,
                                       robot_from_args)
-from mjtrack.diagnose.run import BASELINES
 from mjtrack.errors import InputError
 
 HELP = "what the nominal model gets wrong on a measured log, the cause and its gain: report.html + diagnosis.json"
@@ -59,7 +58,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--confirm", action="store_true",
                         help="re-simulate the log with the MuJoCo robot, nominal and extended by the cause "
                              "(surrogate and kinematic baselines; the mujoco baseline is MuJoCo throughout)")
-    parser.add_argument("--baseline", choices=BASELINES, default="auto",
+    # the names of mjtrack.diagnose.run.BASELINES (which validates them again), spelled here so that
+    # building the parser does not import the diagnosis (scipy) for every command
+    parser.add_argument("--baseline", choices=("auto", "mujoco", "surrogate", "kinematic"), default="auto",
                         help="what is diagnosed: 'mujoco' (the MuJoCo robot itself: windows simulated from the "
                              "measured state, every candidate effect an extension of the MuJoCo robot, gains measured "
                              "by MuJoCo on held-out windows; needs track_length in the robot file, e.g. a robot.json "
