@@ -34,7 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from diagnose_physics import make_log  # noqa: E402
 
 from mjtrack.diagnose import diagnose  # noqa: E402
-from mjtrack.diagnose.select import TRACTION_PAIR  # noqa: E402
+from mjtrack.diagnose.select import MODEL_REL, TRACTION_PAIR  # noqa: E402
 
 MAGNITUDES = {
     "cg_offset_x": [{"cg_offset_x": v} for v in (0.02, 0.05, -0.1)],
@@ -89,7 +89,7 @@ def cases() -> list[dict]:
     return out
 
 
-FAST = [7, 20, 36, 42]  # a fast subset (short logs) for the default test run: see tests/test_diagnose_benchmark.py
+FAST = [13, 21, 39]  # the short logs, run by the default tests (tests/test_diagnose_benchmark.py)
 
 
 def effects_of(truth: dict) -> set[str]:
@@ -158,6 +158,18 @@ def summarise(rows: list[dict]) -> dict:
     }
 
 
+def model_error_on_mujoco() -> tuple[float, int]:
+    """RMS relative error of the surrogate's estimates on last round's MuJoCo matrix, as a share of
+    the effect size |truth - nominal| (the interval's model term MODEL_REL in
+    mjtrack/diagnose/select.py comes from it): (rms, count)."""
+    path = Path(__file__).resolve().parent / "results" / "diagnose_mujoco_effects.json"
+    nominal = {"cg_offset_x": 0.0, "cg_offset_y": 0.0, "friction_scale": 1.0, "friction_asymmetry": 1.0,
+               "track_speed_scale": 1.0, "slope": 0.0, "actuator_lag": 0.0, "command_delay": 0.0}
+    rel = [(row["estimate"][k] - t) / abs(t - nominal[k]) for row in json.loads(path.read_text())["rows"]
+           for k, t in row["injected"].items() if k in nominal and k in row.get("estimate", {})]
+    return float(np.sqrt(np.mean(np.square(rel)))), len(rel)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--fast", action="store_true", help="the fast subset only")
@@ -190,6 +202,10 @@ def main() -> int:
           f"({100 * s['covered'] / max(s['params'], 1):.1f} %)")
     print(f"median |bias| {100 * s['median_abs_bias']:.1f} % (worst {100 * s['worst_abs_bias']:.1f} %)")
     print(f"median diagnosis time {s['median_diagnose_s']:.1f} s; load {s['load']}")
+    rms, n = model_error_on_mujoco()
+    print(f"interval model term: the surrogate's RMS relative error on {n} MuJoCo estimates "
+          f"(experiments/results/diagnose_mujoco_effects.json) is {100 * rms:.1f} % of the effect size "
+          f"(MODEL_REL = {MODEL_REL})")
     if args.json:
         args.json.write_text(json.dumps({"summary": s, "cases": rows}, indent=1, default=float) + "\n")
     return 0

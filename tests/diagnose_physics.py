@@ -42,11 +42,12 @@ VMAX = 1.0
 GEOMETRIES = {  # name -> (robot description given to the diagnosis, contact kind)
     "small": (Robot(), "tracks"),
     "large": (Robot(track_gauge=0.6, track_length=0.9, track_width=0.15, mass=80.0, cg_z=0.25, mu=0.7), "tracks"),
-    # a wheeled skid-steer robot: 4 wheels at (+-0.25, +-0.275); its description gives the
-    # equivalent contact length of a uniform track with the same second moment of the load
-    # (points at +-a <-> uniform length 2 a sqrt(3))
-    "wheeled": (Robot(track_gauge=0.55, track_length=0.5 * np.sqrt(3.0), track_width=0.1, mass=50.0, cg_z=0.2,
-                      mu=0.6), "wheels"),
+    # a wheeled skid-steer robot: 4 wheels at (+-0.25, +-0.275). Its description gives the
+    # contact length of the continuous track that turns like it (0.97 m), calibrated once on a
+    # separate clean log (seed 999, 120 s: the fitted icr_spread is 1.12 at 0.866 m, 0.86 at 1.1 m,
+    # and no effect passes at 0.97 m), as an engineer would calibrate a wheeled robot's effective
+    # contact before diagnosing it; the benchmark's logs use other seeds
+    "wheeled": (Robot(track_gauge=0.55, track_length=0.97, track_width=0.1, mass=50.0, cg_z=0.2, mu=0.6), "wheels"),
 }
 WHEELBASE = 0.5
 

@@ -73,3 +73,48 @@ def test_every_hidden_effect_is_named_and_estimated(effect):
     lo, hi = c.interval[0]
     # the interval is statistical only; allow the grid's parabola 10 % of the truth beyond it
     assert lo - 0.1 * abs(truth[key]) <= truth[key] <= hi + 0.1 * abs(truth[key])
+
+
+def _write(tmp_path, robot_dict, *, effect="cg_offset_x", duration=30.0):
+    from mjtrack.io.logs import write_log
+
+    lg, _ = make_log(effect, seed=3, duration=duration)
+    path = tmp_path / "run.csv"
+    write_log(lg, path)
+    (tmp_path / "run.json").write_text(json.dumps(robot_dict))
+    return path
+
+
+def test_cli_auto_falls_back_and_says_why(tmp_path):
+    from cli_helpers import run_cli
+
+    path = _write(tmp_path, {"track_gauge": ROBOT.track_gauge})  # no contact length
+    out = tmp_path / "d"
+    res = run_cli(["diagnose", path, "--out", out, "--quiet"])
+    assert res.rc == 0, res.err
+    data = json.loads((out / "diagnosis.json").read_text())
+    assert "track_length" in data["baseline"]["choice"] and "surrogate" in data["baseline"]["choice"]
+
+
+def test_cli_mujoco_without_contact_length_is_refused(tmp_path):
+    from cli_helpers import assert_usage_error, run_cli
+
+    path = _write(tmp_path, {"track_gauge": ROBOT.track_gauge}, duration=6.0)
+    res = run_cli(["diagnose", path, "--out", tmp_path / "d", "--baseline", "mujoco"])
+    assert_usage_error(res, "track_length")
+    assert not (tmp_path / "d").exists()
+
+
+@pytest.mark.slow
+def test_cli_auto_chooses_mujoco_when_the_robot_can_be_built(tmp_path):
+    from cli_helpers import run_cli
+
+    path = _write(tmp_path, NOMINAL.to_dict(), duration=40.0)
+    out = tmp_path / "d"
+    res = run_cli(["diagnose", path, "--out", out, "--quiet", "--folds", "4"])
+    assert res.rc == 0, res.err
+    data = json.loads((out / "diagnosis.json").read_text())
+    assert data["baseline"]["simulator"] == "mujoco" and data["baseline"]["choice"]["chosen"] == "mujoco"
+    assert data["cause"] == "cg_offset_x"
+    assert data["findings"][0]["estimate"]["cg_offset_x"] == pytest.approx(0.05, abs=0.015)
+    assert "baseline: MuJoCo robot" in res.out

@@ -21,7 +21,6 @@ from pathlib import Path
 
 from mjtrack.commands._common import (add_output_options, add_robot_options, check_out_dir, finite_float,
                                       robot_from_args)
-from mjtrack.diagnose.run import BASELINES
 from mjtrack.errors import InputError
 
 HELP = "what the nominal model gets wrong on a measured log, the cause and its gain: report.html + diagnosis.json"
@@ -57,11 +56,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "log's segments allow (3/4 of the median segment) when they are shorter, with a note")
     parser.add_argument("--folds", metavar="K", type=_folds, default=5, help="cross-validation folds (default 5)")
     parser.add_argument("--confirm", action="store_true",
-                        help="re-simulate the log with the MuJoCo robot, nominal and extended by the cause")
-    parser.add_argument("--baseline", choices=BASELINES, default="auto",
-                        help="what is diagnosed: 'surrogate' (the rigid-track Coulomb surrogate of the robot, or the "
-                             "kinematic model when the description lacks the contact length), 'kinematic' (the "
-                             "kinematic skid-steer model), 'auto' (default; the report says which it chose and why)")
+                        help="re-simulate the log with the MuJoCo robot, nominal and extended by the cause "
+                             "(surrogate and kinematic baselines; the mujoco baseline is MuJoCo throughout)")
+    # the names of mjtrack.diagnose.run.BASELINES (which validates them again), spelled here so that
+    # building the parser does not import the diagnosis (scipy) for every command
+    parser.add_argument("--baseline", choices=("auto", "mujoco", "surrogate", "kinematic"), default="auto",
+                        help="what is diagnosed: 'mujoco' (the MuJoCo robot itself: windows simulated from the "
+                             "measured state, every candidate effect an extension of the MuJoCo robot, gains measured "
+                             "by MuJoCo on held-out windows; needs track_length in the robot file, e.g. a robot.json "
+                             "from 'mjtrack calibrate'), 'surrogate' (the rigid-track Coulomb surrogate of the robot, "
+                             "or the kinematic model when the description lacks the contact length), 'kinematic' (the "
+                             "kinematic skid-steer model), 'auto' (default: mujoco when the robot can be built, else "
+                             "surrogate; diagnosis.json and the report say which it chose and why)")
     parser.add_argument("--test", metavar="LOG2", type=Path, default=None,
                         help="fit on LOG, score on LOG2 (a log of the same robot) instead of cross-validating")
     add_robot_options(parser)

@@ -126,10 +126,12 @@ def uses_speeds(problem: Problem, effect: Effect) -> bool:
     return effect.kind == "input" and problem.speed_ok is not None and bool(problem.speed_ok.any())
 
 
-def fit(problem: Problem, effect: Effect, train_folds: np.ndarray, *, covariance: bool = False):
+def fit(problem: Problem, effect: Effect, train_folds: np.ndarray, *, covariance: bool = False,
+        start: np.ndarray | None = None):
     """Least-squares estimate (P,) of the effect's parameters on the folds ``train_folds``; with
     ``covariance`` also its block-robust covariance (P, P) (:func:`mjtrack.diagnose.stats.sandwich`,
-    the blocks of :attr:`Problem.window_block`; NaN where the estimate sits on a bound)."""
+    the blocks of :attr:`Problem.window_block`; NaN where the estimate sits on a bound). ``start``:
+    one start (e.g. the full-data estimate for the fold fits) instead of the effect's start grid."""
     robot = problem.surrogate.robot
     lo, hi = (np.asarray(b, float) for b in effect.bounds(robot))
     if uses_speeds(problem, effect):
@@ -149,11 +151,11 @@ def fit(problem: Problem, effect: Effect, train_folds: np.ndarray, *, covariance
             e[:, 2] *= ell
             return e.ravel()
 
-    starts = np.asarray(effect.starts(robot, problem.data), float)
+    starts = np.asarray(effect.starts(robot, problem.data) if start is None else [start], float)
     inner_lo = np.where(np.isfinite(lo), lo + 1e-6 * (1 + np.abs(np.where(np.isfinite(lo), lo, 0))), -np.inf)
     inner_hi = np.where(np.isfinite(hi), hi - 1e-6 * (1 + np.abs(np.where(np.isfinite(hi), hi, 0))), np.inf)
     starts = np.clip(starts, inner_lo, inner_hi)
-    costs = [float(np.sum(resid(p) ** 2)) for p in starts]
+    costs = [float(np.sum(resid(p) ** 2)) for p in starts] if len(starts) > 1 else [0.0]
     x0 = starts[int(np.argmin(costs))]
     res = optimize.least_squares(resid, x0, bounds=(lo, hi), method="trf", x_scale="jac", diff_step=1e-3,
                                  xtol=1e-6, ftol=1e-8, max_nfev=60)

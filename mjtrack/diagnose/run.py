@@ -37,7 +37,8 @@ log = logging.getLogger(__name__)
 MIN_TURNING = 0.02  # fraction of samples with |turn ratio| > 0.05 below which ground effects are not tested
 MIN_LATERAL = 0.02  # max |a_lat|/(mu g) below which friction_scale is not tested
 DEFAULT_HORIZON = 2.0  # [s]
-BASELINES = ("auto", "surrogate", "kinematic")
+BASELINES = ("auto", "mujoco", "surrogate", "kinematic")
+MUJOCO_SCREEN = 3  # surrogate-ranked effects the MuJoCo baseline fits (plus its own ground effects)
 ROBOT_KEYS = ("track_gauge", "track_length", "track_width", "mass", "cg_x", "cg_y", "cg_z", "mu", "mu_left", "mu_right")
 
 __all__ = ["Diagnosis", "diagnose", "extended_robot", "write_outputs", "choose_horizon", "make_baseline",
@@ -170,7 +171,7 @@ def speed_timing(data: rs.DriveData) -> bool:
 
 
 def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n_folds: int = 5,
-             min_gain: float = 0.03, baseline: str = "auto", effects: list[str] | None = None,
+             min_gain: float = 0.03, baseline: str = "surrogate", effects: list[str] | None = None,
              max_fit_windows: int = 3000, max_effects: int = 3, confirm: bool = False, quiet: bool = True,
              transient: bool | str = "auto", test_log: DriveLog | None = None,
              test_robot: Robot | None = None) -> Diagnosis:
@@ -182,7 +183,11 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n
         horizon_s: prediction horizon [s] of the windows, or "auto" (:func:`choose_horizon`).
         n_folds: cross-validation folds (>= 3).
         min_gain: least held-out relative gain of a finding [-].
-        baseline: "auto", "surrogate" or "kinematic" (:func:`make_baseline`).
+        baseline: "surrogate" (default) or "kinematic" (:func:`make_baseline`); "mujoco": the MuJoCo
+            robot itself is diagnosed (:mod:`.mujoco_baseline`, returns a ``MujocoDiagnosis``; the
+            surrogate pre-screens the candidates, see :func:`diagnose_simulation`); "auto": "mujoco"
+            whenever the description lets the MuJoCo robot be built, else "surrogate" with the reason
+            in the notes and ``baseline.choice``.
         effects: names to test (default: all of :data:`EFFECTS`).
         max_fit_windows: windows used per fit (a stride of them); scoring uses all windows.
         max_effects: forward selection stops after this many effects.
@@ -211,6 +216,16 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n
         if differ:
             raise InputError(f"{test_log.source or 'test log'}: another robot than {src}'s ({'; '.join(differ)}): "
                              "a test log must come from the same robot")
+    mujoco_note = None
+    if baseline in ("auto", "mujoco"):
+        from mjtrack.diagnose.mujoco_baseline import choose_simulator  # MuJoCo only when asked for
+
+        use_mujoco, mujoco_note = choose_simulator(baseline, robot)
+        if use_mujoco:
+            return diagnose_simulation(log_, robot, horizon_s=horizon_s, n_folds=n_folds, min_gain=min_gain,
+                                       effects=effects, test_log=test_log, quiet=quiet, requested=baseline,
+                                       why=mujoco_note)
+        baseline = "surrogate"
     data = rs.DriveData.from_log(log_)
     train_data = data
     horizon_s, horizon_note = choose_horizon(data, horizon_s)
@@ -242,6 +257,9 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n
         speed_ok = np.all(np.isfinite(data.meas), axis=1)
         measured = np.where(np.isfinite(data.meas), data.meas, data.cmd)
     surrogate, choice, notes = make_baseline(baseline, robot, data, starts, ends, transient=transient)
+    if mujoco_note is not None:
+        choice = f"{mujoco_note}; {choice}"
+        notes.append(mujoco_note)
     base = surrogate.baseline
     if horizon_note:
         notes.insert(0, horizon_note)
@@ -298,8 +316,41 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n
     return diag
 
 
+def diagnose_simulation(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n_folds: int = 5,
+                        min_gain: float = 0.03, effects: list[str] | None = None, test_log: DriveLog | None = None,
+                        quiet: bool = True, requested: str = "mujoco", why: str = "", screen: int | None = MUJOCO_SCREEN):
+    """The MuJoCo robot diagnosed (:func:`mjtrack.diagnose.mujoco_baseline.diagnose_mujoco`).
+
+    Unless ``effects`` names them, the candidates are pre-screened by the surrogate diagnosis (the
+    ``screen`` effects it ranks best that MuJoCo can simulate) plus the MuJoCo-only ground
+    extensions (anisotropic ground, road wheels); ``screen`` None: every MuJoCo effect. Every
+    number reported is MuJoCo's."""
+    from mjtrack.diagnose.mujoco_baseline import EFFECTS as MJ_EFFECTS
+    from mjtrack.diagnose.mujoco_baseline import diagnose_mujoco
+
+    t0 = time.perf_counter()
+    screened = None
+    if effects is None and screen is not None:
+        sur = diagnose(log_, robot, horizon_s=horizon_s, n_folds=n_folds, min_gain=min_gain, baseline="surrogate",
+                       quiet=True, test_log=test_log)
+        ranked = [r.effect.name for r in sorted(sur.results, key=lambda r: r.after) if r.effect.name in MJ_EFFECTS]
+        screened = ranked[:screen]
+        effects = screened + [n for n in ("ground_anisotropy", "road_wheels") if n not in screened]
+    h = 2.0 if horizon_s == "auto" else float(horizon_s)
+    result = diagnose_mujoco(log_, robot, horizon_s=h, n_folds=n_folds, min_gain=min_gain, effects=effects,
+                             test=test_log, quiet=quiet,
+                             choice={"requested": requested, "chosen": "mujoco", "why": why,
+                                     "screened_by_surrogate": screened})
+    result.timings["screen"] = time.perf_counter() - t0 - result.timings.get("total", 0.0)
+    return result
+
+
 def write_outputs(diagnosis: Diagnosis, out_dir: str | os.PathLike) -> None:
     """Write DIR/diagnosis.json and DIR/report.html (each atomically)."""
+    from mjtrack.diagnose.mujoco_baseline import MujocoDiagnosis, write_mujoco_outputs
+
+    if isinstance(diagnosis, MujocoDiagnosis):
+        return write_mujoco_outputs(diagnosis, out_dir)
     t0 = time.perf_counter()
     out = Path(out_dir)
     report = build_report(diagnosis)  # everything is built before anything is written

@@ -170,8 +170,13 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
     speeds = speed_base is not None and eff.kind == "input"
     if speeds:
         speed_res = np.full(problem.data.n, np.nan)
+    train = folds if problem.score_folds is None else folds[~np.isin(folds, score_folds)]
+    full, cov = fitmod.fit(problem, eff, train, covariance=True)
+    if bar is not None:
+        bar.update()
     for k in score_folds:
-        p = fitmod.fit(problem, eff, folds[folds != k])
+        # each fold fit starts from the full-data estimate (the start grid is searched once)
+        p = full if problem.score_folds is not None else fitmod.fit(problem, eff, folds[folds != k], start=full)
         ests.append(p)
         w = allw[problem.fold == k]
         after_err[w] = fitmod.errors(problem, eff, p, w)
@@ -181,10 +186,6 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
             speed_res[sm] = np.sum(r**2, 1)
         if bar is not None:
             bar.update()
-    train = folds if problem.score_folds is None else folds[~np.isin(folds, score_folds)]
-    full, cov = fitmod.fit(problem, eff, train, covariance=True)
-    if bar is not None:
-        bar.update()
     ests = np.array(ests)
     angular = np.array([n == "slope_direction" for n in eff.params])
     fold_before = np.array([fitmod.pos_rmse(base_err[problem.fold == k]) for k in score_folds])
