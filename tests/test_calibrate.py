@@ -139,11 +139,4 @@ def test_calibration_recovers_drivetrain_and_contact_length(tmp_path):
     assert abs(v["track_speed_scale"] - scale) < 0.01, v
 
 
-@pytest.mark.slow
-def test_calibration_finds_a_hidden_anisotropic_ground():
-    """A log of the anisotropic ground (lateral friction 0.5 of longitudinal) is fitted from 0.9."""
-    truth = Robot(mu=0.6, ground={"model": "anisotropic", "lateral_ratio": 0.5})
-    lg = _log(truth, 20.0, 7, lag=0.0)
-    start = Robot(mu=0.6, ground={"model": "anisotropic", "lateral_ratio": 0.9})
-    cal = calibrate(lg, start, names="lateral_ratio,mu", max_iter=8)
-    assert abs(cal.fit.values["lateral_ratio"] - 0.5) < 0.05, cal.fit.values
+# A hidden anisotropic ground from an independent implementation: tests/test_ground_calibrate.py (slow).
