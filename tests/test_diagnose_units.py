@@ -146,8 +146,7 @@ def _transient(u0, u1, *, h=1e-3, n=600, fs=1.0, robot=ROBOT):
     """Per-step means (n, 2) of the effective track speeds after the step u0 -> u1 at sample 10."""
     u = np.array([u0] * 10 + [u1] * n, float)
     s = Surrogate(robot, "coulomb", transient=True)
-    theta = (fs,) if fs != 1.0 else ()
-    return s.effective_speeds(_data(u, dt=h), u, "friction_scale" if theta else None, theta)[10:]
+    return s.effective_speeds(_data(u, dt=h), u, {"friction_scale": fs} if fs != 1.0 else None)[10:]
 
 
 def _params(robot=ROBOT):
