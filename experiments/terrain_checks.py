@@ -33,11 +33,12 @@ from mjtrack.io.robot import Robot  # noqa: E402
 from mjtrack.models.coulomb import plane_to_world, rollout, world_to_plane  # noqa: E402
 from mjtrack.sim.config import sim_config  # noqa: E402
 from mjtrack.sim.rollout import simulate  # noqa: E402
-from mjtrack.sim.terrain import parse_terrain  # noqa: E402
+from mjtrack.sim.terrain import parse_terrain, timestep_for  # noqa: E402
 
 
 def run(robot, spec, v_left, v_right, seconds, model="rollers", log_rate=50.0):
     config = sim_config(model)
+    config = config.replace(timestep=timestep_for(config.timestep, parse_terrain(spec)))
     n = int(round(seconds / config.timestep))
     cmd = np.empty((n, 2))
     cmd[:, 0] = v_left(np.arange(n) * config.timestep) if callable(v_left) else v_left

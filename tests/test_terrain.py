@@ -22,7 +22,7 @@ from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig, sim_config
 from mjtrack.sim.rollout import simulate
 from mjtrack.sim.steady import steady_state
-from mjtrack.sim.terrain import parse_terrain
+from mjtrack.sim.terrain import parse_terrain, timestep_for
 
 MODELS = ["rollers", "surfacevel"]
 
@@ -102,6 +102,7 @@ def test_every_track_element_meets_every_terrain_geom(model, tmp_path, hfield_fi
 
 def _drive(spec, model="rollers", v=(0.5, 0.5), seconds=6.0, robot=None):
     config = sim_config(model)
+    config = config.replace(timestep=timestep_for(config.timestep, parse_terrain(spec)))
     cmd = np.tile(v, (int(round(seconds / config.timestep)), 1))
     return simulate(robot or Robot(), cmd, config=config, terrain=parse_terrain(spec))
 
@@ -167,7 +168,8 @@ def _terrain_grid(seed, n, hfield):
 
 
 def _check_no_warning(robot, spec, v, seconds):
-    m = build_model(robot, SimConfig(), parse_terrain(spec))
+    terrain = parse_terrain(spec)
+    m = build_model(robot, SimConfig(timestep=timestep_for(SimConfig().timestep, terrain)), terrain)
     d = mujoco.MjData(m)
     d.ctrl[:] = control_matrix(m) @ v
     for _ in range(int(round(seconds / m.opt.timestep))):
@@ -245,3 +247,17 @@ def test_mujoco_turn_on_an_incline_matches_coulomb():
     w = plane_to_world(ref.pose, 0.2, 1.5707963)
     dist = float(np.sum(np.hypot(np.diff(out["x"]), np.diff(out["y"]))))
     assert np.hypot(w[-1, 0] - out["x"][-1], w[-1, 1] - out["y"][-1]) < 0.06 * dist
+
+
+def test_terrain_scenarios_carry_their_terrain(tmp_path):
+    out = tmp_path / "hill.csv"
+    assert run_cli(["simulate", "--scenario", "hill_climb", "--duration", "2", "--quiet", "--out", out]).rc == 0
+    doc = json.loads((tmp_path / "hill.json").read_text())
+    assert doc["terrain"]["incline"]["angle"] == 0.25
+    rows = out.read_text().splitlines()
+    last = dict(zip(rows[0].split(","), map(float, rows[-1].split(","))))
+    assert last["z"] == pytest.approx(last["x"] * math.tan(0.25), abs=0.01)
+    # --terrain replaces the scenario's
+    assert run_cli(["simulate", "--scenario", "hill_climb", "--duration", "1", "--terrain", "flat", "--quiet",
+                    "--out", tmp_path / "flat.csv"]).rc == 0
+    assert "terrain" not in json.loads((tmp_path / "flat.json").read_text())

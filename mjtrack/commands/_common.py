@@ -50,6 +50,25 @@ def finite_float(text: str) -> float:
     return value
 
 
+def positive_float(text: str) -> float:
+    """argparse ``type=``: a finite float > 0."""
+    value = finite_float(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """argparse ``type=``: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
+    return value
+
+
 def add_robot_options(parser: argparse.ArgumentParser) -> None:
     """Add ``--robot FILE`` and the per-field overrides (all default to ``None``: not given)."""
     group = parser.add_argument_group(
@@ -99,14 +118,20 @@ TERRAIN_HELP = ("terrain under the simulated robot: flat (default), incline:ANGL
 
 def add_terrain_option(parser: argparse.ArgumentParser) -> None:
     """Add ``--terrain SPEC`` (parsed by :func:`terrain_from_args`)."""
-    parser.add_argument("--terrain", metavar="SPEC", default="flat", help=TERRAIN_HELP)
+    parser.add_argument("--terrain", metavar="SPEC", default=None,
+                        help=TERRAIN_HELP + " (default: the scenario's terrain, else flat)")
 
 
-def terrain_from_args(args: argparse.Namespace):
-    """The :class:`~mjtrack.sim.terrain.Terrain` of ``--terrain`` (bad specs: InputError)."""
-    from mjtrack.sim.terrain import parse_terrain
+def terrain_from_args(args: argparse.Namespace, scenario: str | None = None):
+    """The :class:`~mjtrack.sim.terrain.Terrain` of ``--terrain``, else the scenario's, else flat
+    (bad specs: InputError)."""
+    from mjtrack.sim.scenarios import SCENARIOS
+    from mjtrack.sim.terrain import Terrain, parse_terrain
 
-    return parse_terrain(getattr(args, "terrain", "flat"))
+    spec = getattr(args, "terrain", None)
+    if spec is not None:
+        return parse_terrain(spec)
+    return SCENARIOS[scenario].terrain if scenario in SCENARIOS else Terrain()
 
 
 def add_output_options(parser: argparse.ArgumentParser) -> None:

@@ -48,6 +48,9 @@ from mjtrack.models.coulomb import incline_rotation
 PATCH_THICKNESS = 0.001  # [m] patches are this thick, lying on the ground
 STEP_DEPTH = 100.0  # [m] extent of a step box beyond its edge
 GROUND_SIZE = 50.0  # [m] half size of the ground plane (visual extent)
+EDGE_TIMESTEP = 0.0025  # [s] largest time step on terrain with edges (steps, height fields): at 5 ms,
+# sharp turns and reversals against a step edge at 1-2 m/s launched or diverged the robot in 2 of 40
+# seeded cases (tests/test_terrain.py slow grid); at 2.5 ms none did
 FLOOR_FRICTION = 1e-3  # friction of the terrain geoms themselves: unused, the contact pairs carry it
 
 
@@ -131,6 +134,13 @@ class Terrain:
                 for y in np.linspace(-half_width, half_width, 5):
                     h = max(h, self.hfield.height_at(x, y))
         return h
+
+
+def timestep_for(timestep: float, terrain: Terrain | None) -> float:
+    """The time step to simulate ``terrain`` with: at most :data:`EDGE_TIMESTEP` where it has edges."""
+    if terrain is not None and (terrain.steps or terrain.hfield is not None):
+        return min(timestep, EDGE_TIMESTEP)
+    return timestep
 
 
 def with_terrain(robot, terrain: Terrain):
