@@ -25,6 +25,9 @@ COMMANDS: dict[str, str] = {
     "diagnose": "diagnose",
     "track": "track",
     "thesis": "thesis",
+    "sweep": "sweep",
+    "import-bag": "import_bag",
+    "export": "export",
 }
 
 
