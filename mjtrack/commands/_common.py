@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import tempfile
 from pathlib import Path
 from typing import Iterable
 
@@ -93,14 +94,39 @@ def add_output_options(parser: argparse.ArgumentParser) -> None:
                         help="no progress display (it is also off when stderr is not a terminal)")
 
 
+_TMP_EXTRA = 16  # characters atomic writes add to a name (".NAME.xxxxxxxx.tmp")
+
+
+def _probe(folder: Path, path: Path, what: str) -> None:
+    """Refuse unless a file can really be created in ``folder`` (created and removed at once):
+    ``os.access`` says yes to root on any folder and knows nothing of full disks or quotas."""
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".mjtrack-probe.", dir=folder)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot create {what}: {folder} is not writable ({exc.strerror})") from None
+    os.close(fd)
+    os.unlink(tmp)
+
+
+def _check_names(path: Path, what: str) -> None:
+    """Refuse names the file system will not take (too long), before any work."""
+    for part in path.parts:
+        if len(os.fsencode(part)) + _TMP_EXTRA > 255:
+            raise InputError(f"{path}: cannot create {what}: the name {part[:20]}... is too long")
+    if len(os.fsencode(str(path.absolute()))) + _TMP_EXTRA > 4095:
+        raise InputError(f"{path}: cannot create {what}: the path is too long")
+
+
 def _writable_ancestor(path: Path, what: str) -> None:
     """Refuse ``path`` if the nearest existing ancestor is not a writable folder."""
+    _check_names(path, what)
     for parent in path.absolute().parents:
         if parent.exists():
             if not parent.is_dir():
                 raise InputError(f"{path}: cannot create {what}: {parent} is not a folder")
             if not os.access(parent, os.W_OK | os.X_OK):
                 raise InputError(f"{path}: cannot create {what}: {parent} is not writable")
+            _probe(parent, path, what)
             return
     raise InputError(f"{path}: cannot create {what}: no existing parent folder")  # pragma: no cover
 
@@ -113,6 +139,7 @@ def check_out_dir(path: str | os.PathLike) -> Path:
             raise InputError(f"{path}: --out must be a folder, this is an existing file")
         if not os.access(path, os.W_OK | os.X_OK):
             raise InputError(f"{path}: --out folder is not writable")
+        _probe(path, path, "files in the output folder")
         return path
     _writable_ancestor(path, "output folder")
     return path
@@ -141,6 +168,8 @@ def check_out_file(
             raise InputError(f"{path}: cannot create output file: {path.parent} is not a folder")
         if not os.access(path.parent, os.W_OK | os.X_OK):
             raise InputError(f"{path}: cannot create output file: {path.parent} is not writable")
+        _check_names(path, "output file")
+        _probe(path.parent, path, "output file")
     else:
         _writable_ancestor(path.parent, "output file")
     return path

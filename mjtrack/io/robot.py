@@ -19,6 +19,15 @@ from mjtrack.errors import InputError
 
 G = 9.81  # [m/s^2] gravity used throughout the package
 
+# Physical plausibility of a description: (low, high) inclusive. Beyond these a value is a unit
+# mix-up or a corrupt file (a 1 mm to 100 m track, a 1 g to 10 000 t robot, friction up to 10),
+# and the simulator would fail on it with a cryptic message, so it is refused up front.
+PLAUSIBLE_ROBOT: dict[str, tuple[float, float, str]] = {
+    "track_gauge": (1e-3, 100.0, "m"), "track_length": (1e-3, 100.0, "m"), "track_width": (1e-3, 100.0, "m"),
+    "sprocket_radius": (1e-3, 100.0, "m"), "mass": (1e-3, 1e7, "kg"), "cg_z": (-100.0, 100.0, "m"),
+    "mu": (1e-6, 10.0, "-"), "mu_left": (1e-6, 10.0, "-"), "mu_right": (1e-6, 10.0, "-"),
+}
+
 
 @dataclass(frozen=True)
 class Robot:
@@ -70,6 +79,11 @@ class Robot:
             value = getattr(self, name)
             if value is not None and (not _is_finite_number(value) or value <= 0):
                 raise InputError(f"robot: '{name}' must be a positive number or null, got {value!r}")
+        for name, (low, high, unit) in PLAUSIBLE_ROBOT.items():
+            value = getattr(self, name)
+            if value is not None and not low <= value <= high:
+                raise InputError(f"robot: '{name}' = {value!r} {unit} is beyond physical plausibility "
+                                 f"(between {low:g} and {high:g} {unit})")
         if abs(self.cg_x) >= self.track_length / 2:
             raise InputError(
                 f"robot: 'cg_x' = {self.cg_x} puts the centre of mass outside the tracks "

@@ -53,7 +53,8 @@ class SweepSummary:
     cases: int
     ran: int
     resumed: int
-    seconds: float
+    seconds: float  # [s] the whole call
+    run_seconds: float  # [s] from the first case submitted to the last result (no start-up, no figure)
     workers: int
 
 
@@ -176,12 +177,13 @@ def run_sweep(
     todo = [c for c in grid.cases if c.index not in done]
     start = time.monotonic()
     out.mkdir(parents=True, exist_ok=True)
-    n_workers = 0
+    n_workers, run_seconds = 0, 0.0
     if todo:
         with _client(workers or os.cpu_count() or 1, scheduler) as client:
             n_workers = len(client.scheduler_info().get("workers", {}))
             # write the kept rows back without any partial tail, then append as cases finish
             atomic_write_text(csv_path, _csv_text(cols, [done[k] for k in sorted(done)]))
+            t_submit = time.monotonic()
             futures = [client.submit(run_chunk, chunk, track_model, settle_s, window_s, pure=False)
                        for chunk in _chunks(todo, chunk_size)]
             with open(csv_path, "a", encoding="utf-8", newline="") as fh, \
@@ -200,6 +202,7 @@ def run_sweep(
                         done[k] = row
                     fh.flush()
                     bar.update(len(rows))
+            run_seconds = time.monotonic() - t_submit
     records = [_record(cols, done[k]) for k in sorted(done)]
     atomic_write_text(csv_path, _csv_text(cols, [done[k] for k in sorted(done)]))
     atomic_write_text(out / JSON_NAME, json.dumps({
@@ -211,7 +214,7 @@ def run_sweep(
 
     icr_map(records, grid, out / MAP_NAME)
     return SweepSummary(cases=len(grid.cases), ran=len(todo), resumed=len(grid.cases) - len(todo),
-                        seconds=time.monotonic() - start, workers=n_workers)
+                        seconds=time.monotonic() - start, run_seconds=run_seconds, workers=n_workers)
 
 
 def _base_robot(grid: Grid) -> dict[str, Any]:
