@@ -1,6 +1,6 @@
 """Command-line pieces shared by the commands: robot options, ``--quiet``, ``--out`` checks.
 
-Robot options (CONTRACTS.md §3) on every command that simulates::
+Robot options on every command that simulates::
 
     --robot FILE  --cg-x M  --cg-y M  --mu X  --mass KG  --track-gauge M  --track-length M
 
@@ -51,7 +51,9 @@ def finite_float(text: str) -> float:
 def add_robot_options(parser: argparse.ArgumentParser) -> None:
     """Add ``--robot FILE`` and the per-field overrides (all default to ``None``: not given)."""
     group = parser.add_argument_group(
-        "robot", "the robot: --robot FILE (JSON, CONTRACTS.md §2), then each option below overrides one field"
+        "robot", "the robot: --robot FILE (a JSON object of SI values: track_gauge [m, required], track_length, "
+        "track_width, sprocket_radius [m], mass [kg], cg_x, cg_y, cg_z [m], mu, mu_left, mu_right), then each option "
+        "below overrides one field"
     )
     group.add_argument("--robot", metavar="FILE", type=Path, default=None,
                        help="robot description JSON (at least 'track_gauge' [m])")

@@ -1,5 +1,6 @@
 """Diagnose a measured drive log: where the nominal model departs from the measurement, the cause
-(an effect of the vocabulary in CONTRACTS.md §4, or "none"), its estimate with an interval and the
+(one of the effects cg_offset_x, cg_offset_y, friction_scale, friction_asymmetry,
+track_speed_scale, actuator_lag, command_delay, speed_limit, slope, or "none"), its estimate with an interval and the
 prediction error it removes on held-out data. Writes DIR/diagnosis.json and DIR/report.html.
 
 The robot is LOG.json beside the log unless --robot FILE is given; the other robot options
@@ -39,7 +40,8 @@ def _folds(text: str) -> int:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("log", metavar="LOG.csv", type=Path, help="measured drive log (CONTRACTS.md §1)")
+    parser.add_argument("log", metavar="LOG.csv", type=Path, help="measured drive log (CSV with columns t [s], v_left_cmd, v_right_cmd [m/s], x, y [m], yaw [rad]; "
+                        "optional v_left, v_right, vx, vy, wz, window)")
     parser.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder (created if needed)")
     parser.add_argument("--horizon", metavar="S", type=_positive, default=2.0,
                         help="prediction horizon of the windows [s] (default 2)")
