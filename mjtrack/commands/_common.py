@@ -136,6 +136,7 @@ def _writable_ancestor(path: Path, what: str) -> None:
 def check_out_dir(path: str | os.PathLike) -> Path:
     """Check an ``--out DIR`` before the work: an existing writable folder, or creatable."""
     path = Path(path)
+    _check_names(path, "output folder")
     if path.exists():
         if not path.is_dir():
             raise InputError(f"{path}: --out must be a folder, this is an existing file")
@@ -157,6 +158,7 @@ def check_out_file(
     or written.
     """
     path = Path(path)
+    _check_names(path, "output file")
     suffixes = tuple(s.lower() for s in suffixes)
     if suffixes and path.suffix.lower() not in suffixes:
         raise InputError(f"{path}: --out must end in {' or '.join(suffixes)}")
@@ -170,7 +172,6 @@ def check_out_file(
             raise InputError(f"{path}: cannot create output file: {path.parent} is not a folder")
         if not os.access(path.parent, os.W_OK | os.X_OK):
             raise InputError(f"{path}: cannot create output file: {path.parent} is not writable")
-        _check_names(path, "output file")
         _probe(path.parent, path, "output file")
     else:
         _writable_ancestor(path.parent, "output file")

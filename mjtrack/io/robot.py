@@ -82,8 +82,11 @@ class Robot:
         for name, (low, high, unit) in PLAUSIBLE_ROBOT.items():
             value = getattr(self, name)
             if value is not None and not low <= value <= high:
-                raise InputError(f"robot: '{name}' = {value!r} {unit} is beyond physical plausibility "
+                raise InputError(f"robot: '{name}' = {value:g} {unit} is beyond physical plausibility "
                                  f"(between {low:g} and {high:g} {unit})")
+        if self.track_width >= self.track_gauge:
+            raise InputError(f"robot: 'track_width' = {self.track_width} is not less than 'track_gauge' = "
+                             f"{self.track_gauge}: the two tracks would overlap")
         if abs(self.cg_x) >= self.track_length / 2:
             raise InputError(
                 f"robot: 'cg_x' = {self.cg_x} puts the centre of mass outside the tracks "
