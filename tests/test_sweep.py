@@ -124,6 +124,7 @@ def test_sweep_resumes_from_a_cut_file(swept, cluster, capsys):
     lines = full.splitlines(keepends=True)
     out = swept / "resumed"
     out.mkdir()
+    (out / "sweep.json").write_text((swept / "a" / "sweep.json").read_text())  # a killed run left both
     # completion order is arbitrary: keep rows 7, 2, 9, 0, 11 and half of row 4
     (out / "sweep.csv").write_text(lines[0] + "".join(lines[1 + k] for k in (7, 2, 9, 0, 11)) + lines[5][:30])
     capsys.readouterr()
@@ -137,10 +138,24 @@ def test_sweep_resumes_from_a_cut_file(swept, cluster, capsys):
 def test_resume_refuses_a_file_of_another_grid(swept, cluster, capsys):
     out = swept / "other"
     out.mkdir()
+    (out / "sweep.json").write_text((swept / "a" / "sweep.json").read_text())
     text = (swept / "a" / "sweep.csv").read_text().replace("\n0,0.4,0.5,0.5,", "\n0,0.4,0.5,0.7,", 1)
     (out / "sweep.csv").write_text(text)
     assert main(["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--workers", "1", *SHORT]) == 2
     assert "case 0 was run with other grid values" in capsys.readouterr().err
+
+
+def test_resume_refuses_other_settings(swept, capsys):
+    """The same grid with another averaging window must not be mixed into the earlier rows."""
+    out = swept / "settings"
+    out.mkdir()
+    for name in ("sweep.csv", "sweep.json"):
+        (out / name).write_text((swept / "a" / name).read_text())
+    before = (out / "sweep.csv").read_bytes()
+    assert main(["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--workers", "1",
+                 "--settle", "0.3", "--window", "0.4"]) == 2
+    assert "other settings (window_s)" in capsys.readouterr().err
+    assert (out / "sweep.csv").read_bytes() == before
 
 
 def test_unreachable_scheduler_is_an_input_error(tmp_path, capsys):

@@ -20,26 +20,17 @@ from __future__ import annotations
 
 import argparse
 
-from mjtrack.commands._common import add_output_options, add_robot_options, check_out_dir, finite_float, robot_from_args
+from mjtrack.commands._common import (add_output_options, add_robot_options, check_out_dir, finite_float, int_at_least,
+                                      robot_from_args)
 
 HELP = "steady states over a grid of commands and robots on a dask cluster: sweep.csv, sweep.json, icr_map.png"
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--grid", metavar="GRID.json", required=True, help="the grid (see above)")
     parser.add_argument("--out", metavar="DIR", required=True, help="output folder (created; resumed if it holds a sweep.csv)")
     where = parser.add_mutually_exclusive_group()
-    where.add_argument("--workers", metavar="N", type=_positive_int, default=None,
+    where.add_argument("--workers", metavar="N", type=int_at_least(1), default=None,
                        help="start a local dask cluster of N worker processes, one thread each (default: CPU count)")
     where.add_argument("--scheduler", metavar="ADDRESS", default=None,
                        help="run on an existing dask cluster, e.g. tcp://10.0.0.5:8786")

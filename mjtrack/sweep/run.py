@@ -173,10 +173,14 @@ def run_sweep(
         raise InputError("--settle must be >= 0 and --window > 0 seconds")
     cols = header(grid)
     csv_path = out / CSV_NAME
+    settings = {"grid": grid.to_dict(), "track_model": track_model, "settle_s": settle_s, "window_s": window_s,
+                "base_robot": _base_robot(grid)}
+    _check_same_settings(out / JSON_NAME, csv_path, settings)
     done = _read_done(csv_path, grid, cols)
     todo = [c for c in grid.cases if c.index not in done]
     start = time.monotonic()
     out.mkdir(parents=True, exist_ok=True)
+    _write_json(out / JSON_NAME, grid, settings, cols, [])  # the settings first: a resume checks them
     n_workers, run_seconds = 0, 0.0
     if todo:
         with _client(workers or os.cpu_count() or 1, scheduler) as client:
@@ -205,16 +209,33 @@ def run_sweep(
             run_seconds = time.monotonic() - t_submit
     records = [_record(cols, done[k]) for k in sorted(done)]
     atomic_write_text(csv_path, _csv_text(cols, [done[k] for k in sorted(done)]))
-    atomic_write_text(out / JSON_NAME, json.dumps({
-        "grid": grid.to_dict(), "grid_file": grid.source, "track_model": track_model,
-        "settle_s": settle_s, "window_s": window_s, "base_robot": _base_robot(grid),
-        "columns": cols, "cases": records,
-    }, indent=1) + "\n")
+    _write_json(out / JSON_NAME, grid, settings, cols, records)
     from mjtrack.sweep.figure import icr_map
 
     icr_map(records, grid, out / MAP_NAME)
     return SweepSummary(cases=len(grid.cases), ran=len(todo), resumed=len(grid.cases) - len(todo),
                         seconds=time.monotonic() - start, run_seconds=run_seconds, workers=n_workers)
+
+
+def _write_json(path: Path, grid: Grid, settings: dict[str, Any], cols: list[str], records: list) -> None:
+    atomic_write_text(path, json.dumps({**settings, "grid_file": grid.source, "columns": cols, "cases": records},
+                                       indent=1) + "\n")
+
+
+def _check_same_settings(json_path: Path, csv_path: Path, settings: dict[str, Any]) -> None:
+    """A sweep.csv is resumed only under the settings it was started with (kept in sweep.json)."""
+    if not csv_path.exists():
+        return
+    try:
+        old = json.loads(json_path.read_text(encoding="utf-8"))
+        same = all(old.get(k) == json.loads(json.dumps(v)) for k, v in settings.items())
+    except (OSError, ValueError, AttributeError):
+        raise InputError(f"{csv_path}: an earlier sweep without a readable {json_path.name}: cannot tell how it "
+                         "was run; use another --out folder or delete the file to start over") from None
+    if not same:
+        changed = [k for k, v in settings.items() if old.get(k) != json.loads(json.dumps(v))]
+        raise InputError(f"{csv_path}: an earlier sweep with other settings ({', '.join(changed)}); "
+                         "use another --out folder or delete the file to start over")
 
 
 def _base_robot(grid: Grid) -> dict[str, Any]:
