@@ -5,8 +5,9 @@
 Grid: 10 commanded speeds (0.2 .. 2.0 m/s) x 20 commanded turn radii (0.25 .. 20 m, log-spaced,
 left turns) x 5 friction coefficients (0.3 .. 1.1), the default robot otherwise, each case held
 3 s then averaged over 2 s exactly as `mjtrack steady` does. Prints the wall time of the whole
-sweep (cluster start-up and figure included) and the machine's load average, and the range
-of the measured ICRs. Writes OUT/sweep.csv, OUT/sweep.json and OUT/icr_map.png (README shows it).
+sweep (cluster start-up and figure included) and the machine's load average, the range
+of the measured ICRs and their medians on slow turns. Run again on a finished OUT, it runs
+no case (resume) and prints the same ICR numbers. Writes OUT/sweep.csv, OUT/sweep.json and OUT/icr_map.png (README shows it).
 """
 
 from __future__ import annotations
@@ -57,6 +58,9 @@ def main() -> int:
           f"({s.run_seconds:.1f} s running cases)")
     print(f"y_l {y_l.min():.4f} .. {y_l.max():.4f} m, y_r {y_r.min():.4f} .. {y_r.max():.4f} m, "
           f"x_c {x_c.min():.4f} .. {x_c.max():.4f} m (default robot: T/2 = 0.2 m)")
+    slow = np.array([float(r["speed"]) <= 0.4 and float(r["turn_radius"]) <= 5 for r in rows])
+    print(f"slow turns (speed <= 0.4 m/s, R <= 5 m, {slow.sum()} cases): median y_l {np.median(y_l[slow]):.4f} m, "
+          f"y_r {np.median(y_r[slow]):.4f} m, x_c {np.median(x_c[slow]):.4f} m")
     return 0
 
 
