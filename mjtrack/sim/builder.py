@@ -62,6 +62,7 @@ import numpy as np
 
 from mjtrack.io.robot import G, Robot
 from mjtrack.sim.config import SimConfig
+from mjtrack.sim.drivetrain import drive_of
 
 logger = logging.getLogger(__name__)
 
@@ -90,7 +91,8 @@ def suspension_stiffness(robot: Robot, config: SimConfig) -> float:
 
 def build_spec(robot: Robot, config: SimConfig | None = None) -> mujoco.MjSpec:
     """The robot alone (no floor) as an ``MjSpec``, with simulation options set."""
-    config = config or SimConfig()
+    config = (config or SimConfig()).for_robot_mass(robot.mass)  # drive scaled to the robot
+    drive = drive_of(robot, config)  # the robot's drivetrain keys (mjtrack.sim.drivetrain)
     spec = mujoco.MjSpec()
     spec.modelname = "tracked_robot"
     _set_options(spec, config)
@@ -158,12 +160,12 @@ def build_spec(robot: Robot, config: SimConfig | None = None) -> mujoco.MjSpec:
                 )
             else:
                 _add_servo(spec, f"drive_{side}_{i}", f"roll_{side}_{i}", mujoco.mjtTrn.mjTRN_JOINT,
-                           gear=r, kv=config.kv / n, fmax=config.torque_limit / Rs / n, lag=config.lag)
+                           gear=r, kv=drive.kv / n, fmax=drive.force_limit / n, lag=drive.lag)
         tendon = spec.add_tendon(name=f"track_{side}")
         if equality:
             tendon.wrap_joint(f"sprocket_{side}", Rs)
             _add_servo(spec, f"drive_{side}", f"track_{side}", mujoco.mjtTrn.mjTRN_TENDON,
-                       gear=1.0, kv=config.kv, fmax=config.torque_limit / Rs, lag=config.lag)
+                       gear=1.0, kv=drive.kv, fmax=drive.force_limit, lag=drive.lag)
         else:  # mean surface speed of the rollers
             for i in range(n):
                 tendon.wrap_joint(f"roll_{side}_{i}", r / n)
@@ -201,7 +203,7 @@ def _check_explicit_stability(config: SimConfig, damping: float, roller_mass: fl
 
 def apply_solver_options(spec: mujoco.MjSpec, config: SimConfig) -> mujoco.MjOption:
     """The solver settings of ``config`` that both track models share (time step, integrator,
-    cone, impratio, noslip, iterations, tolerance, Newton solver, Jacobian); returns the option."""
+    cone, impratio, noslip, solver, iterations, tolerance, Jacobian); returns the option."""
     opt = spec.option
     opt.timestep = config.timestep
     opt.integrator = _INTEGRATORS[config.integrator]
@@ -210,7 +212,8 @@ def apply_solver_options(spec: mujoco.MjSpec, config: SimConfig) -> mujoco.MjOpt
     opt.noslip_iterations = config.noslip_iterations
     opt.iterations = config.iterations
     opt.tolerance = config.tolerance
-    opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
+    opt.solver = {"Newton": mujoco.mjtSolver.mjSOL_NEWTON, "PGS": mujoco.mjtSolver.mjSOL_PGS,
+                  "CG": mujoco.mjtSolver.mjSOL_CG}[config.solver]
     opt.jacobian = mujoco.mjtJacobian.mjJAC_SPARSE if config.jacobian == "sparse" else mujoco.mjtJacobian.mjJAC_DENSE
     return opt
 

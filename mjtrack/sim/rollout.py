@@ -31,6 +31,7 @@ from mjtrack.errors import InputError, MjtrackError
 from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
+from mjtrack.sim.drivetrain import drive_commands
 
 logger = logging.getLogger(__name__)
 
@@ -214,7 +215,8 @@ def simulate(
     model = model or build_model(robot, config)
     stride = steps_per_sample(model.opt.timestep, log_rate)
     s0 = settled_state(model)
-    _, sensordata = run_batch([model], commands[None], state0=s0[None])
+    driven = drive_commands(robot, commands, model.opt.timestep)  # speed scale and dead time
+    _, sensordata = run_batch([model], driven[None], state0=s0[None])
     cols = log_columns(sensordata[0], commands, SensorMap.of(model), timestep=model.opt.timestep, stride=stride)
     first = _rest_row(model, s0)
     out = {k: np.concatenate([[first[k]], v]) for k, v in cols.items()}
@@ -261,8 +263,9 @@ def _simulate_surfacevel(robot: Robot, commands: np.ndarray, *, config: SimConfi
 
     mujoco.mj_forward(model, data)
     rows.append(row(0.0, (0.0, 0.0)))
+    driven = drive_commands(robot, commands, model.opt.timestep)  # speed scale and dead time
     for k, cmd in enumerate(commands):
-        drive.step(data, *cmd)
+        drive.step(data, *driven[k])
         if (k + 1) % stride == 0:
             rows.append(row((k + 1) * model.opt.timestep, cmd))
     a = np.array(rows)

@@ -30,6 +30,7 @@ from mjtrack.icr import icr_from_twist
 from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model
 from mjtrack.sim.config import SimConfig
+from mjtrack.sim.drivetrain import drive_commands
 from mjtrack.sim.rollout import SensorMap, run_batch, settled_state
 
 logger = logging.getLogger(__name__)
@@ -87,7 +88,8 @@ def steady_batch(
     dt = models[0].opt.timestep
     n_settle, n_window = int(round(settle_s / dt)), int(round(window_s / dt))
     s0 = np.stack([settled_state(m) for m in models])
-    ctrl = np.repeat(commands[:, None, :], n_settle + n_window, axis=1)
+    ctrl = np.stack([drive_commands(r, np.repeat(c[None], n_settle + n_window, axis=0), dt)
+                     for r, c in zip(robots, commands)])  # each robot's speed scale and dead time
     _, sensordata = run_batch(models, ctrl, state0=s0, nthread=nthread)
     smap = SensorMap.of(models[0])
     return [_stats(sensordata[i], commands[i], smap, n_settle) for i in range(len(models))]
@@ -121,7 +123,8 @@ def _surfacevel(robot: Robot, cmd: np.ndarray, config: SimConfig, settle_s: floa
     the per-track fractions)."""
     from mjtrack.sim.surfacevel import run_steady
 
-    run = run_steady(build_model(robot, config), float(cmd[0]), float(cmd[1]),
+    scale = robot.track_speed_scale  # kinematic tracks: the scaled commands are the speeds
+    run = run_steady(build_model(robot, config), scale * float(cmd[0]), scale * float(cmd[1]),
                      duration=settle_s + window_s, average=window_s)
     try:
         icr = icr_from_twist(run.vx, run.vy, run.wz, run.v_left, run.v_right, wz_min=WZ_STRAIGHT)

@@ -92,6 +92,7 @@ from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
 from mjtrack.sim.builder import apply_solver_options
 from mjtrack.sim.config import SimConfig
+from mjtrack.sim.drivetrain import drive_of
 
 log = logging.getLogger(__name__)
 
@@ -119,6 +120,7 @@ SURFACEVEL_SETTINGS = dict(
     cone="elliptic",
     impratio=10.0,
     noslip_iterations=0,  # no effect through surfacevel (measured), costs time
+    solver="Newton",  # pinned: the roller chain default (PGS) was not measured here
     iterations=50,
     tolerance=1e-8,
     integrator="implicitfast",
@@ -366,9 +368,10 @@ class TrackDrive:
 
     Per step of length dt with held commands c (left, right) [m/s]:
       set-point  u <- c + (u - c) exp(-dt/lag)        (exact first-order lag; u = c if lag = 0)
-      kinematic  V = u                                 (``torque_limited=False``)
-      servo      m_t dV/dt = F - F_g,  F = clip(kv (u - V), +-torque_limit/R_s)
-    with m_t = ``track_mass``, kv, torque_limit, lag from SimConfig (the roller chain's drive) and
+      kinematic  V <- V + clip(u - V, +-a_max dt)      (``torque_limited=False``)
+      servo      m_t dV/dt = F - F_g,  F = clip(kv (u - V), +-F_max)
+    with m_t, kv, F_max and the lag of :func:`mjtrack.sim.drivetrain.drive_of` (the roller chain's
+    drive: robot keys, mass-scaled defaults), a_max = F_max / (m_t + m/2) and
     F_g the ground's traction on the track (:func:`track_traction`). surfacevel has no degree of
     freedom for the contact force to act on, so F_g is fed back explicitly from the previous
     step; fed back raw it makes a period-2 oscillation (measured: F_g alternating +-78 N in
@@ -383,8 +386,12 @@ class TrackDrive:
         if not traction_filter > 0:
             raise InputError(f"surfacevel: 'traction_filter' must be positive, got {traction_filter!r}")
         self.model, self.ids = model, track_geom_ids(model)
-        self.lag, self.kv, self.track_mass = config.lag, config.kv, config.track_mass
-        self.force_limit = config.torque_limit / robot.sprocket_radius  # [N]
+        drive = drive_of(robot, config)  # the robot's drivetrain keys, scaled defaults
+        self.lag, self.kv, self.track_mass = drive.lag, drive.kv, drive.track_mass
+        self.force_limit = drive.force_limit  # [N]
+        # kinematic mode: the track speed changes at most as fast as the force limit can
+        # accelerate the drivetrain and the half robot it pushes (m_t + m/2)
+        self.max_accel = drive.force_limit / (drive.track_mass + robot.mass / 2)  # [m/s^2]
         self.torque_limited = torque_limited
         self.traction_filter = traction_filter
         self.setpoint = np.zeros(2)  # u [m/s]
@@ -409,7 +416,8 @@ class TrackDrive:
             self.speeds = np.where(sat, self.speeds + dt * (force - fg) / m, v_new)
             self.force = force
         else:
-            self.speeds = self.setpoint.copy()
+            dv = np.clip(self.setpoint - self.speeds, -self.max_accel * dt, self.max_accel * dt)
+            self.speeds = self.speeds + dv
         set_track_speeds(self.model, *self.speeds, ids=self.ids)
         mujoco.mj_step(self.model, data)
 
