@@ -4,7 +4,8 @@ GRID.json is a JSON object of lists; the sweep runs every combination (Cartesian
 last key fastest). Commands: "v_left_cmd" and "v_right_cmd" [m/s], or "speed" [m/s] and
 "turn_radius" [m] (> 0 left, < 0 right, null straight; track speeds by no-slip kinematics
 V_L,R = v -/+ (v/R) T/2). Robot keys: track_gauge, track_length, track_width,
-sprocket_radius, mass, cg_x, cg_y, cg_z, mu, mu_left, mu_right (on top of the robot options).
+sprocket_radius, mass, cg_x, cg_y, cg_z, mu, mu_left, mu_right, drive_lag, drive_delay, drive_force_limit, track_speed_scale
+(on top of the robot options).
 Example: {"speed": [0.5, 1.0], "turn_radius": [0.5, 1, 2, 4], "mu": [0.4, 0.8]}.
 
 Each case is held for --settle seconds, then averaged over --window seconds, exactly as
