@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import io
 import json
 import math
 import os
@@ -128,8 +130,16 @@ def test_sweep_resumes_from_a_cut_file(swept, cluster, capsys):
     # completion order is arbitrary: keep rows 7, 2, 9, 0, 11 and half of row 4
     (out / "sweep.csv").write_text(lines[0] + "".join(lines[1 + k] for k in (7, 2, 9, 0, 11)) + lines[5][:30])
     capsys.readouterr()
-    assert main(["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--scheduler",
-                 cluster.scheduler_address, *SHORT]) == 0
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    tty = Terminal()
+    with contextlib.redirect_stderr(tty):  # a terminal: the progress bar is drawn
+        assert main(["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--scheduler",
+                     cluster.scheduler_address, *SHORT]) == 0
+    assert "sweep  [####################]  7/7  100%" in tty.getvalue()
     said = capsys.readouterr().out
     assert "12 cases (7 run on 2 workers" in said and "5 kept from an earlier run" in said
     assert (out / "sweep.csv").read_text() == full
