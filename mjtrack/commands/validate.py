@@ -16,7 +16,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjtrack.commands._common import add_output_options, add_robot_options, check_out_dir, finite_float, robot_from_args
+from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, check_out_dir,
+                                      finite_float, robot_from_args, terrain_from_args)
 from mjtrack.errors import InputError
 
 HELP = "model-vs-physics validation of the kinematic models and filters: report.html + metrics.json"
@@ -35,6 +36,7 @@ def add_source_arguments(parser: argparse.ArgumentParser) -> None:
                         help="scenario duration [s] (default: the scenario's)")
     parser.add_argument("--seed", type=int, default=0, help="seed of random scenarios and of the noise (default 0)")
     add_robot_options(parser)
+    add_terrain_option(parser)
 
 
 def source_from_args(args: argparse.Namespace):
@@ -51,9 +53,14 @@ def source_from_args(args: argparse.Namespace):
         robot = robot_from_args(args)
         table, duration = scenario_commands(args.scenario, robot, duration=args.duration, seed=args.seed)
         words = f"MuJoCo rollout of the scenario '{args.scenario}' ({duration:g} s, seed {args.seed})"
-        return drive_log(robot, table, duration=duration), robot, words, "MuJoCo rollout"
+        terrain = terrain_from_args(args)
+        if not terrain.is_flat:
+            words += f" on terrain {terrain.spec}"
+        return drive_log(robot, table, duration=duration, terrain=terrain), robot, words, "MuJoCo rollout"
     if args.duration is not None:
         raise InputError("--duration applies to --scenario only, not to a log")
+    if getattr(args, "terrain", "flat") != "flat":
+        raise InputError("--terrain applies to --scenario only (a log was driven on its own terrain)")
     drive = read_log(args.log)
     json_path = robot_path_for(args.log)
     base = read_robot(json_path) if json_path.exists() else None

@@ -28,7 +28,7 @@ def asset_texts(robot: Robot | None = None, config: SimConfig | None = None) -> 
     robot = robot or Robot()
     config = config or SimConfig()
     robot_xml = build_spec(robot, config).to_xml()
-    scene = add_scene(mujoco.MjSpec(), robot, config)
+    scene = add_scene(build_spec(robot, config), robot, config)
     lines = ['<mujoco model="tracked_robot_scene">', '  <include file="robot.xml"/>', "",
              '  <visual>', '    <headlight diffuse="0.6 0.6 0.6" ambient="0.3 0.3 0.3"/>', '  </visual>', "",
              "  <worldbody>",
@@ -47,7 +47,7 @@ def asset_texts(robot: Robot | None = None, config: SimConfig | None = None) -> 
 
 
 def _floor_friction() -> float:
-    from mjtrack.sim.builder import FLOOR_FRICTION
+    from mjtrack.sim.terrain import FLOOR_FRICTION
 
     return FLOOR_FRICTION
 

@@ -63,12 +63,12 @@ import numpy as np
 from mjtrack.io.robot import G, Robot
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_of
+from mjtrack.sim.terrain import Terrain, add_terrain
 
 logger = logging.getLogger(__name__)
 
 SIDES = ("left", "right")
 CHASSIS_HEIGHT = 0.15  # [m] height of the box whose inertia the chassis is given
-FLOOR_FRICTION = 1e-3  # unused by the rollers: their explicit contact pairs carry the friction
 
 _INTEGRATORS = {
     "Euler": mujoco.mjtIntegrator.mjINT_EULER,
@@ -89,8 +89,9 @@ def suspension_stiffness(robot: Robot, config: SimConfig) -> float:
     return robot.weight / (2 * config.n_rollers * config.suspension_deflection)
 
 
-def build_spec(robot: Robot, config: SimConfig | None = None) -> mujoco.MjSpec:
-    """The robot alone (no floor) as an ``MjSpec``, with simulation options set."""
+def build_spec(robot: Robot, config: SimConfig | None = None, *, idlers: bool = False) -> mujoco.MjSpec:
+    """The robot alone (no floor) as an ``MjSpec``, with simulation options set; ``idlers``: with
+    the front and rear idlers (:func:`add_idlers`)."""
     config = (config or SimConfig()).for_robot_mass(robot.mass)  # drive scaled to the robot
     drive = drive_of(robot, config)  # the robot's drivetrain keys (mjtrack.sim.drivetrain)
     spec = mujoco.MjSpec()
@@ -138,6 +139,7 @@ def build_spec(robot: Robot, config: SimConfig | None = None) -> mujoco.MjSpec:
             roller.add_joint(
                 name=f"susp_{side}_{i}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1],
                 stiffness=k, damping=c, springref=-preload / k,
+                limited=mujoco.mjtLimited.mjLIMITED_TRUE, range=suspension_range(config),
             )
             roller.add_joint(
                 name=f"roll_{side}_{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0],
@@ -171,6 +173,8 @@ def build_spec(robot: Robot, config: SimConfig | None = None) -> mujoco.MjSpec:
                 tendon.wrap_joint(f"roll_{side}_{i}", r / n)
         spec.add_sensor(name=f"track_speed_{side}", type=mujoco.mjtSensor.mjSENS_TENDONVEL,
                         objtype=mujoco.mjtObj.mjOBJ_TENDON, objname=f"track_{side}")
+    if idlers:
+        add_idlers(chassis, robot, config)
     # velocimeter / gyro: velocity of the site expressed in the site's (= chassis) frame
     for name, stype in (("body_linvel", mujoco.mjtSensor.mjSENS_VELOCIMETER),
                         ("body_angvel", mujoco.mjtSensor.mjSENS_GYRO)):
@@ -180,6 +184,51 @@ def build_spec(robot: Robot, config: SimConfig | None = None) -> mujoco.MjSpec:
     spec.add_sensor(name="body_quat", type=mujoco.mjtSensor.mjSENS_FRAMEQUAT,
                     objtype=mujoco.mjtObj.mjOBJ_SITE, objname="centre")
     return spec
+
+
+def suspension_range(config: SimConfig) -> list[float]:
+    """Travel of a roller's slide relative to its nominal position [m]: r/2 down, r up (a roller
+    cannot sink through a step edge or hang below the track; both limits are inactive in
+    driving on a plane, where the travel stays within a few static deflections)."""
+    return [-config.roller_radius / 2, config.roller_radius]
+
+
+IDLER_CLEARANCE = 0.5  # idler bottom this many roller radii above the ground plane
+
+
+IDLER_MASS_FRACTION = 0.005  # mass of one idler / robot mass (taken from the chassis)
+
+
+def needs_idlers(terrain: Terrain | None) -> bool:
+    """Idlers are built where they can touch something: on steps and height fields."""
+    return terrain is not None and (bool(terrain.steps) or terrain.hfield is not None)
+
+
+def add_idlers(chassis, robot: Robot, config: SimConfig) -> None:
+    """Front and rear idlers: free-spinning cylinders of the sprocket radius across the track
+    ends (centre x = +-L/2, bottom ``IDLER_CLEARANCE`` r above the ground), the raised ends of a
+    real track that let it climb an edge higher than a roller radius (a 3 cm roller alone stops
+    at a 4 cm step). Built only on terrain they can touch (:func:`needs_idlers`: on a plane they
+    are above the ground), so the robot on a plane is unchanged. Their mass comes out of the
+    chassis' (total mass and centre of mass unchanged); contacts carry the mean track μ."""
+    Rs, r = robot.sprocket_radius, config.roller_radius
+    m = IDLER_MASS_FRACTION * robot.mass
+    m_chassis, com = chassis.mass, np.array(chassis.ipos, dtype=float)
+    z = Rs + IDLER_CLEARANCE * r
+    for name, x in (("front", robot.track_length / 2), ("rear", -robot.track_length / 2)):
+        body = chassis.add_body(name=f"idler_{name}", pos=[x, 0, z])
+        body.explicitinertial = True
+        body.mass = m
+        body.ipos = [0, 0, 0]
+        body.inertia = [0.5 * m * Rs**2] * 3
+        body.add_joint(name=f"idler_{name}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0])
+        body.add_geom(name=f"idler_{name}", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                      size=[Rs, (robot.track_gauge + robot.track_width) / 2, 0],
+                      quat=[math.sqrt(0.5), math.sqrt(0.5), 0, 0], contype=0, conaffinity=0, density=0,
+                      rgba=[0.15, 0.15, 0.15, 1])
+        com = (m_chassis * com - m * np.array([x, 0.0, z])) / (m_chassis - m)
+        m_chassis -= m
+    chassis.mass, chassis.ipos = m_chassis, com
 
 
 def _check_explicit_stability(config: SimConfig, damping: float, roller_mass: float) -> None:
@@ -276,44 +325,58 @@ def control_matrix(model: mujoco.MjModel) -> np.ndarray:
     return B
 
 
-def add_scene(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> mujoco.MjSpec:
-    """Add the floor, the roller-floor contact pairs and a light to a robot spec (in place).
+def add_scene(spec: mujoco.MjSpec, robot: Robot, config: SimConfig, terrain: Terrain | None = None
+              ) -> mujoco.MjSpec:
+    """Add the terrain (default flat), the roller-terrain contact pairs and a light (in place).
 
     The rollers collide with nothing else (contype = conaffinity = 0): one explicit pair per
-    roller carries the track's friction, the contact softness and a separate, weak friction
-    solref (``friction_timeconst``) -- see :class:`SimConfig`.
+    (roller, terrain geom) carries the track's friction, the contact softness and a separate,
+    weak friction solref (``friction_timeconst``) -- see :class:`SimConfig`.
     """
-    spec.worldbody.add_geom(
-        name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[50, 50, 0.1],
-        friction=[FLOOR_FRICTION, 0, 0], rgba=[0.8, 0.8, 0.75, 1],
-    )
-    for side, mu in (("left", robot.friction_left), ("right", robot.friction_right)):
-        for i in range(config.n_rollers):
-            spec.add_pair(
-                name=f"contact_{side}_{i}", geomname1="floor", geomname2=f"roller_{side}_{i}", condim=3,
-                friction=[mu, mu, 0.0, 0.0, 0.0], solref=config.contact_solref, solimp=config.solimp,
-                solreffriction=[config.friction_timeconst or 2.0 * config.timestep, 1.0],
-                margin=config.contact_margin,
-            )
+    pair_options = dict(condim=3, solref=config.contact_solref, solimp=config.solimp,
+                        solreffriction=[config.friction_timeconst or 2.0 * config.timestep, 1.0],
+                        margin=config.contact_margin)
+    return add_ground(spec, robot, terrain or Terrain(), track_contacts(spec, robot), pair_options)
+
+
+def track_contacts(spec: mujoco.MjSpec, robot: Robot) -> list[tuple[str, float]]:
+    """(geom name, μ) of the track contact elements of a robot spec: the rollers or surfacevel
+    elements (``roller_<side>_<i>`` / ``track_<side>_<i>``), then the idlers (mean track μ)."""
+    mu = {"left": robot.friction_left, "right": robot.friction_right}
+    out = []
+    for side in SIDES:
+        out += [(g.name, mu[side]) for g in spec.geoms
+                if g.name.startswith((f"roller_{side}_", f"track_{side}_"))]
+    return out + [(g.name, (mu["left"] + mu["right"]) / 2) for g in spec.geoms if g.name.startswith("idler_")]
+
+
+def add_ground(spec: mujoco.MjSpec, robot: Robot, terrain: Terrain, contacts: list[tuple[str, float]],
+               pair_options: dict) -> mujoco.MjSpec:
+    """The scene both track models share: terrain geoms, contact pairs, the robot's initial pose on
+    the terrain (at the origin, aligned with the ground, on its highest point under the tracks),
+    a light. Idlers touch only steps and height fields (they are above a plane: no pairs there)."""
+    if terrain.hfield is None and not terrain.steps:
+        contacts = [c for c in contacts if not c[0].startswith("idler_")]
+    add_terrain(spec, terrain, contacts, nominal_mu=robot.mu, pair_options=pair_options)
+    if not terrain.is_flat:
+        chassis = spec.body("chassis")
+        h = terrain.height_under(robot.track_length / 2 + robot.sprocket_radius,
+                                 (robot.track_gauge + robot.track_width) / 2)
+        q = terrain.quat
+        lift = np.zeros(3)
+        mujoco.mju_rotVecQuat(lift, np.array([0.0, 0.0, h + 0.002]), q)
+        chassis.pos = lift
+        chassis.quat = q
     spec.worldbody.add_light(name="sun", pos=[0, 0, 5], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
     return spec
 
 
-def build_model(robot: Robot, config: SimConfig | None = None) -> mujoco.MjModel:
-    """Compiled robot + floor, the model every rollout uses."""
+def build_model(robot: Robot, config: SimConfig | None = None, terrain: Terrain | None = None) -> mujoco.MjModel:
+    """Compiled robot + terrain (default flat), the model every rollout uses."""
     config = config or SimConfig()
     if config.track_model == "surfacevel":
-        return _build_surfacevel(robot, config)
-    spec = add_scene(build_spec(robot, config), robot, config)
+        from mjtrack.sim.surfacevel import build_surfacevel_model  # surfacevel imports this module
+
+        return build_surfacevel_model(robot, config, terrain=terrain)
+    spec = add_scene(build_spec(robot, config, idlers=needs_idlers(terrain)), robot, config, terrain)
     return spec.compile()
-
-
-def _build_surfacevel(robot: Robot, config: SimConfig) -> mujoco.MjModel:
-    try:
-        from mjtrack.sim.surfacevel import build_surfacevel_model
-    except ImportError as exc:  # built by another module; absent in some checkouts
-        from mjtrack.errors import MjtrackError
-
-        raise MjtrackError(f"track_model 'surfacevel' is not available ({exc})") from None
-    model = build_surfacevel_model(robot, config)
-    return model.compile() if isinstance(model, mujoco.MjSpec) else model

@@ -90,16 +90,16 @@ import numpy as np
 
 from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
-from mjtrack.sim.builder import apply_solver_options
+from mjtrack.sim.builder import add_ground, add_idlers, needs_idlers, apply_solver_options, suspension_range, track_contacts
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_of
+from mjtrack.sim.terrain import Terrain
 
 log = logging.getLogger(__name__)
 
 SIDES = ("left", "right")
 ELEMENTS = ("sphere", "capsule", "box")
 CHASSIS_HEIGHT = 0.15  # [m] height of the box whose inertia the chassis is given (as builder)
-FLOOR_FRICTION = 1e-3  # the contact pairs carry the track friction; the floor's is unused
 
 
 # Settings measured for this model (experiments/surfacevel_study.py), pinned here: the SimConfig
@@ -167,6 +167,7 @@ def robot_spec(
     element: str = "sphere",
     n_elements: int | None = None,
     sprung: bool = True,
+    idlers: bool = False,
     into: mujoco.MjSpec | None = None,
 ) -> mujoco.MjSpec:
     """The robot (no floor), added to ``into`` when given, else to a new spec.
@@ -219,12 +220,15 @@ def robot_spec(
                 host.ipos = [0, 0, r]
                 host.inertia = [0.4 * m_el * r**2] * 3
                 host.add_joint(name=f"susp_{side}_{i}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1],
-                               stiffness=k, damping=c, springref=-preload / k)
+                               stiffness=k, damping=c, springref=-preload / k,
+                               limited=mujoco.mjtLimited.mjLIMITED_TRUE, range=suspension_range(config))
                 gx = 0.0
             _add_element(host, element, name=f"track_{side}_{i}", x=gx, r=r, cell=L / n, width=w)
             # number of ground contacts of this element (0 or 1), as the builder's rollers
             spec.add_sensor(name=f"ground_{side}_{i}", type=mujoco.mjtSensor.mjSENS_CONTACT,
                             objtype=mujoco.mjtObj.mjOBJ_GEOM, objname=f"track_{side}_{i}", intprm=[1, 0, 1])
+    if idlers:
+        add_idlers(chassis, robot, config)
     for name, stype in (("body_linvel", mujoco.mjtSensor.mjSENS_VELOCIMETER),
                         ("body_angvel", mujoco.mjtSensor.mjSENS_GYRO),
                         ("body_pos", mujoco.mjtSensor.mjSENS_FRAMEPOS),
@@ -245,35 +249,29 @@ def _add_element(body, element: str, *, name: str, x: float, r: float, cell: flo
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[cell / 2, width / 2, r], pos=[x, 0, r], **common)
 
 
-def add_scene(spec: mujoco.MjSpec, robot: Robot, config: SimConfig | None = None) -> mujoco.MjSpec:
-    """Options, floor ``floor``, one contact pair per element and a light (in place)."""
+def add_scene(spec: mujoco.MjSpec, robot: Robot, config: SimConfig | None = None,
+              terrain: Terrain | None = None) -> mujoco.MjSpec:
+    """Options, the terrain (default flat: ``floor``), one contact pair per (element, terrain
+    geom) and a light, in place (the scene of :func:`mjtrack.sim.builder.add_ground`)."""
     config = config or surfacevel_config()
     apply_solver_options(spec, config)
-    spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[50, 50, 0.1],
-                            friction=[FLOOR_FRICTION, 0, 0], rgba=[0.8, 0.8, 0.75, 1])
-    elements = [g.name for g in spec.geoms if g.name.startswith("track_")]
     # friction_timeconst 0: the friction rows use the contact solref (MuJoCo's [0, 0] default)
     friction_solref = [config.friction_timeconst, 1.0] if config.friction_timeconst > 0 else [0.0, 0.0]
-    for name in elements:
-        side = name.split("_")[1]
-        mu = robot.friction_left if side == "left" else robot.friction_right
-        spec.add_pair(name="contact_" + name.removeprefix("track_"), geomname1="floor", geomname2=name,
-                      condim=3, friction=[mu, mu, 0.0, 0.0, 0.0], solref=config.contact_solref,
-                      solimp=config.solimp, solreffriction=friction_solref,
-                      margin=getattr(config, "contact_margin", 0.0))
-    spec.worldbody.add_light(name="sun", pos=[0, 0, 5], dir=[0, 0, -1],
-                             type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
-    return spec
+    pair_options = dict(condim=3, solref=config.contact_solref, solimp=config.solimp,
+                        solreffriction=friction_solref, margin=getattr(config, "contact_margin", 0.0))
+    return add_ground(spec, robot, terrain or Terrain(), track_contacts(spec, robot), pair_options)
 
 
-def build_surfacevel_spec(robot: Robot, config: SimConfig | None = None, **options) -> mujoco.MjSpec:
+def build_surfacevel_spec(robot: Robot, config: SimConfig | None = None, terrain: Terrain | None = None,
+                          **options) -> mujoco.MjSpec:
     """Robot (:func:`robot_spec`, ``options`` passed on) plus scene (:func:`add_scene`)."""
-    spec = robot_spec(robot, config, **options)
+    spec = robot_spec(robot, config, idlers=needs_idlers(terrain), **options)
     spec.modelname = "tracked_robot_surfacevel"
-    return add_scene(spec, robot, config)
+    return add_scene(spec, robot, config, terrain)
 
 
-def build_surfacevel_model(robot: Robot, config: SimConfig | None = None, **options) -> mujoco.MjModel:
+def build_surfacevel_model(robot: Robot, config: SimConfig | None = None, terrain: Terrain | None = None,
+                           **options) -> mujoco.MjModel:
     """Compiled model with the tracks at rest; drive it with :func:`set_track_speeds`.
 
     ``config`` defaults to :func:`surfacevel_config`; a SimConfig with the roller chain's
@@ -282,7 +280,7 @@ def build_surfacevel_model(robot: Robot, config: SimConfig | None = None, **opti
     config = config or surfacevel_config()
     for problem in setting_problems(config):
         log.warning("surfacevel: %s (experiments/surfacevel_study.py); see surfacevel_config()", problem)
-    model = build_surfacevel_spec(robot, config, **options).compile()
+    model = build_surfacevel_spec(robot, config, terrain, **options).compile()
     model.flg_surfacevel = 1
     return model
 
