@@ -49,6 +49,12 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def one_line(text: object) -> str:
+    """``text`` with control characters escaped (a file name or cell with a newline or a carriage
+    return must not break the one-line error message)."""
+    return "".join(c if c.isprintable() else ascii(c)[1:-1] for c in str(text))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     try:
@@ -65,13 +71,13 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args._run(args) or 0)
     except InputError as exc:
-        print(f"mjtrack {args.command}: error: {exc}", file=sys.stderr)
+        print(f"mjtrack {args.command}: error: {one_line(exc)}", file=sys.stderr)
         return 2
     except MjtrackError as exc:
-        print(f"mjtrack {args.command}: failed: {exc}", file=sys.stderr)
+        print(f"mjtrack {args.command}: failed: {one_line(exc)}", file=sys.stderr)
         return 1
     except OSError as exc:  # disk full, permission denied, ...: one line, not a traceback
-        print(f"mjtrack {args.command}: failed: {exc}", file=sys.stderr)
+        print(f"mjtrack {args.command}: failed: {one_line(exc)}", file=sys.stderr)
         return 1
 
 
