@@ -168,6 +168,23 @@ def test_resume_refuses_other_settings(swept, capsys):
     assert (out / "sweep.csv").read_bytes() == before
 
 
+def test_sweep_on_terrain_is_steady_on_terrain(tmp_path, cluster, capsys):
+    (tmp_path / "g.json").write_text(json.dumps({"v_left_cmd": [0.3], "v_right_cmd": [0.5, 0.6]}))
+    terrain = ["--terrain", "incline:0.1:1.0"]
+    assert main(["sweep", "--grid", str(tmp_path / "g.json"), "--out", str(tmp_path / "o"), "--scheduler",
+                 cluster.scheduler_address, "-q", *terrain, *SHORT]) == 0
+    row = _rows(tmp_path / "o" / "sweep.csv")[1]
+    assert json.loads((tmp_path / "o" / "sweep.json").read_text())["terrain"]["spec"] == "incline:0.1:1.0"
+    capsys.readouterr()
+    assert main(["steady", "--v-left", "0.3", "--v-right", "0.6", *terrain, *SHORT]) == 0
+    steady = json.loads(capsys.readouterr().out)
+    for k in ("vx", "vy", "wz", "y_l", "y_r", "x_c"):
+        assert float(row[k]) == steady[k], k
+    flat = _rows(tmp_path / "o" / "sweep.csv")  # and the slope did change the motion
+    assert main(["steady", "--v-left", "0.3", "--v-right", "0.6", *SHORT]) == 0
+    assert json.loads(capsys.readouterr().out)["vy"] != float(flat[1]["vy"])
+
+
 def test_unreachable_scheduler_is_an_input_error(tmp_path, capsys):
     (tmp_path / "g.json").write_text(json.dumps({"v_left_cmd": [0.5], "v_right_cmd": [1.0]}))
     rc = main(["sweep", "--grid", str(tmp_path / "g.json"), "--out", str(tmp_path / "o"),

@@ -8,7 +8,7 @@ sprocket_radius, mass, cg_x, cg_y, cg_z, mu, mu_left, mu_right, drive_lag, drive
 (on top of the robot options).
 Example: {"speed": [0.5, 1.0], "turn_radius": [0.5, 1, 2, 4], "mu": [0.4, 0.8]}.
 
-Each case is held for --settle seconds, then averaged over --window seconds, exactly as
+Every case runs on the --terrain ground (default flat). Each case is held for --settle seconds, then averaged over --window seconds, exactly as
 `mjtrack steady` does. Writes DIR/sweep.csv (one row per case: case index, grid values,
 v_left_cmd, v_right_cmd, measured v_left, v_right, vx, vy, wz, ..., y_l, y_r, x_c, ...; an
 empty cell where an ICR is undefined because the robot does not turn), DIR/sweep.json (the
@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import argparse
 
-from mjtrack.commands._common import (add_output_options, add_robot_options, check_out_dir, finite_float, int_at_least,
-                                      robot_from_args)
+from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, check_out_dir,
+                                      finite_float, int_at_least, robot_from_args, terrain_from_args)
 
 HELP = "steady states over a grid of commands and robots on a dask cluster: sweep.csv, sweep.json, icr_map.png"
 
@@ -39,6 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--window", metavar="S", type=finite_float, default=2.0, help="averaging window [s] (default 2)")
     parser.add_argument("--track-model", choices=["rollers", "surfacevel"], default="rollers",
                         help="MuJoCo track model: sprung roller chain (default) or surfacevel row")
+    add_terrain_option(parser)
     add_robot_options(parser)
     add_output_options(parser)
 
@@ -49,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
     out = check_out_dir(args.out)
     grid = read_grid(args.grid, base=robot_from_args(args))
     s = run_sweep(grid, out, workers=args.workers, scheduler=args.scheduler, track_model=args.track_model,
-                  settle_s=args.settle, window_s=args.window, quiet=args.quiet)
+                  settle_s=args.settle, window_s=args.window, terrain=terrain_from_args(args), quiet=args.quiet)
     resumed = f", {s.resumed} kept from an earlier run" if s.resumed else ""
     print(f"{s.cases} cases ({s.ran} run on {s.workers} workers in {s.seconds:.1f} s{resumed}): {out}/sweep.csv, "
           f"sweep.json, icr_map.png")

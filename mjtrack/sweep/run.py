@@ -37,6 +37,7 @@ from mjtrack.io.atomic import atomic_write_text
 from mjtrack.progress import Progress
 from mjtrack.sim.config import sim_config
 from mjtrack.sim.steady import SETTLE_S, WINDOW_S, SteadyResult, steady_batch
+from mjtrack.sim.terrain import Terrain
 from mjtrack.sweep.grid import Case, Grid
 
 logger = logging.getLogger(__name__)
@@ -64,11 +65,12 @@ def header(grid: Grid) -> list[str]:
     return cols
 
 
-def run_chunk(cases: Sequence[Case], track_model: str, settle_s: float, window_s: float
-              ) -> list[tuple[int, dict[str, Any]]]:
+def run_chunk(cases: Sequence[Case], track_model: str, settle_s: float, window_s: float,
+              terrain: Terrain | None = None) -> list[tuple[int, dict[str, Any]]]:
     """Steady states of a chunk of cases (runs on a worker): [(case index, result dict)]."""
     results = steady_batch([c.robot for c in cases], [[c.v_left_cmd, c.v_right_cmd] for c in cases],
-                           config=sim_config(track_model), settle_s=settle_s, window_s=window_s, nthread=1)
+                           config=sim_config(track_model), settle_s=settle_s, window_s=window_s, nthread=1,
+                           terrain=terrain)
     return [(c.index, r.to_dict()) for c, r in zip(cases, results)]
 
 
@@ -155,13 +157,15 @@ def run_sweep(
     settle_s: float = SETTLE_S,
     window_s: float = WINDOW_S,
     chunk_size: int = 4,
+    terrain: Terrain | None = None,
     quiet: bool = False,
 ) -> SweepSummary:
     """Run every case of ``grid`` not already in ``out/sweep.csv``; write the outputs.
 
     ``workers``: processes of a new local cluster (default: the CPU count); ``scheduler``: the
     address of an existing dask scheduler instead. ``chunk_size`` cases share one batched
-    rollout on a worker (results do not depend on it).
+    rollout on a worker (results do not depend on it). ``terrain``: the ground of every case
+    (default flat).
     """
     from dask.distributed import as_completed
 
@@ -175,6 +179,8 @@ def run_sweep(
     csv_path = out / CSV_NAME
     settings = {"grid": grid.to_dict(), "track_model": track_model, "settle_s": settle_s, "window_s": window_s,
                 "base_robot": _base_robot(grid)}
+    if terrain is not None and not terrain.is_flat:  # absent when flat: sweeps started before --terrain resume
+        settings["terrain"] = terrain.to_dict()
     _check_same_settings(out / JSON_NAME, csv_path, settings)
     done = _read_done(csv_path, grid, cols)
     todo = [c for c in grid.cases if c.index not in done]
@@ -188,7 +194,7 @@ def run_sweep(
             # write the kept rows back without any partial tail, then append as cases finish
             atomic_write_text(csv_path, _csv_text(cols, [done[k] for k in sorted(done)]))
             t_submit = time.monotonic()
-            futures = [client.submit(run_chunk, chunk, track_model, settle_s, window_s, pure=False)
+            futures = [client.submit(run_chunk, chunk, track_model, settle_s, window_s, terrain, pure=False)
                        for chunk in _chunks(todo, chunk_size)]
             with open(csv_path, "a", encoding="utf-8", newline="") as fh, \
                     Progress(len(todo), label="sweep", quiet=quiet) as bar:
@@ -228,12 +234,13 @@ def _check_same_settings(json_path: Path, csv_path: Path, settings: dict[str, An
         return
     try:
         old = json.loads(json_path.read_text(encoding="utf-8"))
-        same = all(old.get(k) == json.loads(json.dumps(v)) for k, v in settings.items())
+        keys = [*settings, *(["terrain"] if "terrain" not in settings else [])]  # flat: no key
+        same = all(old.get(k) == json.loads(json.dumps(settings.get(k))) for k in keys)
     except (OSError, ValueError, AttributeError):
         raise InputError(f"{csv_path}: an earlier sweep without a readable {json_path.name}: cannot tell how it "
                          "was run; use another --out folder or delete the file to start over") from None
     if not same:
-        changed = [k for k, v in settings.items() if old.get(k) != json.loads(json.dumps(v))]
+        changed = [k for k in keys if old.get(k) != json.loads(json.dumps(settings.get(k)))]
         raise InputError(f"{csv_path}: an earlier sweep with other settings ({', '.join(changed)}); "
                          "use another --out folder or delete the file to start over")
 
