@@ -22,7 +22,7 @@ from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig, sim_config
 from mjtrack.sim.rollout import simulate
 from mjtrack.sim.steady import steady_state
-from mjtrack.sim.terrain import parse_terrain
+from mjtrack.sim.terrain import parse_terrain, timestep_for
 
 MODELS = ["rollers", "surfacevel"]
 
@@ -102,6 +102,7 @@ def test_every_track_element_meets_every_terrain_geom(model, tmp_path, hfield_fi
 
 def _drive(spec, model="rollers", v=(0.5, 0.5), seconds=6.0, robot=None):
     config = sim_config(model)
+    config = config.replace(timestep=timestep_for(config.timestep, parse_terrain(spec)))
     cmd = np.tile(v, (int(round(seconds / config.timestep)), 1))
     return simulate(robot or Robot(), cmd, config=config, terrain=parse_terrain(spec))
 
@@ -159,7 +160,7 @@ def test_same_seed_same_bytes(tmp_path, hfield_file):
 
 def _terrain_grid(seed, n, hfield):
     rng = np.random.default_rng(seed)
-    specs = ["incline:0.3", "incline:0.25:1.0", "step:0.04:0.3", "step:0.4:0.4", f"hfield:{hfield}:4:4:0.06"]
+    specs = ["incline:0.3", "incline:0.25:1.0", "step:0.04:0.6", "step:0.4:-0.7", f"hfield:{hfield}:4:4:0.06"]
     for _ in range(n):
         robot = Robot(mass=float(rng.choice([5.0, 20.0, 150.0])), mu=float(rng.uniform(0.3, 1.2)),
                       track_gauge=float(rng.uniform(0.3, 0.8)), track_length=float(rng.uniform(0.4, 1.0)))
@@ -167,7 +168,8 @@ def _terrain_grid(seed, n, hfield):
 
 
 def _check_no_warning(robot, spec, v, seconds):
-    m = build_model(robot, SimConfig(), parse_terrain(spec))
+    terrain = parse_terrain(spec)
+    m = build_model(robot, SimConfig(timestep=timestep_for(SimConfig().timestep, terrain)), terrain)
     d = mujoco.MjData(m)
     d.ctrl[:] = control_matrix(m) @ v
     for _ in range(int(round(seconds / m.opt.timestep))):
@@ -188,6 +190,12 @@ def test_no_warning_seeded_terrain_grid(hfield_file):
         _check_no_warning(robot, spec, v, 4.0)
 
 
+def test_step_under_the_start_footprint_is_refused():
+    with pytest.raises(InputError, match=r"^--terrain step:0.04:0.3: the step edge at x = 0.3 m lies under the robot's "
+                                         r"start footprint"):
+        build_model(Robot(), SimConfig(), parse_terrain("step:0.04:0.3"))
+
+
 def test_steady_reports_undefined_icrs_where_the_robot_does_not_turn():
     """mu 0.05 against 1.0: the slippery track cannot turn the robot (before: y_l = -6268 m)."""
     r = steady_state(Robot(mu_left=0.05, mu_right=1.0), 0.3, 0.5, settle_s=1.0, window_s=0.5)
@@ -196,3 +204,60 @@ def test_steady_reports_undefined_icrs_where_the_robot_does_not_turn():
     assert r.to_dict()["y_l"] is None
     turn = steady_state(Robot(), 0.3, 0.5, settle_s=1.0, window_s=0.5)
     assert turn.icr_undefined is None and math.isfinite(turn.y_l)
+
+
+# -- Coulomb reference on slopes -----------------------------------------------------------------
+def test_coulomb_slope_slides_at_the_closed_form_acceleration():
+    """Tracks stopped on a slope steeper than atan mu: the robot slides down at
+    g (sin a - mu cos a) (closed form); gentler than atan mu it stays (creep ~ eps only)."""
+    from mjtrack.io.robot import G
+    from mjtrack.models.coulomb import rollout
+
+    robot = Robot(mu=0.3)
+    t = np.linspace(0.0, 1.0, 11)
+    steep = rollout(robot, t, 0.0, 0.0, slope=0.5, slope_direction=0.0, n_points=20)
+    a = G * (math.sin(0.5) - 0.3 * math.cos(0.5))
+    assert steep.pose[-1, 0] == pytest.approx(-0.5 * a * 1.0**2, rel=1e-3)  # downhill is -x
+    gentle = rollout(robot, t, 0.0, 0.0, slope=0.2, slope_direction=1.0, n_points=20)
+    assert np.hypot(*gentle.pose[-1, :2]) < 1e-3
+
+
+def test_coulomb_plane_world_round_trip():
+    from mjtrack.models.coulomb import plane_to_world, world_to_plane
+
+    pose = np.array([[1.0, 2.0, 0.3], [-0.5, 0.1, -2.0]])
+    w = plane_to_world(pose, 0.2, 0.7)
+    back = world_to_plane(w[:, 0], w[:, 1], w[:, 3], 0.2, 0.7)
+    np.testing.assert_allclose(back, pose[:, :2], atol=1e-12)
+    # uphill (direction 0.7) rises by sin(0.2) per metre along it
+    up = plane_to_world(np.array([[math.cos(0.7), math.sin(0.7), 0.0]]), 0.2, 0.7)
+    assert up[0, 3] == pytest.approx(math.sin(0.2), abs=1e-12)
+
+
+def test_mujoco_turn_on_an_incline_matches_coulomb():
+    """Done-when (short version of experiments/terrain_checks.py, which runs 12 s): on a 0.2 rad
+    incline a turning robot's path matches the Coulomb reference fed the measured track speeds
+    within 6 % of the distance travelled."""
+    from mjtrack.models.coulomb import plane_to_world, rollout, world_to_plane
+
+    out = _drive("incline:0.2:1.5707963", v=(0.5, 0.3), seconds=4.0)
+    xy0 = world_to_plane(out["x"][:1], out["y"][:1], out["z"][:1], 0.2, 1.5707963)[0]
+    ref = rollout(Robot(), out["t"], out["v_left"], out["v_right"], pose0=(xy0[0], xy0[1], out["yaw"][0]),
+                  slope=0.2, slope_direction=1.5707963, n_points=20)
+    w = plane_to_world(ref.pose, 0.2, 1.5707963)
+    dist = float(np.sum(np.hypot(np.diff(out["x"]), np.diff(out["y"]))))
+    assert np.hypot(w[-1, 0] - out["x"][-1], w[-1, 1] - out["y"][-1]) < 0.06 * dist
+
+
+def test_terrain_scenarios_carry_their_terrain(tmp_path):
+    out = tmp_path / "hill.csv"
+    assert run_cli(["simulate", "--scenario", "hill_climb", "--duration", "2", "--quiet", "--out", out]).rc == 0
+    doc = json.loads((tmp_path / "hill.json").read_text())
+    assert doc["terrain"]["incline"]["angle"] == 0.25
+    rows = out.read_text().splitlines()
+    last = dict(zip(rows[0].split(","), map(float, rows[-1].split(","))))
+    assert last["z"] == pytest.approx(last["x"] * math.tan(0.25), abs=0.01)
+    # --terrain replaces the scenario's
+    assert run_cli(["simulate", "--scenario", "hill_climb", "--duration", "1", "--terrain", "flat", "--quiet",
+                    "--out", tmp_path / "flat.csv"]).rc == 0
+    assert "terrain" not in json.loads((tmp_path / "flat.json").read_text())

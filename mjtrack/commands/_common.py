@@ -116,14 +116,20 @@ TERRAIN_HELP = ("terrain under the simulated robot: flat (default), incline:ANGL
 
 def add_terrain_option(parser: argparse.ArgumentParser) -> None:
     """Add ``--terrain SPEC`` (parsed by :func:`terrain_from_args`)."""
-    parser.add_argument("--terrain", metavar="SPEC", default="flat", help=TERRAIN_HELP)
+    parser.add_argument("--terrain", metavar="SPEC", default=None,
+                        help=TERRAIN_HELP + " (default: the scenario's terrain, else flat)")
 
 
-def terrain_from_args(args: argparse.Namespace):
-    """The :class:`~mjtrack.sim.terrain.Terrain` of ``--terrain`` (bad specs: InputError)."""
-    from mjtrack.sim.terrain import parse_terrain
+def terrain_from_args(args: argparse.Namespace, scenario: str | None = None):
+    """The :class:`~mjtrack.sim.terrain.Terrain` of ``--terrain``, else the scenario's, else flat
+    (bad specs: InputError)."""
+    from mjtrack.sim.scenarios import SCENARIOS
+    from mjtrack.sim.terrain import Terrain, parse_terrain
 
-    return parse_terrain(getattr(args, "terrain", "flat"))
+    spec = getattr(args, "terrain", None)
+    if spec is not None:
+        return parse_terrain(spec)
+    return SCENARIOS[scenario].terrain if scenario in SCENARIOS else Terrain()
 
 
 def add_output_options(parser: argparse.ArgumentParser) -> None:

@@ -52,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     inputs = [args.commands] if args.commands else []
     out = check_out_file(args.out, suffixes=(".csv",), inputs=inputs)
     robot = robot_from_args(args)
-    terrain = terrain_from_args(args)
+    terrain = terrain_from_args(args, args.scenario)
     config = sim_config(args.track_model, timestep=args.timestep)
     if args.scenario:
         table, duration = scenario_commands(args.scenario, robot, duration=args.duration, seed=args.seed)

@@ -53,13 +53,13 @@ def source_from_args(args: argparse.Namespace):
         robot = robot_from_args(args)
         table, duration = scenario_commands(args.scenario, robot, duration=args.duration, seed=args.seed)
         words = f"MuJoCo rollout of the scenario '{args.scenario}' ({duration:g} s, seed {args.seed})"
-        terrain = terrain_from_args(args)
+        terrain = terrain_from_args(args, args.scenario)
         if not terrain.is_flat:
             words += f" on terrain {terrain.spec}"
         return drive_log(robot, table, duration=duration, terrain=terrain), robot, words, "MuJoCo rollout"
     if args.duration is not None:
         raise InputError("--duration applies to --scenario only, not to a log")
-    if getattr(args, "terrain", "flat") != "flat":
+    if getattr(args, "terrain", None) is not None:
         raise InputError("--terrain applies to --scenario only (a log was driven on its own terrain)")
     drive = read_log(args.log)
     json_path = robot_path_for(args.log)

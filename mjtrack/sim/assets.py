@@ -19,6 +19,7 @@ from mjtrack.io.atomic import atomic_write_text
 from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import add_scene, build_spec
 from mjtrack.sim.config import SimConfig
+from mjtrack.sim.terrain import FLOOR_FRICTION
 
 ASSETS_DIR = Path(__file__).resolve().parents[2] / "assets"
 
@@ -47,8 +48,6 @@ def asset_texts(robot: Robot | None = None, config: SimConfig | None = None) -> 
 
 
 def _floor_friction() -> float:
-    from mjtrack.sim.terrain import FLOOR_FRICTION
-
     return FLOOR_FRICTION
 
 

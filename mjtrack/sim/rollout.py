@@ -32,7 +32,8 @@ from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_commands
-from mjtrack.sim.terrain import Terrain
+from mjtrack.sim.surfacevel import TrackDrive
+from mjtrack.sim.terrain import Terrain, timestep_for
 
 logger = logging.getLogger(__name__)
 
@@ -221,7 +222,8 @@ def simulate(
 
     Returns a dict of (nsample,) arrays with the columns t, v_left_cmd, v_right_cmd, x, y, yaw,
     v_left, v_right, vx, vy, wz, and z, roll, pitch on a terrain other than flat; the first row
-    is the settled rest state at t = 0.
+    is the settled rest state at t = 0. On terrain with edges use a time step of at most
+    :data:`mjtrack.sim.terrain.EDGE_TIMESTEP` (:func:`drive_log` and ``steady`` do so themselves).
     """
     config = config or SimConfig()
     commands = np.asarray(commands, dtype=float)
@@ -269,8 +271,6 @@ def _simulate_surfacevel(robot: Robot, commands: np.ndarray, *, config: SimConfi
     its track speeds are model fields set every step by its ``TrackDrive`` (no actuators, so
     ``mujoco.rollout`` cannot drive it). Same columns and sampling as :func:`simulate`; the
     track speeds logged are the drive's."""
-    from mjtrack.sim.surfacevel import TrackDrive
-
     model = build_model(robot, config, terrain)
     stride = steps_per_sample(model.opt.timestep, log_rate)
     data = mujoco.MjData(model)
@@ -324,6 +324,7 @@ def drive_log(robot: Robot, table: tuple[np.ndarray, np.ndarray, np.ndarray], *,
     from mjtrack.io.logs import DriveLog
 
     config = config or SimConfig()
+    config = config.replace(timestep=timestep_for(config.timestep, terrain))  # smaller on edges
     commands = hold_commands(*table, timestep=config.timestep, duration=duration)
     return DriveLog.from_columns(simulate(robot, commands, config=config, log_rate=log_rate, terrain=terrain))
 

@@ -33,7 +33,8 @@ from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_commands
-from mjtrack.sim.terrain import Terrain
+from mjtrack.sim.surfacevel import run_steady
+from mjtrack.sim.terrain import Terrain, timestep_for
 from mjtrack.sim.rollout import SensorMap, run_batch, settled_state
 
 logger = logging.getLogger(__name__)
@@ -89,6 +90,7 @@ def steady_batch(
     friction, mass or geometry.
     """
     config = config or SimConfig()
+    config = config.replace(timestep=timestep_for(config.timestep, terrain))  # smaller on edges
     commands = np.atleast_2d(np.asarray(commands, dtype=float))
     if config.track_model == "surfacevel":
         return [_surfacevel(r, c, config, settle_s, window_s, terrain) for r, c in zip(robots, commands)]
@@ -144,8 +146,6 @@ def _surfacevel(robot: Robot, cmd: np.ndarray, config: SimConfig, settle_s: floa
     """The surfacevel track model through its own ``run_steady`` (kinematic track speeds: the
     commands; no window standard deviations, reported as NaN; roller_contact as the mean of
     the per-track fractions)."""
-    from mjtrack.sim.surfacevel import run_steady
-
     scale = robot.track_speed_scale  # kinematic tracks: the scaled commands are the speeds
     run = run_steady(build_model(robot, config, terrain), scale * float(cmd[0]), scale * float(cmd[1]),
                      duration=settle_s + window_s, average=window_s)

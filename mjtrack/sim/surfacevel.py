@@ -79,7 +79,6 @@ within 0.031 T/2 and 0.011 L, contact 99.96 %; comparison with the roller chain 
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import time
@@ -90,50 +89,15 @@ import numpy as np
 
 from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
-from mjtrack.sim.builder import add_ground, add_idlers, needs_idlers, apply_solver_options, suspension_range, track_contacts
-from mjtrack.sim.config import SimConfig
+from mjtrack.sim.scene import (CHASSIS_HEIGHT, SIDES, add_ground, add_idlers, apply_solver_options, needs_idlers, suspension_range,
+                               track_contacts)
+from mjtrack.sim.config import SURFACEVEL_SETTINGS, SimConfig, surfacevel_config  # noqa: F401 (this module's API)
 from mjtrack.sim.drivetrain import drive_of
 from mjtrack.sim.terrain import Terrain
 
 log = logging.getLogger(__name__)
 
-SIDES = ("left", "right")
 ELEMENTS = ("sphere", "capsule", "box")
-CHASSIS_HEIGHT = 0.15  # [m] height of the box whose inertia the chassis is given (as builder)
-
-
-# Settings measured for this model (experiments/surfacevel_study.py), pinned here: the SimConfig
-# defaults are tuned for the roller chain and change with it. Why each one: module docstring.
-SURFACEVEL_SETTINGS = dict(
-    track_model="surfacevel",
-    timestep=0.002,  # [s] halving it moves the ICRs by < 0.2 % of T/2
-    n_rollers=12,  # elements per track at cell midpoints
-    roller_radius=0.03,  # [m] sphere radius
-    roller_mass=0.15,  # [kg] unsprung mass of one element (older SimConfig) ...
-    unsprung_fraction=0.18,  # ... or the same 24 x 0.15 kg as a share of the 20 kg robot
-    suspension_deflection=0.01,  # [m] static spring deflection: loads determinate
-    suspension_damping_ratio=1.0,
-    contact_timeconst=0.0,  # 2 timesteps
-    contact_dampratio=1.0,
-    solimp=(0.0, 0.99, 0.001, 0.5, 2.0),  # dmin = 0: no push at zero penetration, no element hop
-    friction_timeconst=0.0,  # friction rows as hard as the normal row: weak ones creep
-    cone="elliptic",
-    impratio=10.0,
-    noslip_iterations=0,  # no effect through surfacevel (measured), costs time
-    solver="Newton",  # pinned: the roller chain default (PGS) was not measured here
-    iterations=50,
-    tolerance=1e-8,
-    integrator="implicitfast",
-)
-
-
-def surfacevel_config(**changes) -> SimConfig:
-    """The SimConfig this model was measured with: :data:`SURFACEVEL_SETTINGS` plus ``changes``.
-
-    Settings that this version of SimConfig does not have are left out.
-    """
-    names = {f.name for f in dataclasses.fields(SimConfig)}
-    return SimConfig(**{k: v for k, v in {**SURFACEVEL_SETTINGS, **changes}.items() if k in names or k in changes})
 
 
 def setting_problems(config: SimConfig) -> list[str]:

@@ -43,10 +43,14 @@ import mujoco
 import numpy as np
 
 from mjtrack.errors import InputError
+from mjtrack.models.coulomb import incline_rotation
 
 PATCH_THICKNESS = 0.001  # [m] patches are this thick, lying on the ground
 STEP_DEPTH = 100.0  # [m] extent of a step box beyond its edge
 GROUND_SIZE = 50.0  # [m] half size of the ground plane (visual extent)
+EDGE_TIMESTEP = 0.0025  # [s] largest time step on terrain with edges (steps, height fields): at 5 ms,
+# sharp turns and reversals against a step edge at 1-2 m/s launched or diverged the robot in 2 of 40
+# seeded cases (tests/test_terrain.py slow grid); at 2.5 ms none did
 FLOOR_FRICTION = 1e-3  # friction of the terrain geoms themselves: unused, the contact pairs carry it
 
 
@@ -132,6 +136,13 @@ class Terrain:
         return h
 
 
+def timestep_for(timestep: float, terrain: Terrain | None) -> float:
+    """The time step to simulate ``terrain`` with: at most :data:`EDGE_TIMESTEP` where it has edges."""
+    if terrain is not None and (terrain.steps or terrain.hfield is not None):
+        return min(timestep, EDGE_TIMESTEP)
+    return timestep
+
+
 def with_terrain(robot, terrain: Terrain):
     """The robot description to write beside a log: ``robot`` with key ``terrain`` (the terrain's
     :meth:`Terrain.to_dict`) when the terrain is not flat, without it when it is."""
@@ -144,9 +155,10 @@ def with_terrain(robot, terrain: Terrain):
 
 
 def _incline_quat(angle: float, direction: float) -> np.ndarray:
-    """Rotation about the horizontal axis z x u (u the uphill direction) by -angle: rises along u."""
-    k = np.array([-math.sin(direction), math.cos(direction), 0.0])
-    return np.concatenate([[math.cos(-angle / 2)], math.sin(-angle / 2) * k])
+    """The ground frame's orientation (w, x, y, z): :func:`mjtrack.models.coulomb.incline_rotation`."""
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, incline_rotation(angle, direction).ravel())
+    return q
 
 
 def _num(text: str, what: str, spec: str) -> float:
