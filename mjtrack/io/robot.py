@@ -28,7 +28,8 @@ NULLABLE = ("mu_left", "mu_right", "drive_force_limit")  # keys that may be JSON
 PLAUSIBLE_ROBOT: dict[str, tuple[float, float, str]] = {
     "track_gauge": (1e-3, 100.0, "m"), "track_length": (1e-3, 100.0, "m"), "track_width": (1e-3, 100.0, "m"),
     "sprocket_radius": (1e-3, 100.0, "m"), "mass": (1e-3, 1e7, "kg"), "cg_z": (-100.0, 100.0, "m"),
-    "mu": (1e-6, 10.0, "-"), "mu_left": (1e-6, 10.0, "-"), "mu_right": (1e-6, 10.0, "-"),
+    "mu": (0.0, 10.0, "-"), "mu_left": (0.0, 10.0, "-"), "mu_right": (0.0, 10.0, "-"),  # > 0 checked above;
+    # a track with friction 1e-12 is how the diagnosis isolates the other track's effect
 }
 
 
