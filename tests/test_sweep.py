@@ -185,7 +185,8 @@ def test_sweep_on_terrain_is_steady_on_terrain(tmp_path, cluster, capsys):
     assert json.loads(capsys.readouterr().out)["vy"] != float(flat[1]["vy"])
 
 
-def test_unreachable_scheduler_is_an_input_error(tmp_path, capsys):
+def test_unreachable_scheduler_is_an_input_error(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("mjtrack.sweep.run.CONNECT_TIMEOUT_S", 2.0)  # nothing listens on port 9: no need to wait 10 s
     (tmp_path / "g.json").write_text(json.dumps({"v_left_cmd": [0.5], "v_right_cmd": [1.0]}))
     rc = main(["sweep", "--grid", str(tmp_path / "g.json"), "--out", str(tmp_path / "o"),
                "--scheduler", "tcp://127.0.0.1:9", *SHORT])
