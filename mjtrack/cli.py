@@ -23,6 +23,7 @@ COMMANDS: dict[str, str] = {
     "validate": "validate",
     "render": "render",
     "diagnose": "diagnose",
+    "calibrate": "calibrate",
     "track": "track",
     "thesis": "thesis",
     "sweep": "sweep",

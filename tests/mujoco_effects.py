@@ -13,6 +13,11 @@ How each effect of CONTRACTS.md §4 is injected (``HIDDEN`` holds the injected v
   psi: the world is the inclined plane's own frame, so gravity gets an in-plane part pointing
   downhill, g = G (-sin s cos psi, -sin s sin psi, -cos s) (``model.opt.gravity``): the uphill
   unit vector is (cos psi, sin psi) in the world xy plane, the normal load is G cos s.
+* ``ground_anisotropy`` rho (a ground beyond isotropic Coulomb): lateral friction rho mu, longitudinal
+  mu, in each track's frame. Implemented HERE, not through ``mjtrack.sim.ground``: the robot's spec
+  (builder without the ground hook) gets capsule rollers of half-length 2 mm whose axis is the spin
+  axis (MuJoCo's capsule-plane contact frame follows the capsule axis) and pair friction
+  (rho mu, mu) written by :func:`anisotropic_model`.
 * input effects transform the per-step (dt = 5 ms) commands before the simulation, while the
   LOG keeps the commanded speeds (the measured track speeds, when logged, are the simulation's):
   ``track_speed_scale`` k: k V;  ``actuator_lag`` tau: y_{k+1} = y_k + (1 - exp(-dt/tau))(V_k - y_k),
@@ -34,7 +39,7 @@ import numpy as np
 
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import G, Robot
-from mjtrack.sim.builder import build_model
+from mjtrack.sim.builder import add_scene, build_model, build_spec
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.rollout import hold_commands, simulate
 
@@ -68,6 +73,7 @@ HIDDEN: dict[str, Hidden] = {h.name: h for h in (
     Hidden("actuator_lag", "input", {"actuator_lag": 0.3}),
     Hidden("command_delay", "input", {"command_delay": 0.2}),
     Hidden("speed_limit", "input", {"speed_limit": 0.4}),
+    Hidden("ground_anisotropy", "model", {"lateral_ratio": 0.5}),
 )}
 
 
@@ -138,6 +144,22 @@ def slope_gravity(slope: float, direction: float) -> np.ndarray:
     return G * np.array([-s * np.cos(direction), -s * np.sin(direction), -np.cos(slope)])
 
 
+def anisotropic_model(robot: Robot, config: SimConfig, lateral_ratio: float):
+    """The MuJoCo robot on a ground with lateral friction ``lateral_ratio`` x mu (own implementation)."""
+    import mujoco
+
+    spec = add_scene(build_spec(robot, config), robot, config)
+    for geom in spec.geoms:
+        if geom.name.startswith("roller_"):
+            geom.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+            geom.size = [config.roller_radius, 0.002, 0.0]
+            geom.quat = [np.sqrt(0.5), -np.sqrt(0.5), 0.0, 0.0]  # capsule axis along the spin axis (y)
+    for pair in spec.pairs:
+        mu = pair.friction[1]
+        pair.friction = [lateral_ratio * mu, mu, 0.0, 0.0, 0.0]
+    return spec.compile()
+
+
 def make_log(effect: str | None, *, seed: int = 0, duration: float = 120.0, speeds: bool = False,
              config: SimConfig | None = None) -> tuple[DriveLog, Robot]:
     """A MuJoCo log with ``effect`` hidden (None = clean); returns (log, nominal robot).
@@ -152,7 +174,10 @@ def make_log(effect: str | None, *, seed: int = 0, duration: float = 120.0, spee
     steps = hold_commands(t, vl, vr, timestep=config.timestep, duration=t[-1] + LOG_DT)
     drive = apply_input(steps, hidden, config.timestep)
     robot = robot_with(hidden, ROBOT)
-    model = build_model(robot, config)
+    if hidden is not None and hidden.kind == "model":
+        model = anisotropic_model(robot, config, hidden.params["lateral_ratio"])
+    else:
+        model = build_model(robot, config)
     if hidden is not None and hidden.name == "slope":
         model.opt.gravity[:] = slope_gravity(hidden.params["slope"], hidden.params["slope_direction"])
     out = simulate(robot, drive, config=config, log_rate=1.0 / LOG_DT, model=model)

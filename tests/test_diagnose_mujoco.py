@@ -30,7 +30,7 @@ DIR_TOL = 0.25  # [rad] slope_direction, compared on the circle
 
 def _named(effect: str, *, speeds: bool, seed: int = SEED, duration: float = DURATION):
     log, robot = make_log(effect, seed=seed, duration=duration, speeds=speeds)
-    d = diagnose(log, robot, secondary=False)
+    d = diagnose(log, robot, baseline="surrogate", max_effects=1)
     r = next(x for x in d.results if x.effect.name == effect)
     top = d.findings[0] if d.findings else None
     assert r.passed and (d.cause == effect or effect in top.tied_with), (
@@ -49,7 +49,7 @@ def _named(effect: str, *, speeds: bool, seed: int = SEED, duration: float = DUR
 
 def _clean(*, speeds: bool, seed: int = SEED, duration: float = DURATION):
     log, robot = make_log(None, seed=seed, duration=duration, speeds=speeds)
-    d = diagnose(log, robot)
+    d = diagnose(log, robot, baseline="surrogate")
     assert d.cause == "none", [r.why for r in d.findings]
     return d
 

@@ -48,12 +48,6 @@ def test_quasi_static_icrs_do_not_depend_on_the_speeds():
     np.testing.assert_allclose(q, np.tile(sg.ground_response(ROBOT).q0, (3, 1)), atol=1e-6)
 
 
-def test_static_tables_pass_through_the_nominal_robot():
-    values, table = sg.static_table(ROBOT, "cg_x", [-0.05, 0.0, 0.05])
-    np.testing.assert_allclose(table[1], sg.ground_response(ROBOT).q0, atol=1e-9)
-    assert table[2, 2] > 0 > table[0, 2]  # x_c follows the centre of mass
-
-
 def test_effects_at_their_nominal_values_reduce_to_the_baseline(rng):
     v = _steps(rng)
     poses = np.column_stack([np.zeros((v.shape[0], 2)), rng.uniform(-3, 3, v.shape[0])])
@@ -152,8 +146,7 @@ def _transient(u0, u1, *, h=1e-3, n=600, fs=1.0, robot=ROBOT):
     """Per-step means (n, 2) of the effective track speeds after the step u0 -> u1 at sample 10."""
     u = np.array([u0] * 10 + [u1] * n, float)
     s = Surrogate(robot, "coulomb", transient=True)
-    theta = (fs,) if fs != 1.0 else ()
-    return s.effective_speeds(_data(u, dt=h), u, "friction_scale" if theta else None, theta)[10:]
+    return s.effective_speeds(_data(u, dt=h), u, {"friction_scale": fs} if fs != 1.0 else None)[10:]
 
 
 def _params(robot=ROBOT):

@@ -6,7 +6,6 @@ from __future__ import annotations
 import os
 import re
 import shutil
-import time
 from pathlib import Path
 
 import numpy as np
@@ -300,19 +299,17 @@ def test_log_without_robot_is_refused(tmp_path):
         read_log_with_robot(path)
 
 
-def test_reads_a_full_size_log_fast(tmp_path):
-    """17 280 rows x 15 columns, the size of the real marmotte log: well under a second."""
+def test_reads_a_full_size_log(tmp_path):
+    """17 280 rows x 15 columns, the size of the real marmotte log, round-trips exactly. (Its
+    read time is not asserted here: a timed unit test fails on a loaded machine and proves
+    nothing about speed; benchmarks measure speed.)"""
     n = 17280
     rng = np.random.default_rng(3)
     log = random_log(rng, n, calib_step=np.arange(n) // 120, x_local=rng.standard_normal(n),
                      y_local=rng.standard_normal(n))
     path = tmp_path / "big.csv"
     write_log(log, path)
-    start = time.perf_counter()
-    back = read_log(path)
-    elapsed = time.perf_counter() - start
-    assert back == log
-    assert elapsed < 1.0, f"read took {elapsed:.2f} s"  # measured 0.12 s here; 8x margin for a busy CI core
+    assert read_log(path) == log
 
 
 # -- atomic output -------------------------------------------------------------------------

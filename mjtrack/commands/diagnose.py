@@ -1,12 +1,16 @@
 """Diagnose a measured drive log: where the nominal model departs from the measurement, the cause
-(one of the effects cg_offset_x, cg_offset_y, friction_scale, friction_asymmetry,
-track_speed_scale, actuator_lag, command_delay, speed_limit, slope, or "none"), its estimate with an interval and the
+(an effect of the vocabulary -- cg_offset_x, cg_offset_y, friction_scale, friction_asymmetry,
+track_speed_scale, actuator_lag, command_delay, speed_limit, slope, icr_spread, yaw_rate_limit --
+or "none"), its estimate with an interval and the
 prediction error it removes on held-out data. Writes DIR/diagnosis.json and DIR/report.html.
 
 The robot is LOG.json beside the log unless --robot FILE is given; the other robot options
 override single fields. With --confirm the cause is checked in MuJoCo: the log re-simulated
-with the MuJoCo robot, nominal and extended by the cause. Bad input (log, robot, options) exits with status 2, one line, and
-writes nothing.
+with the MuJoCo robot, nominal and extended by the cause. With --test LOG2 the model is fitted on
+LOG and scored on LOG2 (same robot; LOG2.json, when it exists, must describe the same robot).
+Effects are found by forward selection (several at once when the data show them); the verdict
+flags effects the log cannot tell apart and error that stays unexplained. Bad input (log,
+robot, options) exits with status 2, one line, and writes nothing.
 """
 
 from __future__ import annotations
@@ -32,16 +36,34 @@ def _positive(text: str) -> float:
 _folds = int_at_least(3)
 
 
+def _horizon(text: str):
+    return "auto" if text == "auto" else _positive(text)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("log", metavar="LOG.csv", type=Path,
                         help="measured drive log (CSV with columns t [s], v_left_cmd, v_right_cmd [m/s], x, y [m], "
                              "yaw [rad]; optional v_left, v_right, vx, vy, wz, window)")
     parser.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder (created if needed)")
-    parser.add_argument("--horizon", metavar="S", type=_positive, default=2.0,
-                        help="prediction horizon of the windows [s] (default 2)")
+    parser.add_argument("--horizon", metavar="S", type=_horizon, default="auto",
+                        help="prediction horizon of the windows [s], or 'auto' (default): 2 s, or the longest the "
+                             "log's segments allow (3/4 of the median segment) when they are shorter, with a note")
     parser.add_argument("--folds", metavar="K", type=_folds, default=5, help="cross-validation folds (default 5)")
     parser.add_argument("--confirm", action="store_true",
-                        help="re-simulate the log with the MuJoCo robot, nominal and extended by the cause")
+                        help="re-simulate the log with the MuJoCo robot, nominal and extended by the cause "
+                             "(surrogate and kinematic baselines; the mujoco baseline is MuJoCo throughout)")
+    # the names of mjtrack.diagnose.run.BASELINES (which validates them again), spelled here so that
+    # building the parser does not import the diagnosis (scipy) for every command
+    parser.add_argument("--baseline", choices=("auto", "mujoco", "surrogate", "kinematic"), default="auto",
+                        help="what is diagnosed: 'mujoco' (the MuJoCo robot itself: windows simulated from the "
+                             "measured state, every candidate effect an extension of the MuJoCo robot, gains measured "
+                             "by MuJoCo on held-out windows; needs track_length in the robot file, e.g. a robot.json "
+                             "from 'mjtrack calibrate'), 'surrogate' (the rigid-track Coulomb surrogate of the robot, "
+                             "or the kinematic model when the description lacks the contact length), 'kinematic' (the "
+                             "kinematic skid-steer model), 'auto' (default: mujoco when the robot can be built, else "
+                             "surrogate; diagnosis.json and the report say which it chose and why)")
+    parser.add_argument("--test", metavar="LOG2", type=Path, default=None,
+                        help="fit on LOG, score on LOG2 (a log of the same robot) instead of cross-validating")
     add_robot_options(parser)
     add_output_options(parser)
 
@@ -61,17 +83,16 @@ def run(args: argparse.Namespace) -> int:
                              "(a robot JSON with at least 'track_gauge' is required)")
         base = read_robot(path)
     robot = robot_from_args(args, base)
+    test_log = test_robot = None
+    if args.test is not None:
+        test_log = read_log(args.test)
+        path = robot_path_for(args.test)
+        if path.exists():
+            test_robot = read_robot(path)
     result = diagnose(drive_log, robot, horizon_s=args.horizon, n_folds=args.folds, confirm=args.confirm,
-                      quiet=args.quiet)
+                      quiet=args.quiet, baseline=args.baseline, test_log=test_log, test_robot=test_robot)
     write_outputs(result, out)
-    best = result.findings[0] if result.findings else None
-    line = f"cause: {result.cause}"
-    if best is not None:
-        est = ", ".join(f"{n} = {v:.4g}" for n, v in zip(best.effect.params, best.estimate))
-        line += f" ({est}); held-out {result.horizon_s:g} s position RMSE {best.before:.3g} -> {best.after:.3g} m"
-    else:
-        line += f"; nominal {result.horizon_s:g} s position RMSE {result.before:.3g} m"
-    print(line)
+    print(result.summary())
     conf = result.confirmation
     if conf is not None:
         print(f"MuJoCo: {conf['before']:.3g} -> {conf['after']:.3g} m" if conf.get("run") else f"MuJoCo: not run ({conf['why']})")

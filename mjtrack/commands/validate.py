@@ -7,8 +7,12 @@ model (nominal, MPP, MICR, MVIR) with parameters from the filters run online on 
 own ICRs (2.13) as an upper bound, it scores predictions over 0.5, 1, 2 and 5 s against the
 log and against an MPP analytic truth with known slips (thesis 4.2) on the same commands.
 The filters see seeded Gaussian measurement noise (--noise-scale, 0 = none); errors are
-scored against the noise-free truth. Writes DIR/report.html (self-contained: verdicts,
-setup, definitions, figures) and DIR/metrics.json (the same numbers).
+scored against the noise-free truth. The filters adapt their process noise (a slow and a fast
+random walk of their parameters), carry their parameters across the windows of a log (only
+the pose restarts), and on a measured log take its measurement noise estimated from the log.
+Writes DIR/report.html (self-contained: verdicts, setup, definitions, figures, filter
+consistency with NIS over time) and DIR/metrics.json (the same numbers; per filter and truth
+consistency: nis_mean, nis_dof, nees_mean (null on a measured log), nees_dof, band95).
 """
 
 from __future__ import annotations

@@ -9,8 +9,8 @@ MuJoCo confirmation of the cause (:mod:`.confirm`).
 from mjtrack.diagnose.effects import EFFECTS as EFFECTS
 from mjtrack.diagnose.effects import Effect as Effect
 from mjtrack.diagnose.effects import Surrogate as Surrogate
-from mjtrack.diagnose.run import Diagnosis as Diagnosis
+from mjtrack.diagnose.result import Diagnosis as Diagnosis
 from mjtrack.diagnose.run import diagnose as diagnose
-from mjtrack.diagnose.run import extended_robot as extended_robot
+from mjtrack.diagnose.result import extended_robot as extended_robot
 from mjtrack.diagnose.run import write_outputs as write_outputs
 from mjtrack.diagnose.confirm import confirm as confirm

@@ -3,7 +3,7 @@
 The surrogate stage names the cause and its parameter; this stage checks it against the physics
 the project simulates. The log's commands drive the MuJoCo robot (``mjtrack.sim.simulate``),
 once as described and once extended by the finding: a ground effect changes the description
-(:func:`mjtrack.diagnose.run.extended_robot`: cg_x, cg_y, mu, mu_left/mu_right), an input
+(:func:`mjtrack.diagnose.result.extended_robot`: cg_x, cg_y, mu, mu_left/mu_right), an input
 effect transforms the commands first (the surrogate's exact transform, held per sample). Each
 segment is simulated from rest; the simulated body twist (vx, vy, wz), interpolated at the
 middle of each log step, is the model's twist sequence for the same fixed-horizon windows as the
@@ -25,6 +25,7 @@ import numpy as np
 
 from mjtrack.diagnose import residuals as rs
 from mjtrack.diagnose.effects import Surrogate
+from mjtrack.diagnose.result import extended_robot
 
 log = logging.getLogger(__name__)
 
@@ -57,8 +58,6 @@ def simulated_twist(robot, data: rs.DriveData, speeds: np.ndarray, *, config=Non
 
 def confirm(diagnosis, *, config=None) -> dict:
     """MuJoCo gain of the diagnosis's cause (see module docstring); a dict for diagnosis.json."""
-    from mjtrack.diagnose.run import extended_robot
-
     if not diagnosis.findings:
         return {"stage": "mujoco", "run": False, "why": "no cause to confirm"}
     best = diagnosis.findings[0]

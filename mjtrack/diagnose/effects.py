@@ -84,6 +84,13 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "errors only at high commanded speeds, the model too fast",
            lambda r: (np.inf,), lambda r: ((0.02,), (np.inf,)),
            lambda r, d: np.quantile(np.abs(d.cmd), [0.5, 0.7, 0.85, 0.95]).reshape(-1, 1)),
+    Effect("yaw_rate_limit", ("yaw_rate_limit",), "input",
+           "the commanded body yaw rate (V_R - V_L)/T saturates at this magnitude [rad/s], the mean track speed kept "
+           "(a velocity controller's twist limit, common on wheeled skid-steer robots)",
+           "errors only in sharp turns and spins, the model turns too fast; straight driving exact",
+           lambda r: (np.inf,), lambda r: ((0.05,), (np.inf,)),
+           lambda r, d: np.quantile(np.abs(d.cmd[:, 1] - d.cmd[:, 0]) / r.track_gauge, [0.5, 0.7, 0.85, 0.95]
+                                    ).reshape(-1, 1) + 1e-3),
     Effect("cg_offset_x", ("cg_offset_x",), "ground", "centre of mass ahead (+) / behind (-) the geometric centre [m]",
            "the no-slip line x_c moves with the centre of mass: the robot slides to the outside (cg ahead) "
            "of its turns, the same x_c for both turn directions",
@@ -129,6 +136,7 @@ class Surrogate:
         self.baseline = baseline
         self.transient = bool(transient) and baseline == "coulomb"
         self.causal_speeds = bool(causal_speeds)
+        self._transient_cache: dict = {}
         self.resp = sg.ground_response(robot)
         T = robot.track_gauge
         self.q_nominal = self.resp.q0 if baseline == "coulomb" else np.array([T / 2, -T / 2, 0.0])
@@ -150,85 +158,123 @@ class Surrogate:
         q = np.array([np.interp(v, x, table[:, i]) for i in range(3)])
         return self.q_nominal + (q - self.resp.q0)
 
-    def effective_speeds(self, data: DriveData, speeds: np.ndarray, name: str | None, theta,
+    def effective_speeds(self, data: DriveData, speeds: np.ndarray, params: dict[str, float] | None = None,
                          q: np.ndarray | None = None) -> np.ndarray:
         """Track speeds (N, 2) as the rigid body follows them on its friction
         (:func:`mjtrack.diagnose.surrogate.friction_limited`): per-track force bounds
         b_s = fs mu_s g N_s/(m g), the yaw gain kappa = m T (y_l - y_r)/(4 I) with the box inertia
         I = m (L^2 + T^2)/12 and the ICRs q of the model (default the nominal ones), and the
-        turning resistance resist_ratio (b_L + b_R). The friction effects change b (and the
-        resistance with it), cg_offset_y the load split."""
+        turning resistance resist_ratio (b_L + b_R). ``params``: ground-effect parameters by name;
+        the friction effects change b (and the resistance with it), cg_offset_y the load split."""
         r = self.robot
+        params = params or {}
         mu_l, mu_r = r.friction_left, r.friction_right
-        cy = r.cg_y
-        if name == "friction_scale":
-            mu_l, mu_r = mu_l * float(theta[0]), mu_r * float(theta[0])
-        elif name == "friction_asymmetry":
-            mu_l = mu_r * float(theta[0])
-        elif name == "cg_offset_y":
-            cy = float(theta[0])
+        cy = float(params.get("cg_offset_y", r.cg_y))
+        if "friction_asymmetry" in params:
+            mu_l = mu_r * float(params["friction_asymmetry"])
+        fs = float(params.get("friction_scale", 1.0))
+        mu_l, mu_r = mu_l * fs, mu_r * fs
         T, L = r.track_gauge, r.track_length
         share = float(np.clip(0.5 + cy / T, 0.05, 0.95))  # left track's load share (lever rule)
         b_l, b_r = max(mu_l, 1e-3) * G * share, max(mu_r, 1e-3) * G * (1.0 - share)
         q = self.q_nominal if q is None else q
         kappa = 3.0 * T * float(q[0] - q[1]) / (L * L + T * T)
+        key = (hash(speeds.tobytes()), round(b_l, 9), round(b_r, 9), round(kappa, 9), id(data))
+        hit = self._transient_cache.get(key)
+        if hit is not None:
+            return hit
         dt = data.step_dt()
         starts = np.r_[True, data.seg[1:] != data.seg[:-1]]
-        return sg.friction_limited(speeds, dt, starts, b_left=b_l, b_right=b_r, kappa=kappa,
-                                   resist=self.resp.resist_ratio * (b_l + b_r))
+        out = sg.friction_limited(speeds, dt, starts, b_left=b_l, b_right=b_r, kappa=kappa,
+                                  resist=self.resp.resist_ratio * (b_l + b_r))
+        if len(self._transient_cache) > 64:
+            self._transient_cache.clear()
+        self._transient_cache[key] = out
+        return out
 
     # -- inputs -----------------------------------------------------------------------------
     def inputs(self, data: DriveData, effect: Effect | None, theta, *, source: np.ndarray | None = None,
                instant: bool = False) -> np.ndarray:
+        """Track speeds (N, 2) [m/s] of one input effect (or none); see :meth:`inputs_of`."""
+        return self.inputs_of(data, [] if effect is None else [(effect, theta)], source=source, instant=instant)
+
+    def inputs_of(self, data: DriveData, parts, *, source: np.ndarray | None = None,
+                  instant: bool = False) -> np.ndarray:
         """Track speeds (N, 2) [m/s] that drive the ground model: ``source`` (default the commands)
-        transformed by an input effect, unchanged otherwise. ``instant``: the speeds at the sample
+        transformed by the input effects among ``parts`` ((Effect, theta) pairs; ground effects are
+        ignored), in the order of :data:`INPUT_ORDER` (the controller's limits on the command, then
+        the actuator's dead time and lag, then the scale). ``instant``: the speeds at the sample
         times (what a sensor reads) instead of their means over each held step (what drives the
         model). Causal: a row's command is in force from its time on, so the speed sampled at t_k
         is the one just before t_k (the MuJoCo logs' convention, :func:`mjtrack.sim.rollout.simulate`):
-        for the static maps (none, scale, limit) the map of the previous command, the segment's
+        for the static maps (none, scale, limits) the map of the previous command, the segment's
         initial speed at its first sample. With ``causal_speeds=False`` (a log whose speed samples
         already show the command of their row) the static maps apply to the row's own command and
         the delayed command is sampled at t_k - d."""
         v = data.cmd if source is None else source
+        inp = sorted(((e, theta) for e, theta in parts if e is not None and e.kind == "input"),
+                     key=lambda et: INPUT_ORDER.index(et[0].name))
         instant_causal = instant and self.causal_speeds
-        if instant_causal and (effect is None or effect.name in ("track_speed_scale", "speed_limit")):
-            v = _previous(data, v, _initial(data, v))
-        if effect is None or effect.kind != "input":
-            return v
-        p = float(theta[0])
-        if effect.name == "track_speed_scale":
-            return p * v
-        if effect.name == "speed_limit":
-            return np.clip(v, -p, p)
-        if effect.name == "command_delay":
-            return _delay(data, v, p, _initial(data, v), instant=instant_causal)
-        if effect.name == "actuator_lag":
-            return _lag(data, v, p, _initial(data, v), instant=instant)
-        raise InputError(f"diagnose: unknown input effect {effect.name!r}")  # pragma: no cover
+        dynamic = [e.name for e, _ in inp if e.name in ("command_delay", "actuator_lag")]
+        init = _initial(data, v)
+        for e, theta in inp:
+            p = float(theta[0])
+            if e.name == "track_speed_scale":
+                v = p * v
+            elif e.name == "speed_limit":
+                v = np.clip(v, -p, p)
+            elif e.name == "yaw_rate_limit":
+                half = 0.5 * np.clip(v[:, 1] - v[:, 0], -p * self.robot.track_gauge, p * self.robot.track_gauge)
+                mean = 0.5 * (v[:, 0] + v[:, 1])
+                v = np.stack([mean - half, mean + half], -1)
+            elif e.name == "command_delay":
+                last = e.name == dynamic[-1]
+                v = _delay(data, v, p, _initial(data, v), instant=instant_causal and last)
+            elif e.name == "actuator_lag":
+                v = _lag(data, v, p, _initial(data, v), instant=instant)
+            else:  # pragma: no cover
+                raise InputError(f"diagnose: unknown input effect {e.name!r}")
+        if instant_causal and not dynamic:
+            v = _previous(data, v, _initial(data, v) if inp else init)
+        return v
 
     # -- ground -----------------------------------------------------------------------------
     def twist(self, data: DriveData, speeds: np.ndarray, effect: Effect | None = None, theta=()) -> np.ndarray:
         """Body twist (N, 3) of the baseline (+ a ground effect) under track speeds (N, 2)."""
+        return self.twist_of(data, speeds, [] if effect is None else [(effect, theta)])
+
+    def twist_of(self, data: DriveData, speeds: np.ndarray, parts) -> np.ndarray:
+        """Body twist (N, 3) of the baseline + the ground effects among ``parts`` ((Effect, theta)
+        pairs; input effects are ignored) under track speeds (N, 2). Several ground effects add
+        their changes of the quasi-static ICRs (first order); each sets its own parameter."""
         r = self.robot
         q_s = self.q_nominal.copy()
         cg = np.array([r.cg_x, r.cg_y])
         fs, slope, inertia = 1.0, None, self.baseline == "coulomb"
-        name = effect.name if effect is not None and effect.kind == "ground" else None
-        if name in self._tables:
-            q_s = self._static_q(name, float(theta[0]))
-            if name == "cg_offset_x":
-                cg[0] = theta[0]
-            elif name == "cg_offset_y":
-                cg[1] = theta[0]
-        elif name == "icr_spread":
-            q_s = q_s * np.array([theta[0], theta[0], 1.0])
-        elif name == "friction_scale":
-            fs = float(theta[0])
-        elif name == "slope":
-            ang = theta[1] - data.poses[:, 2]
-            slope = G * np.sin(theta[0]) * np.stack([np.cos(ang), np.sin(ang)], -1)
+        params: dict[str, float] = {}
+        for e, theta in parts:
+            if e is None or e.kind != "ground":
+                continue
+            name = e.name
+            params[name] = float(theta[0])
+            if name in self._tables:
+                q_s = q_s + (self._static_q(name, float(theta[0])) - self.q_nominal)
+                if name == "cg_offset_x":
+                    cg[0] = theta[0]
+                elif name == "cg_offset_y":
+                    cg[1] = theta[0]
+            elif name == "icr_spread":
+                q_s = q_s * np.array([theta[0], theta[0], 1.0])
+            elif name == "friction_scale":
+                fs = float(theta[0])
+            elif name == "slope":
+                ang = theta[1] - data.poses[:, 2]
+                slope = G * np.sin(theta[0]) * np.stack([np.cos(ang), np.sin(ang)], -1)
         if self.transient:
-            speeds = self.effective_speeds(data, speeds, name, theta, q_s)
+            # the yaw gain of the transient uses the nominal ICR spread unless the effect is the
+            # spread itself (a table effect moves it by < 2 %): the transient is then shared
+            # (cached) by every evaluation of a fit driven by the same speeds
+            speeds = self.effective_speeds(data, speeds, params, q_s if "icr_spread" in params else None)
         vl, vr = speeds[:, 0], speeds[:, 1]
         qs = np.broadcast_to(q_s, (vl.size, 3))
         tw = sg.twist_from_q(qs, vl, vr)
@@ -245,6 +291,9 @@ class Surrogate:
             if not inertia:
                 break
         return tw
+
+
+INPUT_ORDER = ("yaw_rate_limit", "speed_limit", "command_delay", "actuator_lag", "track_speed_scale")
 
 
 _LOOP_MAX = 400  # segments up to this many samples use the exact recursion, longer ones lfilter

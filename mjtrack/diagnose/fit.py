@@ -25,6 +25,7 @@ from scipy import optimize
 
 from mjtrack.diagnose.effects import Effect, Surrogate
 from mjtrack.diagnose.residuals import DriveData, window_errors
+from mjtrack.diagnose.stats import sandwich
 
 log = logging.getLogger(__name__)
 
@@ -37,8 +38,12 @@ class Problem:
     starts, ends: (M,) windows; fold: (M,) fold of each window; sample_fold: (N,) fold of each
     sample; fit_windows: (F,) indices into the windows used for fitting (a stride of them);
     measured: (N, 2) measured track speeds with missing values replaced by the command, or None;
-    speed_ok: (N,) samples with both speeds measured; base: an effect with fixed parameters that
-    is part of the baseline (the secondary stage: other effects tested on top of the cause).
+    speed_ok: (N,) samples with both speeds measured; base: effects with fixed parameters that
+    are part of the baseline ((Effect, theta) pairs: forward selection tests the others on top
+    of those already found); sample_block: (N,) block ids for the intervals
+    (:func:`mjtrack.diagnose.stats.sample_blocks`), None = one block per fold; score_folds: the
+    folds that are scored, each by the fit on all others (None: every fold, cross-validation;
+    (0,): a test log in fold 0, fitted on fold 1).
     """
 
     data: DriveData
@@ -52,7 +57,22 @@ class Problem:
     fit_windows: np.ndarray
     measured: np.ndarray | None
     speed_ok: np.ndarray | None
-    base: tuple[Effect, np.ndarray] | None = None
+    base: tuple = ()
+    sample_block: np.ndarray | None = None
+    score_folds: tuple | None = None
+
+    @property
+    def scored(self) -> np.ndarray:
+        """(M,) bool: the windows that are scored (all, or those of ``score_folds``: a test log)."""
+        if self.score_folds is None:
+            return np.ones(self.starts.size, bool)
+        return np.isin(self.fold, self.score_folds)
+
+    @property
+    def window_block(self) -> np.ndarray:
+        """(M,) block of each window (that of its start sample)."""
+        blocks = self.sample_block if self.sample_block is not None else self.sample_fold
+        return blocks[self.starts]
 
     @property
     def yaw_scale(self) -> float:
@@ -60,21 +80,19 @@ class Problem:
 
 
 def twist(problem: Problem, effect: Effect | None, theta, *, drive: str = "command") -> np.ndarray:
-    """Body twist (N, 3) of baseline (+ base effect) + effect, driven by the commands (through the
-    input effect, if any) or, for fitting ground effects, by the measured speeds (with causal
+    """Body twist (N, 3) of baseline (+ base effects) + effect, driven by the commands (through the
+    input effects, if any) or, for fitting ground effects, by the measured speeds (with causal
     speed samples, :func:`mjtrack.diagnose.run.speed_timing`, step k runs at the speed sampled at
     t_k+1: the one sampled at t_k is still the previous step's)."""
     s = problem.surrogate
-    parts = [(effect, theta)] + ([problem.base] if problem.base is not None else [])
-    inp = next(((e, p) for e, p in parts if e is not None and e.kind == "input"), (None, ()))
-    gnd = next(((e, p) for e, p in parts if e is not None and e.kind == "ground"), (None, ()))
+    parts = ([(effect, theta)] if effect is not None else []) + list(problem.base)
     if drive == "measured" and problem.measured is not None and (effect is None or effect.kind == "ground"):
         speeds = problem.measured
         if s.causal_speeds:  # a speed sampled at t_k is the one just before t_k: step k runs at the next sample's
             speeds = _next_in_segment(problem.data.seg, speeds)
     else:
-        speeds = s.inputs(problem.data, inp[0], inp[1])
-    return s.twist(problem.data, speeds, gnd[0], gnd[1])
+        speeds = s.inputs_of(problem.data, parts)
+    return s.twist_of(problem.data, speeds, parts)
 
 
 def _next_in_segment(seg: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -98,7 +116,8 @@ def pos_rmse(err: np.ndarray) -> float:
 
 def speed_residuals(problem: Problem, effect: Effect, theta, samples: np.ndarray) -> np.ndarray:
     """Transformed command minus measured track speed [m/s] on ``samples`` (boolean (N,)), flattened."""
-    v = problem.surrogate.inputs(problem.data, effect, theta, instant=True)
+    parts = [(e, p) for e, p in problem.base if e.kind == "input"] + [(effect, theta)]
+    v = problem.surrogate.inputs_of(problem.data, parts, instant=True)
     return (v[samples] - problem.data.meas[samples]).ravel()
 
 
@@ -107,29 +126,36 @@ def uses_speeds(problem: Problem, effect: Effect) -> bool:
     return effect.kind == "input" and problem.speed_ok is not None and bool(problem.speed_ok.any())
 
 
-def fit(problem: Problem, effect: Effect, train_folds: np.ndarray) -> np.ndarray:
-    """Least-squares estimate (P,) of the effect's parameters on the folds ``train_folds``."""
+def fit(problem: Problem, effect: Effect, train_folds: np.ndarray, *, covariance: bool = False,
+        start: np.ndarray | None = None):
+    """Least-squares estimate (P,) of the effect's parameters on the folds ``train_folds``; with
+    ``covariance`` also its block-robust covariance (P, P) (:func:`mjtrack.diagnose.stats.sandwich`,
+    the blocks of :attr:`Problem.window_block`; NaN where the estimate sits on a bound). ``start``:
+    one start (e.g. the full-data estimate for the fold fits) instead of the effect's start grid."""
     robot = problem.surrogate.robot
     lo, hi = (np.asarray(b, float) for b in effect.bounds(robot))
     if uses_speeds(problem, effect):
         samples = np.isin(problem.sample_fold, train_folds) & problem.speed_ok
+        sblock = problem.sample_block if problem.sample_block is not None else problem.sample_fold
+        row_block = np.repeat(sblock[samples], 2)
 
         def resid(p):
             return speed_residuals(problem, effect, p, samples)
     else:
         w = problem.fit_windows[np.isin(problem.fold[problem.fit_windows], train_folds)]
         ell = problem.yaw_scale
+        row_block = np.repeat(problem.window_block[w], 3)
 
         def resid(p):
             e = errors(problem, effect, p, w, drive="measured")
             e[:, 2] *= ell
             return e.ravel()
 
-    starts = np.asarray(effect.starts(robot, problem.data), float)
+    starts = np.asarray(effect.starts(robot, problem.data) if start is None else [start], float)
     inner_lo = np.where(np.isfinite(lo), lo + 1e-6 * (1 + np.abs(np.where(np.isfinite(lo), lo, 0))), -np.inf)
     inner_hi = np.where(np.isfinite(hi), hi - 1e-6 * (1 + np.abs(np.where(np.isfinite(hi), hi, 0))), np.inf)
     starts = np.clip(starts, inner_lo, inner_hi)
-    costs = [float(np.sum(resid(p) ** 2)) for p in starts]
+    costs = [float(np.sum(resid(p) ** 2)) for p in starts] if len(starts) > 1 else [0.0]
     x0 = starts[int(np.argmin(costs))]
     res = optimize.least_squares(resid, x0, bounds=(lo, hi), method="trf", x_scale="jac", diff_step=1e-3,
                                  xtol=1e-6, ftol=1e-8, max_nfev=60)
@@ -140,4 +166,36 @@ def fit(problem: Problem, effect: Effect, train_folds: np.ndarray) -> np.ndarray
         p = p.copy()
         p[1] = (p[1] + np.pi) % (2 * np.pi) - np.pi
     log.debug("fit %s on folds %s: %s (cost %.4g, %d evaluations)", effect.name, list(train_folds), p, res.cost, res.nfev)
-    return p
+    if not covariance:
+        return p
+    cov = sandwich(res.jac, res.fun, row_block)
+    at_bound = (np.abs(res.x - lo) < 1e-6 * (1 + np.abs(lo))) | (np.abs(res.x - hi) < 1e-6 * (1 + np.abs(hi)))
+    cov[at_bound, :] = np.nan
+    cov[:, at_bound] = np.nan
+    return p, cov
+
+
+def fit_inputs_jointly(problem: Problem, parts: list, train_folds: np.ndarray) -> list[np.ndarray]:
+    """Joint least-squares estimates of several input effects ((Effect, theta) start pairs) fitted
+    to the measured track speeds of ``train_folds`` (the other effects of ``problem.base`` fixed):
+    coupled effects (a scale and a limit, a lag and a delay) are not separable one at a time."""
+    effects = [e for e, _ in parts]
+    sizes = [len(e.params) for e in effects]
+    robot = problem.surrogate.robot
+    lo = np.concatenate([np.asarray(e.bounds(robot)[0], float) for e in effects])
+    hi = np.concatenate([np.asarray(e.bounds(robot)[1], float) for e in effects])
+    x0 = np.concatenate([np.asarray(t, float) for _, t in parts])
+    x0 = np.clip(x0, np.where(np.isfinite(lo), lo + 1e-6, -np.inf), np.where(np.isfinite(hi), hi - 1e-6, np.inf))
+    samples = np.isin(problem.sample_fold, train_folds) & problem.speed_ok
+    fixed = [(e, p) for e, p in problem.base if e.kind == "input" and e not in effects]
+
+    def split(x):
+        return np.split(x, np.cumsum(sizes)[:-1])
+
+    def resid(x):
+        v = problem.surrogate.inputs_of(problem.data, fixed + list(zip(effects, split(x))), instant=True)
+        return (v[samples] - problem.data.meas[samples]).ravel()
+
+    res = optimize.least_squares(resid, x0, bounds=(lo, hi), method="trf", x_scale="jac", diff_step=1e-3,
+                                 xtol=1e-6, ftol=1e-8, max_nfev=100)
+    return split(res.x)

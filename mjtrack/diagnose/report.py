@@ -13,7 +13,8 @@ import math
 import numpy as np
 
 from mjtrack.diagnose import residuals as rs
-from mjtrack.diagnose.run import Diagnosis, extended_robot
+from mjtrack.diagnose.effects import Surrogate
+from mjtrack.diagnose.result import Diagnosis, describe, extended_robot, num
 from mjtrack.report.html import Report
 
 TURN_EDGES = np.linspace(-1.0, 1.0, 11)
@@ -84,8 +85,6 @@ def _symptom_figure(d: Diagnosis, turn, speed, best):
 def _icr_figure(d: Diagnosis, icr: dict):
     plt = _plt()
     fig, ax = plt.subplots(1, 3, figsize=(11, 3.4))
-    from mjtrack.diagnose.effects import Surrogate
-
     qn = Surrogate(d.robot, d.baseline).q_nominal
     for i, name in enumerate(("y_l", "y_r", "x_c")):
         ax[i].plot(icr["turn"], icr[name], ".", ms=3, alpha=0.5, label="measured (windows)")
@@ -106,12 +105,14 @@ def _gain_figure(d: Diagnosis):
     names = [r.effect.name for r in d.results][::-1]
     rel = [100 * r.relative for r in d.results][::-1]
     fold = [100 * (1 - r.fold_after / r.fold_before) for r in d.results][::-1]
+    lower = [100 * r.gain.lower if r.gain is not None else np.nan for r in d.results][::-1]
     colors = ["C2" if r.passed else "0.6" for r in d.results][::-1]
     ax.barh(names, rel, color=colors)
     for i, f in enumerate(fold):
         ax.plot(f, np.full(f.size, i), "k.", ms=4)
+        ax.plot([lower[i]], [i], "|", color="C3", ms=10)
     ax.axvline(0, color="k", lw=0.8)
-    ax.set(xlabel="held-out reduction of the position RMSE [%] (bars: pooled, dots: per fold)",
+    ax.set(xlabel="held-out reduction of the position RMSE [%] (bars: pooled, dots: per fold, red tick: 95 % lower bound)",
            title="candidates (green: beats the nominal model beyond noise)")
     ax.grid(alpha=0.3, axis="x")
     fig.tight_layout()
@@ -119,11 +120,24 @@ def _gain_figure(d: Diagnosis):
 
 
 def _fmt_est(r) -> str:
-    return ", ".join(f"{n} = {v:.4g}" if math.isfinite(v) else f"{n} = ∞" for n, v in zip(r.effect.params, r.estimate))
+    return ", ".join(f"{n} = {num(v)}" for n, v in zip(r.effect.params, r.estimate))
 
 
 def _fmt_int(r) -> str:
-    return ", ".join(f"[{a:.4g}, {b:.4g}]" if math.isfinite(a) and math.isfinite(b) else "–" for a, b in r.interval)
+    return ", ".join(f"[{num(a)}, {num(b)}]" if math.isfinite(a) and math.isfinite(b) else "–" for a, b in r.interval)
+
+
+def _lower(r) -> str:
+    return f"{100 * r.gain.lower:.1f}" if r.gain is not None else "–"
+
+
+def _candidate_rows(results) -> list[list]:
+    return [[r.effect.name, _fmt_est(r), _fmt_int(r), float(r.before), float(r.after), float(100 * r.relative), _lower(r),
+             "yes" if r.passed else "no"] for r in results]
+
+
+CANDIDATE_HEADER = ["effect", "estimate", "95 % interval", "before [m]", "after [m]", "gain [%]", "95 % lower bound [%]",
+                    "finding"]
 
 
 def build_report(d: Diagnosis) -> Report:
@@ -133,13 +147,28 @@ def build_report(d: Diagnosis) -> Report:
                        "the prediction error the extended model removes on data it was not fitted to.")
     best = d.findings[0] if d.findings else None
     v = rep.section("Verdict")
+    where = "on the test log" if d.test_log else "on held-out data"
     if best is None:
-        v.verdict(f"cause: none. No candidate beats the nominal model beyond noise on held-out data (baseline "
+        v.verdict(f"cause: none. No candidate beats the nominal model beyond noise {where} (baseline "
                   f"{d.horizon_s:g} s position RMSE {d.before:.3g} m).")
     else:
-        v.verdict(f"cause: {best.effect.name} ({best.effect.meaning}). {d.evidence(best)}")
+        tied = [r for r in d.findings if r is not best and best.effect.name in r.tied_with]
+        head = f"cause: {best.effect.name} ({best.effect.meaning})"
+        if tied:
+            head += " -- or, indistinguishable on this log, " + " or ".join(r.effect.name for r in tied)
+        v.verdict(f"{head}. {d.evidence(best)}")
         for r in d.findings[1:]:
-            v.paragraph(f"also beats the baseline: {r.effect.name}: {d.evidence(r)}")
+            if r in tied:
+                v.paragraph(f"tied with the cause: {r.effect.name}: {d.evidence(r)}")
+            else:
+                v.verdict(f"also: {r.effect.name} ({r.effect.meaning}). {d.evidence(r)}")
+        if len(d.chosen) > 1:
+            v.paragraph("estimates of the effects found together are refitted each with the others in the model: "
+                        + "; ".join(f"{r.effect.name}: {_fmt_est(r)} {_fmt_int(r)}" for r in d.chosen)
+                        + f". Held-out {d.horizon_s:g} s position RMSE with all of them: {d.final_after:.3g} m "
+                        f"(nominal {d.before:.3g} m).")
+    for w in d.warnings():
+        v.verdict(w, warn=True)
     for note in d.notes:
         v.verdict(note, warn=True)
 
@@ -174,8 +203,6 @@ def build_report(d: Diagnosis) -> Report:
         for name, m in (("left turns", icr["wz"] > 0), ("right turns", icr["wz"] < 0)):
             if m.sum() >= 3:
                 rows.append([name, int(m.sum())] + [float(np.median(icr[k][m])) for k in ("y_l", "y_r", "x_c")])
-        from mjtrack.diagnose.effects import Surrogate
-
         qn = Surrogate(d.robot, d.baseline).q_nominal
         rows.append(["nominal model", "–", float(qn[0]), float(qn[1]), float(qn[2])])
         sy.table(["ICRs (2.13), median", "windows", "y_l [m]", "y_r [m]", "x_c [m]"], rows,
@@ -183,29 +210,24 @@ def build_report(d: Diagnosis) -> Report:
                          f"({'measured' if d.data.meas is not None else 'commanded'} track speeds)")
         sy.figure(_icr_figure(d, icr), "measured ICRs of the turning windows against the nominal model's")
 
-    c = rep.section("Candidates (held-out cross-validation)")
+    c = rep.section("Candidates" + (" (fitted on the log, scored on the test log)" if d.test_log else
+                                      " (held-out cross-validation)"))
     c.paragraph("Each effect of the vocabulary extends the model; its parameters are fitted on all folds but one and "
-                "scored on the fold left out, for every fold. Intervals: delete-one-fold jackknife over the fold fits "
-                "(95 %). A finding must pass a paired t-test over folds and remove at least the gain floor.")
-    c.table(["effect", "estimate", "95 % interval", "before [m]", "after [m]", "gain [%]", "paired t", "finding"],
-            [[r.effect.name, _fmt_est(r), _fmt_int(r), r.before, r.after, 100 * r.relative,
-              r.t_stat if math.isfinite(r.t_stat) else str(r.t_stat), "yes" if r.passed else "no"] for r in d.results])
+                "scored on the fold left out, for every fold (with a test log: fitted on the log, scored on the test "
+                "log). A finding must remove at least the gain floor, and the one-sided 95 % lower bound of its gain "
+                "(blocked bootstrap over blocks of windows) must be above zero. Intervals: 95 %, the larger of the "
+                "block-robust sandwich and the delete-one-fold jackknife.")
+    c.table(CANDIDATE_HEADER, _candidate_rows(d.results))
     c.figure(_gain_figure(d), "held-out gain of every candidate")
     c.table(["effect", "decision"], [[r.effect.name, r.why] for r in d.results])
 
-    if best is not None and d.secondary:
-        sec = rep.section(f"On top of the cause: other effects with {best.effect.name} in the baseline")
-        sec.paragraph(f"A robot may have more than one defect and a large {best.effect.kind} effect can hide the others. "
-                      f"Here {best.effect.name} is fixed at its estimate and made part of the baseline, and the effects "
-                      f"of the other kind are fitted and scored again on held-out folds (baseline now "
-                      f"{d.secondary[0].before:.3g} m).")
-        sec.table(["effect", "estimate", "95 % interval", "before [m]", "after [m]", "gain [%]", "paired t", "finding"],
-                  [[r.effect.name, _fmt_est(r), _fmt_int(r), r.before, r.after, 100 * r.relative,
-                    r.t_stat if math.isfinite(r.t_stat) else str(r.t_stat), "yes" if r.passed else "no"]
-                   for r in d.secondary])
-        for r in d.secondary:
-            if r.passed:
-                sec.verdict(f"also: {r.effect.name} ({r.effect.meaning}). {d.evidence(r)}")
+    for step in d.steps[1:]:
+        sec = rep.section(f"Forward selection: on top of {' + '.join(step.base)}")
+        sec.paragraph(f"A robot may have more than one defect. Here {' + '.join(step.base)} is fixed at its estimate and "
+                      f"made part of the baseline, and every remaining effect is fitted and scored again (baseline now "
+                      f"{step.before:.3g} m).")
+        sec.table(CANDIDATE_HEADER, _candidate_rows(step.results))
+        sec.table(["effect", "decision"], [[r.effect.name, r.why] for r in step.results])
 
     if d.skipped:
         n = rep.section("Not identifiable on this log")
@@ -227,6 +249,6 @@ def build_report(d: Diagnosis) -> Report:
         est = dict(zip(best.effect.params, best.estimate))
         robot, rest = extended_robot(d.robot, best.effect.name, est)
         why = conf["why"] if conf is not None else "not requested (mjtrack diagnose --confirm)"
-        nx.paragraph(f"Not run: {why}. Extended description for a re-simulation: {robot.to_dict()}"
-                     + (f"; other changes: {rest}" if rest else "") + ".")
+        nx.paragraph(f"Not run: {why}. Extended description for a re-simulation: {describe(robot.to_dict())}"
+                     + (f"; other changes: {describe(rest)}" if rest else "") + ".")
     return rep

@@ -1,60 +1,74 @@
-"""Cross-validated ranking of the candidates, with the "none" decision.
+"""Cross-validated scoring of the candidates, forward selection, ties, and the "none" decision.
 
 Folds. The log is cut into K contiguous blocks (whole segments when there are at least 2K of
 them, else equal blocks of samples; windows never cross a block). For every candidate and fold
 k the parameters are fitted on the other K-1 folds and the candidate predicts the windows of
-fold k. The baseline is the nominal model, which is not fitted.
+fold k, so every window is scored by a fit that never saw it. The baseline (the nominal model,
+plus the effects already found) is not refitted.
 
-Gain. Per fold, g_k = RMSE_baseline,k - RMSE_candidate,k of the position error at the horizon;
-the reported gain pools all held-out windows (each predicted by a fit that never saw it):
-before = RMSE_baseline, after = RMSE_candidate, relative = 1 - after/before.
+Beyond noise. A candidate is a finding when the blocked bootstrap over windows
+(:func:`mjtrack.diagnose.stats.gain_test`) puts the one-sided 95 % lower bound of its held-out
+relative gain above zero and the point gain is at least ``min_gain`` (a floor that keeps a
+surrogate's own approximation error from being read as a cause on long logs). Held-out scoring
+is itself the complexity penalty. With measured track speeds an input effect must, in addition,
+reduce the held-out track-speed error by the same test over the same blocks (the speeds say
+whether the actuators are the cause); an input effect the speeds contradict is refuted even
+when it helps the pose error.
 
-Beyond noise. A candidate is a finding when (a) the paired one-sided t-test over folds,
-mean(g)/(sd(g)/sqrt(K)), exceeds the 95 % Student quantile with K-1 degrees of freedom, and (b)
-the pooled relative gain is at least ``min_gain`` (a floor that keeps a surrogate's own
-approximation error from being read as a cause on very long logs). Held-out scoring is itself
-the complexity penalty: a parameter fitted to noise does not help on new data. With measured
-track speeds an input effect must, in addition, reduce the held-out track-speed error by the
-same test (the speeds say whether the actuators are the cause).
+Forward selection (:func:`forward_select`). Step 1 scores every effect against the baseline;
+the best finding is added to the baseline at its estimate, and step 2 scores every remaining
+effect (either kind) on top of it, and so on until no candidate passes (at most
+``max_effects``). With two or more effects found, each is then refitted and scored with the
+others fixed at their estimates (two rounds), which removes the bias a missed second effect
+gives the first; its reported gain is then its own on top of all the others. An effect that no
+longer passes on top of the others is dropped (backward elimination; e.g. a speed scale found
+first as a stand-in for a speed limit found later) and the rest refitted.
 
-Ties. Two findings whose paired per-fold RMSE differences are within noise (|t| below the same
-quantile), or whose pooled held-out RMSEs differ by less than the gain floor (min_gain x the
-baseline RMSE: a difference too small to be a finding cannot separate two findings either; two
-near-identical models give consistent, hence "significant", tiny fold differences) cannot be
-told apart: both are listed, each one's evidence says so, and among tied
-findings the one with fewer parameters goes first (one-standard-error rule); otherwise findings
-are ordered by pooled held-out gain.
+Ties. Two findings of one step are tied when the blocked bootstrap interval of their difference
+(as a share of the baseline RMSE) contains zero or the difference is below the gain floor; and,
+whatever the gains, when the physics says the log cannot separate them
+(:func:`physical_tie`: cg_offset_y and friction_asymmetry both set the traction ratio of the
+two tracks under Coulomb friction). Among tied findings the one with fewer parameters goes first
+(one-standard-error rule), then the larger gain.
 
-Intervals: delete-one-fold jackknife over the K cross-validation fits,
-se^2 = (K-1)/K sum (theta_k - mean theta)^2, interval = full-data estimate +- t_{0.975,K-1} se
-(angles differenced on the circle).
+Intervals: 95 %, estimate +- t x se with se the larger of the block-robust sandwich
+(:func:`mjtrack.diagnose.stats.sandwich`, a linearised block bootstrap over windows whose
+residuals carry the surrogate's own error) and the delete-one-fold jackknife of the fold fits,
+with, in quadrature, the surrogate's own error on the effect's size (:data:`MODEL_REL`, measured
+on an independent physics: MuJoCo), which no resampling of one log can show: a systematic error
+is the same in every block.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 
 from mjtrack.diagnose import fit as fitmod
+from mjtrack.diagnose import stats as st
 from mjtrack.diagnose.effects import Effect
 from mjtrack.progress import Progress
 
 log = logging.getLogger(__name__)
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(eq=False)
 class CandidateResult:
-    """Cross-validation result of one candidate.
+    """Cross-validation result of one candidate (in one forward-selection step).
 
-    estimate: (P,) full-data fit; fold_estimates: (K, P); interval: (P, 2) jackknife interval;
+    estimate: (P,) full-data fit; fold_estimates: (K, P); interval: (P, 2) 95 % interval;
     fold_before, fold_after: (K,) held-out RMSE of baseline and candidate [m]; before, after:
-    pooled held-out RMSE [m]; t_stat: paired t of the fold gains; speed_before/after: held-out
-    track-speed RMSE [m/s] (input effects with measured speeds), else None; passed: beats the
-    baseline beyond noise; why: one line on the decision; tied_with: names of findings it cannot
-    be told apart from; held_out_errors: (M, 3) window errors, each from the fit that did not see it.
+    pooled held-out RMSE [m]; t_stat: paired t of the fold gains (reported, not the decision);
+    gain: the blocked bootstrap test of the held-out gain (the decision); speed_before/after:
+    held-out track-speed RMSE [m/s] (input effects with measured speeds), else None; speed_gain:
+    its test; passed: beats the baseline beyond noise; why: one line on the decision; tied_with:
+    names of findings it cannot be told apart from; tie_notes: the physics of a tie, what would
+    separate it; held_out_errors: (M, 3) window errors, each from the fit that did not see it;
+    on_top_of: names of the effects already in the baseline of this step.
     """
 
     effect: Effect
@@ -72,7 +86,13 @@ class CandidateResult:
     passed: bool
     why: str
     held_out_errors: np.ndarray
+    gain: st.GainTest | None = None
+    speed_gain: st.GainTest | None = None
     tied_with: list[str] = field(default_factory=list)
+    tie_notes: list[str] = field(default_factory=list)
+    on_top_of: tuple[str, ...] = ()
+    se: np.ndarray | None = None
+    speed_errors: np.ndarray | None = None
 
     @property
     def relative(self) -> float:
@@ -92,80 +112,330 @@ def paired_t(a: np.ndarray, b: np.ndarray) -> float:
     return m / (sd / np.sqrt(d.size))
 
 
-def _jackknife(full: np.ndarray, folds: np.ndarray, angular: np.ndarray, t_q: float) -> np.ndarray:
+def _jackknife_se(folds: np.ndarray, angular: np.ndarray) -> np.ndarray:
     k = folds.shape[0]
     dev = folds - folds.mean(0)
     if angular.any():
         mean_ang = np.angle(np.exp(1j * folds[:, angular]).mean(0))
         dev[:, angular] = np.angle(np.exp(1j * (folds[:, angular] - mean_ang)))
-    se = np.sqrt((k - 1) / k * np.sum(dev**2, 0))
-    return np.stack([full - t_q * se, full + t_q * se], -1)
+    return np.sqrt((k - 1) / k * np.sum(dev**2, 0))
+
+
+# The surrogate's own error on an effect's size, 1 sigma, as a share of the size |theta - nominal|:
+# the RMS relative error of the 16 estimates of last round's MuJoCo matrix (an independent physics,
+# experiments/results/diagnose_mujoco_effects.json; python experiments/diagnose_benchmark.py prints it).
+MODEL_REL = 0.065
+
+
+def model_se(eff: Effect, theta: np.ndarray, problem: fitmod.Problem) -> np.ndarray:
+    """Standard error (P,) of the surrogate's own approximation (:data:`MODEL_REL` of the effect's
+    size); zero for an input effect fitted to measured track speeds (an exact transform)."""
+    if fitmod.uses_speeds(problem, eff):
+        return np.zeros(len(eff.params))
+    robot, data = problem.surrogate.robot, problem.data
+    nominal = np.array(eff.nominal(robot), float)
+    if eff.name == "speed_limit":
+        nominal = np.array([np.max(np.abs(data.cmd))])
+    elif eff.name == "yaw_rate_limit":
+        nominal = np.array([np.max(np.abs(data.cmd[:, 1] - data.cmd[:, 0])) / robot.track_gauge])
+    size = np.abs(np.asarray(theta, float) - nominal)
+    if eff.name == "slope":
+        size = np.array([abs(float(theta[0])), 1.0])  # the direction: MODEL_REL rad
+    return MODEL_REL * np.where(np.isfinite(size), size, 0.0)
+
+
+def interval(full: np.ndarray, fold_estimates: np.ndarray, cov: np.ndarray, angular: np.ndarray,
+             n_blocks: int, se_model: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """95 % interval (P, 2) and its standard error (P,): the larger of the block-robust sandwich
+    and the delete-one-fold jackknife, and the surrogate's own error in quadrature (module docstring)."""
+    se_j = _jackknife_se(fold_estimates, angular)
+    se_s = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    se = np.where(np.isfinite(se_s), np.maximum(se_s, se_j), se_j)
+    if se_model is not None:
+        se = np.sqrt(se**2 + se_model**2)
+    q = st.t_quantile(n_blocks)
+    return np.stack([full - q * se, full + q * se], -1), se
+
+
+def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float, base_err: np.ndarray,
+          speed_base: np.ndarray | None = None, bar=None) -> CandidateResult:
+    """Fit ``eff`` on every K-1 folds, score it on the fold left out, test the gain (module docstring)."""
+    folds = np.arange(n_folds)
+    score_folds = folds if problem.score_folds is None else np.array(problem.score_folds)
+    allw = np.arange(problem.starts.size)
+    scored = problem.scored
+    wblock = problem.window_block[scored]
+    ests, after_err = [], np.full_like(base_err, np.nan)
+    speed_res = None
+    speeds = speed_base is not None and eff.kind == "input"
+    if speeds:
+        speed_res = np.full(problem.data.n, np.nan)
+    train = folds if problem.score_folds is None else folds[~np.isin(folds, score_folds)]
+    full, cov = fitmod.fit(problem, eff, train, covariance=True)
+    if bar is not None:
+        bar.update()
+    for k in score_folds:
+        # each fold fit starts from the full-data estimate (the start grid is searched once)
+        p = full if problem.score_folds is not None else fitmod.fit(problem, eff, folds[folds != k], start=full)
+        ests.append(p)
+        w = allw[problem.fold == k]
+        after_err[w] = fitmod.errors(problem, eff, p, w)
+        if speeds:
+            sm = (problem.sample_fold == k) & problem.speed_ok
+            r = fitmod.speed_residuals(problem, eff, p, sm).reshape(-1, 2)
+            speed_res[sm] = np.sum(r**2, 1)
+        if bar is not None:
+            bar.update()
+    ests = np.array(ests)
+    angular = np.array([n == "slope_direction" for n in eff.params])
+    fold_before = np.array([fitmod.pos_rmse(base_err[problem.fold == k]) for k in score_folds])
+    fold_after = np.array([fitmod.pos_rmse(after_err[problem.fold == k]) for k in score_folds])
+    base_err, after_err = base_err[scored], after_err[scored]
+    sq_b = np.sum(base_err[:, :2] ** 2, 1)
+    sq_a = np.sum(after_err[:, :2] ** 2, 1)
+    before, after = fitmod.pos_rmse(base_err), fitmod.pos_rmse(after_err)
+    gt = st.gain_test(sq_b, sq_a, wblock)
+    ivl, se = interval(full, ests, cov, angular, gt.blocks, model_se(eff, full, problem))
+    passed = gt.lower > 0.0 and gt.relative >= min_gain
+    why = (f"held-out position RMSE {before:.3g} -> {after:.3g} m ({100 * gt.relative:.1f} %, one-sided 95 % bound "
+           f"{100 * gt.lower:.1f} % by blocked bootstrap over {gt.blocks} blocks of windows; gain floor "
+           f"{100 * min_gain:.0f} %)")
+    sb = sa = stt = sg = None
+    if speeds:
+        ok = problem.speed_ok & np.isfinite(speed_res)
+        sblock = problem.sample_block if problem.sample_block is not None else problem.sample_fold
+        sg = st.gain_test(speed_base[ok], speed_res[ok], sblock[ok])
+        sb = float(np.sqrt(np.mean(speed_base[ok]) / 2))
+        sa = float(np.sqrt(np.mean(speed_res[ok]) / 2))
+        why += f"; held-out track-speed RMSE {sb:.3g} -> {sa:.3g} m/s ({100 * sg.relative:.1f} %, bound {100 * sg.lower:.1f} %)"
+        if not (sg.lower > 0.0 and sg.relative >= min_gain):
+            passed = False
+            why += ": refuted, the measured track speeds do not show this effect"
+        contra = _contradiction(problem, eff, full)
+        if contra:
+            passed = False
+            why += "; refuted: " + contra
+    return CandidateResult(eff, full, ests, ivl, fold_before, fold_after, before, after,
+                           paired_t(fold_before, fold_after), sb, sa, stt, passed, why, after_err, gain=gt,
+                           speed_gain=sg, on_top_of=tuple(e.name for e, _ in problem.base), se=se,
+                           speed_errors=speed_res)
+
+
+def _contradiction(problem: fitmod.Problem, eff: Effect, theta) -> str | None:
+    """A limit the measured speeds exceed: most samples commanded beyond it measure beyond it
+    by more than 5 % (a saturation cannot be exceeded), or None."""
+    if eff.name not in ("speed_limit", "yaw_rate_limit") or not np.isfinite(theta[0]):
+        return None
+    ok = problem.speed_ok
+    cmd, meas = problem.data.cmd[ok], problem.data.meas[ok]
+    if eff.name == "speed_limit":
+        over = np.abs(cmd) > theta[0]
+        beyond = over & (np.abs(meas) > 1.05 * theta[0])
+        unit = "m/s"
+    else:
+        T = problem.surrogate.robot.track_gauge
+        over = np.abs(cmd[:, 1] - cmd[:, 0]) / T > theta[0]
+        beyond = over & (np.abs(meas[:, 1] - meas[:, 0]) / T > 1.05 * theta[0])
+        unit = "rad/s"
+    if over.sum() >= 10 and beyond.sum() > 0.5 * over.sum():
+        return (f"{100 * beyond.sum() / over.sum():.0f} % of the samples commanded beyond {theta[0]:.3g} {unit} "
+                f"measure more than 5 % beyond it")
+    return None
+
+
+# -- physics of ties -------------------------------------------------------------------------
+TRACTION_PAIR = ("cg_offset_y", "friction_asymmetry")
+
+
+def traction_ratio(robot, name: str, value: float) -> float:
+    """mu_L N_L / (mu_R N_R), the traction ratio of the two tracks (lever rule for the loads),
+    set by cg_offset_y = value or friction_asymmetry = value, the other at its nominal."""
+    half = robot.track_gauge / 2
+    cy = value if name == "cg_offset_y" else robot.cg_y
+    a = value if name == "friction_asymmetry" else robot.friction_left / robot.friction_right
+    return a * (half + cy) / (half - cy)
+
+
+def equivalent(robot, name: str, value: float) -> float:
+    """The value of the other effect of :data:`TRACTION_PAIR` that sets the same traction ratio."""
+    rho = traction_ratio(robot, name, value)
+    half = robot.track_gauge / 2
+    if name == "cg_offset_y":  # -> friction_asymmetry, the nominal cg_y kept
+        return rho * (half - robot.cg_y) / (half + robot.cg_y)
+    r = rho / (robot.friction_left / robot.friction_right)  # -> cg_offset_y, the nominal asymmetry kept
+    return half * (r - 1.0) / (r + 1.0)
+
+
+def physical_tie(robot, a: CandidateResult, b: CandidateResult) -> str | None:
+    """Why two findings cannot be separated by physics, or None (module docstring)."""
+    if {a.effect.name, b.effect.name} != set(TRACTION_PAIR):
+        return None
+    cy, fa = (a, b) if a.effect.name == "cg_offset_y" else (b, a)
+    rho_c = traction_ratio(robot, "cg_offset_y", float(cy.estimate[0]))
+    rho_f = traction_ratio(robot, "friction_asymmetry", float(fa.estimate[0]))
+    if (rho_c - 1.0) * (rho_f - 1.0) <= 0:  # they disagree on which track grips more
+        return None
+    return (f"under Coulomb friction cg_offset_y and friction_asymmetry both set the traction ratio "
+            f"mu_L N_L / (mu_R N_R) of the two tracks: cg_offset_y = {cy.estimate[0]:.4g} m gives {rho_c:.3g}, "
+            f"as friction_asymmetry = {equivalent(robot, 'cg_offset_y', float(cy.estimate[0])):.4g} would; "
+            f"friction_asymmetry = {fa.estimate[0]:.4g} gives {rho_f:.3g}, as cg_offset_y = "
+            f"{equivalent(robot, 'friction_asymmetry', float(fa.estimate[0])):.4g} m would. A drive log cannot separate "
+            f"them; weighing the left and right tracks (or wheels) can: a lateral centre of mass moves the load "
+            f"(left share {0.5 + float(cy.estimate[0]) / robot.track_gauge:.3f} here), a friction asymmetry does not")
+
+
+def _rank(found: list[CandidateResult], robot, problem, base_err, min_gain: float) -> list[CandidateResult]:
+    """Order the findings of one step and mark ties (module docstring)."""
+    found = sorted(found, key=lambda r: r.after)
+    if not found:
+        return found
+    sblock = problem.sample_block if problem.sample_block is not None else problem.sample_fold
+    if len(found) > 1 and speed_order(found[0], found[1], sblock, min_gain) == 1:
+        sq0 = np.sum(base_err[problem.scored][:, :2] ** 2, 1)
+        d, lo, hi = st.difference_test(sq0, np.sum(found[0].held_out_errors[:, :2] ** 2, 1),
+                                       np.sum(found[1].held_out_errors[:, :2] ** 2, 1), problem.window_block[problem.scored])
+        if not (lo > 0.0 and d >= min_gain):  # tied on the pose: the measured speeds rank them
+            found[0], found[1] = found[1], found[0]
+    top = found[0]
+    sq0 = np.sum(base_err[problem.scored][:, :2] ** 2, 1)
+    sq_top = np.sum(top.held_out_errors[:, :2] ** 2, 1)
+    for r in found[1:]:
+        why = physical_tie(robot, top, r)
+        if why is not None:
+            top.tie_notes.append(why)
+            r.tie_notes.append(why)
+        else:
+            d, lo, hi = st.difference_test(sq0, sq_top, np.sum(r.held_out_errors[:, :2] ** 2, 1),
+                                               problem.window_block[problem.scored])
+            if not (lo > 0.0 and d >= min_gain):
+                why = "held-out gains equal within noise"
+        if why is not None and not r.tie_notes and speed_order(top, r, sblock, min_gain) == -1:
+            why = None  # tied on the pose, but the measured track speeds tell them apart
+            top.tie_notes.append(f"ties with {r.effect.name} on the pose error, but the measured track speeds "
+                                 f"favour {top.effect.name} ({top.speed_after:.3g} vs {r.speed_after:.3g} m/s)")
+        if why is not None:
+            r.tied_with.append(top.effect.name)
+            top.tied_with.append(r.effect.name)
+    tied = [r for r in found if r is top or top.effect.name in r.tied_with]
+    tied.sort(key=lambda r: (len(r.effect.params), r.after))
+    found.remove(tied[0])
+    found.insert(0, tied[0])
+    return found
+
+
+def speed_order(a: CandidateResult, b: CandidateResult, block: np.ndarray, min_gain: float) -> int:
+    """-1 when a's held-out track-speed errors are smaller than b's beyond noise (blocked bootstrap
+    interval of the difference excludes zero and it exceeds the floor), 1 when b's are, 0 when
+    the speeds cannot tell (or are missing)."""
+    if a.speed_errors is None or b.speed_errors is None:
+        return 0
+    ok = np.isfinite(a.speed_errors) & np.isfinite(b.speed_errors)
+    if ok.sum() < 10:
+        return 0
+    d, lo, hi = st.difference_test(b.speed_errors[ok], a.speed_errors[ok], b.speed_errors[ok], block[ok])
+    if lo > 0 and d >= min_gain:
+        return -1
+    if hi < 0 and -d >= min_gain:
+        return 1
+    return 0
+
+
+@dataclass
+class Step:
+    """One forward-selection step: the effects already in the baseline (names), its held-out RMSE
+    [m] and every candidate's result, findings first (the first is the one added)."""
+
+    base: tuple[str, ...]
+    before: float
+    results: list[CandidateResult]
+
+    @property
+    def chosen(self) -> CandidateResult | None:
+        return self.results[0] if self.results and self.results[0].passed else None
+
+
+def _speed_base(problem: fitmod.Problem) -> np.ndarray | None:
+    """(N,) squared track-speed errors of the problem's baseline (NaN where not measured), or None."""
+    if problem.speed_ok is None or not problem.speed_ok.any():
+        return None
+    v = problem.surrogate.inputs_of(problem.data, list(problem.base), instant=True)
+    return np.where(problem.speed_ok, np.sum((v - problem.data.meas) ** 2, 1), np.nan)
 
 
 def evaluate(problem: fitmod.Problem, effects: list[Effect], *, n_folds: int, min_gain: float,
              quiet: bool = True) -> tuple[dict, list[CandidateResult]]:
-    """Cross-validate every effect; returns (baseline summary, results ordered as findings first)."""
-    folds = np.arange(n_folds)
+    """Score every effect against the problem's baseline; returns (baseline summary, results
+    ordered as findings first, ties marked)."""
     allw = np.arange(problem.starts.size)
     base_err = fitmod.errors(problem, None, (), allw)
-    fold_before = np.array([fitmod.pos_rmse(base_err[problem.fold == k]) for k in folds])
-    before = fitmod.pos_rmse(base_err)
-    t_q = float(stats.t.ppf(0.95, n_folds - 1))
-    t_q2 = float(stats.t.ppf(0.975, n_folds - 1))
-    speeds = problem.speed_ok is not None and problem.speed_ok.any()
-    if speeds:
-        cmd_err = problem.surrogate.inputs(problem.data, None, (), instant=True) - problem.data.meas
-        speed_fold_before = np.array([np.sqrt(np.mean(cmd_err[(problem.sample_fold == k) & problem.speed_ok] ** 2))
-                                      for k in folds])
+    speed_base = _speed_base(problem)
     results = []
     with Progress(total=len(effects) * (n_folds + 1), label="candidates", quiet=quiet) as bar:
         for eff in effects:
-            ests, after_err, fold_after, speed_after = [], np.empty_like(base_err), [], []
-            for k in folds:
-                p = fitmod.fit(problem, eff, folds[folds != k])
-                ests.append(p)
-                w = allw[problem.fold == k]
-                after_err[w] = fitmod.errors(problem, eff, p, w)
-                fold_after.append(fitmod.pos_rmse(after_err[w]))
-                if speeds and eff.kind == "input":
-                    sm = (problem.sample_fold == k) & problem.speed_ok
-                    speed_after.append(np.sqrt(np.mean(fitmod.speed_residuals(problem, eff, p, sm) ** 2)))
-                bar.update()
-            full = fitmod.fit(problem, eff, folds)
-            bar.update()
-            ests = np.array(ests)
-            angular = np.array([n == "slope_direction" for n in eff.params])
-            fold_after = np.array(fold_after)
-            after = fitmod.pos_rmse(after_err)
-            t_stat = paired_t(fold_before, fold_after)
-            rel = 1.0 - after / before if before > 0 else 0.0
-            sb = sa = st = None
-            passed = t_stat > t_q and rel >= min_gain
-            why = (f"held-out position RMSE {before:.3g} -> {after:.3g} m ({100 * rel:.1f} %), paired t over "
-                   f"{n_folds} folds = {t_stat:.2f} (threshold {t_q:.2f}, gain floor {100 * min_gain:.0f} %)")
-            if speeds and eff.kind == "input":
-                sb, sa = float(np.sqrt(np.mean(speed_fold_before**2))), float(np.sqrt(np.mean(np.square(speed_after))))
-                st = paired_t(speed_fold_before, np.array(speed_after))
-                why += f"; held-out track-speed RMSE {sb:.3g} -> {sa:.3g} m/s (t = {st:.2f})"
-                if not (st > t_q and sa < 0.97 * sb):
-                    passed = False
-                    why += ": the measured track speeds do not show this effect"
-            results.append(CandidateResult(eff, full, ests, _jackknife(full, ests, angular, t_q2), fold_before,
-                                           fold_after, before, after, t_stat, sb, sa, st, passed, why, after_err))
-    found = sorted([r for r in results if r.passed], key=lambda r: r.after)
-    if found:
-        top = found[0]
-        for r in found[1:]:
-            # within noise, or a difference below the gain floor (which no finding may be made of)
-            if abs(paired_t(r.fold_after, top.fold_after)) < t_q or r.after - top.after < min_gain * before:
-                r.tied_with.append(top.effect.name)
-                top.tied_with.append(r.effect.name)
-        # one-standard-error rule: a simpler tied finding goes first
-        simpler = [r for r in found if r is top or top.effect.name in r.tied_with]
-        simpler.sort(key=lambda r: (len(r.effect.params), r.after))
-        first = simpler[0]
-        found.remove(first)
-        found.insert(0, first)
+            results.append(score(problem, eff, n_folds=n_folds, min_gain=min_gain, base_err=base_err,
+                                 speed_base=speed_base, bar=bar))
+    found = _rank([r for r in results if r.passed], problem.surrogate.robot, problem, base_err, min_gain)
     rest = sorted([r for r in results if not r.passed], key=lambda r: r.after)
-    baseline = {"before": before, "fold_before": fold_before, "errors": base_err}
-    return baseline, found + rest
+    return {"before": fitmod.pos_rmse(base_err[problem.scored]), "errors": base_err}, found + rest
+
+
+def forward_select(problem: fitmod.Problem, effects: list[Effect], *, n_folds: int, min_gain: float,
+                   max_effects: int = 3, quiet: bool = True) -> tuple[list[Step], list[CandidateResult]]:
+    """Forward selection over all effects (module docstring). Returns the steps and the final
+    findings (the chosen effects refitted each with the others fixed, in the order found, each
+    followed by the findings tied with it)."""
+    steps: list[Step] = []
+    chosen: list[CandidateResult] = []
+    remaining = list(effects)
+    current = problem
+    while remaining and len(chosen) < max_effects:
+        summary, results = evaluate(current, remaining, n_folds=n_folds, min_gain=min_gain, quiet=quiet)
+        steps.append(Step(tuple(e.name for e, _ in current.base), summary["before"], results))
+        best = steps[-1].chosen
+        if best is None:
+            break
+        chosen.append(best)
+        drop = {best.effect.name} | {r.effect.name for r in results if r.tie_notes and best.effect.name in r.tied_with}
+        remaining = [e for e in remaining if e.name not in drop]
+        current = dataclasses.replace(current, base=current.base + ((best.effect, best.estimate),))
+    while len(chosen) > 1:  # refits, each with the others fixed; drop one that no longer passes
+        inputs = [c for c in chosen if fitmod.uses_speeds(problem, c.effect)]
+        if len(inputs) > 1:  # coupled input effects: fitted jointly to the measured speeds first
+            thetas = fitmod.fit_inputs_jointly(problem, [(c.effect, c.estimate) for c in inputs], np.arange(n_folds))
+            for c, th in zip(inputs, thetas):
+                c.estimate = th
+        for _ in range(2):  # two rounds of refits (Gauss-Seidel), the second scores the final estimates
+            rescored = []
+            for i, r in enumerate(chosen):
+                others = tuple((c.effect, c.estimate) for j, c in enumerate(chosen) if j != i)
+                p = dataclasses.replace(problem, base=others)
+                base_err = fitmod.errors(p, None, (), np.arange(p.starts.size))
+                new = score(p, r.effect, n_folds=n_folds, min_gain=min_gain, base_err=base_err,
+                            speed_base=_speed_base(p))
+                new.tied_with, new.tie_notes = r.tied_with, r.tie_notes
+                chosen[i] = new
+                rescored.append(new)
+        weak = [i for i, n in enumerate(rescored) if not n.passed]
+        if not weak:
+            break
+        drop = min(weak, key=lambda i: rescored[i].relative)
+        log.debug("forward selection: %s no longer passes on top of the others (%s): dropped",
+                  chosen[drop].effect.name, rescored[drop].why)
+        chosen.pop(drop)
+    return steps, chosen
+
+
+def all_findings(steps: list[Step], chosen: list[CandidateResult]) -> list[CandidateResult]:
+    """The effects found (``chosen``, in the order found), each followed by the findings of its
+    step tied with it."""
+    out = []
+    for c in chosen:
+        out.append(c)
+        step = next((s for s in steps if s.chosen is not None and s.chosen.effect.name == c.effect.name), None)
+        if step is not None:
+            out.extend(r for r in step.results[1:] if r.passed and c.effect.name in r.tied_with)
+    return out
+
+
+__all__ = ["CandidateResult", "Step", "paired_t", "score", "evaluate", "forward_select", "all_findings",
+           "physical_tie", "traction_ratio", "equivalent", "interval"]

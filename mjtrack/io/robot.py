@@ -32,6 +32,77 @@ PLAUSIBLE_ROBOT: dict[str, tuple[float, float, str]] = {
     # a track with friction 1e-12 is how the diagnosis isolates the other track's effect
 }
 
+# Ground models (key ``ground`` of a description): name -> {parameter: (default, low, high)}.
+# What each one is and how the MuJoCo robot realises it: mjtrack/sim/ground.py, assets/README.md.
+GROUND_MODELS: dict[str, dict[str, tuple[float, float, float]]] = {
+    # rigid track, isotropic Coulomb friction, load spread along the track (Wong's linear law)
+    "coulomb": {},
+    # the load concentrated under `wheels` road wheels spread over `span` of the contact length;
+    # `concentration` is the share of the weight they carry (the rest stays spread along the track)
+    "road_wheels": {"wheels": (4.0, 1.0, 20.0), "concentration": (0.8, 0.0, 0.95), "span": (1.0, 0.05, 1.0)},
+    # friction anisotropic in the track's frame: lateral / longitudinal coefficient (mu is longitudinal)
+    "anisotropic": {"lateral_ratio": (0.5, 0.05, 1.0)},
+}
+
+
+@dataclass(frozen=True)
+class Ground:
+    """The ground model and its parameters (robot key ``ground``, e.g.
+    ``{"model": "anisotropic", "lateral_ratio": 0.6}``); unset parameters take their defaults.
+
+    Attributes:
+        model: one of :data:`GROUND_MODELS`.
+        params: (name, value) pairs, sorted, every parameter of the model (hashable).
+    """
+
+    model: str = "coulomb"
+    params: tuple[tuple[str, float], ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.model not in GROUND_MODELS:
+            raise InputError(f"robot: 'ground' model must be one of {sorted(GROUND_MODELS)}, got {self.model!r}")
+        spec = GROUND_MODELS[self.model]
+        given = dict(self.params)
+        for name in given:
+            if name not in spec:
+                raise InputError(f"robot: ground model {self.model!r} has no parameter {name!r} "
+                                 f"(parameters: {sorted(spec) or 'none'})")
+        full = []
+        for name, (default, lo, hi) in sorted(spec.items()):
+            value = given.get(name, default)
+            if not _is_finite_number(value) or not lo <= value <= hi:
+                raise InputError(f"robot: ground parameter {name!r} must be a number in [{lo}, {hi}], got {value!r}")
+            if name == "wheels" and value != int(value):
+                raise InputError(f"robot: ground parameter 'wheels' must be a whole number, got {value!r}")
+            full.append((name, float(value)))
+        object.__setattr__(self, "params", tuple(full))
+
+    def __getitem__(self, name: str) -> float:
+        return dict(self.params)[name]
+
+    @property
+    def is_default(self) -> bool:
+        """True for the rigid-track isotropic Coulomb ground."""
+        return self.model == "coulomb"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"model": self.model, **dict(self.params)}
+
+    @classmethod
+    def from_value(cls, value: Any, *, source: str = "robot description") -> "Ground":
+        """From a description's ``ground`` value: a model name or ``{"model": NAME, PARAM: value}``."""
+        if isinstance(value, Ground):
+            return value
+        if isinstance(value, str):
+            value = {"model": value}
+        if not isinstance(value, dict):
+            raise InputError(f"{source}: key 'ground' must be an object like {{\"model\": \"coulomb\"}}, got {value!r}")
+        params = {k: v for k, v in value.items() if k != "model"}
+        try:
+            return cls(model=value.get("model", "coulomb"), params=tuple(params.items()))
+        except InputError as exc:
+            raise InputError(f"{source}: {str(exc).removeprefix('robot: ')}") from None
+
 
 @dataclass(frozen=True)
 class Robot:
@@ -50,6 +121,8 @@ class Robot:
         cg_z: height of the centre of mass above the ground [m].
         mu: ground friction coefficient (both tracks unless mu_left/mu_right are set) [-].
         mu_left, mu_right: per-track friction coefficients; ``None`` means ``mu`` [-].
+        ground: the ground model and its parameters (:class:`Ground`; default rigid-track
+            isotropic Coulomb). A dict or a model name is accepted and converted.
         drive_lag: first-order time constant from track command to track speed [s]; 0: the
             track speeds follow the commands as fast as the drive's force limit allows.
         drive_delay: dead time from track command to track speed [s] (applied exactly to the
@@ -77,6 +150,7 @@ class Robot:
     mu: float = 0.8
     mu_left: float | None = None
     mu_right: float | None = None
+    ground: Ground = field(default_factory=Ground)
     drive_lag: float = 0.0
     drive_delay: float = 0.0
     drive_force_limit: float | None = None
@@ -85,6 +159,8 @@ class Robot:
     provided: frozenset[str] | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
+        if not isinstance(self.ground, Ground):
+            object.__setattr__(self, "ground", Ground.from_value(self.ground, source="robot"))
         for name in ("track_gauge", "track_length", "track_width", "sprocket_radius", "mass", "mu"):
             value = getattr(self, name)
             if not _is_finite_number(value) or value <= 0:
@@ -151,6 +227,7 @@ class Robot:
     # -- serialisation --------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in ("extra", "provided")}
+        d["ground"] = self.ground.to_dict()
         return {**self.extra, **d}
 
     @classmethod
@@ -163,6 +240,9 @@ class Robot:
         known = {k: v for k, v in data.items() if k in names}
         extra = {k: v for k, v in data.items() if k not in names}
         for k, v in known.items():
+            if k == "ground":
+                known[k] = Ground.from_value(v, source=source)
+                continue
             if v is None and k in NULLABLE:
                 continue
             if not _is_finite_number(v):

@@ -63,8 +63,9 @@ import numpy as np
 from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
 from mjtrack.sim.config import SimConfig
+from mjtrack.sim.ground import apply_ground, require_supported
 from mjtrack.sim.drivetrain import drive_of
-from mjtrack.sim.scene import (CHASSIS_HEIGHT, SIDES, add_ground, add_idlers, apply_solver_options, needs_idlers,
+from mjtrack.sim.scene import (CHASSIS_HEIGHT, add_ground, add_idlers, apply_solver_options, needs_idlers,
                                suspension_range, track_contacts)
 from mjtrack.sim.surfacevel import build_surfacevel_model
 from mjtrack.sim.terrain import Terrain
@@ -276,6 +277,7 @@ def build_model(robot: Robot, config: SimConfig | None = None, terrain: Terrain 
     """Compiled robot + terrain (default flat), the model every rollout uses."""
     config = config or SimConfig()
     if config.track_model == "surfacevel":
+        require_supported(robot, config)
         return build_surfacevel_model(robot, config, terrain=terrain)
     spec = add_scene(build_spec(robot, config, idlers=needs_idlers(terrain)), robot, config, terrain)
-    return spec.compile()
+    return apply_ground(spec, robot, config).compile()

@@ -196,9 +196,10 @@ class SimConfig:
         return d
 
 
-# The roller chain's defaults before the speed study (experiments/bench_sim.py --compare):
-# Newton main solver, 20 noslip iterations, one drive for every robot mass. Kept so that the benchmark can time old and
-# new settings in one run (ratios survive a loaded machine better than absolute numbers).
+# The roller chain's defaults before the speed study (experiments/bench_sim.py --compare,
+# experiments/fidelity.py --wide --previous-defaults): Newton main solver, one drive for every
+# robot mass. Kept so that old and new settings are timed and checked in the same run (ratios
+# survive a loaded machine better than absolute numbers).
 PREVIOUS_ROLLER_DEFAULTS = dict(solver="Newton", noslip_iterations=20, drive_reference_mass=None)
 
 

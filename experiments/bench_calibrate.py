@@ -1,0 +1,58 @@
+"""Wall time of a calibration on the whole shared Marmotte log (target: < 10 min on 2 cores).
+
+    nice -n 10 python experiments/bench_calibrate.py [--rollers N] [--max-iter N]
+
+All 432 windows of ../shared/data/marmotte/marmotte_boreal.csv; the starting robot and the fitted
+parameters of ``experiments/marmotte_calibration.py`` (coulomb ground: mu, cg_x, cg_y, drive lag,
+delay, speed scale, contact length); 6 rollers per track, 2 rollout threads, 5 optimiser iterations
+(the --quick Marmotte fit reached the same held-out error after 4: 0.086 vs 0.088 m after 9). Prints the wall
+time, the windows simulated per second and the machine's load average before and after (the
+machine is shared: the load says how much of its 2 cores the run had).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from marmotte_calibration import DATA, GROUNDS, starting_robot  # noqa: E402
+
+from mjtrack.calibrate.run import calibrate  # noqa: E402
+from mjtrack.io import read_log_with_robot  # noqa: E402
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--rollers", type=int, default=6)
+    ap.add_argument("--max-iter", type=int, default=5)
+    args = ap.parse_args()
+    if not DATA.exists():
+        print(f"{DATA} not found (the shared Marmotte data); nothing to do")
+        return 0
+    log, base = read_log_with_robot(DATA)
+    ground, names = GROUNDS["coulomb"]
+    robot = starting_robot(base, ground)
+    load0 = os.getloadavg()
+    t0 = time.perf_counter()
+    cal = calibrate(log, robot, names=names, n_rollers=args.rollers, max_iter=args.max_iter,
+                    quiet=not sys.stderr.isatty(), train_path=DATA.name)
+    wall = time.perf_counter() - t0
+    load1 = os.getloadavg()
+    sims = cal.fit.evaluations * len(cal.train_windows)
+    print(f"whole log: {len(cal.train_windows)} windows, {len(names)} parameters, {cal.fit.iterations} iterations, "
+          f"{cal.fit.evaluations} parameter sets")
+    print(f"calibration wall time {wall:.1f} s ({wall / 60:.2f} min; target < 10 min); fit {cal.timings['fit']:.1f} s, "
+          f"{sims / cal.fit.sim_seconds:.1f} windows of 2 s simulated per second")
+    print(f"2 s position RMSE {cal.before.rms:.4f} -> {cal.after.rms:.4f} m")
+    print(f"load average before {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}, after {load1[0]:.2f} {load1[1]:.2f} "
+          f"{load1[2]:.2f} (2 cores; shared machine)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

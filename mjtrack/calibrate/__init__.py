@@ -1,0 +1,1 @@
+"""Calibration of the MuJoCo robot to a measured log (``mjtrack calibrate``)."""

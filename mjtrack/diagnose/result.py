@@ -1,0 +1,231 @@
+"""The result of a diagnosis (:class:`Diagnosis`, whose ``to_json()`` is diagnosis.json) and the
+robot description a finding asks for (:func:`extended_robot`).
+
+Below :mod:`.run`, :mod:`.confirm` and :mod:`.report`, which all use it: none of them imports
+another to reach it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mjtrack.diagnose import residuals as rs
+from mjtrack.diagnose.select import CandidateResult, Step, all_findings
+from mjtrack.io.robot import Robot
+
+UNEXPLAINED = 0.5  # a warning when the final model keeps more than this share of the baseline RMSE
+
+
+@dataclass
+class Diagnosis:
+    """The result of :func:`mjtrack.diagnose.run.diagnose`; ``to_json()`` is diagnosis.json."""
+
+    log_path: str
+    samples: int
+    duration_s: float
+    robot: Robot
+    baseline: str
+    horizon_s: float
+    before: float
+    steps: list[Step]
+    chosen: list[CandidateResult]
+    skipped: dict[str, str]
+    notes: list[str]
+    data: rs.DriveData
+    starts: np.ndarray
+    ends: np.ndarray
+    base_errors: np.ndarray
+    n_folds: int
+    noise_floor: float = 0.0
+    timings: dict[str, float] = field(default_factory=dict)
+    confirmation: dict | None = None
+    transient: bool = False
+    test_log: str | None = None
+    baseline_choice: str = ""
+
+    @property
+    def results(self) -> list[CandidateResult]:
+        """Every candidate of the first step (against the nominal baseline)."""
+        return self.steps[0].results if self.steps else []
+
+    @property
+    def findings(self) -> list[CandidateResult]:
+        return all_findings(self.steps, self.chosen)
+
+    @property
+    def cause(self) -> str:
+        f = self.findings
+        return f[0].effect.name if f else "none"
+
+    @property
+    def final_after(self) -> float:
+        """Held-out RMSE [m] of the model with every effect found (the baseline's when none)."""
+        return float(min(r.after for r in self.chosen)) if self.chosen else float(self.before)
+
+    @property
+    def unexplained(self) -> float:
+        """Share of the baseline RMSE that the model with every effect found keeps [-]."""
+        return self.final_after / self.before if self.before > 0 else 0.0
+
+    def warnings(self) -> list[str]:
+        """Verdict warnings: unexplained error beyond the pose noise."""
+        out = []
+        if self.unexplained > UNEXPLAINED and self.final_after > 2.0 * self.noise_floor:
+            what = " with " + " + ".join(r.effect.name for r in self.chosen) if self.chosen else ""
+            out.append(f"most of the error remains unexplained: the model{what} keeps {100 * self.unexplained:.0f} % "
+                       f"of the nominal {self.horizon_s:g} s position RMSE ({self.final_after:.3g} of {self.before:.3g} m; "
+                       f"the pose noise alone accounts for about {self.noise_floor:.2g} m). Something the effect "
+                       "vocabulary does not name is at work: read the symptom tables before trusting the estimates")
+        return out
+
+    def summary(self) -> str:
+        """The lines a terminal shows: cause(s), estimates, gain, warnings."""
+        where = "test-log" if self.test_log else "held-out"
+        if not self.chosen:
+            lines = [f"cause: none; nominal {self.horizon_s:g} s position RMSE {self.before:.3g} m"]
+        else:
+            lines = []
+            for i, r in enumerate(self.chosen):
+                est = ", ".join(f"{n} = {num(v)}" for n, v in zip(r.effect.params, r.estimate))
+                tied = [x.effect.name for x in self.findings if x is not r and r.effect.name in x.tied_with]
+                lines.append(f"{'cause' if i == 0 else 'also'}: {r.effect.name} ({est})"
+                             + (f" [indistinguishable here from {', '.join(tied)}]" if tied else "")
+                             + f"; {where} {self.horizon_s:g} s position RMSE {r.before:.3g} -> {r.after:.3g} m")
+        lines += [f"warning: {w}" for w in self.warnings()]
+        return "\n".join(lines)
+
+    def baseline_text(self) -> str:
+        if self.baseline == "coulomb":
+            return ("nominal robot, rigid-track Coulomb steady-state surrogate (quasi-static ICRs + first-order "
+                    "inertial response" + (" + friction-limited transients" if self.transient else "")
+                    + "), driven by the commanded track speeds")
+        return "nominal kinematic model (2.1), driven by the commanded track speeds"
+
+    def evidence(self, r: CandidateResult) -> str:
+        e = r.effect
+        est = ", ".join(f"{n} = {num(v)} [{num(a)}, {num(b)}]" for n, v, (a, b) in zip(e.params, r.estimate, r.interval))
+        on_top = f" on top of {' + '.join(r.on_top_of)}" if r.on_top_of else ""
+        where = "on the test log" if self.test_log else "on held-out folds"
+        g = r.gain
+        text = (f"{est} removes{on_top} {100 * r.relative:.0f} % of the {self.horizon_s:g} s position error {where} "
+                f"({r.before:.3g} -> {r.after:.3g} m"
+                + (f"; one-sided 95 % bound {100 * g.lower:.0f} % by blocked bootstrap over {g.blocks} blocks" if g else "")
+                + f"); its signature: {e.signature}")
+        if r.speed_after is not None:
+            text += f"; measured track speeds agree (speed RMSE {r.speed_before:.3g} -> {r.speed_after:.3g} m/s)"
+        for note in r.tie_notes:
+            text += "; " + note
+        other = [n for n in r.tied_with if not any(n in note for note in r.tie_notes)]
+        if other:
+            text += (f"; cannot be told apart from {', '.join(other)} on this log "
+                     "(held-out gains equal within noise)")
+        return text + "."
+
+    def _finding_json(self, r: CandidateResult) -> dict:
+        out = {
+            "effect": r.effect.name,
+            "estimate": {n: clean(v) for n, v in zip(r.effect.params, r.estimate)},
+            "interval": {n: [clean(a), clean(b)] for n, (a, b) in zip(r.effect.params, r.interval)},
+            "gain": {"metric": "pos_err_m", "before": float(r.before), "after": float(r.after),
+                     "relative": float(r.relative), "held_out": True},
+            "evidence": self.evidence(r),
+        }
+        if r.on_top_of:
+            out["on_top_of"] = list(r.on_top_of)
+        if r.tied_with:
+            out["tied_with"] = list(r.tied_with)
+        return out
+
+    def _candidate_json(self, r: CandidateResult) -> dict:
+        return {
+            "effect": r.effect.name, "kind": r.effect.kind, "finding": bool(r.passed),
+            "estimate": {n: clean(v) for n, v in zip(r.effect.params, r.estimate)},
+            "interval": {n: [clean(a), clean(b)] for n, (a, b) in zip(r.effect.params, r.interval)},
+            "before": float(r.before), "after": float(r.after), "relative": float(r.relative),
+            "gain_lower_95": clean(r.gain.lower) if r.gain else None, "t_folds": clean(r.t_stat),
+            "decision": r.why,
+        }
+
+    def to_json(self) -> dict:
+        out = {
+            "log": self.log_path, "samples": self.samples, "duration_s": self.duration_s,
+            "baseline": {"model": self.baseline_text(), "metric": "pos_err_m", "horizon_s": self.horizon_s,
+                         "value": float(self.before)},
+            "cause": self.cause,
+            "findings": [self._finding_json(r) for r in self.findings],
+            "candidates": [self._candidate_json(r) for r in self.results],
+            "steps": [{"on_top_of": list(s.base), "baseline_value": float(s.before),
+                       "added": s.chosen.effect.name if s.chosen else None,
+                       "candidates": [self._candidate_json(r) for r in s.results]} for s in self.steps],
+            "unexplained": {"final_value": self.final_after, "share_of_baseline": self.unexplained,
+                            "pose_noise_floor": self.noise_floor},
+            "warnings": self.warnings(),
+            "not_tested": dict(self.skipped),
+            "notes": list(self.notes),
+            "method": {
+                "gain": f"RMS position error after {self.horizon_s:g} s of open-loop prediction from every measured pose, "
+                        + ("fitted on the log and scored on the test log" if self.test_log else
+                           f"pooled over {self.n_folds} contiguous cross-validation folds (fit on the others)"),
+                "selection": "forward selection over all effects: each step adds the best finding to the baseline and "
+                             "tests every remaining effect on top of it, until none passes",
+                "finding": "one-sided 95 % lower bound of the held-out relative gain above zero (blocked bootstrap over "
+                           "blocks of windows) and a gain of at least the floor",
+                "interval": "95 %, estimate +- t se, se the larger of the block-robust sandwich (a linearised blocked "
+                            "bootstrap over windows; the residuals carry the surrogate's own error) and the "
+                            "delete-one-fold jackknife",
+            },
+            "validation": {"stage": "surrogate (held-out)" if not self.test_log else "surrogate (test log)",
+                           "mujoco": self.confirmation if self.confirmation is not None else
+                           {"stage": "mujoco", "run": False, "why": "not requested (mjtrack diagnose --confirm)"}},
+            "timings_s": {k: round(v, 3) for k, v in self.timings.items()},
+        }
+        if self.test_log:
+            out["test_log"] = self.test_log
+        if self.baseline_choice:
+            out["baseline"]["choice"] = self.baseline_choice
+        return out
+
+
+def clean(v) -> float | None:
+    """A finite float, or None (JSON null) for inf/nan."""
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def num(v) -> str:
+    """A number for text: 4 significant digits, ∞ for infinities (never a Python repr)."""
+    v = float(v)
+    return f"{v:.4g}" if math.isfinite(v) else ("∞" if v > 0 else "-∞" if v < 0 else "nan")
+
+
+def describe(values: dict) -> str:
+    """``key = value, ...`` with numbers through :func:`num` (never a Python repr)."""
+    parts = []
+    for k, v in values.items():
+        if isinstance(v, (bool, np.bool_)) or v is None or isinstance(v, str):
+            parts.append(f"{k} = {v}")
+        elif isinstance(v, (int, float, np.integer, np.floating)):
+            parts.append(f"{k} = {num(v)}")
+        else:
+            parts.append(f"{k} = {v}")
+    return ", ".join(parts)
+
+
+def extended_robot(robot: Robot, effect: str, estimate: dict[str, float]) -> tuple[Robot, dict]:
+    """The robot description a finding asks for, and the remaining non-robot changes (input
+    transform or scene) as a dict of plain floats."""
+    e = {k: float(v) for k, v in estimate.items()}
+    if effect == "cg_offset_x":
+        return robot.replace(cg_x=e["cg_offset_x"]), {}
+    if effect == "cg_offset_y":
+        return robot.replace(cg_y=e["cg_offset_y"]), {}
+    if effect == "friction_scale":
+        s = e["friction_scale"]
+        return robot.replace(mu=robot.mu * s, mu_left=None if robot.mu_left is None else robot.mu_left * s,
+                             mu_right=None if robot.mu_right is None else robot.mu_right * s), {}
+    if effect == "friction_asymmetry":
+        return robot.replace(mu_left=robot.friction_right * e["friction_asymmetry"], mu_right=robot.friction_right), {}
+    return robot, e

@@ -1,0 +1,140 @@
+"""Statistics of diagnosis on per-window error arrays: blocks, the gain test, ties, intervals.
+
+Everything here takes plain arrays (per-window squared position errors, block ids, fit
+residuals and Jacobians), so any baseline (the surrogate, MuJoCo) can reuse it.
+
+Blocks. Prediction windows start at every sample and overlap, so neighbouring windows are
+strongly correlated; the unit of resampling is a *block* of consecutive samples long enough
+for that correlation to die out: at least three horizons and 1 % of the log, never crossing a
+gap between segments and never splitting a segment (short segments, e.g. the 2 s windows of
+a DRIVE log, are pooled with their neighbours until the block is long enough).
+
+Gain test (:func:`gain_test`). Each window's held-out squared position error, before and after
+an effect (each window scored by the fit that did not see its fold); the relative gain
+1 - sqrt(sum after / sum before) and its blocked bootstrap distribution over the blocks (the
+block sums are resampled, so a replicate costs one matrix product). A finding needs the
+one-sided 95 % lower bound above zero and a point gain of at least the floor. Unlike a paired
+t-test over K folds it does not depend on K (every window counts once whatever the folds) and
+it is fair to an effect that acts in part of the log: a fold in which the effect never shows
+is one fold of K for a t-test over folds, but only its share of the windows here.
+
+Intervals (:func:`sandwich`). The least-squares estimate's covariance under resampling of
+blocks, linearised (the cluster-robust "sandwich" (J'J)^-1 (sum_b g_b g_b') (J'J)^-1 with
+g_b = J_b' r_b, the gradient contribution of block b): the residuals include whatever the
+model does not explain (the surrogate's own approximation error included), so the interval
+widens with it, as a block bootstrap over windows would, without refitting per replicate.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+N_BOOT = 2000
+
+
+
+def sample_blocks(t: np.ndarray, seg: np.ndarray, horizon_s: float, *, min_fraction: float = 0.01) -> np.ndarray:
+    """Block id (N,) of every sample (module docstring): consecutive samples, at least
+    max(3 horizon, min_fraction x duration) long, segments kept whole."""
+    t = np.asarray(t, float)
+    seg = np.asarray(seg)
+    cuts = np.flatnonzero(seg[1:] != seg[:-1]) + 1
+    lo_hi = list(zip(np.r_[0, cuts], np.r_[cuts, t.size]))
+    dur = sum(float(t[hi - 1] - t[lo]) for lo, hi in lo_hi)
+    length = max(3.0 * horizon_s, min_fraction * dur)
+    out = np.empty(t.size, dtype=np.int64)
+    block, acc = 0, 0.0
+    for lo, hi in lo_hi:
+        seg_len = float(t[hi - 1] - t[lo])
+        if seg_len <= length:  # a short segment: pooled with its neighbours
+            out[lo:hi] = block
+            acc += seg_len
+            if acc >= length:
+                block, acc = block + 1, 0.0
+            continue
+        if acc > 0:
+            block, acc = block + 1, 0.0
+        k = np.floor((t[lo:hi] - t[lo]) / length).astype(np.int64)
+        n_full = int(k[-1])
+        if n_full >= 1 and (t[hi - 1] - t[lo]) - n_full * length < 0.5 * length:
+            k = np.minimum(k, n_full - 1)  # a short remainder joins the last block
+        out[lo:hi] = block + k
+        block += int(k[-1]) + 1
+    return np.unique(out, return_inverse=True)[1]
+
+
+def _boot_counts(n_blocks: int, n_boot: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    idx = rng.integers(0, n_blocks, size=(n_boot, n_blocks))
+    flat = (idx + n_blocks * np.arange(n_boot)[:, None]).ravel()
+    return np.bincount(flat, minlength=n_boot * n_blocks).reshape(n_boot, n_blocks).astype(float)
+
+
+@dataclass(frozen=True)
+class GainTest:
+    """Relative held-out gain and its blocked bootstrap: ``relative`` 1 - RMSE_after/RMSE_before,
+    ``lower``/``upper`` its one-sided 95 % bounds, ``p`` the bootstrap share of replicates with
+    no gain, ``blocks`` the number of blocks."""
+
+    relative: float
+    lower: float
+    upper: float
+    p: float
+    blocks: int
+
+
+def gain_test(before_sq: np.ndarray, after_sq: np.ndarray, block: np.ndarray, *, n_boot: int = N_BOOT,
+              seed: int = 0, level: float = 0.95) -> GainTest:
+    """Blocked bootstrap of the relative gain from per-window squared errors (M,) before and
+    after, windows grouped by ``block`` (M,) ids (module docstring)."""
+    before_sq = np.asarray(before_sq, float)
+    after_sq = np.asarray(after_sq, float)
+    ids, inv = np.unique(block, return_inverse=True)
+    sb = np.bincount(inv, weights=before_sq, minlength=ids.size)
+    sa = np.bincount(inv, weights=after_sq, minlength=ids.size)
+    rel = 1.0 - np.sqrt(sa.sum() / sb.sum()) if sb.sum() > 0 else 0.0
+    w = _boot_counts(ids.size, n_boot, seed)
+    b, a = w @ sb, w @ sa
+    reps = 1.0 - np.sqrt(a / np.where(b > 0, b, 1.0))
+    lo, hi = np.quantile(reps, [1.0 - level, level])
+    return GainTest(float(rel), float(lo), float(hi), float(np.mean(reps <= 0.0)), int(ids.size))
+
+
+def difference_test(before_sq: np.ndarray, a_sq: np.ndarray, b_sq: np.ndarray, block: np.ndarray, *,
+                    n_boot: int = N_BOOT, seed: int = 1, level: float = 0.95) -> tuple[float, float, float]:
+    """Gain of model a over model b as a share of the baseline RMSE, (RMSE_b - RMSE_a)/RMSE_before,
+    with its two-sided ``level`` blocked-bootstrap interval: (value, lower, upper)."""
+    ids, inv = np.unique(block, return_inverse=True)
+    s0, sa, sb = (np.bincount(inv, weights=np.asarray(x, float), minlength=ids.size) for x in (before_sq, a_sq, b_sq))
+    d = (np.sqrt(sb.sum()) - np.sqrt(sa.sum())) / np.sqrt(s0.sum())
+    w = _boot_counts(ids.size, n_boot, seed)
+    r0 = np.sqrt(w @ s0)
+    reps = (np.sqrt(w @ sb) - np.sqrt(w @ sa)) / np.where(r0 > 0, r0, 1.0)
+    q = (1.0 - level) / 2
+    lo, hi = np.quantile(reps, [q, 1.0 - q])
+    return float(d), float(lo), float(hi)
+
+
+def sandwich(jac: np.ndarray, resid: np.ndarray, row_block: np.ndarray) -> np.ndarray:
+    """Cluster-robust covariance (P, P) of a least-squares estimate: (J'J)^+ (sum_b g_b g_b')
+    (J'J)^+ x B/(B-1), g_b = J_b' r_b over the rows of block b (module docstring)."""
+    jac = np.asarray(jac, float)
+    resid = np.asarray(resid, float)
+    ids, inv = np.unique(row_block, return_inverse=True)
+    nb = ids.size
+    g = np.zeros((nb, jac.shape[1]))
+    np.add.at(g, inv, jac * resid[:, None])
+    bread = np.linalg.pinv(jac.T @ jac)
+    meat = g.T @ g * (nb / max(nb - 1, 1))
+    return bread @ meat @ bread
+
+
+def t_quantile(n_blocks: int, level: float = 0.975) -> float:
+    """Student quantile with n_blocks - 1 degrees of freedom (at least 1)."""
+    return float(stats.t.ppf(level, max(n_blocks - 1, 1)))
+
+
+__all__ = ["sample_blocks", "GainTest", "gain_test", "difference_test", "sandwich", "t_quantile"]

@@ -1,0 +1,109 @@
+"""Ground models beyond rigid-track isotropic Coulomb, applied to the MuJoCo robot's ``MjSpec``.
+
+The robot key ``ground`` (:class:`mjtrack.io.robot.Ground`) names the model; :func:`apply_ground`
+is the one hook the builder calls, after the robot and its scene are in the spec. It changes
+named elements only (springs ``susp_<side>_<i>``, geoms ``roller_<side>_<i>``, contact pairs
+``contact_<side>_<i>``), so the rest of the robot is the same for every ground. Derivations and
+measurements: ``assets/README.md`` ("Ground models").
+
+* ``coulomb``: nothing changes (the builder's ground).
+* ``road_wheels`` (wheels n_w, concentration c, span s): the share of the weight that roller i
+  carries at rest is w_i / N with w_i = (1 - c) + c N a_i, where a_i is the part of the n_w
+  equal wheel loads at X_j = s (-L/2 + (j + 1/2) L / n_w) that falls on roller i by linear
+  interpolation between the two rollers around X_j (a hat function on the roller grid: it keeps
+  each wheel's load and its moment about the track centre). sum w_i = N. The roller's spring
+  gets stiffness w_i k and preload w_i W / (2N) - m_r g (static deflection unchanged), so the
+  chassis still deflects as a rigid plane and roller i carries w_i k delta_i: the shape w times
+  Wong's linear distribution from the cg offset. Damping is left at the builder's value (a
+  stiffer roller would otherwise break the explicit-damper limit c dt / m_r < 1.5).
+* ``anisotropic`` (lateral_ratio rho): friction mu along the track, rho mu across it, in the
+  track's frame. MuJoCo orients the tangent frame of a sphere-plane contact by the plane
+  (world axes), but that of a capsule-plane contact by the capsule's axis (measured:
+  tests/test_ground.py). Each roller becomes a capsule of the same radius whose axis is the
+  roller's spin axis (chassis y, unchanged by its rolling) and whose half-length is
+  ``CAPSULE_HALF`` (two contact points 2 mm apart, one on each side of the track line); its
+  pair gets friction (rho mu, mu): the first tangent is the capsule axis. The elliptic cone
+  (f_lat / (rho mu))^2 + (f_long / mu)^2 <= f_n^2 with the noslip pass's hard friction gives the
+  maximum-dissipation force on that ellipse, f = -f_n M^2 u / |M u|, M = diag(mu, rho mu).
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from mjtrack.errors import InputError
+from mjtrack.io.robot import G, Robot
+from mjtrack.sim.config import SimConfig
+
+SIDES = ("left", "right")
+CAPSULE_HALF = 0.001  # [m] half-length of an anisotropic roller's capsule (across the track)
+
+
+def load_shares(robot: Robot, roller_x: np.ndarray) -> np.ndarray:
+    """w (n,): roller i (at ``roller_x[i]`` [m] along the track, evenly spaced) carries w_i / n of
+    a track's static load; all ones unless the ground is ``road_wheels`` (module docstring)."""
+    xr = np.asarray(roller_x, dtype=float)
+    n = xr.size
+    if robot.ground.model != "road_wheels":
+        return np.ones(n)
+    g = robot.ground
+    nw, c, span = int(g["wheels"]), g["concentration"], g["span"]
+    L = robot.track_length
+    wheels = span * (-L / 2 + (np.arange(nw) + 0.5) * L / nw)
+    a = np.zeros(n)
+    for X in wheels:
+        # hat-function weights of the point load at X on the roller grid (clipped at the ends)
+        f = np.clip((X - xr[0]) / (xr[1] - xr[0]), 0.0, n - 1.0)
+        i = min(int(math.floor(f)), n - 2)
+        a[i] += (i + 1 - f) / nw
+        a[i + 1] += (f - i) / nw
+    return (1.0 - c) + c * n * a
+
+
+def require_supported(robot: Robot, config: SimConfig) -> None:
+    """Refuse a ground model that the chosen track model does not realise (surfacevel: only coulomb)."""
+    if config.track_model != "rollers" and not robot.ground.is_default:
+        raise InputError(f"robot: ground model {robot.ground.model!r} is built for the roller chain only "
+                         f"(track model {config.track_model!r} has the coulomb ground)")
+
+
+def apply_ground(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> mujoco.MjSpec:
+    """Realise ``robot.ground`` in a roller-chain spec that has its scene (in place; returned)."""
+    require_supported(robot, config)
+    model = robot.ground.model
+    if model == "coulomb":
+        return spec
+    if model == "road_wheels":
+        _road_wheels(spec, robot, config)
+    elif model == "anisotropic":
+        _anisotropic(spec, robot, config)
+    return spec
+
+
+def _road_wheels(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> None:
+    n = config.n_rollers
+    w = load_shares(robot, np.array([spec.body(f"roller_left_{i}").pos[0] for i in range(n)]))
+    k = robot.weight / (2 * n * config.suspension_deflection)
+    m_r = config.roller_mass(robot.mass)
+    for side in SIDES:
+        for i in range(n):
+            joint = spec.joint(f"susp_{side}_{i}")
+            preload = w[i] * robot.weight / (2 * n) - m_r * G
+            joint.stiffness = [w[i] * k, 0.0, 0.0]
+            joint.springref = -preload / (w[i] * k)
+
+
+def _anisotropic(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> None:
+    rho = robot.ground["lateral_ratio"]
+    r = config.roller_radius
+    for side, mu in (("left", robot.friction_left), ("right", robot.friction_right)):
+        for i in range(config.n_rollers):
+            geom = spec.geom(f"roller_{side}_{i}")
+            geom.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+            geom.size = [r, CAPSULE_HALF, 0.0]
+            geom.quat = [math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0]  # capsule z-axis -> body y
+            pair = spec.pair(f"contact_{side}_{i}")
+            pair.friction = [rho * mu, mu, 0.0, 0.0, 0.0]

@@ -1,0 +1,493 @@
+"""The MuJoCo robot on many windows of a drive log, each started from the measured state.
+
+A long open-loop rollout of a real log drifts away after a few seconds, and any fit to it
+stalls (issue 10: a whole-log fit of a pushed box stopped at mu 0.665 for a truth of 0.55;
+the same fit over windows started from the measured state found the truth). So the robot is
+simulated over short windows of the log (default 2 s), each one:
+
+* **started from the measured state** at its first sample: the pose (x, y, yaw; height,
+  pitch and roll from the robot settled at rest); the body twist from the log's ``vx, vy, wz``
+  when present, else from the poses by a local quadratic least-squares fit (a smoothed finite
+  difference over ``fit_s`` seconds, centred where the segment allows, one-sided at its
+  start); the tracks already moving: every roller hinge turns at the measured track speed
+  (``v_left``, ``v_right``; the command when they are missing), and a lagged drive's
+  set-point starts there too;
+* **driven by the logged commands** (zero-order hold: a row's command is in force until the
+  next row), transformed by the drivetrain parameters that are not model fields
+  (``track_speed_scale`` multiplies them, ``drive_delay`` shifts them; before the segment's
+  first row a delayed drive still follows the speed the track had at the start);
+* **kept inside one segment** (``window`` column): a window never crosses a segment boundary;
+  a segment shorter than the horizon but at least ``min_fraction`` of it still gives one window
+  that ends at its last sample (the Marmotte log is 432 segments of 1.90-2.06 s).
+
+Parameters per world: :func:`simulate_windows` takes a list of parameter sets and runs every
+window under each of them in one batch of ``mujoco.rollout`` (threads); the parameters that
+are fields of the compiled model (friction per track, centre of mass, drive lag and force
+limit) are set on a copy of one compiled model -- no rebuild -- and each variant is settled
+at rest once for its initial height and pitch. Geometry (track length, gauge, mass) changes
+the model's structure and needs a new :class:`WindowSim` (one build per evaluation).
+
+Errors are those of :mod:`mjtrack.diagnose.residuals`: the predicted pose at the window's last
+sample against the measured one, in the frame of the measured start pose (along, across, yaw).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+import mujoco
+import numpy as np
+from mujoco import rollout as mj_rollout
+
+from mjtrack.errors import InputError
+from mjtrack.geometry import relative_pose, wrap_angle, world_to_body_velocity
+from mjtrack.io.logs import DriveLog
+from mjtrack.io.robot import Robot
+from mjtrack.sim.builder import build_model, control_matrix
+from mjtrack.sim.config import SimConfig
+from mjtrack.sim.rollout import STATE_SPEC, SensorMap, settled_state, yaw_of
+
+#: parameters that :meth:`WindowSim.variant_model` sets on a compiled model (``lateral_ratio``: the
+#: anisotropic ground's lateral / longitudinal friction, on a robot built with that ground)
+MODEL_PARAMS = ("mu", "mu_left", "mu_right", "cg_x", "cg_y", "drive_lag", "drive_force_limit", "lateral_ratio")
+#: parameters applied to the commands
+COMMAND_PARAMS = ("drive_delay", "track_speed_scale")
+#: parameters that change the model's structure: a robot rebuilt per distinct value (contact
+#: length; the road-wheel ground's load concentration and span)
+GEOMETRY_PARAMS = ("track_length", "concentration", "span")
+WINDOW_PARAMS = MODEL_PARAMS + COMMAND_PARAMS + GEOMETRY_PARAMS
+#: drivetrain keys of the robot description; None: as the model was built (no delay, no scale)
+DRIVE_DEFAULTS = {"drive_lag": None, "drive_delay": None, "drive_force_limit": None, "track_speed_scale": None}
+MIN_LAG = 1e-4  # [s] a lag this short acts as none (the filtered drive needs lag > 0)
+DIVERGED_SPEED = 20.0  # [m/s] a tracked robot's body this fast has left the physics (explicit-Euler blow-up)
+CHUNK = 48  # windows per rollout call (bounds the state output's memory)
+
+
+# -- windows ------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class WindowSet:
+    """Windows of a log: ``starts``/``ends`` (M,) row indices (first and last sample, both in the
+    window), ``segment`` (M,) the segment index of each, ``horizon_s`` the nominal horizon [s]."""
+
+    starts: np.ndarray
+    ends: np.ndarray
+    segment: np.ndarray
+    horizon_s: float
+
+    def __len__(self) -> int:
+        return int(self.starts.size)
+
+    def subset(self, index) -> "WindowSet":
+        """The windows selected by an index array or mask."""
+        return WindowSet(self.starts[index], self.ends[index], self.segment[index], self.horizon_s)
+
+
+def make_windows(log: DriveLog, horizon_s: float = 2.0, *, stride_s: float | None = None,
+                 min_fraction: float = 0.9) -> WindowSet:
+    """Windows of ``horizon_s`` inside each segment, starting every ``stride_s`` (default: the
+    horizon, non-overlapping). A window ends at the first sample at or after start + horizon; a
+    segment's last window may end earlier, at its last sample, if that is at least
+    ``min_fraction`` of the horizon after the start."""
+    if not (horizon_s > 0 and math.isfinite(horizon_s)):
+        raise InputError(f"windows: horizon must be a positive number of seconds, got {horizon_s!r}")
+    stride = horizon_s if stride_s is None else float(stride_s)
+    if not stride > 0:
+        raise InputError(f"windows: stride must be > 0 s, got {stride_s!r}")
+    starts, ends, segs = [], [], []
+    for k, sl in enumerate(log.segment_slices()):
+        t = log.t[sl]
+        t_next = t[0]
+        for i in range(t.size):
+            if t[i] < t_next - 1e-9:
+                continue
+            e = int(np.searchsorted(t, t[i] + horizon_s - 1e-9))
+            if e >= t.size:
+                if t[-1] - t[i] >= min_fraction * horizon_s - 1e-9:
+                    e = t.size - 1
+                else:
+                    break
+            starts.append(sl.start + i)
+            ends.append(sl.start + e)
+            segs.append(k)
+            t_next = t[i] + stride
+    return WindowSet(np.array(starts, int), np.array(ends, int), np.array(segs, int), float(horizon_s))
+
+
+def start_twists(log: DriveLog, ws: WindowSet, *, fit_s: float = 0.3) -> np.ndarray:
+    """Body twist (M, 3) at each window's first sample: the log's ``vx, vy, wz`` when present,
+    else the derivative at t0 of a quadratic least-squares fit to the poses within ``fit_s``
+    seconds (centred on t0 where the segment allows, one-sided at the segment's edges)."""
+    if log.has_twist and np.all(np.isfinite(log.vx[ws.starts])):
+        return np.stack([log.vx[ws.starts], log.vy[ws.starts], log.wz[ws.starts]], -1).astype(float)
+    out = np.zeros((len(ws), 3))
+    slices = log.segment_slices()
+    for j, (s, k) in enumerate(zip(ws.starts, ws.segment)):
+        sl = slices[k]
+        t = log.t[sl] - log.t[s]
+        yaw = np.unwrap(log.yaw[sl])
+        lo, hi = -fit_s / 2, fit_s / 2
+        if t[0] > lo:  # near the segment's start: one-sided
+            lo, hi = t[0], t[0] + fit_s
+        elif t[-1] < hi:
+            lo, hi = t[-1] - fit_s, t[-1]
+        m = (t >= lo - 1e-9) & (t <= hi + 1e-9)
+        if m.sum() < 3:  # too few samples for a quadratic: a straight line through two
+            m = np.zeros_like(m)
+            i0 = s - sl.start
+            m[max(0, min(i0, t.size - 2)):max(0, min(i0, t.size - 2)) + 2] = True
+        deg = 2 if m.sum() >= 3 else 1
+        d = [np.polyfit(t[m], v[m], deg)[-2] for v in (log.x[sl], log.y[sl], yaw)]
+        vx, vy = world_to_body_velocity(log.yaw[s], d[0], d[1])
+        out[j] = (vx, vy, d[2])
+    return out
+
+
+def start_speeds(log: DriveLog, ws: WindowSet) -> np.ndarray:
+    """Track speeds (M, 2) at each window's first sample: measured when present, else commanded."""
+    cmd = np.stack([log.v_left_cmd[ws.starts], log.v_right_cmd[ws.starts]], -1).astype(float)
+    if not log.has_track_speeds:
+        return cmd
+    meas = np.stack([log.v_left[ws.starts], log.v_right[ws.starts]], -1).astype(float)
+    return np.where(np.isfinite(meas), meas, cmd)
+
+
+# -- the simulator of windows ---------------------------------------------------------------------
+def drive_params(robot: Robot) -> dict[str, float | None]:
+    """The robot's drivetrain keys (attributes or description keys), None where absent."""
+    out = {}
+    for k in DRIVE_DEFAULTS:
+        v = getattr(robot, k, None)
+        if v is None:
+            v = robot.extra.get(k)
+        out[k] = None if v is None else float(v)
+    if not out["drive_lag"]:  # 0: no lag of the robot's own; the model keeps the lag it was built with
+        out["drive_lag"] = None
+    return out
+
+
+def robot_params(robot: Robot) -> dict[str, float | None]:
+    """Every window parameter's value for ``robot`` as described (the baseline variant)."""
+    g = dict(robot.ground.params)
+    return {"mu": robot.mu, "mu_left": robot.mu_left, "mu_right": robot.mu_right,
+            "cg_x": robot.cg_x, "cg_y": robot.cg_y, **drive_params(robot), "track_length": robot.track_length,
+            "lateral_ratio": g.get("lateral_ratio"), "concentration": g.get("concentration"), "span": g.get("span")}
+
+
+def geometry_robot(robot: Robot, params: Mapping[str, float | None]) -> Robot:
+    """``robot`` with the structural parameters of ``params`` (:data:`GEOMETRY_PARAMS`) applied."""
+    changes: dict = {}
+    if params.get("track_length") is not None and params["track_length"] != robot.track_length:
+        changes["track_length"] = float(params["track_length"])
+    ground = dict(robot.ground.params)
+    new = {k: float(params[k]) for k in ("concentration", "span") if params.get(k) is not None}
+    if new:
+        if robot.ground.model != "road_wheels":
+            raise InputError(f"windows: {sorted(new)} need a robot built with the road_wheels ground "
+                             "(robot key ground: {\"model\": \"road_wheels\"})")
+        if any(ground[k] != v for k, v in new.items()):
+            changes["ground"] = type(robot.ground)(robot.ground.model, tuple({**ground, **new}.items()))
+    return robot.replace(**changes) if changes else robot
+
+
+class WindowSim:
+    """One compiled robot (roller-chain track model) and what it needs to start windows.
+
+    ``lagged``: compile the drives with a first-order filter even if the robot has no lag, so
+    that variants may set one (a lag of 0 is then simulated as :data:`MIN_LAG`).
+    """
+
+    def __init__(self, robot: Robot, config: SimConfig | None = None, *, lagged: bool = True) -> None:
+        config = config or SimConfig()
+        if config.track_model != "rollers":
+            raise InputError("windows: only the 'rollers' track model can be batched through mujoco.rollout "
+                             "(the surfacevel model sets its track speeds from Python every step)")
+        lag = drive_params(robot)["drive_lag"] or 0.0
+        if lagged or lag > 0:
+            config = config.replace(lag=max(lag, MIN_LAG))
+        self.robot, self.config = robot, config
+        self.model = build_model(robot, config)
+        m = self.model
+        self.dt = float(m.opt.timestep)
+        self.smap = SensorMap.of(m)
+        self.B = control_matrix(m)
+        self.side_of_actuator = np.argmax(self.B, axis=1)
+        jroot = m.joint("root")
+        self.qadr, self.vadr = int(jroot.qposadr[0]), int(jroot.dofadr[0])
+        self.roll_dofs = [np.array([int(m.joint(f"roll_{s}_{i}").dofadr[0]) for i in range(config.n_rollers)])
+                          for s in ("left", "right")]
+        self.roller_radius = config.roller_radius
+        chassis = m.body("chassis")
+        self.chassis_id = int(chassis.id)
+        self.chassis_mass = float(chassis.mass[0])
+        self.chassis_ipos0 = np.array(chassis.ipos, float)
+        self.cg_site = int(m.site("cg").id)
+        self.pair_side = np.array([0 if m.pair(i).name.startswith("contact_left") else 1 for i in range(m.npair)])
+        self._settled: dict[tuple, np.ndarray] = {}
+        self._builds: dict[tuple, "WindowSim"] = {}
+        self._lagged = lagged
+
+    def for_params(self, params: Mapping[str, float | None]) -> "WindowSim":
+        """The simulator of the robot with the structural parameters of ``params`` (this one when
+        they are unchanged; rebuilt once per distinct geometry, the last few kept)."""
+        robot = geometry_robot(self.robot, params)
+        if robot is self.robot:
+            return self
+        key = (robot.track_length, robot.ground.params)
+        if key not in self._builds:
+            if len(self._builds) >= 24:
+                self._builds.pop(next(iter(self._builds)))
+            self._builds[key] = WindowSim(robot, self.config, lagged=self._lagged)
+        return self._builds[key]
+
+    # -- variants ---------------------------------------------------------------------------------
+    def variant_model(self, params: Mapping[str, float | None]) -> mujoco.MjModel:
+        """A copy of the compiled model with the model-field parameters of ``params`` set."""
+        m = copy.copy(self.model)
+        robot = self.robot
+        mu = params.get("mu")
+        rho = params.get("lateral_ratio")
+        if rho is not None and self.robot.ground.model != "anisotropic":
+            raise InputError("windows: 'lateral_ratio' needs a robot built with the anisotropic ground "
+                             "(robot key ground: {\"model\": \"anisotropic\"})")
+        if rho is None and self.robot.ground.model == "anisotropic":
+            rho = self.robot.ground["lateral_ratio"]
+        if rho is not None and not 0 < rho <= 1.5:
+            raise InputError(f"windows: 'lateral_ratio' must be in (0, 1.5], got {rho!r}")
+        for side, key in ((0, "mu_left"), (1, "mu_right")):
+            v = params.get(key)
+            v = v if v is not None else mu
+            if v is not None:
+                if not v > 0:
+                    raise InputError(f"windows: friction '{key}' must be > 0, got {v!r}")
+                # first tangent: across the track for the anisotropic ground's capsules
+                m.pair_friction[self.pair_side == side, 0] = v * (rho if rho is not None else 1.0)
+                m.pair_friction[self.pair_side == side, 1] = v
+        if params.get("cg_x") is not None or params.get("cg_y") is not None:
+            cg = np.array([params.get("cg_x", robot.cg_x) if params.get("cg_x") is not None else robot.cg_x,
+                           params.get("cg_y", robot.cg_y) if params.get("cg_y") is not None else robot.cg_y])
+            if abs(cg[0]) >= robot.track_length / 2 or abs(cg[1]) >= robot.track_gauge / 2:
+                raise InputError(f"windows: centre of mass {cg.tolist()} lies outside the tracks")
+            shift = robot.mass * (cg - np.array([robot.cg_x, robot.cg_y])) / self.chassis_mass
+            m.body_ipos[self.chassis_id, :2] = self.chassis_ipos0[:2] + shift
+            m.site_pos[self.cg_site, :2] = cg
+            # quantities the compiler derives from the mass distribution (constraint scaling
+            # through body_invweight0 / dof_invweight0): recomputed as a rebuild would
+            mujoco.mj_setConst(m, mujoco.MjData(m))
+        lag = params.get("drive_lag")
+        if lag is not None:
+            if lag < 0:
+                raise InputError(f"windows: drive_lag must be >= 0 s, got {lag!r}")
+            m.actuator_dynprm[:, 0] = max(float(lag), MIN_LAG)
+        flim = params.get("drive_force_limit")
+        if flim is not None:
+            if not flim > 0:
+                raise InputError(f"windows: drive_force_limit must be > 0 N, got {flim!r}")
+            per = float(flim) / len(self.roll_dofs[0])
+            m.actuator_forcerange[:] = [-per, per]
+        return m
+
+    def settled(self, model: mujoco.MjModel, key: tuple) -> np.ndarray:
+        """Rest state of a variant (cached by the values that change it: the centre of mass)."""
+        if key not in self._settled:
+            self._settled[key] = settled_state(model)
+        return self._settled[key]
+
+    def initial_states(self, model: mujoco.MjModel, rest: np.ndarray, poses: np.ndarray, twists: np.ndarray,
+                       speeds: np.ndarray) -> np.ndarray:
+        """Full physics states (M, nstate): the rest state moved to ``poses`` (M, 3), moving with
+        body ``twists`` (M, 3), tracks turning at ``speeds`` (M, 2) and drives set to them."""
+        data = mujoco.MjData(model)
+        mujoco.mj_setState(model, data, rest, STATE_SPEC)
+        q_rest = data.qpos[self.qadr + 3:self.qadr + 7].copy()
+        qpos0, act0 = data.qpos.copy(), data.act.copy()
+        out = np.empty((poses.shape[0], rest.size))
+        r = self.roller_radius
+        for j in range(poses.shape[0]):
+            x, y, yaw = poses[j]
+            data.qpos[:] = qpos0
+            data.qvel[:] = 0.0
+            data.qpos[self.qadr:self.qadr + 2] = (x, y)
+            qy = np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
+            quat = np.empty(4)
+            mujoco.mju_mulQuat(quat, qy, q_rest)
+            data.qpos[self.qadr + 3:self.qadr + 7] = quat
+            vx, vy, wz = twists[j]
+            c, s = math.cos(yaw), math.sin(yaw)
+            data.qvel[self.vadr:self.vadr + 3] = (c * vx - s * vy, s * vx + c * vy, 0.0)  # world frame
+            data.qvel[self.vadr + 3:self.vadr + 6] = (0.0, 0.0, wz)  # body frame (yaw-rate about body z)
+            for side in (0, 1):
+                data.qvel[self.roll_dofs[side]] = speeds[j, side] / r
+            if data.act.size:
+                data.act[:] = speeds[j, self.side_of_actuator] if act0.size == self.side_of_actuator.size else act0
+            data.time = 0.0
+            mujoco.mj_getState(model, data, out[j], STATE_SPEC)
+        return out
+
+
+@dataclass(frozen=True)
+class WindowResult:
+    """Rollouts of M windows under P parameter sets.
+
+    ``poses``: (P, M, K, 3) predicted poses (x, y, yaw unwrapped) at the log's sample times of
+    each window (K = longest window's samples; NaN beyond a window's end); ``errors``: (P, M, 3)
+    along, across [m] and yaw [rad] error at each window's last sample in the frame of its
+    measured start pose; ``speeds``: (P, M, K, 2) simulated track speeds at the same times;
+    ``diverged``: (P, M) windows whose simulation blew up (body speed above
+    :data:`DIVERGED_SPEED`; their poses are kept, their errors are meaningless).
+    """
+
+    poses: np.ndarray
+    errors: np.ndarray
+    speeds: np.ndarray
+    diverged: np.ndarray
+
+    @property
+    def any_diverged(self) -> bool:
+        return bool(self.diverged.any())
+
+    def pos_err(self) -> np.ndarray:
+        """(P, M) horizon position errors [m]."""
+        return np.hypot(self.errors[..., 0], self.errors[..., 1])
+
+    def rms(self) -> np.ndarray:
+        """(P,) RMS horizon position error over the windows [m] (CONTRACTS' pos_err_m)."""
+        return np.sqrt(np.mean(self.pos_err() ** 2, axis=1))
+
+
+def window_commands(log: DriveLog, ws: WindowSet, dt: float, nstep: int, *, delay: float, scale: float,
+                    before: np.ndarray) -> np.ndarray:
+    """Per-step track-speed commands (M, nstep, 2) of each window: the log's commands (zero-order
+    hold), delayed by ``delay`` [s] and scaled; before the segment's first row the delayed drive
+    follows ``before`` (M, 2) (the track speeds at the window's start).
+
+    Each step gets the mean of the delayed command over the step (exact integral of the held
+    commands), so the result is continuous in ``delay`` -- a finite-difference derivative with
+    respect to the delay is then not zero between step multiples -- and equals plain holding when
+    the log's rows and the delay fall on the step grid.
+    """
+    slices = log.segment_slices()
+    out = np.empty((len(ws), nstep, 2))
+    edges = np.arange(nstep + 1) * dt - delay  # step k covers [edges[k], edges[k+1]) in log time
+    for j, (s, k) in enumerate(zip(ws.starts, ws.segment)):
+        sl = slices[k]
+        t = np.asarray(log.t[sl], float) - log.t[s]
+        cmd = np.stack([log.v_left_cmd[sl], log.v_right_cmd[sl]], -1).astype(float)
+        # integral of the held command from t[0]: F(t_i) at the rows, linear in between
+        F_rows = np.concatenate([np.zeros((1, 2)), np.cumsum(cmd[:-1] * np.diff(t)[:, None], axis=0)])
+        i = np.clip(np.searchsorted(t, edges, side="right") - 1, 0, t.size - 1)
+        F = F_rows[i] + cmd[i] * (edges - t[i])[:, None]
+        pre = edges < t[0]
+        F[pre] = before[j][None] * (edges[pre] - t[0])[:, None]  # before the segment: ``before`` held
+        out[j] = np.diff(F, axis=0) / dt
+    return out * scale
+
+
+def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
+                     variants: Sequence[Mapping[str, float | None]] | None = None, *,
+                     nthread: int = 1, twists: np.ndarray | None = None, progress=None) -> WindowResult:
+    """Roll out every window of ``ws`` under every parameter set of ``variants`` (default: the
+    robot as described); see the module docstring for the initial state and the commands.
+
+    Args:
+        sim: the compiled robot (:class:`WindowSim`).
+        log, ws: the log and its windows (:func:`make_windows`).
+        variants: P dicts of window parameters (:data:`WINDOW_PARAMS`); missing keys keep the
+            robot's values. Unknown names raise InputError.
+        nthread: threads for ``mujoco.rollout`` (results do not depend on it).
+        twists: (M, 3) start twists (default :func:`start_twists`).
+        progress: optional callable(done, total) called after each rollout chunk.
+    """
+    if len(ws) == 0:
+        raise InputError(f"{log.source or 'drive log'}: no window of {ws.horizon_s:g} s fits in any segment")
+    base = robot_params(sim.robot)
+    variants = [dict(base)] if variants is None else [{**base, **{k: v for k, v in p.items()}} for p in variants]
+    for p in variants:
+        unknown = set(p) - set(WINDOW_PARAMS)
+        if unknown:
+            raise InputError(f"windows: unknown parameter(s) {sorted(unknown)}; known: {', '.join(WINDOW_PARAMS)}")
+    poses0 = np.stack([log.x[ws.starts], log.y[ws.starts], log.yaw[ws.starts]], -1).astype(float)
+    twists = start_twists(log, ws) if twists is None else np.asarray(twists, float)
+    speeds0 = start_speeds(log, ws)
+    rel_t = log.t[ws.ends] - log.t[ws.starts]
+    nstep = int(math.ceil(float(rel_t.max()) / sim.dt - 1e-6)) + 1
+    K = int((ws.ends - ws.starts).max()) + 1
+    # sample index of each log time in the rollout output (state after step k is at (k+1) dt)
+    P, M = len(variants), len(ws)
+    poses = np.full((P, M, K, 3), np.nan)
+    speeds = np.full((P, M, K, 2), np.nan)
+    diverged = np.zeros((P, M), bool)
+    idx = np.full((M, K), -2, int)  # -2: beyond the window's end
+    for j in range(M):
+        tj = log.t[ws.starts[j]:ws.ends[j] + 1] - log.t[ws.starts[j]]
+        idx[j, :tj.size] = np.clip(np.round(tj / sim.dt).astype(int) - 1, -1, nstep - 1)
+    datas = [mujoco.MjData(sim.model) for _ in range(max(1, nthread))]
+    total, done = P * M, 0
+    for p, params in enumerate(variants):
+        vsim = sim.for_params(params)
+        model = vsim.variant_model(params)
+        key = (params.get("cg_x"), params.get("cg_y"))
+        rest = vsim.settled(model, key)
+        state0 = vsim.initial_states(model, rest, poses0, twists, speeds0)
+        scale = 1.0 if params.get("track_speed_scale") is None else float(params["track_speed_scale"])
+        delay = float(params.get("drive_delay") or 0.0)
+        if delay < 0 or not scale > 0:
+            raise InputError(f"windows: drive_delay must be >= 0 and track_speed_scale > 0, got {delay!r}, {scale!r}")
+        cmds = window_commands(log, ws, sim.dt, nstep, delay=delay, scale=scale, before=speeds0)
+        control = cmds @ sim.B.T
+        for lo in range(0, M, CHUNK):
+            hi = min(M, lo + CHUNK)
+            _, sens = mj_rollout.rollout([model] * (hi - lo), datas if nthread > 1 else datas[0],
+                                         state0[lo:hi], np.ascontiguousarray(control[lo:hi]))
+            bad = ~np.all(np.isfinite(sens), axis=(1, 2))
+            lin = sens[:, :, sim.smap.linvel]
+            bad |= np.nanmax(np.abs(np.nan_to_num(lin, nan=np.inf)), axis=(1, 2)) > DIVERGED_SPEED
+            diverged[p, lo:hi] = bad
+            for j in range(lo, hi):
+                ii = idx[j][idx[j] >= -1]
+                n = ii.size
+                s = sens[j - lo]
+                pos = s[:, sim.smap.pos]
+                yaw = yaw_of(s[:, sim.smap.quat])
+                ts = s[:, list(sim.smap.track_speed)]
+                body = np.concatenate([[poses0[j]], np.column_stack([pos[:, :2], yaw])])
+                body[:, 2] = np.unwrap(body[:, 2])
+                poses[p, j, :n] = body[ii + 1]
+                speeds[p, j, :n] = np.concatenate([[speeds0[j]], ts])[ii + 1]
+            done += hi - lo
+            if progress is not None:
+                progress(done, total)
+    errors = window_errors(log, ws, poses)
+    return WindowResult(poses=poses, errors=errors, speeds=speeds, diverged=diverged)
+
+
+def window_errors(log: DriveLog, ws: WindowSet, poses: np.ndarray) -> np.ndarray:
+    """(P, M, 3) errors at each window's last sample in its measured start frame (along, across,
+    yaw) for predicted poses (P, M, K, 3) as :func:`simulate_windows` returns them."""
+    n = ws.ends - ws.starts
+    M = len(ws)
+    pred = poses[:, np.arange(M), n]  # (P, M, 3)
+    start = np.stack([log.x[ws.starts], log.y[ws.starts], log.yaw[ws.starts]], -1).astype(float)
+    yaw_meas = np.array([log.yaw[ws.starts[j]] + np.sum(wrap_angle(np.diff(log.yaw[ws.starts[j]:ws.ends[j] + 1])))
+                         for j in range(M)])
+    end = np.stack([log.x[ws.ends], log.y[ws.ends], yaw_meas], -1).astype(float)
+    err = relative_pose(start[None], pred) - relative_pose(start, end)[None]
+    err[..., 2] = pred[..., 2] - end[:, 2][None]
+    return err
+
+
+def measured_window_poses(log: DriveLog, ws: WindowSet) -> np.ndarray:
+    """(M, K, 3) measured poses of each window (yaw unwrapped, NaN beyond its end)."""
+    K = int((ws.ends - ws.starts).max()) + 1
+    out = np.full((len(ws), K, 3), np.nan)
+    for j in range(len(ws)):
+        sl = slice(ws.starts[j], ws.ends[j] + 1)
+        out[j, :sl.stop - sl.start] = np.column_stack([log.x[sl], log.y[sl], np.unwrap(log.yaw[sl])])
+    return out
+
+
+__all__ = ["COMMAND_PARAMS", "GEOMETRY_PARAMS", "MODEL_PARAMS", "WINDOW_PARAMS", "geometry_robot", "WindowResult", "WindowSet", "WindowSim",
+           "drive_params", "make_windows", "measured_window_poses", "robot_params", "simulate_windows",
+           "start_speeds", "start_twists", "window_commands", "window_errors"]

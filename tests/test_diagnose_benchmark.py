@@ -1,0 +1,36 @@
+"""The fast subset of experiments/diagnose_benchmark.py (the short logs: a slope on the large
+robot, a near-noise command delay, a clean 30 s log at 50 Hz), run by the default test run; the
+whole benchmark (41 logs) is ``python experiments/diagnose_benchmark.py`` and ``-m slow`` here."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
+import diagnose_benchmark as bench  # noqa: E402
+
+
+def _check(row):
+    assert row["right"], row
+    assert not row["extra"], row
+    for p in row["params"]:
+        assert p["covered"], p
+        assert abs(p["rel_err"]) < 0.25, p
+
+
+@pytest.mark.parametrize("case", bench.FAST)
+def test_fast_subset(case):
+    _check(bench.run_case(bench.cases()[case]))
+
+
+@pytest.mark.slow
+def test_whole_benchmark_meets_the_targets():
+    rows = [bench.run_case(c) for c in bench.cases()]
+    s = bench.summarise(rows)
+    assert s["named_right"] >= 0.95 * s["with_effect"]
+    assert s["clean_none"] == s["clean"]
+    assert s["covered"] >= 0.9 * s["params"]
+    assert s["median_abs_bias"] < 0.05

@@ -1,0 +1,120 @@
+"""diagnose --baseline mujoco: the MuJoCo robot diagnosed on MuJoCo logs with one hidden effect.
+
+The logs come from tests/mujoco_effects.py (no code shared with mjtrack.diagnose; its anisotropic
+ground is its own implementation, not mjtrack.sim.ground). Default: the hidden ground extension
+among three candidates on a 40 s log (~30 s on a loaded 2-core machine); slow: every hidden
+effect against every candidate (experiments/diagnose_mujoco_baseline.py prints the same table).
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from mujoco_effects import HIDDEN, ROBOT, make_log
+from mjtrack.diagnose.mujoco_baseline import can_build, diagnose_mujoco, write_mujoco_outputs
+from mjtrack.errors import InputError
+from mjtrack.io.robot import Robot
+
+NOMINAL = Robot.from_dict({**ROBOT.to_dict(), "drive_force_limit": 600.0 / ROBOT.sprocket_radius})
+
+
+def test_hidden_ground_extension_is_found_and_estimated(tmp_path):
+    lg, _ = make_log("ground_anisotropy", seed=1, duration=40.0)
+    test_log, _ = make_log("ground_anisotropy", seed=2, duration=20.0)
+    d = diagnose_mujoco(lg, NOMINAL, effects=["ground_anisotropy", "track_speed_scale", "cg_offset_x"],
+                        n_folds=4, test=test_log)
+    assert d.cause == "ground_anisotropy"
+    f = d.findings[0]
+    (lo, hi), = f.interval
+    assert lo <= HIDDEN["ground_anisotropy"].params["lateral_ratio"] <= hi
+    assert f.estimate[0] == pytest.approx(0.5, abs=0.08)
+    assert f.relative > 0.4 and f.test["relative"] > 0.4  # cross-validated and on the second log
+    write_mujoco_outputs(d, tmp_path)
+    data = json.loads((tmp_path / "diagnosis.json").read_text())
+    assert set(data) >= {"log", "samples", "duration_s", "baseline", "cause", "findings"}
+    assert data["baseline"]["metric"] == "pos_err_m" and data["baseline"]["horizon_s"] == 2.0
+    assert "MuJoCo" in data["baseline"]["model"]
+    fj = data["findings"][0]
+    assert fj["effect"] == "ground_anisotropy" and fj["gain"]["held_out"] is True
+    assert set(fj["estimate"]) == set(fj["interval"]) == {"lateral_ratio"}
+    assert data["test_log"] == test_log.source
+    assert fj["gain"]["after"] < fj["gain"]["before"]
+    assert "<table>" in (tmp_path / "report.html").read_text()
+
+
+def test_can_build_needs_the_contact_length():
+    ok, why = can_build(Robot.from_dict({"track_gauge": 0.59}))
+    assert not ok and "track_length" in why
+    assert can_build(Robot.from_dict({"track_gauge": 0.59, "track_length": 0.6}))[0]
+    assert can_build(Robot())[0]
+
+
+def test_too_few_windows_is_refused():
+    lg, _ = make_log(None, seed=0, duration=6.0)
+    with pytest.raises(InputError, match="windows of 2 s"):
+        diagnose_mujoco(lg, NOMINAL, effects=["cg_offset_x"])
+    with pytest.raises(InputError, match="unknown effect"):
+        diagnose_mujoco(lg, NOMINAL, effects=["teleport"])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("effect", sorted(HIDDEN))
+def test_every_hidden_effect_is_named_and_estimated(effect):
+    lg, _ = make_log(effect, seed=1, duration=60.0)
+    d = diagnose_mujoco(lg, NOMINAL, n_folds=4)
+    found = {c.effect.name: c for c in d.findings}
+    assert effect in found, f"cause {d.cause}, findings {list(found)}"
+    assert d.cause == effect or d.cause in found[effect].tied_with
+    truth = HIDDEN[effect].params
+    c = found[effect]
+    key = "lateral_ratio" if effect == "ground_anisotropy" else c.effect.params[0]
+    lo, hi = c.interval[0]
+    # the interval is statistical only; allow the grid's parabola 10 % of the truth beyond it
+    assert lo - 0.1 * abs(truth[key]) <= truth[key] <= hi + 0.1 * abs(truth[key])
+
+
+def _write(tmp_path, robot_dict, *, effect="cg_offset_x", duration=30.0):
+    from mjtrack.io.logs import write_log
+
+    lg, _ = make_log(effect, seed=3, duration=duration)
+    path = tmp_path / "run.csv"
+    write_log(lg, path)
+    (tmp_path / "run.json").write_text(json.dumps(robot_dict))
+    return path
+
+
+def test_cli_auto_falls_back_and_says_why(tmp_path):
+    from cli_helpers import run_cli
+
+    path = _write(tmp_path, {"track_gauge": ROBOT.track_gauge})  # no contact length
+    out = tmp_path / "d"
+    res = run_cli(["diagnose", path, "--out", out, "--quiet"])
+    assert res.rc == 0, res.err
+    data = json.loads((out / "diagnosis.json").read_text())
+    assert "track_length" in data["baseline"]["choice"] and "surrogate" in data["baseline"]["choice"]
+
+
+def test_cli_mujoco_without_contact_length_is_refused(tmp_path):
+    from cli_helpers import assert_usage_error, run_cli
+
+    path = _write(tmp_path, {"track_gauge": ROBOT.track_gauge}, duration=6.0)
+    res = run_cli(["diagnose", path, "--out", tmp_path / "d", "--baseline", "mujoco"])
+    assert_usage_error(res, "track_length")
+    assert not (tmp_path / "d").exists()
+
+
+@pytest.mark.slow
+def test_cli_auto_chooses_mujoco_when_the_robot_can_be_built(tmp_path):
+    from cli_helpers import run_cli
+
+    path = _write(tmp_path, NOMINAL.to_dict(), duration=40.0)
+    out = tmp_path / "d"
+    res = run_cli(["diagnose", path, "--out", out, "--quiet", "--folds", "4"])
+    assert res.rc == 0, res.err
+    data = json.loads((out / "diagnosis.json").read_text())
+    assert data["baseline"]["simulator"] == "mujoco" and data["baseline"]["choice"]["chosen"] == "mujoco"
+    assert data["cause"] == "cg_offset_x"
+    assert data["findings"][0]["estimate"]["cg_offset_x"] == pytest.approx(0.05, abs=0.015)
+    assert "baseline: MuJoCo robot" in res.out

@@ -1,0 +1,149 @@
+"""Windows of a log simulated by the MuJoCo robot from the measured state (mjtrack.sim.windows).
+
+The reference logs come from ``mjtrack.sim.drive_log`` (one rollout from rest over the whole log,
+the robot built with its parameters in the description); the window simulator restarts the robot
+at every window from the logged state and sets per-world parameters on a copy of one compiled
+model. Command changes fall on log rows, so a log sampled at 20 Hz holds exactly the commands the
+generator used.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mjtrack.errors import InputError
+from mjtrack.io.robot import Robot
+from mjtrack.sim import SimConfig, drive_log
+from mjtrack.sim.windows import (WindowSim, make_windows, simulate_windows, start_speeds, start_twists,
+                                 window_commands)
+
+TABLE = (np.array([0.0, 1.3, 3.0, 4.65, 6.1]),
+         np.array([0.0, 0.5, -0.4, 0.6, 0.3]),
+         np.array([0.0, 0.7, 0.4, -0.2, 0.8]))
+DUR = 8.0
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return Robot(mu=0.6, cg_x=0.03)
+
+
+@pytest.fixture(scope="module")
+def log(robot):
+    return drive_log(robot, TABLE, duration=DUR, log_rate=20.0)
+
+
+@pytest.fixture(scope="module")
+def sim(robot):
+    return WindowSim(robot)
+
+
+def test_windows_respect_segments_and_horizon(log):
+    ws = make_windows(log, 2.0)
+    assert len(ws) == 4 and np.all(log.t[ws.ends] - log.t[ws.starts] >= 2.0 - 1e-9)
+    seg = np.repeat([0, 1], [70, log.n_samples - 70])
+    cut = log.replace(window=seg)
+    ws2 = make_windows(cut, 2.0, stride_s=1.0)
+    for s, e in zip(ws2.starts, ws2.ends):
+        assert seg[s] == seg[e]
+    # a segment of 1.9 s still gives a window with min_fraction 0.9, not with 0.99
+    short = log.slice(0, 39)  # 38 steps of 0.05 s = 1.9 s
+    assert len(make_windows(short, 2.0)) == 1
+    assert len(make_windows(short, 2.0, min_fraction=0.99)) == 0
+
+
+def test_window_from_the_logs_own_state_reproduces_the_log(log, sim):
+    ws = make_windows(log, 2.0)
+    res = simulate_windows(sim, log, ws)
+    assert not res.any_diverged
+    # every window restarts from the logged state: what is left is the state the log does not
+    # hold (suspension deflections, roller spin differences, contact warm start): mm
+    assert res.pos_err().max() < 0.01, res.pos_err()
+    assert np.degrees(np.abs(res.errors[..., 2])).max() < 1.0
+    # and along the window, not only at its end
+    meas = np.stack([log.x, log.y], -1)
+    for j, (s, e) in enumerate(zip(ws.starts, ws.ends)):
+        d = np.linalg.norm(res.poses[0, j, :e - s + 1, :2] - meas[s:e + 1], axis=-1)
+        assert d.max() < 0.01
+
+
+def test_twist_from_poses_matches_the_logged_twist(log):
+    ws = make_windows(log, 2.0, stride_s=0.5)
+    fitted = start_twists(log.replace(vx=None, vy=None, wz=None), ws)
+    logged = start_twists(log, ws)
+    # 0.5 s away from command steps (a quadratic fit does not follow the transient) the fit is close
+    steady = np.array([np.ptp(log.v_left_cmd[max(0, s - 10):s + 10]) == 0 and
+                       np.ptp(log.v_right_cmd[max(0, s - 10):s + 10]) == 0 for s in ws.starts])
+    assert steady.sum() >= 5
+    assert np.abs(fitted[steady] - logged[steady]).max() < 0.02
+
+
+@pytest.mark.parametrize("change", [{"mu": 0.35}, {"mu_left": 0.4}, {"cg_y": -0.05}, {"cg_x": -0.06}])
+def test_model_field_variant_equals_a_rebuilt_robot(robot, log, sim, change):
+    """A parameter set on the compiled copy gives the rollout of a robot built with it."""
+    ws = make_windows(log, 2.0).subset(slice(1, 3))
+    a = simulate_windows(sim, log, ws, [change])
+    b = simulate_windows(WindowSim(robot.replace(**change)), log, ws)
+    np.testing.assert_allclose(a.poses, b.poses, atol=1e-6)
+
+
+def test_drive_lag_variant_equals_a_lagged_build(robot, log, sim):
+    ws = make_windows(log, 2.0).subset(slice(1, 3))
+    a = simulate_windows(sim, log, ws, [{"drive_lag": 0.2}])
+    for lagged in (WindowSim(robot, SimConfig(lag=0.2), lagged=False), WindowSim(robot.replace(drive_lag=0.2))):
+        b = simulate_windows(lagged, log, ws)
+        np.testing.assert_allclose(a.poses, b.poses, atol=1e-6)
+
+
+def test_variants_batch_and_change_the_errors(log, sim):
+    ws = make_windows(log, 2.0)
+    res = simulate_windows(sim, log, ws, [{}, {"mu": 0.3}, {"drive_delay": 0.3}, {"track_speed_scale": 0.8},
+                                          {"drive_force_limit": 20.0}, {"drive_lag": 0.3}], nthread=2)
+    rms = res.rms()
+    assert rms.shape == (6,)
+    assert np.all(rms[1:] > 3 * rms[0]), rms
+    # threads do not change results
+    one = simulate_windows(sim, log, ws, [{"mu": 0.3}], nthread=1)
+    np.testing.assert_array_equal(one.poses[0], res.poses[1])
+
+
+def test_delay_and_scale_transform_the_commands(log, sim):
+    ws = make_windows(log, 2.0)
+    before = start_speeds(log, ws)
+    plain = window_commands(log, ws, sim.dt, 400, delay=0.0, scale=1.0, before=before)
+    late = window_commands(log, ws, sim.dt, 400, delay=0.25, scale=0.5, before=before)
+    np.testing.assert_allclose(late[:, 50:], 0.5 * plain[:, :-50])
+    np.testing.assert_allclose(late[0, :50], 0.5 * before[0][None].repeat(50, 0))
+
+
+def test_unknown_parameter_and_empty_windows_are_refused(log, sim):
+    ws = make_windows(log, 2.0)
+    with pytest.raises(InputError, match="unknown parameter"):
+        simulate_windows(sim, log, ws, [{"grip": 1.0}])
+    with pytest.raises(InputError, match="no window"):
+        simulate_windows(sim, log, make_windows(log.slice(0, 10), 2.0))
+
+
+def test_geometry_and_ground_variants_rebuild_the_robot(robot, log, sim):
+    ws = make_windows(log, 2.0).subset(slice(1, 3))
+    a = simulate_windows(sim, log, ws, [{"track_length": 0.4}])
+    b = simulate_windows(WindowSim(robot.replace(track_length=0.4)), log, ws)
+    np.testing.assert_allclose(a.poses, b.poses, atol=1e-9)
+    aniso = robot.replace(ground={"model": "anisotropic", "lateral_ratio": 0.5})
+    c = simulate_windows(WindowSim(aniso), log, ws, [{"lateral_ratio": 0.7}])
+    d = simulate_windows(WindowSim(robot.replace(ground={"model": "anisotropic", "lateral_ratio": 0.7})), log, ws)
+    np.testing.assert_allclose(c.poses, d.poses, atol=1e-6)
+    with pytest.raises(InputError, match="anisotropic"):
+        simulate_windows(sim, log, ws, [{"lateral_ratio": 0.7}])
+
+
+def test_delayed_commands_are_continuous_in_the_delay(log, sim):
+    ws = make_windows(log, 2.0)
+    before = start_speeds(log, ws)
+    d = np.linspace(0.1, 0.12, 41)
+    c = np.array([window_commands(log, ws, sim.dt, 400, delay=x, scale=1.0, before=before) for x in d])
+    jumps = np.abs(np.diff(c, axis=0)).max()
+    # 0.5 ms of delay moves a command step by a tenth of a 5 ms step: at most 10 % of the step
+    # size (plain holding would jump by the whole step)
+    assert jumps < 0.11 * np.abs(np.diff(c[0], axis=1)).max()
