@@ -1,7 +1,8 @@
-"""``python -m mjtrack COMMAND ...``: the same as the ``mjtrack`` console script."""
+"""``python -m mjtrack``: the command line (same as the ``mjtrack`` console script)."""
 
 import sys
 
 from mjtrack.cli import main
 
-sys.exit(main())
+if __name__ == "__main__":  # guarded: dask's worker processes (spawn) import this module again
+    sys.exit(main())

@@ -26,6 +26,9 @@ COMMANDS: dict[str, str] = {
     "calibrate": "calibrate",
     "track": "track",
     "thesis": "thesis",
+    "sweep": "sweep",
+    "import-bag": "import_bag",
+    "export": "export",
 }
 
 
@@ -47,6 +50,12 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def one_line(text: object) -> str:
+    """``text`` with control characters escaped (a file name or cell with a newline or a carriage
+    return must not break the one-line error message)."""
+    return "".join(c if c.isprintable() else ascii(c)[1:-1] for c in str(text))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     try:
@@ -63,13 +72,13 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args._run(args) or 0)
     except InputError as exc:
-        print(f"mjtrack {args.command}: error: {exc}", file=sys.stderr)
+        print(f"mjtrack {args.command}: error: {one_line(exc)}", file=sys.stderr)
         return 2
     except MjtrackError as exc:
-        print(f"mjtrack {args.command}: failed: {exc}", file=sys.stderr)
+        print(f"mjtrack {args.command}: failed: {one_line(exc)}", file=sys.stderr)
         return 1
     except OSError as exc:  # disk full, permission denied, ...: one line, not a traceback
-        print(f"mjtrack {args.command}: failed: {exc}", file=sys.stderr)
+        print(f"mjtrack {args.command}: failed: {one_line(exc)}", file=sys.stderr)
         return 1
 
 

@@ -40,7 +40,9 @@ def random_log(rng: np.random.Generator, n: int = 200, **more) -> DriveLog:
     """Floats over many decades, both signs, negative zero: what repr must get exactly right."""
 
     def col():
-        v = rng.standard_normal(n) * 10.0 ** rng.integers(-12, 12, n)
+        # 1e-12 .. 1e1 (times a normal draw): many decades, inside the plausibility bounds
+        # (speeds <= 100 m/s, yaw rates <= 100 rad/s) that read_log enforces
+        v = rng.standard_normal(n) * 10.0 ** rng.integers(-12, 2, n)
         v[rng.integers(n)] = -0.0
         return v
 

@@ -1,6 +1,6 @@
 """Command-line pieces shared by the commands: robot options, ``--quiet``, ``--out`` checks.
 
-Robot options (CONTRACTS.md §3) on every command that simulates::
+Robot options on every command that simulates::
 
     --robot FILE  --cg-x M  --cg-y M  --mu X  --mu-left X  --mu-right X  --mass KG
     --track-gauge M  --track-length M
@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import tempfile
 from pathlib import Path
 from typing import Iterable
 
@@ -50,6 +51,20 @@ def finite_float(text: str) -> float:
     return value
 
 
+def int_at_least(minimum: int):
+    """argparse ``type=``: an integer >= ``minimum`` (anything else is a usage error, exit 2)."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {text!r}")
+        return value
+
+    return parse
+
+
 def positive_float(text: str) -> float:
     """argparse ``type=``: a finite float > 0."""
     value = finite_float(text)
@@ -58,21 +73,15 @@ def positive_float(text: str) -> float:
     return value
 
 
-def positive_int(text: str) -> int:
-    """argparse ``type=``: an integer >= 1."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
-    return value
+positive_int = int_at_least(1)  # argparse ``type=``: an integer >= 1
 
 
 def add_robot_options(parser: argparse.ArgumentParser) -> None:
     """Add ``--robot FILE`` and the per-field overrides (all default to ``None``: not given)."""
     group = parser.add_argument_group(
-        "robot", "the robot: --robot FILE (JSON, CONTRACTS.md §2), then each option below overrides one field"
+        "robot", "the robot: --robot FILE (a JSON object of SI values: track_gauge [m, required], track_length, "
+        "track_width, sprocket_radius [m], mass [kg], cg_x, cg_y, cg_z [m], mu, mu_left, mu_right), then each option "
+        "below overrides one field"
     )
     group.add_argument("--robot", metavar="FILE", type=Path, default=None,
                        help="robot description JSON (at least 'track_gauge' [m])")
@@ -140,14 +149,39 @@ def add_output_options(parser: argparse.ArgumentParser) -> None:
                         help="no progress display (it is also off when stderr is not a terminal)")
 
 
+_TMP_EXTRA = 16  # characters atomic writes add to a name (".NAME.xxxxxxxx.tmp")
+
+
+def _probe(folder: Path, path: Path, what: str) -> None:
+    """Refuse unless a file can really be created in ``folder`` (created and removed at once):
+    ``os.access`` says yes to root on any folder and knows nothing of full disks or quotas."""
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".mjtrack-probe.", dir=folder)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot create {what}: {folder} is not writable ({exc.strerror})") from None
+    os.close(fd)
+    os.unlink(tmp)
+
+
+def _check_names(path: Path, what: str) -> None:
+    """Refuse names the file system will not take (too long), before any work."""
+    for part in path.parts:
+        if len(os.fsencode(part)) + _TMP_EXTRA > 255:
+            raise InputError(f"{path}: cannot create {what}: the name {part[:20]}... is too long")
+    if len(os.fsencode(str(path.absolute()))) + _TMP_EXTRA > 4095:
+        raise InputError(f"{path}: cannot create {what}: the path is too long")
+
+
 def _writable_ancestor(path: Path, what: str) -> None:
     """Refuse ``path`` if the nearest existing ancestor is not a writable folder."""
+    _check_names(path, what)
     for parent in path.absolute().parents:
         if parent.exists():
             if not parent.is_dir():
                 raise InputError(f"{path}: cannot create {what}: {parent} is not a folder")
             if not os.access(parent, os.W_OK | os.X_OK):
                 raise InputError(f"{path}: cannot create {what}: {parent} is not writable")
+            _probe(parent, path, what)
             return
     raise InputError(f"{path}: cannot create {what}: no existing parent folder")  # pragma: no cover
 
@@ -155,11 +189,13 @@ def _writable_ancestor(path: Path, what: str) -> None:
 def check_out_dir(path: str | os.PathLike) -> Path:
     """Check an ``--out DIR`` before the work: an existing writable folder, or creatable."""
     path = Path(path)
+    _check_names(path, "output folder")
     if path.exists():
         if not path.is_dir():
             raise InputError(f"{path}: --out must be a folder, this is an existing file")
         if not os.access(path, os.W_OK | os.X_OK):
             raise InputError(f"{path}: --out folder is not writable")
+        _probe(path, path, "files in the output folder")
         return path
     _writable_ancestor(path, "output folder")
     return path
@@ -175,6 +211,7 @@ def check_out_file(
     or written.
     """
     path = Path(path)
+    _check_names(path, "output file")
     suffixes = tuple(s.lower() for s in suffixes)
     if suffixes and path.suffix.lower() not in suffixes:
         raise InputError(f"{path}: --out must end in {' or '.join(suffixes)}")
@@ -188,6 +225,7 @@ def check_out_file(
             raise InputError(f"{path}: cannot create output file: {path.parent} is not a folder")
         if not os.access(path.parent, os.W_OK | os.X_OK):
             raise InputError(f"{path}: cannot create output file: {path.parent} is not writable")
+        _probe(path.parent, path, "output file")
     else:
         _writable_ancestor(path.parent, "output file")
     return path

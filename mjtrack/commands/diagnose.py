@@ -19,7 +19,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from mjtrack.commands._common import (add_output_options, add_robot_options, check_out_dir, finite_float,
+from mjtrack.commands._common import (add_output_options, add_robot_options, check_out_dir, finite_float, int_at_least,
                                       robot_from_args)
 from mjtrack.errors import InputError
 
@@ -33,14 +33,7 @@ def _positive(text: str) -> float:
     return value
 
 
-def _folds(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 3:
-        raise argparse.ArgumentTypeError(f"must be >= 3, got {text!r}")
-    return value
+_folds = int_at_least(3)
 
 
 def _horizon(text: str):
@@ -49,7 +42,8 @@ def _horizon(text: str):
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("log", metavar="LOG.csv", type=Path,
-                        help="measured drive log (t, v_left_cmd, v_right_cmd, x, y, yaw; optional v_left, v_right, window)")
+                        help="measured drive log (CSV with columns t [s], v_left_cmd, v_right_cmd [m/s], x, y [m], "
+                             "yaw [rad]; optional v_left, v_right, vx, vy, wz, window)")
     parser.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder (created if needed)")
     parser.add_argument("--horizon", metavar="S", type=_horizon, default="auto",
                         help="prediction horizon of the windows [s], or 'auto' (default): 2 s, or the longest the "

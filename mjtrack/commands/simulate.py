@@ -2,9 +2,10 @@
 
 Drives the roller-chain robot (mjtrack.sim) with a named scenario (straight, circle, pivot,
 u_path, random_steps) or a command CSV (columns t, v_left_cmd, v_right_cmd; each command
-held until the next) and writes LOG.csv (CONTRACTS.md §1: t, v_left_cmd, v_right_cmd, x, y,
-yaw, v_left, v_right, vx, vy, wz; z, roll, pitch on terrain other than flat) and LOG.json (the
-robot used, and the terrain under key "terrain" when it is not flat). The same arguments and
+held until the next) and writes LOG.csv (columns t [s], v_left_cmd, v_right_cmd [m/s], x, y [m],
+yaw [rad], v_left, v_right, vx, vy [m/s], wz [rad/s]; z [m], roll, pitch [rad] on terrain other
+than flat) and LOG.json (the robot used, and the terrain under key "terrain" when it is not
+flat). The same arguments and
 seed give a byte-identical log.
 """
 

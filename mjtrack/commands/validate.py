@@ -32,7 +32,8 @@ def add_source_arguments(parser: argparse.ArgumentParser) -> None:
     from mjtrack.sim.scenarios import SCENARIOS
 
     parser.add_argument("log", metavar="LOG.csv", type=Path, nargs="?", default=None,
-                        help="drive log (CONTRACTS.md §1); its robot is LOG.json beside it or --robot FILE")
+                        help="drive log (CSV: t, v_left_cmd, v_right_cmd, x, y, yaw, ...); its robot is LOG.json "
+                             "beside it or --robot FILE")
     parser.add_argument("--scenario", choices=list(SCENARIOS), default=None,
                         help="instead of a log: a MuJoCo rollout of this built-in scenario")
     parser.add_argument("--duration", metavar="S", type=finite_float, default=None,

@@ -49,6 +49,17 @@ REQUIRED: tuple[str, ...] = ("t", "v_left_cmd", "v_right_cmd", "x", "y", "yaw")
 OPTIONAL: tuple[str, ...] = ("v_left", "v_right", "vx", "vy", "wz", "z", "roll", "pitch", "window")
 KNOWN: tuple[str, ...] = REQUIRED + OPTIONAL
 
+# Physical plausibility: a value beyond these bounds is a unit mix-up, a corrupt file or a sim
+# that blew up, never a ground robot; it is refused like a non-number (CONTRACTS.md §1).
+_SPEED = (100.0, "m/s", "a track or body speed")
+PLAUSIBLE: Mapping[str, tuple[float, str, str]] = MappingProxyType({
+    "t": (1e10, "s", "a time (an epoch time stamp is 1.7e9 s)"),
+    "v_left_cmd": _SPEED, "v_right_cmd": _SPEED, "v_left": _SPEED, "v_right": _SPEED, "vx": _SPEED, "vy": _SPEED,
+    "x": (1e6, "m", "a coordinate"), "y": (1e6, "m", "a coordinate"), "z": (1e6, "m", "a coordinate"),
+    "yaw": (1e6, "rad", "a heading (even unwrapped)"), "roll": (1e6, "rad", "an angle"),
+    "pitch": (1e6, "rad", "an angle"), "wz": (100.0, "rad/s", "a yaw rate"),
+})
+
 
 @dataclass(frozen=True, eq=False)
 class DriveLog:
@@ -241,7 +252,8 @@ def _as_extra(value: Any, name: str, src: str) -> np.ndarray:
 def _first_problem(cols: Mapping[str, np.ndarray]) -> tuple[str, int, str] | None:
     """First bad cell as ``(column, row index from 0, what is wrong)``, or ``None``.
 
-    Checks, in order: non-finite values in required columns (file column order), windows
+    Checks, in order: non-finite values in required columns (file column order), values
+    beyond :data:`PLAUSIBLE` bounds (NaN allowed in optional columns: missing), windows
     that are not contiguous, time not strictly increasing inside a segment.
     """
     for name in cols:
@@ -250,6 +262,15 @@ def _first_problem(cols: Mapping[str, np.ndarray]) -> tuple[str, int, str] | Non
             if bad.any():
                 row = int(np.argmax(bad))
                 return name, row, f"{float(cols[name][row])!r} in a required column (must be finite)"
+    for name in cols:
+        if name in PLAUSIBLE and cols[name].dtype.kind in "fi":
+            limit, unit, what = PLAUSIBLE[name]
+            a = cols[name].astype(np.float64)
+            bad = ~np.isnan(a) & ~(np.abs(a) <= limit)
+            if bad.any():
+                row = int(np.argmax(bad))
+                return name, row, (f"{float(a[row])!r} {unit} is beyond physical plausibility for {what} "
+                                   f"(|value| <= {limit:g} {unit})")
     window = cols.get("window")
     same = np.ones(len(cols["t"]) - 1, bool) if window is None else window[1:] == window[:-1]
     if window is not None:
@@ -337,7 +358,7 @@ def read_log(path: str | os.PathLike) -> DriveLog:
                 columns[name] = _window_ids(columns[name], where)
         else:
             columns[name] = _parse_extra(cells[j])
-    problem = _first_problem({k: columns[k] for k in header if k in KNOWN})
+    problem = _first_problem({k: columns[k] for k in header if k in KNOWN or k in PLAUSIBLE})
     if problem is not None:
         name, row, what = problem
         raise InputError(f"{path}: line {lines[row]}, column '{name}': {what}")

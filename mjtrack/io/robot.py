@@ -22,6 +22,16 @@ MAX_DRIVE_TIME = 10.0  # [s] largest accepted drive_lag / drive_delay (beyond: a
 MAX_SPEED_SCALE = 10.0  # [-] largest accepted track_speed_scale
 NULLABLE = ("mu_left", "mu_right", "drive_force_limit")  # keys that may be JSON null
 
+# Physical plausibility of a description: (low, high) inclusive. Beyond these a value is a unit
+# mix-up or a corrupt file (a 1 mm to 100 m track, a 1 g to 10 000 t robot, friction up to 10),
+# and the simulator would fail on it with a cryptic message, so it is refused up front.
+PLAUSIBLE_ROBOT: dict[str, tuple[float, float, str]] = {
+    "track_gauge": (1e-3, 100.0, "m"), "track_length": (1e-3, 100.0, "m"), "track_width": (1e-3, 100.0, "m"),
+    "sprocket_radius": (1e-3, 100.0, "m"), "mass": (1e-3, 1e7, "kg"), "cg_z": (-100.0, 100.0, "m"),
+    "mu": (0.0, 10.0, "-"), "mu_left": (0.0, 10.0, "-"), "mu_right": (0.0, 10.0, "-"),  # > 0 checked above;
+    # a track with friction 1e-12 is how the diagnosis isolates the other track's effect
+}
+
 # Ground models (key ``ground`` of a description): name -> {parameter: (default, low, high)}.
 # What each one is and how the MuJoCo robot realises it: mjtrack/sim/ground.py, assets/README.md.
 GROUND_MODELS: dict[str, dict[str, tuple[float, float, float]]] = {
@@ -174,6 +184,14 @@ class Robot:
         if not _is_finite_number(self.track_speed_scale) or not 0 < self.track_speed_scale <= MAX_SPEED_SCALE:
             raise InputError(f"robot: 'track_speed_scale' must be a number in (0, {MAX_SPEED_SCALE:g}], "
                              f"got {self.track_speed_scale!r}")
+        for name, (low, high, unit) in PLAUSIBLE_ROBOT.items():
+            value = getattr(self, name)
+            if value is not None and not low <= value <= high:
+                raise InputError(f"robot: '{name}' = {value:g} {unit} is beyond physical plausibility "
+                                 f"(between {low:g} and {high:g} {unit})")
+        if self.track_width >= self.track_gauge:
+            raise InputError(f"robot: 'track_width' = {self.track_width} is not less than 'track_gauge' = "
+                             f"{self.track_gauge}: the two tracks would overlap")
         if abs(self.cg_x) >= self.track_length / 2:
             raise InputError(
                 f"robot: 'cg_x' = {self.cg_x} puts the centre of mass outside the tracks "

@@ -114,7 +114,7 @@ def build_spec(robot: Robot, config: SimConfig | None = None, *, idlers: bool = 
     chassis.add_site(name="centre", pos=[0, 0, 0], size=[0.01, 0.01, 0.01])
     chassis.add_site(name="cg", pos=cg, size=[0.015, 0.015, 0.015], rgba=[1, 0, 0, 1])
     chassis.add_geom(
-        name="hull", type=mujoco.mjtGeom.mjGEOM_BOX, size=[L / 2, T / 2 - robot.track_width, 0.04],
+        name="hull", type=mujoco.mjtGeom.mjGEOM_BOX, size=[L / 2, max(T / 2 - robot.track_width, 0.1 * T), 0.04],  # visual only; narrow robots keep a hull
         pos=[0, 0, 2 * r + 0.06], contype=0, conaffinity=0, density=0, rgba=[0.35, 0.4, 0.45, 1],
     )
 

@@ -39,6 +39,7 @@ logger = logging.getLogger(__name__)
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 SETTLE_S = 0.5  # [s] zero-command settling before t = 0
+MAX_STEPS = 2_000_000  # steps in one rollout (~2 GB of states and sensors at ~1 kB a step)
 
 
 @dataclass(frozen=True)
@@ -200,6 +201,9 @@ def hold_commands(t_cmd: np.ndarray, v_left: np.ndarray, v_right: np.ndarray, *,
     nstep = int(round(duration / timestep))
     if nstep < 1:
         raise InputError(f"duration {duration} s is shorter than one time step")
+    if nstep > MAX_STEPS:  # a rollout keeps every step's state (~1 kB): refuse before allocating
+        raise InputError(f"duration {duration:g} s is {nstep} time steps; one rollout takes at most "
+                         f"{MAX_STEPS} ({MAX_STEPS * timestep:g} s)")
     tk = np.arange(nstep) * timestep
     i = np.clip(np.searchsorted(t_cmd, tk + 1e-9 * timestep, side="right") - 1, 0, len(t_cmd) - 1)
     return np.stack([np.asarray(v_left, float)[i], np.asarray(v_right, float)[i]], axis=1)

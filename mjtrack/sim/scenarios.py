@@ -31,6 +31,7 @@ from typing import Callable
 import numpy as np
 
 from mjtrack.errors import InputError
+from mjtrack.io.logs import PLAUSIBLE
 from mjtrack.io.robot import Robot
 from mjtrack.sim.terrain import Patch, Step, Terrain
 
@@ -159,6 +160,10 @@ def read_commands(path) -> CommandTable:
                 raise InputError(f"{path}: line {k + 2}, column '{name}': not a number") from None
             if not math.isfinite(v):
                 raise InputError(f"{path}: line {k + 2}, column '{name}': not finite")
+            limit, unit, what = PLAUSIBLE[name]
+            if abs(v) > limit:
+                raise InputError(f"{path}: line {k + 2}, column '{name}': {v!r} {unit} is beyond physical "
+                                 f"plausibility for {what} (|value| <= {limit:g} {unit})")
             values.append(v)
         cols[name] = np.array(values)
     bad = np.nonzero(np.diff(cols["t"]) <= 0)[0]

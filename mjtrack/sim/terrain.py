@@ -179,6 +179,15 @@ def _check_incline(angle: float, spec: str) -> None:
 def _check_step(s: Step, spec: str) -> None:
     if not 0 < s.height <= 5:
         raise InputError(f"--terrain {spec}: step height must be in (0, 5] m, got {s.height:g}")
+    _plausible(s.x, MAX_COORD, "step X [m]", spec)
+
+
+MAX_COORD = 1e6  # [m] coordinates and sizes beyond this are not terrain (the drive-log bound)
+
+
+def _plausible(value: float, limit: float, what: str, spec: str) -> None:
+    if not abs(value) <= limit:
+        raise InputError(f"--terrain {spec}: {what} = {value:g} is beyond physical plausibility (|value| <= {limit:g})")
 
 
 def load_heights(path: Path, spec: str) -> np.ndarray:
@@ -215,6 +224,9 @@ def _hfield(file: str, sx: float, sy: float, h: float, spec: str, base: Path) ->
     path = Path(file) if Path(file).is_absolute() else base / file
     if not (sx > 0 and sy > 0 and h >= 0):
         raise InputError(f"--terrain {spec}: height field sizes must be > 0 and HEIGHT >= 0")
+    _plausible(sx, MAX_COORD, "height field SIZE_X [m]", spec)
+    _plausible(sy, MAX_COORD, "height field SIZE_Y [m]", spec)
+    _plausible(h, 5.0, "height field HEIGHT [m]", spec)  # the bound of a step
     return HField(file=str(path), size_x=sx, size_y=sy, height=h, heights=load_heights(path, spec))
 
 
@@ -233,15 +245,20 @@ def _patches(items: Any, spec: str) -> tuple[Patch, ...]:
             vals[k] = float(v)
         if vals["size_x"] <= 0 or vals["size_y"] <= 0 or vals["mu"] <= 0:
             raise InputError(f"--terrain {spec}: patch {i}: sizes and 'mu' must be positive")
+        for k in ("x", "y", "size_x", "size_y"):
+            _plausible(vals[k], MAX_COORD, f"patch {i} '{k}' [m]", spec)
+        _plausible(vals["mu"], 10.0, f"patch {i} 'mu'", spec)  # the robot description's bound
         out.append(Patch(**vals))
     return tuple(out)
 
 
 def _read_json(path: Path, spec: str) -> Any:
     try:
-        return json.loads(path.read_text())
+        return json.loads(path.read_text(encoding="utf-8"))
     except OSError as exc:
         raise InputError(f"--terrain {spec}: cannot read {path} ({exc.strerror})") from None
+    except (UnicodeDecodeError, RecursionError) as exc:
+        raise InputError(f"--terrain {spec}: {path}: not valid JSON ({type(exc).__name__})") from None
     except json.JSONDecodeError as exc:
         raise InputError(f"--terrain {spec}: {path}: not valid JSON (line {exc.lineno}: {exc.msg})") from None
 
@@ -267,6 +284,8 @@ def _from_json(data: Any, spec: str, base: Path) -> Terrain:
         angle, direction = number(inc, "angle"), number(inc, "direction", 0.0)
         _check_incline(angle, spec)
     steps = []
+    if not isinstance(data.get("steps", []), list):
+        raise InputError(f"--terrain {spec}: 'steps' must be a list of objects")
     for s in data.get("steps", []):
         if not isinstance(s, dict):
             raise InputError(f"--terrain {spec}: each step must be an object")

@@ -1,0 +1,57 @@
+"""Steady states over a grid of commands and robots, on a dask cluster.
+
+GRID.json is a JSON object of lists; the sweep runs every combination (Cartesian product,
+last key fastest). Commands: "v_left_cmd" and "v_right_cmd" [m/s], or "speed" [m/s] and
+"turn_radius" [m] (> 0 left, < 0 right, null straight; track speeds by no-slip kinematics
+V_L,R = v -/+ (v/R) T/2). Robot keys: track_gauge, track_length, track_width,
+sprocket_radius, mass, cg_x, cg_y, cg_z, mu, mu_left, mu_right, drive_lag, drive_delay, drive_force_limit, track_speed_scale
+(on top of the robot options).
+Example: {"speed": [0.5, 1.0], "turn_radius": [0.5, 1, 2, 4], "mu": [0.4, 0.8]}.
+
+Every case runs on the --terrain ground (default flat). Each case is held for --settle seconds, then averaged over --window seconds, exactly as
+`mjtrack steady` does. Writes DIR/sweep.csv (one row per case: case index, grid values,
+v_left_cmd, v_right_cmd, measured v_left, v_right, vx, vy, wz, ..., y_l, y_r, x_c, ...; an
+empty cell where an ICR is undefined because the robot does not turn), DIR/sweep.json (the
+same rows, null for undefined) and DIR/icr_map.png. Rows are appended as cases finish: run
+the same command again after an interruption and only the missing cases run. The numbers
+do not depend on the number of workers.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, check_out_dir,
+                                      finite_float, int_at_least, robot_from_args, terrain_from_args)
+
+HELP = "steady states over a grid of commands and robots on a dask cluster: sweep.csv, sweep.json, icr_map.png"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--grid", metavar="GRID.json", required=True, help="the grid (see above)")
+    parser.add_argument("--out", metavar="DIR", required=True, help="output folder (created; resumed if it holds a sweep.csv)")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--workers", metavar="N", type=int_at_least(1), default=None,
+                       help="start a local dask cluster of N worker processes, one thread each (default: CPU count)")
+    where.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                       help="run on an existing dask cluster, e.g. tcp://10.0.0.5:8786")
+    parser.add_argument("--settle", metavar="S", type=finite_float, default=3.0, help="transient time [s] (default 3)")
+    parser.add_argument("--window", metavar="S", type=finite_float, default=2.0, help="averaging window [s] (default 2)")
+    parser.add_argument("--track-model", choices=["rollers", "surfacevel"], default="rollers",
+                        help="MuJoCo track model: sprung roller chain (default) or surfacevel row")
+    add_terrain_option(parser)
+    add_robot_options(parser)
+    add_output_options(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    from mjtrack.sweep import read_grid, run_sweep
+
+    out = check_out_dir(args.out)
+    grid = read_grid(args.grid, base=robot_from_args(args))
+    s = run_sweep(grid, out, workers=args.workers, scheduler=args.scheduler, track_model=args.track_model,
+                  settle_s=args.settle, window_s=args.window, terrain=terrain_from_args(args), quiet=args.quiet)
+    resumed = f", {s.resumed} kept from an earlier run" if s.resumed else ""
+    print(f"{s.cases} cases ({s.ran} run on {s.workers} workers in {s.seconds:.1f} s{resumed}): {out}/sweep.csv, "
+          f"sweep.json, icr_map.png")
+    return 0

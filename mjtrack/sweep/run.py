@@ -1,0 +1,279 @@
+"""Steady-state sweeps on a dask cluster: cases out, rows back, written as they finish.
+
+:func:`run_sweep` splits a :class:`~mjtrack.sweep.grid.Grid`'s cases into chunks, runs each
+chunk on a ``dask.distributed`` worker through :func:`mjtrack.sim.steady.steady_batch` (one
+``mujoco.rollout`` call over the chunk's models; each case still runs from its own settled
+state, so a case's numbers do not depend on the chunk it is in nor on the worker count), and
+appends each finished case to ``DIR/sweep.csv`` at once (flushed), in completion order.
+
+Resume: when ``DIR/sweep.csv`` exists, its complete rows whose case index and grid values
+match the grid are kept and only the other cases run (a row cut short by a kill is dropped).
+At the end ``sweep.csv`` is rewritten sorted by case (atomically), so the finished file has
+the same bytes whatever the worker count and the completion order; then ``sweep.json`` and
+``icr_map.png``.
+
+Columns: ``case``, the grid keys, ``v_left_cmd``, ``v_right_cmd`` (unless grid keys), then
+the steady-state result as :meth:`SteadyResult.to_dict` gives it (``v_left``, ``v_right``,
+``vx``, ``vy``, ``wz``, ..., ``y_l``, ``y_r``, ``x_c``, ...). Floats are written with
+``repr`` (exact); an undefined value (an ICR when the robot does not turn) is an empty cell
+in the CSV and ``null`` in the JSON.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import json
+import logging
+import math
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterator, Sequence
+
+from mjtrack.errors import InputError, MjtrackError
+from mjtrack.io.atomic import atomic_write_text
+from mjtrack.progress import Progress
+from mjtrack.sim.config import sim_config
+from mjtrack.sim.steady import SETTLE_S, WINDOW_S, SteadyResult, steady_batch
+from mjtrack.sim.terrain import Terrain
+from mjtrack.sweep.grid import Case, Grid
+
+logger = logging.getLogger(__name__)
+
+CSV_NAME, JSON_NAME, MAP_NAME = "sweep.csv", "sweep.json", "icr_map.png"
+RESULT_KEYS: tuple[str, ...] = tuple(SteadyResult.__dataclass_fields__)
+CONNECT_TIMEOUT_S = 10.0
+
+
+@dataclass(frozen=True)
+class SweepSummary:
+    """What a sweep did: cases in the grid, cases run now, cases kept from an earlier run."""
+
+    cases: int
+    ran: int
+    resumed: int
+    seconds: float  # [s] the whole call
+    run_seconds: float  # [s] from the first case submitted to the last result (no start-up, no figure)
+    workers: int
+
+
+def header(grid: Grid) -> list[str]:
+    cols = ["case", *grid.keys]
+    cols += [k for k in RESULT_KEYS if k not in cols]
+    return cols
+
+
+def run_chunk(cases: Sequence[Case], track_model: str, settle_s: float, window_s: float,
+              terrain: Terrain | None = None) -> list[tuple[int, dict[str, Any]]]:
+    """Steady states of a chunk of cases (runs on a worker): [(case index, result dict)]."""
+    results = steady_batch([c.robot for c in cases], [[c.v_left_cmd, c.v_right_cmd] for c in cases],
+                           config=sim_config(track_model), settle_s=settle_s, window_s=window_s, nthread=1,
+                           terrain=terrain)
+    return [(c.index, r.to_dict()) for c, r in zip(cases, results)]
+
+
+def _cell(value: Any) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return ""
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def _row(case: Case, result: dict[str, Any], cols: list[str]) -> list[str]:
+    values = {"case": case.index, **dict(case.values), **result}
+    return [_cell(values.get(c)) for c in cols]
+
+
+def _read_done(path: Path, grid: Grid, cols: list[str]) -> dict[int, list[str]]:
+    """Complete rows of an earlier run of the same grid: {case index: cells}."""
+    if not path.exists():
+        return {}
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read the earlier sweep to resume it ({exc})") from None
+    lines = text.split("\n")
+    complete = lines[:-1]  # the part after the last newline is empty or a row cut short
+    if not complete:
+        return {}
+    rows = list(csv.reader(complete))
+    if rows[0] != cols:
+        raise InputError(f"{path}: written by a sweep with other columns ({','.join(rows[0])[:80]}...); "
+                         "use another --out folder or delete the file to start over")
+    done: dict[int, list[str]] = {}
+    for line, row in enumerate(rows[1:], start=2):
+        if len(row) != len(cols):
+            continue
+        try:
+            k = int(row[0])
+        except ValueError:
+            continue
+        if not 0 <= k < len(grid.cases):
+            continue
+        case = grid.cases[k]
+        if row[1:1 + len(case.values)] != [_cell(v) for _, v in case.values]:
+            raise InputError(f"{path}: line {line}: case {k} was run with other grid values; "
+                             "use another --out folder or delete the file to start over")
+        done[k] = row
+    return done
+
+
+def _chunks(cases: Sequence[Case], size: int) -> Iterator[list[Case]]:
+    for i in range(0, len(cases), size):
+        yield list(cases[i:i + size])
+
+
+@contextlib.contextmanager
+def _client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
+    """A dask client: on ``scheduler`` (an existing cluster) or on a new local cluster of
+    ``workers`` processes with one thread each."""
+    from dask.distributed import Client, LocalCluster
+
+    if not logger.isEnabledFor(logging.DEBUG):  # dask logs its start-up at INFO; keep the CLI quiet
+        logging.getLogger("distributed").setLevel(logging.ERROR)
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise InputError(f"--scheduler {scheduler}: cannot reach a dask scheduler ({exc})") from None
+        with client:
+            yield client
+        return
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        yield client
+
+
+def run_sweep(
+    grid: Grid,
+    out: str | os.PathLike,
+    *,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    track_model: str = "rollers",
+    settle_s: float = SETTLE_S,
+    window_s: float = WINDOW_S,
+    chunk_size: int = 4,
+    terrain: Terrain | None = None,
+    quiet: bool = False,
+) -> SweepSummary:
+    """Run every case of ``grid`` not already in ``out/sweep.csv``; write the outputs.
+
+    ``workers``: processes of a new local cluster (default: the CPU count); ``scheduler``: the
+    address of an existing dask scheduler instead. ``chunk_size`` cases share one batched
+    rollout on a worker (results do not depend on it). ``terrain``: the ground of every case
+    (default flat).
+    """
+    from dask.distributed import as_completed
+
+    out = Path(out)
+    sim_config(track_model)  # refuses an unknown model before any work
+    if workers is not None and workers < 1:
+        raise InputError(f"--workers must be >= 1, got {workers}")
+    if not (settle_s >= 0 and window_s > 0):
+        raise InputError("--settle must be >= 0 and --window > 0 seconds")
+    cols = header(grid)
+    csv_path = out / CSV_NAME
+    settings = {"grid": grid.to_dict(), "track_model": track_model, "settle_s": settle_s, "window_s": window_s,
+                "base_robot": _base_robot(grid)}
+    if terrain is not None and not terrain.is_flat:  # absent when flat: sweeps started before --terrain resume
+        settings["terrain"] = terrain.to_dict()
+    _check_same_settings(out / JSON_NAME, csv_path, settings)
+    done = _read_done(csv_path, grid, cols)
+    todo = [c for c in grid.cases if c.index not in done]
+    start = time.monotonic()
+    out.mkdir(parents=True, exist_ok=True)
+    _write_json(out / JSON_NAME, grid, settings, cols, [])  # the settings first: a resume checks them
+    n_workers, run_seconds = 0, 0.0
+    if todo:
+        with _client(workers or os.cpu_count() or 1, scheduler) as client:
+            n_workers = len(client.scheduler_info().get("workers", {}))
+            # write the kept rows back without any partial tail, then append as cases finish
+            atomic_write_text(csv_path, _csv_text(cols, [done[k] for k in sorted(done)]))
+            t_submit = time.monotonic()
+            futures = [client.submit(run_chunk, chunk, track_model, settle_s, window_s, terrain, pure=False)
+                       for chunk in _chunks(todo, chunk_size)]
+            with open(csv_path, "a", encoding="utf-8", newline="") as fh, \
+                    Progress(len(todo), label="sweep", quiet=quiet) as bar:
+                writer = csv.writer(fh, lineterminator="\n")
+                for fut in as_completed(futures):
+                    try:
+                        rows = fut.result()
+                    except MjtrackError:
+                        raise
+                    except Exception as exc:  # a worker lost, a pickling problem: one line, exit 1
+                        raise MjtrackError(f"sweep worker failed: {type(exc).__name__}: {exc}") from None
+                    for k, result in rows:
+                        row = _row(grid.cases[k], result, cols)
+                        writer.writerow(row)
+                        done[k] = row
+                    fh.flush()
+                    bar.update(len(rows))
+            run_seconds = time.monotonic() - t_submit
+    records = [_record(cols, done[k]) for k in sorted(done)]
+    atomic_write_text(csv_path, _csv_text(cols, [done[k] for k in sorted(done)]))
+    _write_json(out / JSON_NAME, grid, settings, cols, records)
+    from mjtrack.sweep.figure import icr_map
+
+    icr_map(records, grid, out / MAP_NAME)
+    return SweepSummary(cases=len(grid.cases), ran=len(todo), resumed=len(grid.cases) - len(todo),
+                        seconds=time.monotonic() - start, run_seconds=run_seconds, workers=n_workers)
+
+
+def _write_json(path: Path, grid: Grid, settings: dict[str, Any], cols: list[str], records: list) -> None:
+    atomic_write_text(path, json.dumps({**settings, "grid_file": grid.source, "columns": cols, "cases": records},
+                                       indent=1) + "\n")
+
+
+def _check_same_settings(json_path: Path, csv_path: Path, settings: dict[str, Any]) -> None:
+    """A sweep.csv is resumed only under the settings it was started with (kept in sweep.json)."""
+    if not csv_path.exists():
+        return
+    try:
+        old = json.loads(json_path.read_text(encoding="utf-8"))
+        keys = [*settings, *(["terrain"] if "terrain" not in settings else [])]  # flat: no key
+        same = all(old.get(k) == json.loads(json.dumps(settings.get(k))) for k in keys)
+    except (OSError, ValueError, AttributeError):
+        raise InputError(f"{csv_path}: an earlier sweep without a readable {json_path.name}: cannot tell how it "
+                         "was run; use another --out folder or delete the file to start over") from None
+    if not same:
+        changed = [k for k in keys if old.get(k) != json.loads(json.dumps(settings.get(k)))]
+        raise InputError(f"{csv_path}: an earlier sweep with other settings ({', '.join(changed)}); "
+                         "use another --out folder or delete the file to start over")
+
+
+def _base_robot(grid: Grid) -> dict[str, Any]:
+    robot = grid.cases[0].robot.to_dict()
+    return {k: v for k, v in robot.items() if k not in grid.keys}
+
+
+def _csv_text(cols: list[str], rows: list[list[str]]) -> str:
+    import io
+
+    buf = io.StringIO(newline="")
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(cols)
+    writer.writerows(rows)
+    return buf.getvalue()
+
+
+def _record(cols: list[str], row: list[str]) -> dict[str, Any]:
+    """A CSV row back as JSON values: numbers, null for empty cells, text otherwise."""
+    rec: dict[str, Any] = {}
+    for c, cell in zip(cols, row):
+        if cell == "":
+            rec[c] = None
+            continue
+        try:
+            rec[c] = int(cell) if c == "case" else float(cell)
+        except ValueError:
+            rec[c] = cell
+    return rec
+
+
+def read_sweep(path: str | os.PathLike) -> list[dict[str, Any]]:
+    """The case records of a finished ``sweep.json``."""
+    return json.loads(Path(path).read_text(encoding="utf-8"))["cases"]

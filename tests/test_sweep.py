@@ -1,0 +1,215 @@
+"""mjtrack sweep: grids, dask clusters, same numbers as `mjtrack steady`, resume after a kill."""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import io
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from mjtrack.cli import main
+from mjtrack.errors import InputError
+from mjtrack.io.robot import Robot
+from mjtrack.sweep import grid_from_dict, track_commands
+
+SHORT = ["--settle", "0.3", "--window", "0.2"]  # short runs: the tests check plumbing, not physics
+GRID = {"speed": [0.4, -0.6], "turn_radius": [0.5, None, -2.0], "mu": [0.5, 0.9]}  # 12 cases
+
+
+# -- grids (no simulation) --------------------------------------------------------------
+def test_grid_product_order_and_track_commands():
+    g = grid_from_dict({"speed": [1.0, 2.0], "turn_radius": [0.5, None], "mass": [10, 30]}, base=Robot(track_gauge=0.4))
+    assert len(g.cases) == 8
+    assert [dict(c.values)["mass"] for c in g.cases[:2]] == [10.0, 30.0]  # last key fastest
+    c = g.cases[0]  # v = 1, R = 0.5: w = 2, V_L,R = 1 -/+ 2 * 0.2
+    assert (c.v_left_cmd, c.v_right_cmd) == pytest.approx((0.6, 1.4), abs=1e-15)
+    assert c.robot.mass == 10.0 and c.robot.track_gauge == 0.4
+    assert track_commands(1.0, None, 0.4) == (1.0, 1.0)
+    # the no-slip turn radius of the commands, closed form: R = (T/2) (V_R + V_L) / (V_R - V_L)
+    assert 0.2 * (1.4 + 0.6) / (1.4 - 0.6) == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize("grid, match", [
+    ({}, "non-empty JSON object"),
+    ([1, 2], "non-empty JSON object"),
+    ({"speed": [1], "turn_radius": [1], "warp": [1]}, "unknown key 'warp'"),
+    ({"speed": [1]}, "both 'speed' and 'turn_radius'"),
+    ({"speed": [1], "turn_radius": [1], "v_left_cmd": [1]}, "not a mix"),
+    ({"v_left_cmd": [1], "v_right_cmd": []}, "empty list"),
+    ({"v_left_cmd": [1e300], "v_right_cmd": [1]}, "beyond a plausible track speed"),
+    ({"speed": [1], "turn_radius": [0]}, "0 < |R|"),
+    ({"speed": [1], "turn_radius": [0.001]}, "beyond a plausible track speed"),
+    ({"speed": [1], "turn_radius": [1], "mu": ["high"]}, "entry 0: expected a finite number"),
+    ({"speed": [1], "turn_radius": [1], "cg_x": [0.0, 5.0]}, "case 1 .*cg_x"),
+    ({"v_left_cmd": [k / 10 for k in range(400)], "v_right_cmd": [k / 10 for k in range(400)], "mu": [0.1, 0.2]}, "at most"),
+])
+def test_bad_grids_are_refused(grid, match):
+    with pytest.raises(InputError, match=match):
+        grid_from_dict(grid, source="g.json")
+
+
+def test_bad_grid_file_writes_nothing(tmp_path, capsys):
+    (tmp_path / "g.json").write_text('{"speed": [1], "turn_radius": [1], "mu": [true]}')
+    assert main(["sweep", "--grid", str(tmp_path / "g.json"), "--out", str(tmp_path / "o"), "--workers", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "g.json" in err and "'mu'" in err
+    assert not (tmp_path / "o").exists()
+
+
+# -- runs on dask clusters --------------------------------------------------------------
+@pytest.fixture(scope="module")
+def cluster():
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def swept(tmp_path_factory, cluster):
+    """The 12-case grid on the test's 2-worker cluster (--scheduler) and on a new 1-worker one."""
+    d = tmp_path_factory.mktemp("sweep")
+    (d / "g.json").write_text(json.dumps(GRID))
+    rc_a = main(["sweep", "--grid", str(d / "g.json"), "--out", str(d / "a"), "--scheduler",
+                 cluster.scheduler_address, "-q", *SHORT])
+    rc_b = main(["sweep", "--grid", str(d / "g.json"), "--out", str(d / "b"), "--workers", "1", "-q", *SHORT])
+    assert (rc_a, rc_b) == (0, 0)
+    return d
+
+
+def _rows(path):
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_sweep_outputs_do_not_depend_on_the_cluster(swept):
+    a, b = (swept / "a" / "sweep.csv").read_bytes(), (swept / "b" / "sweep.csv").read_bytes()
+    assert a == b
+    rows = _rows(swept / "a" / "sweep.csv")
+    assert len(rows) == 12 and [int(r["case"]) for r in rows] == list(range(12))
+    assert list(rows[0])[:6] == ["case", "speed", "turn_radius", "mu", "v_left_cmd", "v_right_cmd"]
+    for col in ("v_left", "v_right", "vx", "vy", "wz", "y_l", "y_r", "x_c"):
+        assert col in rows[0]
+    straight = [r for r in rows if r["turn_radius"] == ""]
+    assert len(straight) == 4 and all(r["y_l"] == "" and r["x_c"] == "" for r in straight)  # undefined ICRs
+    turning = [r for r in rows if r["turn_radius"] != ""]
+    assert all(math.isfinite(float(r["y_l"])) for r in turning)
+    js = json.loads((swept / "a" / "sweep.json").read_text())
+    assert js["grid"] == {k: v for k, v in GRID.items()} and len(js["cases"]) == 12
+    assert js["cases"][2]["y_l"] is None  # case 2 is straight: null, not NaN
+    png = (swept / "a" / "icr_map.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
+
+
+def test_sweep_numbers_are_those_of_steady(swept, capsys):
+    """Case 6 = (speed -0.6, R 0.5, mu 0.5), run in a batch on a worker, against `mjtrack steady`."""
+    row = _rows(swept / "a" / "sweep.csv")[6]
+    assert (row["speed"], row["turn_radius"], row["mu"]) == ("-0.6", "0.5", "0.5")
+    capsys.readouterr()
+    assert main(["steady", "--v-left", row["v_left_cmd"], "--v-right", row["v_right_cmd"], "--mu", "0.5",
+                 *SHORT]) == 0
+    steady = json.loads(capsys.readouterr().out)
+    for k in ("v_left_cmd", "v_right_cmd", "v_left", "v_right", "vx", "vy", "wz", "y_l", "y_r", "x_c"):
+        assert float(row[k]) == steady[k], k  # bit-identical: same model, same state, same steps
+
+
+def test_sweep_resumes_from_a_cut_file(swept, cluster, capsys):
+    """A sweep killed after 5 rows, the 6th half written: the rerun runs only the 7 missing cases."""
+    full = (swept / "a" / "sweep.csv").read_text()
+    lines = full.splitlines(keepends=True)
+    out = swept / "resumed"
+    out.mkdir()
+    (out / "sweep.json").write_text((swept / "a" / "sweep.json").read_text())  # a killed run left both
+    # completion order is arbitrary: keep rows 7, 2, 9, 0, 11 and half of row 4
+    (out / "sweep.csv").write_text(lines[0] + "".join(lines[1 + k] for k in (7, 2, 9, 0, 11)) + lines[5][:30])
+    capsys.readouterr()
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    tty = Terminal()
+    with contextlib.redirect_stderr(tty):  # a terminal: the progress bar is drawn
+        assert main(["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--scheduler",
+                     cluster.scheduler_address, *SHORT]) == 0
+    assert "sweep  [####################]  7/7  100%" in tty.getvalue()
+    said = capsys.readouterr().out
+    assert "12 cases (7 run on 2 workers" in said and "5 kept from an earlier run" in said
+    assert (out / "sweep.csv").read_text() == full
+
+
+def test_resume_refuses_a_file_of_another_grid(swept, cluster, capsys):
+    out = swept / "other"
+    out.mkdir()
+    (out / "sweep.json").write_text((swept / "a" / "sweep.json").read_text())
+    text = (swept / "a" / "sweep.csv").read_text().replace("\n0,0.4,0.5,0.5,", "\n0,0.4,0.5,0.7,", 1)
+    (out / "sweep.csv").write_text(text)
+    assert main(["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--workers", "1", *SHORT]) == 2
+    assert "case 0 was run with other grid values" in capsys.readouterr().err
+
+
+def test_resume_refuses_other_settings(swept, capsys):
+    """The same grid with another averaging window must not be mixed into the earlier rows."""
+    out = swept / "settings"
+    out.mkdir()
+    for name in ("sweep.csv", "sweep.json"):
+        (out / name).write_text((swept / "a" / name).read_text())
+    before = (out / "sweep.csv").read_bytes()
+    assert main(["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--workers", "1",
+                 "--settle", "0.3", "--window", "0.4"]) == 2
+    assert "other settings (window_s)" in capsys.readouterr().err
+    assert (out / "sweep.csv").read_bytes() == before
+
+
+def test_sweep_on_terrain_is_steady_on_terrain(tmp_path, cluster, capsys):
+    (tmp_path / "g.json").write_text(json.dumps({"v_left_cmd": [0.3], "v_right_cmd": [0.5, 0.6]}))
+    terrain = ["--terrain", "incline:0.1:1.0"]
+    assert main(["sweep", "--grid", str(tmp_path / "g.json"), "--out", str(tmp_path / "o"), "--scheduler",
+                 cluster.scheduler_address, "-q", *terrain, *SHORT]) == 0
+    row = _rows(tmp_path / "o" / "sweep.csv")[1]
+    assert json.loads((tmp_path / "o" / "sweep.json").read_text())["terrain"]["spec"] == "incline:0.1:1.0"
+    capsys.readouterr()
+    assert main(["steady", "--v-left", "0.3", "--v-right", "0.6", *terrain, *SHORT]) == 0
+    steady = json.loads(capsys.readouterr().out)
+    for k in ("vx", "vy", "wz", "y_l", "y_r", "x_c"):
+        assert float(row[k]) == steady[k], k
+    flat = _rows(tmp_path / "o" / "sweep.csv")  # and the slope did change the motion
+    assert main(["steady", "--v-left", "0.3", "--v-right", "0.6", *SHORT]) == 0
+    assert json.loads(capsys.readouterr().out)["vy"] != float(flat[1]["vy"])
+
+
+def test_unreachable_scheduler_is_an_input_error(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("mjtrack.sweep.run.CONNECT_TIMEOUT_S", 2.0)  # nothing listens on port 9: no need to wait 10 s
+    (tmp_path / "g.json").write_text(json.dumps({"v_left_cmd": [0.5], "v_right_cmd": [1.0]}))
+    rc = main(["sweep", "--grid", str(tmp_path / "g.json"), "--out", str(tmp_path / "o"),
+               "--scheduler", "tcp://127.0.0.1:9", *SHORT])
+    assert rc == 2 and "cannot reach a dask scheduler" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_sweep_killed_mid_run_resumes(tmp_path):
+    """SIGKILL a real `python -m mjtrack sweep` after its first rows; the rerun completes the file and
+    gives the bytes of an uninterrupted run."""
+    grid = {"v_left_cmd": [0.2, 0.5, 0.8, 1.0], "v_right_cmd": [0.3, 0.9, 1.2]}
+    (tmp_path / "g.json").write_text(json.dumps(grid))
+    cmd = [sys.executable, "-m", "mjtrack", "sweep", "--grid", str(tmp_path / "g.json"), "--workers", "1", "-q",
+           "--settle", "1", "--window", "1"]
+    proc = subprocess.Popen([*cmd, "--out", str(tmp_path / "k")], start_new_session=True)
+    csv_path = tmp_path / "k" / "sweep.csv"
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and (not csv_path.exists() or csv_path.read_text().count("\n") < 3):
+        time.sleep(0.2)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    n_before = csv_path.read_text().count("\n") - 1
+    assert 2 <= n_before < 12
+    assert subprocess.run([*cmd, "--out", str(tmp_path / "k")], capture_output=True).returncode == 0
+    assert subprocess.run([*cmd, "--out", str(tmp_path / "full")], capture_output=True).returncode == 0
+    assert csv_path.read_bytes() == (tmp_path / "full" / "sweep.csv").read_bytes()
