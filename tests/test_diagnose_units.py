@@ -48,12 +48,6 @@ def test_quasi_static_icrs_do_not_depend_on_the_speeds():
     np.testing.assert_allclose(q, np.tile(sg.ground_response(ROBOT).q0, (3, 1)), atol=1e-6)
 
 
-def test_static_tables_pass_through_the_nominal_robot():
-    values, table = sg.static_table(ROBOT, "cg_x", [-0.05, 0.0, 0.05])
-    np.testing.assert_allclose(table[1], sg.ground_response(ROBOT).q0, atol=1e-9)
-    assert table[2, 2] > 0 > table[0, 2]  # x_c follows the centre of mass
-
-
 def test_effects_at_their_nominal_values_reduce_to_the_baseline(rng):
     v = _steps(rng)
     poses = np.column_stack([np.zeros((v.shape[0], 2)), rng.uniform(-3, 3, v.shape[0])])

@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-from filterpy.kalman import ExtendedKalmanFilter
 
 from mjtrack.errors import InputError, SingularMotionError
 from mjtrack.estimation import (
@@ -169,19 +168,6 @@ def test_update_is_joseph_form_with_plus_krk():
     np.testing.assert_allclose(P1, IKH @ P @ IKH.T + K_ref @ R @ K_ref.T, atol=1e-12)
     np.testing.assert_allclose(P1, IKH @ P, atol=1e-10)  # optimal gain: Joseph = short form (the -KRK^T print is not)
     assert not np.allclose(P1, IKH @ P @ IKH.T - K_ref @ R @ K_ref.T, atol=1e-6)
-
-
-def test_update_agrees_with_filterpy_ekf():
-    rng = np.random.default_rng(4)
-    A = rng.normal(size=(3, 3))
-    P, H, R = A @ A.T + np.eye(3), rng.normal(size=(2, 3)), np.diag([0.1, 0.4])
-    x, z = rng.normal(size=3), rng.normal(size=2)
-    ref = ExtendedKalmanFilter(3, 2)
-    ref.x, ref.P = x.copy(), P.copy()
-    ref.update(z, lambda s: H, lambda s: H @ s, R=R)
-    x1, P1, *_ = update(x, P, z, H @ x, H, R)
-    np.testing.assert_allclose(x1, ref.x, atol=1e-12)
-    np.testing.assert_allclose(P1, ref.P, atol=1e-12)
 
 
 def test_chi2_band_narrows_with_runs():

@@ -181,8 +181,9 @@ def test_loads_follow_the_centre_of_mass():
 
 
 def test_track_drive_lag_is_exact_first_order():
-    robot, lag = Robot(), 0.1
-    cfg = surfacevel_config(lag=lag)
+    # force limit far above what the lag asks for (0.8 m/s / 0.1 s): the rate limit stays idle
+    robot, lag = Robot(drive_lag=0.1, drive_force_limit=1e6), 0.1
+    cfg = surfacevel_config()
     m = build_surfacevel_model(robot, cfg)
     d = mujoco.MjData(m)
     drive = TrackDrive(m, robot, cfg)

@@ -123,7 +123,13 @@ def test_metrics_json_holds_every_predictor_horizon_and_the_verdicts(validation)
     html = validation.report_path.read_text()
     for text in doc["verdicts"].values():
         assert text.split(":")[0] in html
-    assert html.count("data:image/png;base64,") == 6
+    assert html.count("data:image/png;base64,") == 8  # horizon, 2 x (paths, ICRs), MPP params, 2 x NIS
+    for truth in ("log", "mpp"):
+        for name, f in doc["truths"][truth]["filters"].items():
+            c = f["consistency"]
+            assert set(c) >= {"nis_mean", "nis_dof", "nees_mean", "nees_dof", "band95"}
+            assert c["nis_mean"] > 0 and c["nees_mean"] > 0, (truth, name)
+            assert c["band95"]["nis"][0] < c["nis_dof"] < c["band95"]["nis"][1]
 
 
 def test_noise_is_seeded_and_scale_zero_gives_the_truth(drive):
@@ -178,16 +184,45 @@ def test_a_filter_that_fails_is_reported_not_raised(monkeypatch):
     assert res.metrics["predictors"]["micr_icr_ekf"]["horizons"]["2"]["pos_rmse_m"] < 0.05
 
 
-def test_filters_restart_on_each_segment(drive):
+def test_filters_carry_parameters_across_segments_and_restart_the_pose(drive):
     n = drive.n_samples
     window = np.where(np.arange(n) < n // 2, 0, 1)
     case = case_from_log(drive.replace(window=window), noise=Noise(scale=0.0))
-    runs = run_filters(case, T)
-    np.testing.assert_array_equal(runs["slip_ekf"].params[n // 2], [0.0, 0.0, 0.0])
-    np.testing.assert_allclose(runs["icr_ekf"].params[n // 2], InverseICR.nominal(T).params)
+    carried = run_filters(case, T, adaptive=None)  # single random walks: the carrying is the same, at half the cost
+    restarted = run_filters(case, T, adaptive=None, carry=False)
+    np.testing.assert_array_equal(restarted["slip_ekf"].params[n // 2], [0.0, 0.0, 0.0])
+    np.testing.assert_allclose(restarted["icr_ekf"].params[n // 2], InverseICR.nominal(T).params)
+    for name in ("slip_ekf", "icr_ekf", "vir_filter"):
+        np.testing.assert_array_equal(carried[name].params[n // 2], carried[name].params[n // 2 - 1])
+        second = carried[name].results[1]
+        np.testing.assert_allclose(second.x_prior[0, :2], case.pose_meas[n // 2, :2], atol=0.5)  # pose restarts
     errs = horizon_errors_per_start(Nominal(T), [T], case, 2.0, starts=starts_for(case))
     seg = window
     assert np.all(seg[errs.start] == seg[errs.end])
+
+
+def test_carried_covariance_grows_by_the_random_walk_over_the_gap():
+    from mjtrack.estimation.common import History
+    from mjtrack.validate.predictors import _run_segments
+
+    t = np.r_[np.arange(5) * 0.1, 10.0 + np.arange(5) * 0.1]  # gap of 9.6 s between the windows
+    z = np.zeros((10, 3))
+    case = Case("log", "test", t, np.ones(10), np.ones(10), z, z, z, z, np.r_[np.zeros(5, int), np.ones(5, int)])
+    seen = []
+
+    def fake(tt, vl, vr, pm, tm, p, P):
+        seen.append((p.copy(), P.copy()))
+        h = History(4, 1)
+        for k in range(1, tt.size):
+            h.add(tt[k], np.r_[0, 0, 0, p + 1], np.diag([1, 1, 1, P[0, 0] / 4]), np.r_[0, 0, 0, p + 1],
+                  np.diag([1, 1, 1, P[0, 0] / 4]), [0.0], [0.0])
+        return h.result("fake", ("x", "y", "theta", "p"), ("z",))
+
+    q2 = np.array([0.01])
+    _run_segments(case, fake, np.array([0.0]), np.eye(1), q2, ("p",), "fake", "z")
+    (p1, P1), (p2, P2) = seen
+    assert p1[0] == 0.0 and p2[0] == 1.0  # the first window's final estimate
+    np.testing.assert_allclose(P2[0, 0], 0.25 + 0.01 * (10.0 - 0.4))
 
 
 # -- command line ----------------------------------------------------------------------------
@@ -241,3 +276,19 @@ def test_a_log_without_twist_uses_the_differenced_poses(drive):
     # the mean twist over each 20 ms step vs the sampled one: equal up to the step's change
     # of speed (accelerations up to ~2 m/s^2 at command steps -> a few cm/s there)
     assert np.median(np.abs(case.twist - ref.twist)) < 2e-3
+
+
+def test_measured_log_noise_is_estimated_from_the_poses():
+    """A smooth circle sampled at 20 Hz plus known white pose noise: the estimate recovers it (±10 %)."""
+    from mjtrack.validate.truth import estimate_noise
+
+    t = np.arange(4000) * 0.05
+    true = np.stack([np.sin(0.5 * t), 1 - np.cos(0.5 * t), 0.5 * t], -1)
+    std = np.array([0.012, 0.008, math.radians(2.0)])
+    meas = true + np.random.default_rng(7).normal(size=true.shape) * std
+    twist = np.zeros_like(true)
+    case = Case("log", "measured log", t, np.ones(t.size), np.ones(t.size), meas, twist, meas, twist,
+                np.repeat(np.arange(40), 100), None, {"twist_from": "differenced poses"}, None, False)
+    est = estimate_noise(case)
+    np.testing.assert_allclose(est.pose_std, std, rtol=0.1)
+    np.testing.assert_allclose(est.twist_std, math.sqrt(2) * std / 0.05, rtol=0.1)

@@ -2,7 +2,8 @@
 
 Robot options (CONTRACTS.md §3) on every command that simulates::
 
-    --robot FILE  --cg-x M  --cg-y M  --mu X  --mass KG  --track-gauge M  --track-length M
+    --robot FILE  --cg-x M  --cg-y M  --mu X  --mu-left X  --mu-right X  --mass KG
+    --track-gauge M  --track-length M
 
 :func:`robot_from_args` builds the :class:`~mjtrack.io.robot.Robot`: the ``--robot`` file if
 given, else the caller's ``base`` (a scenario's robot, a log's ``LOG.json``), else the default
@@ -30,6 +31,8 @@ ROBOT_OPTIONS: dict[str, tuple[str, str, str]] = {
     "cg_x": ("cg_x", "M", "centre of mass ahead (+) / behind (-) the geometric centre [m]"),
     "cg_y": ("cg_y", "M", "centre of mass left (+) / right (-) of the geometric centre [m]"),
     "mu": ("mu", "X", "ground friction coefficient, both tracks [-]"),
+    "mu_left": ("mu_left", "X", "ground friction coefficient of the left track (overrides --mu there) [-]"),
+    "mu_right": ("mu_right", "X", "ground friction coefficient of the right track (overrides --mu there) [-]"),
     "mass": ("mass", "KG", "total mass [kg]"),
     "track_gauge": ("track_gauge", "M", "distance between the track centre lines [m]"),
     "track_length": ("track_length", "M", "length of each track's ground contact [m]"),
@@ -104,6 +107,31 @@ def robot_from_args(args: argparse.Namespace, base: Robot | None = None) -> Robo
         )
         origin = f" on top of {path}" if path is not None else ""
         raise InputError(f"{exc} (options: {given}{origin})") from None
+
+
+TERRAIN_HELP = ("terrain under the simulated robot: flat (default), incline:ANGLE[:DIR] (rad; DIR the uphill "
+                "direction, default 0 = +x), step:HEIGHT:X (a step across the ground from x = X on), "
+                "hfield:FILE:SIZE_X:SIZE_Y:HEIGHT (.npy or .png heights scaled 0-1, centred at the origin), "
+                "patches:FILE.json (rectangles {x, y, size_x, size_y, mu}) or FILE.json combining "
+                "incline/steps/hfield/patches")
+
+
+def add_terrain_option(parser: argparse.ArgumentParser) -> None:
+    """Add ``--terrain SPEC`` (parsed by :func:`terrain_from_args`)."""
+    parser.add_argument("--terrain", metavar="SPEC", default=None,
+                        help=TERRAIN_HELP + " (default: the scenario's terrain, else flat)")
+
+
+def terrain_from_args(args: argparse.Namespace, scenario: str | None = None):
+    """The :class:`~mjtrack.sim.terrain.Terrain` of ``--terrain``, else the scenario's, else flat
+    (bad specs: InputError)."""
+    from mjtrack.sim.scenarios import SCENARIOS
+    from mjtrack.sim.terrain import Terrain, parse_terrain
+
+    spec = getattr(args, "terrain", None)
+    if spec is not None:
+        return parse_terrain(spec)
+    return SCENARIOS[scenario].terrain if scenario in SCENARIOS else Terrain()
 
 
 def add_output_options(parser: argparse.ArgumentParser) -> None:

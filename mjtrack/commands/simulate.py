@@ -3,7 +3,8 @@
 Drives the roller-chain robot (mjtrack.sim) with a named scenario (straight, circle, pivot,
 u_path, random_steps) or a command CSV (columns t, v_left_cmd, v_right_cmd; each command
 held until the next) and writes LOG.csv (CONTRACTS.md §1: t, v_left_cmd, v_right_cmd, x, y,
-yaw, v_left, v_right, vx, vy, wz) and LOG.json (the robot used). The same arguments and
+yaw, v_left, v_right, vx, vy, wz; z, roll, pitch on terrain other than flat) and LOG.json (the
+robot used, and the terrain under key "terrain" when it is not flat). The same arguments and
 seed give a byte-identical log.
 """
 
@@ -12,7 +13,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjtrack.commands._common import add_output_options, add_robot_options, check_out_file, finite_float, robot_from_args
+from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, check_out_file,
+                                      finite_float, robot_from_args, terrain_from_args)
 
 HELP = "headless MuJoCo rollout: scenario or command CSV -> drive log CSV + robot JSON"
 
@@ -34,6 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="MuJoCo track model: sprung roller chain (default) or surfacevel row")
     parser.add_argument("--out", metavar="LOG.csv", type=Path, required=True, help="output drive log")
     add_robot_options(parser)
+    add_terrain_option(parser)
     add_output_options(parser)
 
 
@@ -43,19 +46,21 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.sim.config import sim_config
     from mjtrack.sim.rollout import drive_log
     from mjtrack.sim.scenarios import read_commands, scenario_commands
+    from mjtrack.sim.terrain import with_terrain
 
     inputs = [args.commands] if args.commands else []
     out = check_out_file(args.out, suffixes=(".csv",), inputs=inputs)
     robot = robot_from_args(args)
+    terrain = terrain_from_args(args, args.scenario)
     config = sim_config(args.track_model, timestep=args.timestep)
     if args.scenario:
         table, duration = scenario_commands(args.scenario, robot, duration=args.duration, seed=args.seed)
     else:
         table = read_commands(args.commands)
         duration = args.duration if args.duration is not None else float(table[0][-1]) + 1.0
-    log = drive_log(robot, table, duration=duration, config=config, log_rate=args.log_rate)
+    log = drive_log(robot, table, duration=duration, config=config, log_rate=args.log_rate, terrain=terrain)
     write_log(log, out)
-    write_robot(robot, robot_path_for(out))
+    write_robot(with_terrain(robot, terrain), robot_path_for(out))
     if not args.quiet:
         print(f"wrote {out} ({len(log.t)} samples, {duration:g} s) and {robot_path_for(out)}")
     return 0

@@ -11,7 +11,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from mjtrack.commands._common import add_robot_options, finite_float, robot_from_args
+from mjtrack.commands._common import (add_robot_options, add_terrain_option, finite_float, robot_from_args,
+                                      terrain_from_args)
 
 HELP = "steady-state twist and ICRs of the MuJoCo robot under constant track speeds (JSON)"
 
@@ -25,6 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="MuJoCo track model: sprung roller chain (default) or surfacevel row")
     parser.add_argument("--json", action="store_true", help="print JSON (the only output format; accepted for clarity)")
     add_robot_options(parser)
+    add_terrain_option(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -37,6 +39,6 @@ def run(args: argparse.Namespace) -> int:
 
     robot = robot_from_args(args)
     result = steady_state(robot, args.v_left, args.v_right, config=sim_config(args.track_model),
-                          settle_s=args.settle, window_s=args.window)
+                          settle_s=args.settle, window_s=args.window, terrain=terrain_from_args(args))
     print(json.dumps(result.to_dict(), indent=2))
     return 0

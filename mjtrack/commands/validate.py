@@ -7,8 +7,12 @@ model (nominal, MPP, MICR, MVIR) with parameters from the filters run online on 
 own ICRs (2.13) as an upper bound, it scores predictions over 0.5, 1, 2 and 5 s against the
 log and against an MPP analytic truth with known slips (thesis 4.2) on the same commands.
 The filters see seeded Gaussian measurement noise (--noise-scale, 0 = none); errors are
-scored against the noise-free truth. Writes DIR/report.html (self-contained: verdicts,
-setup, definitions, figures) and DIR/metrics.json (the same numbers).
+scored against the noise-free truth. The filters adapt their process noise (a slow and a fast
+random walk of their parameters), carry their parameters across the windows of a log (only
+the pose restarts), and on a measured log take its measurement noise estimated from the log.
+Writes DIR/report.html (self-contained: verdicts, setup, definitions, figures, filter
+consistency with NIS over time) and DIR/metrics.json (the same numbers; per filter and truth
+consistency: nis_mean, nis_dof, nees_mean (null on a measured log), nees_dof, band95).
 """
 
 from __future__ import annotations
@@ -16,7 +20,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjtrack.commands._common import add_output_options, add_robot_options, check_out_dir, finite_float, robot_from_args
+from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, check_out_dir,
+                                      finite_float, robot_from_args, terrain_from_args)
 from mjtrack.errors import InputError
 
 HELP = "model-vs-physics validation of the kinematic models and filters: report.html + metrics.json"
@@ -34,6 +39,7 @@ def add_source_arguments(parser: argparse.ArgumentParser) -> None:
                         help="scenario duration [s] (default: the scenario's)")
     parser.add_argument("--seed", type=int, default=0, help="seed of random scenarios and of the noise (default 0)")
     add_robot_options(parser)
+    add_terrain_option(parser)
 
 
 def source_from_args(args: argparse.Namespace):
@@ -50,9 +56,14 @@ def source_from_args(args: argparse.Namespace):
         robot = robot_from_args(args)
         table, duration = scenario_commands(args.scenario, robot, duration=args.duration, seed=args.seed)
         words = f"MuJoCo rollout of the scenario '{args.scenario}' ({duration:g} s, seed {args.seed})"
-        return drive_log(robot, table, duration=duration), robot, words, "MuJoCo rollout"
+        terrain = terrain_from_args(args, args.scenario)
+        if not terrain.is_flat:
+            words += f" on terrain {terrain.spec}"
+        return drive_log(robot, table, duration=duration, terrain=terrain), robot, words, "MuJoCo rollout"
     if args.duration is not None:
         raise InputError("--duration applies to --scenario only, not to a log")
+    if getattr(args, "terrain", None) is not None:
+        raise InputError("--terrain applies to --scenario only (a log was driven on its own terrain)")
     drive = read_log(args.log)
     json_path = robot_path_for(args.log)
     base = read_robot(json_path) if json_path.exists() else None

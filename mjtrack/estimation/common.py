@@ -8,10 +8,10 @@ One EKF step k (time t_k, command u_{k-1} held over [t_{k-1}, t_k)):
 
 The Joseph form (3.8) is printed with −K R Kᵀ; the correct sign is +: with ε's covariance S,
 Cov(x⁺ − x) = (I − KH) P⁻ (I − KH)ᵀ + K R Kᵀ for *any* gain K, both terms positive
-semi-definite. The update itself is filterpy's ``ExtendedKalmanFilter.update`` (Joseph form, a
-user residual); ⊖ is the component-wise difference with the angle components wrapped to
-[−π, π) (:func:`residual`), so a yaw measured as +179° against a prediction of −179° gives
-+2°, not +358°.
+semi-definite. :func:`update` writes this out (one Cholesky factorisation of S per step, no
+throw-away filter object); ⊖ is the component-wise difference with the angle components
+wrapped to [−π, π) (:func:`residual`), so a yaw measured as +179° against a prediction of −179°
+gives +2°, not +358°.
 
 Every filter returns a :class:`FilterResult` holding per step the prior and posterior state and
 covariance, the measurement, its prediction, the innovation, S and K, so that consistency can
@@ -31,8 +31,7 @@ from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
-from filterpy.kalman import ExtendedKalmanFilter
-from scipy import stats
+from scipy import linalg, stats
 
 from mjtrack.errors import InputError
 from mjtrack.geometry import relative_pose, wrap_angle
@@ -57,22 +56,26 @@ def predict(x: np.ndarray, P: np.ndarray, fx: np.ndarray, F: np.ndarray, Q: np.n
 
 
 def update(x, P, z, zpred, H, R, *, angle_idx: Sequence[int] = ()):
-    """EKF update (3.7) with the Joseph covariance (3.8, sign corrected), via filterpy.
+    """EKF update (3.7) with the Joseph covariance (3.8, sign corrected).
 
     Args:
         x: (n,) prior state; P: (n, n) prior covariance.
         z: (m,) measurement; zpred: (m,) h(x); H: (m, n) ∂h/∂x; R: (m, m) noise covariance.
         angle_idx: measurement components that are angles (residual wrapped).
     Returns:
-        (x⁺, P⁺, ε, S, K).
+        (x⁺, P⁺, ε, S, K): K = P Hᵀ S⁻¹ from a Cholesky solve of S = H P Hᵀ + R.
     """
-    ekf = ExtendedKalmanFilter(dim_x=len(x), dim_z=len(z))
-    ekf.x = np.array(x, dtype=float)
-    ekf.P = np.array(P, dtype=float)
-    ekf.update(np.asarray(z, dtype=float), lambda _x: H, lambda _x: zpred, R=R,
-               residual=lambda a, b: residual(a, b, angle_idx))
-    Pp = 0.5 * (ekf.P + ekf.P.T)
-    return ekf.x.copy(), Pp, ekf.y.copy(), ekf.S.copy(), ekf.K.copy()
+    x = np.asarray(x, dtype=float)
+    P = np.asarray(P, dtype=float)
+    H = np.asarray(H, dtype=float)
+    e = residual(z, zpred, angle_idx)
+    PHt = P @ H.T
+    S = H @ PHt + R
+    S = 0.5 * (S + S.T)
+    K = linalg.cho_solve(linalg.cho_factor(S), PHt.T).T
+    IKH = np.eye(x.size) - K @ H
+    P1 = IKH @ P @ IKH.T + K @ R @ K.T
+    return x + K @ e, 0.5 * (P1 + P1.T), e, S, K
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,6 +94,7 @@ class FilterResult:
         updated: (N,) bool, False where the step had no update.
         state_angles / meas_angles: indices of angle components (wrapped in errors).
         info: free-form extras (e.g. the filter's settings), JSON-friendly.
+        mode_prob: (N,) probability of the fast mode of an adaptive (IMM) filter, else None.
     """
 
     name: str
@@ -110,6 +114,7 @@ class FilterResult:
     state_angles: tuple[int, ...] = ()
     meas_angles: tuple[int, ...] = ()
     info: dict = field(default_factory=dict)
+    mode_prob: np.ndarray | None = None
 
     def __post_init__(self):
         N, n, m = len(self.t), len(self.state_names), len(self.meas_names)
@@ -152,8 +157,10 @@ class History:
     def __init__(self, n: int, m: int):
         self.n, self.m = n, m
         self.rows: list[tuple] = []
+        self.modes: list = []
 
-    def add(self, t, x_prior, P_prior, x_post, P_post, z, z_pred, mask=None, innovation=None, S=None, K=None):
+    def add(self, t, x_prior, P_prior, x_post, P_post, z, z_pred, mask=None, innovation=None, S=None, K=None,
+            mode_prob=None):
         """Record one step; ``mask`` (m,) marks the measurement components used (None: all)."""
         m, n = self.m, self.n
         mask = np.ones(m, bool) if mask is None else np.asarray(mask, bool)
@@ -164,6 +171,7 @@ class History:
             full_S[np.ix_(mask, mask)] = S
             full_K[:, mask] = K
         self.rows.append((t, x_prior, P_prior, x_post, P_post, z, z_pred, full_e, full_S, full_K, updated))
+        self.modes.append(mode_prob)
 
     def result(self, name, state_names, meas_names, *, state_angles=(), meas_angles=(), info=None) -> FilterResult:
         cols = list(zip(*self.rows)) if self.rows else [[] for _ in range(11)]
@@ -173,7 +181,8 @@ class History:
         arr = [a if len(self.rows) else np.zeros(s) for a, s in zip(arr, empty)]
         return FilterResult(name, arr[0], tuple(state_names), tuple(meas_names), arr[1], arr[3], arr[2], arr[4],
                             arr[5], arr[6], arr[7], arr[8], arr[9], np.asarray(cols[10], bool),
-                            tuple(state_angles), tuple(meas_angles), dict(info or {}))
+                            tuple(state_angles), tuple(meas_angles), dict(info or {}),
+                            None if not self.modes or self.modes[0] is None else np.asarray(self.modes, float))
 
 
 def chi2_band(dof: int, runs: int = 1, p: float = 0.95) -> tuple[float, float]:

@@ -221,20 +221,29 @@ def run_icr_ekf(
     q_pose_std: Sequence[float] = (1e-3, 1e-3, 1e-3),
     pose0=None,
     name: str = "icr_ekf",
+    adaptive=None,
+    psi0: Sequence[float] | None = None,
+    psi_cov0=None,
 ) -> FilterResult:
     """Improved ICR EKF: pose-augmented EKF on ψ (module docstring).
 
     Args:
         icr0: initial (y_l, y_r, x_c) [m] (default nominal: T/2, −T/2, 0); psi_std0: std of
             the initial ψ [-, -, 1/m]; q_psi_std: random-walk intensity of ψ [unit/√s].
+        adaptive: None (one EKF), "imm" or :class:`~mjtrack.estimation.imm.IMMSettings` (slow/fast
+            IMM pair whose slow mode has ``q_psi_std``, :mod:`mjtrack.estimation.imm`).
+        psi0, psi_cov0: initial ψ and its (3, 3) covariance, overriding ``icr0`` / ``psi_std0``
+            (a filter carried over from an earlier window of the same robot).
         Others as :func:`~mjtrack.estimation.slip_ekf.run_slip_ekf`.
     Returns:
         :class:`FilterResult` with states (x, y, theta, psi_x, psi_y, psi_z); use
         :func:`icr_from_psi` on ``x_post[:, 3:]`` for the ICRs.
     """
     model = InverseICR.nominal(track_gauge) if icr0 is None else InverseICR.from_icr(*icr0)
+    if psi0 is not None:
+        model = InverseICR(*np.asarray(psi0, float))
     return run_pose_param_ekf(
         model, t, v_left, v_right, pose_meas=pose_meas, twist_meas=twist_meas, pose_std=pose_std,
         twist_std=twist_std, param_std0=psi_std0, q_param_std=q_psi_std, q_pose_std=q_pose_std, pose0=pose0,
-        name=name,
+        name=name, adaptive=adaptive, param_cov0=psi_cov0,
     )

@@ -31,11 +31,17 @@ from typing import Sequence
 import numpy as np
 
 from mjtrack.errors import InputError
-from mjtrack.estimation.common import predict, update
 from mjtrack.estimation.icr_ekf import InverseICR
-from mjtrack.estimation.pose_ekf import measurement, transition
+from mjtrack.estimation.imm import IMMSettings, imm_settings
+from mjtrack.estimation.pose_ekf import PoseParamFilter
 
 log = logging.getLogger(__name__)
+
+Q_PSI_STD = (0.01, 0.01, 0.01)  # [unit/sqrt(s)] random walk of the single EKF (default)
+# adaptive="imm": slow mode 1e-3, fast mode 300x that (0.3 /sqrt(s)) -- the batch filters' IMM
+# (mjtrack.estimation.imm); the slow mode keeps the estimate still between ground changes
+Q_PSI_STD_IMM = (1e-3, 1e-3, 1e-3)
+ONLINE_IMM = IMMSettings()
 
 
 class OnlineICREstimator:
@@ -46,8 +52,12 @@ class OnlineICREstimator:
             ``icr0`` = (y_l, y_r, x_c) [m] is given.
         pose_std, twist_std: measurement noise std [m, m, rad] / [m/s, m/s, rad/s].
         psi_std0: std of the initial ψ [-, -, 1/m]; q_psi_std: its random-walk intensity
-            [unit/√s]; q_pose_std: pose process noise [m/√s, m/√s, rad/√s].
+            [unit/√s] (default 0.01; with ``adaptive`` the slow mode's, default 1e-3); q_pose_std: pose process noise [m/√s, m/√s, rad/√s].
         step: "midpoint" or "euler" pose prediction (see pose_ekf).
+        adaptive: None (one EKF with ``q_psi_std``, the default), "imm" or an
+            :class:`~mjtrack.estimation.imm.IMMSettings`: a slow/fast IMM pair whose slow mode
+            has ``q_psi_std`` (:mod:`mjtrack.estimation.imm`) — recovers within about a second
+            from a change of the ground while staying smooth when nothing changes.
     """
 
     state_names = ("x", "y", "theta", "psi_x", "psi_y", "psi_z")
@@ -60,9 +70,10 @@ class OnlineICREstimator:
         pose_std: Sequence[float] = (0.01, 0.01, 0.01),
         twist_std: Sequence[float] = (0.02, 0.02, 0.02),
         psi_std0: Sequence[float] = (2.0, 2.0, 4.0),
-        q_psi_std: Sequence[float] = (0.01, 0.01, 0.01),
+        q_psi_std: Sequence[float] | None = None,
         q_pose_std: Sequence[float] = (1e-3, 1e-3, 1e-3),
         step: str = "midpoint",
+        adaptive=None,
     ) -> None:
         if not track_gauge > 0:
             raise InputError(f"OnlineICREstimator: track_gauge must be positive, got {track_gauge!r}")
@@ -73,18 +84,35 @@ class OnlineICREstimator:
         self.pose_std = np.asarray(pose_std, float)
         self.twist_std = np.asarray(twist_std, float)
         self.psi_std0 = np.asarray(psi_std0, float)
+        imm = imm_settings(adaptive, ONLINE_IMM)
+        if q_psi_std is None:
+            q_psi_std = Q_PSI_STD if imm is None else Q_PSI_STD_IMM
         self.q2 = np.concatenate([np.asarray(q_pose_std, float) ** 2, np.asarray(q_psi_std, float) ** 2])
         self.step_kind = step
         self.t: float | None = None
-        self.s = np.zeros(6)
-        self.P = np.eye(6)
+        self.filter = PoseParamFilter(self.model, np.zeros(6), np.eye(6), self.q2, step=step, adaptive=imm)
         self.n_updates = 0
+
+    @property
+    def s(self) -> np.ndarray:
+        """Current state (x, y, θ, ψ_x, ψ_y, ψ_z)."""
+        return self.filter.s
+
+    @property
+    def P(self) -> np.ndarray:
+        """Current state covariance (6, 6)."""
+        return self.filter.P
+
+    @property
+    def mode_prob(self) -> float | None:
+        """Probability of the fast mode (adaptive estimator), else None."""
+        return None if self.filter.imm is None else float(self.filter.mu[1])
 
     def reset(self, t: float, pose) -> None:
         """Start at time ``t`` [s] from a measured ``pose`` (3,) with the initial ψ guess."""
         self.t = float(t)
-        self.s = np.concatenate([np.asarray(pose, float).reshape(3), self.model.params])
-        self.P = np.diag(np.concatenate([self.pose_std**2, self.psi_std0**2]))
+        self.filter.reset(np.concatenate([np.asarray(pose, float).reshape(3), self.model.params]),
+                          np.diag(np.concatenate([self.pose_std**2, self.psi_std0**2])))
         self.n_updates = 0
 
     def step(self, t: float, v_left: float, v_right: float, *, pose=None, twist=None) -> None:
@@ -101,24 +129,16 @@ class OnlineICREstimator:
         dt = float(t) - self.t
         if not dt > 0:
             raise InputError(f"OnlineICREstimator: time must increase (t = {t}, previous {self.t})")
-        fs, F = transition(self.model, self.s, v_left, v_right, dt, step=self.step_kind)
-        s_pr, P_pr = predict(self.s, self.P, fs, F, np.diag(self.q2 * dt))
         self.t = float(t)
         has_pose, has_twist = pose is not None, twist is not None
-        if not (has_pose or has_twist):
-            self.s, self.P = s_pr, P_pr
-            return
-        h, H = measurement(self.model, s_pr, v_left, v_right, pose=has_pose, twist=has_twist)
-        z = np.concatenate([np.asarray(a, float).reshape(3) for a in (pose, twist) if a is not None])
-        r_std = np.concatenate([a for a, given in ((self.pose_std, has_pose), (self.twist_std, has_twist)) if given])
-        mask = ~np.isnan(z)
-        if not mask.any():
-            self.s, self.P = s_pr, P_pr
-            return
-        ang = [int(np.sum(mask[:2]))] if has_pose and mask[2] else []  # yaw's index among the used components
-        R = np.diag(r_std[mask] ** 2)
-        self.s, self.P, *_ = update(s_pr, P_pr, z[mask], h[mask], H[mask], R, angle_idx=ang)
-        self.n_updates += 1
+        z = np.concatenate([np.asarray(a, float).reshape(3) for a in (pose, twist) if a is not None]) \
+            if (has_pose or has_twist) else np.zeros(0)
+        r_std = np.concatenate([a for a, given in ((self.pose_std, has_pose), (self.twist_std, has_twist)) if given]) \
+            if (has_pose or has_twist) else np.zeros(0)
+        u = (v_left, v_right)
+        *_, upd = self.filter.step(dt, u, u, z, np.diag(r_std**2), pose=has_pose, twist=has_twist,
+                                   meas_angles=(2,) if has_pose else ())
+        self.n_updates += upd is not None
 
     @property
     def psi(self) -> np.ndarray:

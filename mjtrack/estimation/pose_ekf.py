@@ -32,6 +32,10 @@ and 1.8 cm on x_c = −v_y/ω, larger than the noise-limited accuracy. The defau
 its Jacobian evaluates the θ column at θ_m and adds Δt·(∂Rot(θ_m)/∂θ)(v_x, v_y)·(Δt/2)·J₂ to
 the position rows' parameter columns. ``step="euler"`` is the thesis's (3.11).
 
+Adaptive process noise: ``adaptive="imm"`` (or an :class:`~mjtrack.estimation.imm.IMMSettings`)
+runs a slow/fast pair of parameter random walks as an interacting multiple model
+(:mod:`mjtrack.estimation.imm`, derivation there); the default (None) is the single EKF above.
+
 Noise units: measurement noise as standard deviations ``*_std`` [m, m, rad, m/s, m/s, rad/s];
 process noise as random-walk intensities ``q_*_std`` [unit/√s], Q = diag(q²)·Δt, so the result
 does not depend on the sampling rate.
@@ -45,7 +49,8 @@ from typing import Sequence
 import numpy as np
 
 from mjtrack.errors import InputError
-from mjtrack.estimation.common import FilterResult, History, check_inputs, predict, update
+from mjtrack.estimation.common import FilterResult, History, check_inputs, predict, residual, update
+from mjtrack.estimation.imm import IMMSettings, combine, imm_settings, log_likelihood, mix, posterior_probabilities
 from mjtrack.models import KinematicModel
 
 log = logging.getLogger(__name__)
@@ -93,7 +98,108 @@ def measurement(model: KinematicModel, s: np.ndarray, v_left: float, v_right: fl
         H = np.zeros((3, n))
         H[:, 3:] = m.twist_jacobian(v_left, v_right)
         Hs.append(H)
+    if not hs:
+        return np.zeros(0), np.zeros((0, n))
     return np.concatenate(hs), np.vstack(Hs)
+
+
+class PoseParamFilter:
+    """One pose-augmented parameter filter advanced a step at a time (single EKF or IMM pair).
+
+    Used by :func:`run_pose_param_ekf` (batch) and :class:`~mjtrack.estimation.online.OnlineICREstimator`
+    (online), so both run the same arithmetic.
+
+    Args:
+        model: the kinematic model (its parameters are not used: the state carries them).
+        s0: (3 + P,) initial state; P0: its covariance.
+        q2: (3 + P,) process-noise intensities squared [unit²/s] (Q = diag(q2)·Δt).
+        step: "midpoint" or "euler".
+        adaptive: None, "imm" or :class:`~mjtrack.estimation.imm.IMMSettings`.
+        param_bounds: optional (P, 2) box the parameters are projected into after each update.
+    """
+
+    def __init__(self, model: KinematicModel, s0, P0, q2, *, step: str = "midpoint", adaptive=None,
+                 param_bounds=None):
+        self.model = model
+        self.step_kind = step
+        self.imm: IMMSettings | None = imm_settings(adaptive)
+        self.q2 = np.asarray(q2, float)
+        self.bounds = None if param_bounds is None else np.asarray(param_bounds, float)
+        self.projected = 0
+        self.reset(s0, P0)
+
+    def reset(self, s0, P0, mode_prob=None) -> None:
+        """Restart from (s0, P0); mode probabilities from ``mode_prob`` or the IMM prior."""
+        s0, P0 = np.asarray(s0, float).copy(), np.asarray(P0, float).copy()
+        self.s, self.P = s0, P0
+        self.u_last = None
+        if self.imm is not None:
+            self.xs, self.Ps = [s0.copy(), s0.copy()], [P0.copy(), P0.copy()]
+            self.mu = np.asarray(self.imm.prior if mode_prob is None else mode_prob, float).copy()
+
+    def _q2(self, mode: int) -> np.ndarray:
+        if mode == 0:
+            return self.q2
+        q2 = self.q2.copy()
+        q2[3:] *= self.imm.fast_factor**2
+        return q2
+
+    def _project(self, s: np.ndarray) -> np.ndarray:
+        if self.bounds is None:
+            return s
+        clipped = np.clip(s[3:], self.bounds[:, 0], self.bounds[:, 1])
+        if np.any(clipped != s[3:]):
+            self.projected += 1
+            return np.concatenate([s[:3], clipped])
+        return s
+
+    def _one(self, s, P, q2, dt, u_pred, u_meas, z, R, pose, twist, mask, ang):
+        fs, F = transition(self.model, s, u_pred[0], u_pred[1], dt, step=self.step_kind)
+        s_pr, P_pr = predict(s, P, fs, F, np.diag(q2 * dt))
+        h, H = measurement(self.model, s_pr, u_meas[0], u_meas[1], pose=pose, twist=twist)
+        if not mask.any():
+            return s_pr, P_pr, h, s_pr, P_pr, None
+        s1, P1, e, S, K = update(s_pr, P_pr, z[mask], h[mask], H[mask], R[np.ix_(mask, mask)], angle_idx=ang)
+        return s_pr, P_pr, h, self._project(s1), P1, (e, S, K)
+
+    def step(self, dt: float, u_pred, u_meas, z, R, *, pose: bool, twist: bool, meas_angles=()):
+        """Advance by ``dt`` [s] with command ``u_pred`` held, update with ``z`` (NaN: missing).
+
+        ``u_meas`` is the command at which a twist measurement is predicted; R the (m, m) noise
+        covariance of the full measurement vector (pose and/or twist components).
+        Returns (s_prior, P_prior, z_pred, mask, (e, S, K) or None); the posterior is ``self.s, self.P``.
+        """
+        z = np.asarray(z, float)
+        mask = ~np.isnan(z)
+        ang = [int(np.sum(mask[:i])) for i in meas_angles if mask[i]]
+        if self.imm is None:
+            s_pr, P_pr, h, self.s, self.P, upd = self._one(self.s, self.P, self.q2, dt, u_pred, u_meas, z, R, pose,
+                                                          twist, mask, ang)
+            return s_pr, P_pr, h, mask, upd
+        u_now = np.asarray(u_pred, float)
+        du = 0.0 if self.u_last is None else float(np.hypot(*(u_now - self.u_last)))
+        self.u_last = u_now
+        pi = self.imm.transition_matrix(dt, du)
+        x0, P0, cbar = mix(self.xs, self.Ps, self.mu, pi)
+        Rs = (R, R * self.imm.fast_meas_factor**2)
+        outs = [self._one(x0[j], P0[j], self._q2(j), dt, u_pred, u_meas, z, Rs[j], pose, twist, mask, ang)
+                for j in range(2)]
+        s_pr, P_pr = combine([o[0] for o in outs], [o[1] for o in outs], cbar)
+        hs = [o[2] for o in outs]
+        h = sum(c * hj for c, hj in zip(cbar, hs))
+        self.xs, self.Ps = [o[3] for o in outs], [o[4] for o in outs]
+        if not mask.any():
+            self.mu = cbar
+            self.s, self.P = combine(self.xs, self.Ps, self.mu)
+            return s_pr, P_pr, h, mask, None
+        self.mu = posterior_probabilities([log_likelihood(o[5][0], o[5][1]) for o in outs], cbar)
+        self.s, self.P = combine(self.xs, self.Ps, self.mu)
+        hm = [hj[mask] for hj in hs]
+        e = residual(z[mask], h[mask], ang)
+        dh = [residual(hj, h[mask], ang) for hj in hm]
+        S = sum(c * (o[5][1] + np.outer(d, d)) for c, o, d in zip(cbar, outs, dh))
+        K = sum(m * o[5][2] for m, o in zip(self.mu, outs))
+        return s_pr, P_pr, h, mask, (e, 0.5 * (S + S.T), K)
 
 
 def run_pose_param_ekf(
@@ -114,6 +220,8 @@ def run_pose_param_ekf(
     step: str = "midpoint",
     param_bounds: Sequence[tuple[float, float]] | None = None,
     name: str = "pose_param_ekf",
+    adaptive=None,
+    param_cov0=None,
 ) -> FilterResult:
     """Run the pose-augmented EKF over a drive (see module docstring).
 
@@ -131,6 +239,11 @@ def run_pose_param_ekf(
             projected (clipped) into the box — the standard estimate-projection treatment of
             hard parameter constraints, for parameters outside of which the model is undefined
             (e.g. MPP's |alpha| < pi/2). The number of projected steps is in ``info``.
+        adaptive: None (one EKF), "imm" or an :class:`~mjtrack.estimation.imm.IMMSettings`
+            (slow/fast IMM pair, :mod:`mjtrack.estimation.imm`); the result's ``mode_prob``
+            holds P(fast) per step.
+        param_cov0: optional (P, P) initial parameter covariance (overrides ``param_std0``; used to
+            carry a filter's estimate from one window of a log to the next).
     Returns:
         :class:`FilterResult` of N−1 steps (t[1:]); states (x, y, theta, *model.param_names);
         measurements: pose and/or twist components.
@@ -147,6 +260,8 @@ def run_pose_param_ekf(
     pose_std0 = pose_std if pose_std0 is None else pose_std0
     s = np.concatenate([np.asarray(pose0, dtype=float), p0])
     P = np.diag(np.concatenate([np.asarray(pose_std0, float) ** 2, np.asarray(param_std0, float) ** 2]))
+    if param_cov0 is not None:
+        P[3:, 3:] = np.asarray(param_cov0, float)
     q2 = np.concatenate([np.asarray(q_pose_std, float) ** 2, np.asarray(q_param_std, float) ** 2])
     meas_names, r_std, zs = [], [], []
     if pm is not None:
@@ -161,29 +276,22 @@ def run_pose_param_ekf(
     R_full = np.diag(np.asarray(r_std, float) ** 2)
     meas_angles = (2,) if pm is not None else ()
     hist = History(3 + P_, len(meas_names))
+    bounds = None
     if param_bounds is not None:
         bounds = np.asarray(param_bounds, dtype=float)
         if bounds.shape != (P_, 2) or np.any(bounds[:, 0] >= bounds[:, 1]):
             raise InputError(f"{name}: param_bounds must be {P_} (low, high) pairs with low < high")
-    projected = 0
+    filt = PoseParamFilter(model, s, P, q2, step=step, adaptive=adaptive, param_bounds=bounds)
     for k in range(1, t.size):
-        dt = t[k] - t[k - 1]
-        fs, F = transition(model, s, vl[k - 1], vr[k - 1], dt, step=step)
-        s_pr, P_pr = predict(s, P, fs, F, np.diag(q2 * dt))
-        h, H = measurement(model, s_pr, vl[k], vr[k], pose=pm is not None, twist=tm is not None)
-        mask = ~np.isnan(Z[k])
-        if mask.any():
-            ang = [i for i in meas_angles if mask[i]]
-            ang = [int(np.sum(mask[:i])) for i in ang]
-            s, P, e, S, K = update(s_pr, P_pr, Z[k, mask], h[mask], H[mask], R_full[np.ix_(mask, mask)], angle_idx=ang)
-            if param_bounds is not None:
-                clipped = np.clip(s[3:], bounds[:, 0], bounds[:, 1])
-                if np.any(clipped != s[3:]):
-                    projected += 1
-                    s = np.concatenate([s[:3], clipped])
-            hist.add(t[k], s_pr, P_pr, s, P, Z[k], h, mask, e, S, K)
+        s_pr, P_pr, h, mask, upd = filt.step(t[k] - t[k - 1], (vl[k - 1], vr[k - 1]), (vl[k], vr[k]), Z[k], R_full,
+                                             pose=pm is not None, twist=tm is not None, meas_angles=meas_angles)
+        mode = None if filt.imm is None else filt.mu[1]
+        if upd is None:
+            hist.add(t[k], s_pr, P_pr, filt.s, filt.P, Z[k], h, mode_prob=mode)
         else:
-            s, P = s_pr, P_pr
-            hist.add(t[k], s_pr, P_pr, s, P, Z[k], h)
+            hist.add(t[k], s_pr, P_pr, filt.s, filt.P, Z[k], h, mask, *upd, mode_prob=mode)
+    info = {"model": model.name, "projected_steps": filt.projected}
+    if filt.imm is not None:
+        info["adaptive"] = {"kind": "imm", **filt.imm.to_dict()}
     return hist.result(name, POSE_NAMES + tuple(model.param_names), meas_names, state_angles=(2,),
-                       meas_angles=meas_angles, info={"model": model.name, "projected_steps": projected})
+                       meas_angles=meas_angles, info=info)

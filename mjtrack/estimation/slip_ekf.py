@@ -32,11 +32,19 @@ from typing import Sequence
 import numpy as np
 
 from mjtrack.estimation.common import FilterResult
+from mjtrack.estimation.imm import IMMSettings, imm_settings
 from mjtrack.estimation.pose_ekf import run_pose_param_ekf
 from mjtrack.models import MPP
 
 PARAM_NAMES = MPP.param_names  # ("s_left", "s_right", "alpha")
 ALPHA_MAX = np.radians(85.0)  # [rad] bound of the slip angle estimate (MPP is undefined at 90 deg)
+# IMM pair for adaptive="imm" (tuned on the default robot only, experiments/filter_consistency.py):
+# the slips' fast mode is 100x the slow intensity (0.1 /sqrt(s), 5 deg/sqrt(s) on alpha at the
+# defaults) with 3x the measurement std, and the pose process noise is smaller than the single
+# EKF's (the fast mode, not the pose, absorbs what MPP does not describe)
+SLIP_IMM = IMMSettings(fast_factor=100.0, fast_meas_factor=3.0)
+Q_POSE_STD = (0.005, 0.005, 0.002)  # [m/sqrt(s), m/sqrt(s), rad/sqrt(s)] single EKF
+Q_POSE_STD_IMM = (0.002, 0.002, 0.0008)  # with adaptive="imm"
 SLIP_MAX = 5.0  # [-] bound of the slip estimates (|s| > 1 means a track turning against its command)
 
 
@@ -53,9 +61,11 @@ def run_slip_ekf(
     params0: Sequence[float] = (0.0, 0.0, 0.0),
     param_std0: Sequence[float] = (0.3, 0.3, np.radians(20.0)),
     q_param_std: Sequence[float] = (1e-3, 1e-3, np.radians(0.05)),
-    q_pose_std: Sequence[float] = (0.005, 0.005, 0.002),
+    q_pose_std: Sequence[float] | None = None,
     pose0=None,
     pose_std0=None,
+    adaptive=None,
+    param_cov0=None,
 ) -> FilterResult:
     """Slip EKF over a drive.
 
@@ -66,14 +76,22 @@ def run_slip_ekf(
         pose_std, twist_std: measurement noise std [m, m, rad] / [m/s, m/s, rad/s].
         params0: initial (s_L, s_R, α) [-, -, rad] (default: no slip); param_std0: their std.
         q_param_std: random-walk intensity [1/√s, 1/√s, rad/√s]; q_pose_std: pose process
-            noise [m/√s, m/√s, rad/√s] (covers Euler's error and unmodelled motion).
+            noise [m/√s, m/√s, rad/√s] (covers Euler's error and unmodelled motion; default
+            :data:`Q_POSE_STD`, with ``adaptive`` :data:`Q_POSE_STD_IMM`).
+        adaptive: None, "imm" or :class:`~mjtrack.estimation.imm.IMMSettings` (slow/fast IMM pair,
+            :mod:`mjtrack.estimation.imm`); param_cov0: (3, 3) initial covariance overriding
+            ``param_std0``.
     Returns:
         :class:`FilterResult` with states (x, y, theta, s_left, s_right, alpha).
     """
     model = MPP(track_gauge, *params0)
+    imm = imm_settings(adaptive, SLIP_IMM)
+    if q_pose_std is None:
+        q_pose_std = Q_POSE_STD if imm is None else Q_POSE_STD_IMM
     return run_pose_param_ekf(
         model, t, v_left, v_right, pose_meas=pose_meas, twist_meas=twist_meas, pose_std=pose_std,
         twist_std=twist_std, param_std0=param_std0, q_param_std=q_param_std, q_pose_std=q_pose_std,
-        pose0=pose0, pose_std0=pose_std0, name="slip_ekf",
+        pose0=pose0, pose_std0=pose_std0, name="slip_ekf", adaptive=imm,
+        param_cov0=param_cov0,
         param_bounds=[(-SLIP_MAX, SLIP_MAX), (-SLIP_MAX, SLIP_MAX), (-ALPHA_MAX, ALPHA_MAX)],
     )

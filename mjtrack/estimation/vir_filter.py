@@ -171,6 +171,9 @@ def run_vir_filter(
     q_psi_std: Sequence[float] = (1e-3, 1e-3, 1e-3),
     q_pose_std: Sequence[float] = (1e-3, 1e-3, 1e-3),
     pose0=None,
+    adaptive=None,
+    psi0: Sequence[float] | None = None,
+    psi_cov0=None,
 ) -> FilterResult:
     """Stable virtual-robot filter on ψ = (x_o, y_o, 1)/T_v (module docstring).
 
@@ -178,13 +181,18 @@ def run_vir_filter(
         track_gauge: T [m], the initial T_v; centre0: initial (x_o, y_o) [m].
         twist_meas / pose_meas: (N, 3) measured body twist / world pose (at least one).
         psi_std0: std of the initial ψ; q_psi_std: its random-walk intensity [unit/√s].
+        adaptive: None, "imm" or :class:`~mjtrack.estimation.imm.IMMSettings` (as
+            :func:`~mjtrack.estimation.icr_ekf.run_icr_ekf`); psi0, psi_cov0: initial ψ and its
+            covariance, overriding ``centre0`` / ``psi_std0``.
     Returns:
         :class:`FilterResult` with states (x, y, theta, psi_x, psi_y, psi_z); use
         :func:`virtual_from_psi` for (x_o, y_o, T_v).
     """
     model = InverseICR(centre0[0] / track_gauge, centre0[1] / track_gauge, 1.0 / track_gauge)
+    if psi0 is not None:
+        model = InverseICR(*np.asarray(psi0, float))
     return run_pose_param_ekf(
         model, t, v_left, v_right, pose_meas=pose_meas, twist_meas=twist_meas, pose_std=pose_std,
         twist_std=twist_std, param_std0=psi_std0, q_param_std=q_psi_std, q_pose_std=q_pose_std, pose0=pose0,
-        name="vir_filter",
+        name="vir_filter", adaptive=adaptive, param_cov0=psi_cov0,
     )

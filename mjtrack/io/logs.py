@@ -46,7 +46,7 @@ from mjtrack.io.robot import Robot, read_robot
 log = logging.getLogger(__name__)
 
 REQUIRED: tuple[str, ...] = ("t", "v_left_cmd", "v_right_cmd", "x", "y", "yaw")
-OPTIONAL: tuple[str, ...] = ("v_left", "v_right", "vx", "vy", "wz", "window")
+OPTIONAL: tuple[str, ...] = ("v_left", "v_right", "vx", "vy", "wz", "z", "roll", "pitch", "window")
 KNOWN: tuple[str, ...] = REQUIRED + OPTIONAL
 
 
@@ -60,6 +60,10 @@ class DriveLog:
         x, y, yaw: world pose of the geometric centre, (n,) [m, m, rad] (yaw may be wrapped).
         v_left, v_right: measured track speeds, (n,) [m/s], or ``None``.
         vx, vy, wz: body-frame twist of the geometric centre, (n,) [m/s, m/s, rad/s], or ``None``.
+        z, roll, pitch: height of the geometric centre and the chassis' roll and pitch (Z-Y-X
+            Euler angles after yaw), (n,) [m, rad, rad], or ``None``; written on terrain. On any
+            terrain x, y are horizontal and yaw is the heading of the body x axis projected on
+            the horizontal plane.
         window: integer segment ids, (n,) int64, or ``None`` (the whole log is one segment).
         extra: other columns by name, in file order: int64, float64 or str arrays of shape (n,)
             (a read-only mapping).
@@ -81,6 +85,9 @@ class DriveLog:
     vx: np.ndarray | None = None
     vy: np.ndarray | None = None
     wz: np.ndarray | None = None
+    z: np.ndarray | None = None
+    roll: np.ndarray | None = None
+    pitch: np.ndarray | None = None
     window: np.ndarray | None = None
     extra: Mapping[str, np.ndarray] = field(default_factory=dict)
     source: str | None = None

@@ -18,6 +18,9 @@ from typing import Any
 from mjtrack.errors import InputError
 
 G = 9.81  # [m/s^2] gravity used throughout the package
+MAX_DRIVE_TIME = 10.0  # [s] largest accepted drive_lag / drive_delay (beyond: a unit error)
+MAX_SPEED_SCALE = 10.0  # [-] largest accepted track_speed_scale
+NULLABLE = ("mu_left", "mu_right", "drive_force_limit")  # keys that may be JSON null
 
 # Ground models (key ``ground`` of a description): name -> {parameter: (default, low, high)}.
 # What each one is and how the MuJoCo robot realises it: mjtrack/sim/ground.py, assets/README.md.
@@ -108,6 +111,16 @@ class Robot:
         cg_z: height of the centre of mass above the ground [m].
         mu: ground friction coefficient (both tracks unless mu_left/mu_right are set) [-].
         mu_left, mu_right: per-track friction coefficients; ``None`` means ``mu`` [-].
+        drive_lag: first-order time constant from track command to track speed [s]; 0: the
+            track speeds follow the commands as fast as the drive's force limit allows.
+        drive_delay: dead time from track command to track speed [s] (applied exactly to the
+            simulation time step).
+        drive_force_limit: traction force limit of one track drive [N] (sprocket torque limit
+            / sprocket_radius); ``None``: the simulator's default drive, which scales with the
+            mass (:meth:`mjtrack.sim.config.SimConfig.for_robot_mass`: 1000 N at R_s = 0.06 m for
+            robots up to 20 kg, proportional to the mass above).
+        track_speed_scale: actual / commanded track speed, both tracks [-] (multiplies the
+            commands before lag, delay and force limit).
         ground: the ground model and its parameters (:class:`Ground`; default rigid-track
             isotropic Coulomb). A dict or a model name is accepted and converted.
         extra: project-specific keys read from a description file, kept for round trips.
@@ -127,6 +140,10 @@ class Robot:
     mu: float = 0.8
     mu_left: float | None = None
     mu_right: float | None = None
+    drive_lag: float = 0.0
+    drive_delay: float = 0.0
+    drive_force_limit: float | None = None
+    track_speed_scale: float = 1.0
     ground: Ground = field(default_factory=Ground)
     extra: dict[str, Any] = field(default_factory=dict, compare=False)
     provided: frozenset[str] | None = field(default=None, compare=False, repr=False)
@@ -146,6 +163,17 @@ class Robot:
             value = getattr(self, name)
             if value is not None and (not _is_finite_number(value) or value <= 0):
                 raise InputError(f"robot: '{name}' must be a positive number or null, got {value!r}")
+        for name, upper in (("drive_lag", MAX_DRIVE_TIME), ("drive_delay", MAX_DRIVE_TIME)):
+            value = getattr(self, name)
+            if not _is_finite_number(value) or not 0 <= value <= upper:
+                raise InputError(f"robot: '{name}' must be a number in [0, {upper:g}] s, got {value!r}")
+        if self.drive_force_limit is not None and (
+                not _is_finite_number(self.drive_force_limit) or self.drive_force_limit <= 0):
+            raise InputError(f"robot: 'drive_force_limit' must be a positive number (N per track) or null, "
+                             f"got {self.drive_force_limit!r}")
+        if not _is_finite_number(self.track_speed_scale) or not 0 < self.track_speed_scale <= MAX_SPEED_SCALE:
+            raise InputError(f"robot: 'track_speed_scale' must be a number in (0, {MAX_SPEED_SCALE:g}], "
+                             f"got {self.track_speed_scale!r}")
         if abs(self.cg_x) >= self.track_length / 2:
             raise InputError(
                 f"robot: 'cg_x' = {self.cg_x} puts the centre of mass outside the tracks "
@@ -197,7 +225,7 @@ class Robot:
             if k == "ground":
                 known[k] = Ground.from_value(v, source=source)
                 continue
-            if v is None and k in ("mu_left", "mu_right"):
+            if v is None and k in NULLABLE:
                 continue
             if not _is_finite_number(v):
                 raise InputError(f"{source}: key '{k}' must be a number, got {v!r}")

@@ -37,6 +37,18 @@ transfer vanishes at low speed (and always without inertia, ``inertial=False``).
 outside the support (tip-over) is clipped to 0.999 of the support and logged; ``steady_state``
 raises in that case.
 
+Slopes (``rollout(..., slope=ALPHA, slope_direction=D)``). On a plane inclined by ALPHA, rising
+along the world direction D, the motion is planar in the plane's frame (the ground frame of
+:mod:`mjtrack.sim.terrain`: the world rotated about the horizontal axis z x u, u = (cos D, sin D),
+by -ALPHA, so that the uphill direction has plane coordinates (cos D, sin D)). Gravity splits
+into m g cos ALPHA normal to the plane (the total normal load) and m g sin ALPHA down the slope,
+a force at the CoM: in the body frame g_t = -g sin ALPHA R(yaw)^T (cos D, sin D). The moment
+balance about the CoM (gravity has none) gives, with F the friction force,
+    (c_x, c_y) = (cg_x, cg_y) - h F / (m g cos ALPHA)                                 (5)
+(eq. 2 with a = F/m; on a slope F = m (a - g_t), so a robot standing across the slope has its
+load shifted downhill by h tan ALPHA). The rollout adds g_t to F/m in Newton's law and returns
+the pose in the plane's frame; :func:`plane_to_world` maps it to horizontal world coordinates.
+
 Steady state (constant track speeds). With c = (cg_x, cg_y) and the CoM velocity
 v_c = (vx - wz c_y, vy + wz c_x), a constant twist needs
     F = m (-wz v_cy, wz v_cx),   Mz - (c_x F_y - c_y F_x) = 0   (moment about the CoM), (3)
@@ -88,7 +100,7 @@ _RESIDUAL_MAX = 1e-10  # steady-state residual accepted (dimensionless, see Stea
 class _Contacts:
     """Contact points of both tracks and their Wong loads (internal, built once per call)."""
 
-    def __init__(self, robot: Robot, n_points: int, n_across: int) -> None:
+    def __init__(self, robot: Robot, n_points: int, n_across: int, slope: float = 0.0) -> None:
         if int(n_points) != n_points or n_points < 2:
             raise InputError(f"coulomb: n_points must be an integer >= 2, got {n_points!r}")
         if int(n_across) != n_across or n_across < 1:
@@ -106,6 +118,7 @@ class _Contacts:
         self.k = k
         self.cg = np.array([robot.cg_x, robot.cg_y])
         self.tipped = False  # set when a load centroid had to be clipped to the support
+        self.g_normal = G * np.cos(slope)  # [m/s^2] gravity normal to the (inclined) ground
         self.static_loads = self.loads(0.0, 0.0)
 
     def _along(self, cx: float) -> np.ndarray:
@@ -126,10 +139,11 @@ class _Contacts:
         return w / w.sum()
 
     def loads(self, ax: float, ay: float) -> np.ndarray:
-        """Normal loads N_i [N] for a CoM acceleration (ax, ay) [m/s^2] (eq. 2)."""
+        """Normal loads N_i [N] for a friction force per mass (ax, ay) [m/s^2] (eq. 2, 5); on flat
+        ground this is the CoM acceleration."""
         r = self.robot
-        cx = r.cg_x - r.cg_z * ax / G
-        cy = r.cg_y - r.cg_z * ay / G
+        cx = r.cg_x - r.cg_z * ax / self.g_normal
+        cy = r.cg_y - r.cg_z * ay / self.g_normal
         xmax, ymax = 0.999 * self.xg.max(), 0.999 * r.track_gauge / 2
         if abs(cx) > xmax or abs(cy) > ymax:
             log.debug("coulomb: load centroid (%.3g, %.3g) outside the support: clipped", cx, cy)
@@ -137,7 +151,7 @@ class _Contacts:
             cx, cy = float(np.clip(cx, -xmax, xmax)), float(np.clip(cy, -ymax, ymax))
         along = self._along(cx)
         side = np.where(self.left, 0.5 + cy / r.track_gauge, 0.5 - cy / r.track_gauge)
-        return r.weight * side * np.tile(along, 2 * self.k) / self.k
+        return r.mass * self.g_normal * side * np.tile(along, 2 * self.k) / self.k
 
     def wrench(self, twist, v_left: float, v_right: float, N: np.ndarray, eps: float) -> np.ndarray:
         """Friction wrench (Fx, Fy, Mz about the geometric centre) [N, N, N m]."""
@@ -385,6 +399,30 @@ def pivot_turn_closed_form(robot: Robot, v: float) -> PivotTurn:
     return PivotTurn(wz=wz, y_l=v / wz, y_r=-v / wz)
 
 
+def incline_rotation(angle: float, direction: float) -> np.ndarray:
+    """3x3 rotation from the inclined plane's frame to the world (module docstring, "Slopes"):
+    the world rotated about the horizontal axis (-sin D, cos D, 0) by -angle."""
+    k = np.array([-np.sin(direction), np.cos(direction), 0.0])
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(-angle) * K + (1 - np.cos(-angle)) * K @ K  # Rodrigues
+
+
+def plane_to_world(pose: np.ndarray, angle: float, direction: float) -> np.ndarray:
+    """Plane-frame poses (n, 3) (x, y, yaw) -> world (n, 4): horizontal x, y, heading of the body
+    x axis projected on the horizontal plane, and height z."""
+    pose = np.atleast_2d(pose)
+    R = incline_rotation(angle, direction)
+    p = np.stack([pose[:, 0], pose[:, 1], np.zeros(len(pose))], axis=1) @ R.T
+    h = np.stack([np.cos(pose[:, 2]), np.sin(pose[:, 2]), np.zeros(len(pose))], axis=1) @ R.T
+    return np.stack([p[:, 0], p[:, 1], np.unwrap(np.arctan2(h[:, 1], h[:, 0])), p[:, 2]], axis=1)
+
+
+def world_to_plane(x: np.ndarray, y: np.ndarray, z: np.ndarray, angle: float, direction: float) -> np.ndarray:
+    """World positions (n,) x, y, z -> plane-frame positions (n, 2) (inverse of :func:`plane_to_world`)."""
+    p = np.stack([x, y, z], axis=1) @ incline_rotation(angle, direction)
+    return p[:, :2]
+
+
 # ---------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class CoulombRollout:
@@ -469,8 +507,13 @@ def rollout(
     load_transfer: bool = True,
     load_iterations: int = 1,
     method: str = "LSODA",
+    slope: float = 0.0,
+    slope_direction: float = 0.0,
 ) -> CoulombRollout:
     """Integrate the rigid body on Coulomb contacts over the sample times t (n,) [s].
+
+    On a slope (``slope`` [rad], rising along the world direction ``slope_direction`` [rad]) the
+    pose is in the inclined plane's frame (module docstring, "Slopes"; :func:`plane_to_world`).
 
     v_left, v_right [m/s]: numbers, samples (n,) held constant from t[k] to t[k+1] (zero-order
     hold), or callables f(t). ``inertia``: yaw inertia about the CoM [kg m^2], default a uniform
@@ -479,8 +522,11 @@ def rollout(
     t = np.asarray(t, dtype=float)
     if eps <= 0:
         raise InputError(f"rollout: eps must be > 0 (time-domain regularisation), got {eps!r}")
-    c = _Contacts(robot, n_points, n_across)
+    if not (np.isfinite(slope) and abs(slope) < np.pi / 2 and np.isfinite(slope_direction)):
+        raise InputError(f"rollout: slope must be finite and below pi/2, got {slope!r}")
+    c = _Contacts(robot, n_points, n_across, slope)
     m = robot.mass
+    g_up = G * np.sin(slope) * np.array([np.cos(slope_direction), np.sin(slope_direction)])  # plane frame
     I = inertia if inertia is not None else m * (robot.track_length**2 + robot.track_gauge**2) / 12
     if not I > 0:
         raise InputError(f"rollout: inertia must be > 0, got {inertia!r}")
@@ -489,20 +535,21 @@ def rollout(
     def rhs(_t: float, s: np.ndarray, vl: float, vr: float) -> np.ndarray:
         _, _, yaw, vx, vy, wz = s
         tw = s[3:]
+        co, si = np.cos(yaw), np.sin(yaw)
+        gx, gy = -(co * g_up[0] + si * g_up[1]), -(-si * g_up[0] + co * g_up[1])  # g_t, body frame
         if load_transfer:
-            acc = c.kinematic_accel(tw)
+            acc = c.kinematic_accel(tw) - np.array([gx, gy])  # friction per mass, kinematic guess
             for _ in range(load_iterations):
                 acc = c.wrench(tw, vl, vr, c.loads(*acc), eps)[:2] / m
             N = c.loads(*acc)
         else:
             N = c.static_loads
         Fx, Fy, Mz = c.wrench(tw, vl, vr, N, eps)
-        wdot = (Mz - (cx * Fy - cy * Fx)) / I
+        wdot = (Mz - (cx * Fy - cy * Fx)) / I  # gravity acts at the CoM: no moment about it
         vcx, vcy = vx - wz * cy, vy + wz * cx
-        co, si = np.cos(yaw), np.sin(yaw)
         return np.array([
             co * vx - si * vy, si * vx + co * vy, wz,
-            Fx / m + wdot * cy + wz * vcy, Fy / m - wdot * cx - wz * vcx, wdot,
+            Fx / m + gx + wdot * cy + wz * vcy, Fy / m + gy - wdot * cx - wz * vcx, wdot,
         ])
 
     s0 = np.concatenate([np.asarray(pose0, float), np.asarray(twist0, float)])

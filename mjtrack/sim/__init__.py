@@ -5,7 +5,10 @@
 drive-log columns; ``scenarios`` names command tables; ``steady`` measures steady-state
 twists and ICRs; ``assets`` writes ``assets/robot.xml`` and ``assets/scene.xml``. The
 ``surfacevel`` track model (``SimConfig(track_model="surfacevel")``) lives in
-:mod:`mjtrack.sim.surfacevel`.
+:mod:`mjtrack.sim.surfacevel`; what both track models share (terrain contacts, suspension travel,
+idlers, solver options) in :mod:`mjtrack.sim.scene`; ``terrain`` parses ``--terrain`` specs and
+``drivetrain`` turns the robot's drive keys into simulation terms. Import order (no circles):
+config, terrain, drivetrain -> scene -> surfacevel -> builder -> rollout -> steady.
 """
 
 from mjtrack.sim.builder import build_model as build_model

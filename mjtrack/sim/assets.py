@@ -19,6 +19,7 @@ from mjtrack.io.atomic import atomic_write_text
 from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import add_scene, build_spec
 from mjtrack.sim.config import SimConfig
+from mjtrack.sim.terrain import FLOOR_FRICTION
 
 ASSETS_DIR = Path(__file__).resolve().parents[2] / "assets"
 
@@ -28,7 +29,7 @@ def asset_texts(robot: Robot | None = None, config: SimConfig | None = None) -> 
     robot = robot or Robot()
     config = config or SimConfig()
     robot_xml = build_spec(robot, config).to_xml()
-    scene = add_scene(mujoco.MjSpec(), robot, config)
+    scene = add_scene(build_spec(robot, config), robot, config)
     lines = ['<mujoco model="tracked_robot_scene">', '  <include file="robot.xml"/>', "",
              '  <visual>', '    <headlight diffuse="0.6 0.6 0.6" ambient="0.3 0.3 0.3"/>', '  </visual>', "",
              "  <worldbody>",
@@ -47,8 +48,6 @@ def asset_texts(robot: Robot | None = None, config: SimConfig | None = None) -> 
 
 
 def _floor_friction() -> float:
-    from mjtrack.sim.builder import FLOOR_FRICTION
-
     return FLOOR_FRICTION
 
 

@@ -60,22 +60,20 @@ import math
 import mujoco
 import numpy as np
 
+from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
 from mjtrack.sim.config import SimConfig
+from mjtrack.sim.drivetrain import drive_of
 from mjtrack.sim.ground import apply_ground, require_supported
+from mjtrack.sim.scene import (CHASSIS_HEIGHT, add_ground, add_idlers, apply_solver_options, needs_idlers,
+                               suspension_range, track_contacts)
+from mjtrack.sim.surfacevel import build_surfacevel_model
+from mjtrack.sim.terrain import Terrain
 
 logger = logging.getLogger(__name__)
 
-SIDES = ("left", "right")
-CHASSIS_HEIGHT = 0.15  # [m] height of the box whose inertia the chassis is given
-FLOOR_FRICTION = 1e-3  # unused by the rollers: their explicit contact pairs carry the friction
 
-_INTEGRATORS = {
-    "Euler": mujoco.mjtIntegrator.mjINT_EULER,
-    "RK4": mujoco.mjtIntegrator.mjINT_RK4,
-    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
-    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-}
+
 
 
 def roller_positions(robot: Robot, config: SimConfig) -> np.ndarray:
@@ -89,9 +87,11 @@ def suspension_stiffness(robot: Robot, config: SimConfig) -> float:
     return robot.weight / (2 * config.n_rollers * config.suspension_deflection)
 
 
-def build_spec(robot: Robot, config: SimConfig | None = None) -> mujoco.MjSpec:
-    """The robot alone (no floor) as an ``MjSpec``, with simulation options set."""
-    config = config or SimConfig()
+def build_spec(robot: Robot, config: SimConfig | None = None, *, idlers: bool = False) -> mujoco.MjSpec:
+    """The robot alone (no floor) as an ``MjSpec``, with simulation options set; ``idlers``: with
+    the front and rear idlers (:func:`add_idlers`)."""
+    config = (config or SimConfig()).for_robot_mass(robot.mass)  # drive scaled to the robot
+    drive = drive_of(robot, config)  # the robot's drivetrain keys (mjtrack.sim.drivetrain)
     spec = mujoco.MjSpec()
     spec.modelname = "tracked_robot"
     _set_options(spec, config)
@@ -137,6 +137,7 @@ def build_spec(robot: Robot, config: SimConfig | None = None) -> mujoco.MjSpec:
             roller.add_joint(
                 name=f"susp_{side}_{i}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1],
                 stiffness=k, damping=c, springref=-preload / k,
+                limited=mujoco.mjtLimited.mjLIMITED_TRUE, range=suspension_range(config),
             )
             roller.add_joint(
                 name=f"roll_{side}_{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0],
@@ -159,17 +160,19 @@ def build_spec(robot: Robot, config: SimConfig | None = None) -> mujoco.MjSpec:
                 )
             else:
                 _add_servo(spec, f"drive_{side}_{i}", f"roll_{side}_{i}", mujoco.mjtTrn.mjTRN_JOINT,
-                           gear=r, kv=config.kv / n, fmax=config.torque_limit / Rs / n, lag=config.lag)
+                           gear=r, kv=drive.kv / n, fmax=drive.force_limit / n, lag=drive.lag)
         tendon = spec.add_tendon(name=f"track_{side}")
         if equality:
             tendon.wrap_joint(f"sprocket_{side}", Rs)
             _add_servo(spec, f"drive_{side}", f"track_{side}", mujoco.mjtTrn.mjTRN_TENDON,
-                       gear=1.0, kv=config.kv, fmax=config.torque_limit / Rs, lag=config.lag)
+                       gear=1.0, kv=drive.kv, fmax=drive.force_limit, lag=drive.lag)
         else:  # mean surface speed of the rollers
             for i in range(n):
                 tendon.wrap_joint(f"roll_{side}_{i}", r / n)
         spec.add_sensor(name=f"track_speed_{side}", type=mujoco.mjtSensor.mjSENS_TENDONVEL,
                         objtype=mujoco.mjtObj.mjOBJ_TENDON, objname=f"track_{side}")
+    if idlers:
+        add_idlers(chassis, robot, config)
     # velocimeter / gyro: velocity of the site expressed in the site's (= chassis) frame
     for name, stype in (("body_linvel", mujoco.mjtSensor.mjSENS_VELOCIMETER),
                         ("body_angvel", mujoco.mjtSensor.mjSENS_GYRO)):
@@ -185,8 +188,6 @@ def _check_explicit_stability(config: SimConfig, damping: float, roller_mass: fl
     """Explicit dampers need c dt / m < 2: suspension on the roller, servo on the track inertia."""
     if config.integrator != "Euler" or config.implicit_damping:
         return
-    from mjtrack.errors import InputError
-
     dt = config.timestep
     if damping * dt / roller_mass >= 1.5:
         raise InputError(
@@ -198,22 +199,6 @@ def _check_explicit_stability(config: SimConfig, damping: float, roller_mass: fl
             f"sim config: servo gain kv = {config.kv} is unstable with explicit Euler at dt = {dt} s "
             f"and track_mass {config.track_mass} kg (needs kv dt / track_mass < 1.5)"
         )
-
-
-def apply_solver_options(spec: mujoco.MjSpec, config: SimConfig) -> mujoco.MjOption:
-    """The solver settings of ``config`` that both track models share (time step, integrator,
-    cone, impratio, noslip, iterations, tolerance, Newton solver, Jacobian); returns the option."""
-    opt = spec.option
-    opt.timestep = config.timestep
-    opt.integrator = _INTEGRATORS[config.integrator]
-    opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC if config.cone == "elliptic" else mujoco.mjtCone.mjCONE_PYRAMIDAL
-    opt.impratio = config.impratio
-    opt.noslip_iterations = config.noslip_iterations
-    opt.iterations = config.iterations
-    opt.tolerance = config.tolerance
-    opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
-    opt.jacobian = mujoco.mjtJacobian.mjJAC_SPARSE if config.jacobian == "sparse" else mujoco.mjtJacobian.mjJAC_DENSE
-    return opt
 
 
 def _set_options(spec: mujoco.MjSpec, config: SimConfig) -> None:
@@ -274,45 +259,25 @@ def control_matrix(model: mujoco.MjModel) -> np.ndarray:
     return B
 
 
-def add_scene(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> mujoco.MjSpec:
-    """Add the floor, the roller-floor contact pairs and a light to a robot spec (in place).
+def add_scene(spec: mujoco.MjSpec, robot: Robot, config: SimConfig, terrain: Terrain | None = None
+              ) -> mujoco.MjSpec:
+    """Add the terrain (default flat), the roller-terrain contact pairs and a light (in place).
 
     The rollers collide with nothing else (contype = conaffinity = 0): one explicit pair per
-    roller carries the track's friction, the contact softness and a separate, weak friction
-    solref (``friction_timeconst``) -- see :class:`SimConfig`.
+    (roller, terrain geom) carries the track's friction, the contact softness and a separate,
+    weak friction solref (``friction_timeconst``) -- see :class:`SimConfig`.
     """
-    spec.worldbody.add_geom(
-        name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[50, 50, 0.1],
-        friction=[FLOOR_FRICTION, 0, 0], rgba=[0.8, 0.8, 0.75, 1],
-    )
-    for side, mu in (("left", robot.friction_left), ("right", robot.friction_right)):
-        for i in range(config.n_rollers):
-            spec.add_pair(
-                name=f"contact_{side}_{i}", geomname1="floor", geomname2=f"roller_{side}_{i}", condim=3,
-                friction=[mu, mu, 0.0, 0.0, 0.0], solref=config.contact_solref, solimp=config.solimp,
-                solreffriction=[config.friction_timeconst or 2.0 * config.timestep, 1.0],
-                margin=config.contact_margin,
-            )
-    spec.worldbody.add_light(name="sun", pos=[0, 0, 5], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
-    return spec
+    pair_options = dict(condim=3, solref=config.contact_solref, solimp=config.solimp,
+                        solreffriction=[config.friction_timeconst or 2.0 * config.timestep, 1.0],
+                        margin=config.contact_margin)
+    return add_ground(spec, robot, terrain or Terrain(), track_contacts(spec, robot), pair_options)
 
 
-def build_model(robot: Robot, config: SimConfig | None = None) -> mujoco.MjModel:
-    """Compiled robot + floor, the model every rollout uses."""
+def build_model(robot: Robot, config: SimConfig | None = None, terrain: Terrain | None = None) -> mujoco.MjModel:
+    """Compiled robot + terrain (default flat), the model every rollout uses."""
     config = config or SimConfig()
     if config.track_model == "surfacevel":
         require_supported(robot, config)
-        return _build_surfacevel(robot, config)
-    spec = add_scene(build_spec(robot, config), robot, config)
+        return build_surfacevel_model(robot, config, terrain=terrain)
+    spec = add_scene(build_spec(robot, config, idlers=needs_idlers(terrain)), robot, config, terrain)
     return apply_ground(spec, robot, config).compile()
-
-
-def _build_surfacevel(robot: Robot, config: SimConfig) -> mujoco.MjModel:
-    try:
-        from mjtrack.sim.surfacevel import build_surfacevel_model
-    except ImportError as exc:  # built by another module; absent in some checkouts
-        from mjtrack.errors import MjtrackError
-
-        raise MjtrackError(f"track_model 'surfacevel' is not available ({exc})") from None
-    model = build_surfacevel_model(robot, config)
-    return model.compile() if isinstance(model, mujoco.MjSpec) else model

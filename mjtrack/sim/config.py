@@ -17,6 +17,7 @@ from typing import Any
 from mjtrack.errors import InputError
 
 TRACK_MODELS = ("rollers", "surfacevel")
+SOLVERS = ("Newton", "PGS", "CG")
 
 
 @dataclass(frozen=True)
@@ -42,6 +43,15 @@ class SimConfig:
             rollers of a track move together (assets/README.md, item 5).
         kv: velocity-servo gain of a track drive [N/(m/s)] (kv / N per roller servo).
         torque_limit: sprocket torque limit [N m] (track force limit torque/R_s).
+        drive_reference_mass: robot mass [kg] for which ``track_mass``, ``kv`` and
+            ``torque_limit`` are given; the roller chain scales all three up by
+            max(1, robot.mass / drive_reference_mass) (:meth:`for_robot_mass`), so that no
+            robot has a softer drive per unit of traction than the default one (track speeds
+            within F/kv = 2.6 mm/s of the command at full traction, same spin-up acceleration
+            and explicit-damper margin kv dt / track_mass). Not scaled down: a 5 kg robot with
+            a quarter of the drive missed Coulomb by up to 3.9 T/2 in 10 m turns at 0.2 m/s
+            against 0.42 with the full one. ``None``: absolute values (before: a 150 kg robot
+            had the 20 kg robot's drive, experiments/fidelity.py --wide --previous-defaults).
         lag: first-order time constant from command to servo set-point [s] (0 = none).
         contact_timeconst: contact solref time constant [s] (0 = 2 timesteps).
         contact_dampratio: contact solref damping ratio [-].
@@ -64,8 +74,15 @@ class SimConfig:
         impratio: friction-to-normal impedance ratio (elliptic cones) [-]; 1e-4 keeps the
             friction rows of the main solve far inside the cone (no sliding lift-off); the
             noslip pass then supplies hard Coulomb friction.
-        noslip_iterations: post-solve iterations of the un-regularised friction solver.
-        iterations, tolerance: main (Newton) solver settings.
+        noslip_iterations: most post-solve iterations of the un-regularised friction solver
+            (it stops at its tolerance: 5 iterations in turns). Fewer cost accuracy where it
+            needs more: 4 moves turn ICRs by <= 0.004 T/2 but straight driving drifts 2 mm/m
+            at 2 m/s (20: 0.09 mm/m); assets/README.md "Speed".
+        solver: main constraint solver, ``"Newton"``, ``"PGS"`` or ``"CG"``. PGS: with
+            impratio 1e-4 the main solve carries only the normal rows and PGS reaches
+            Newton's forces (ICRs equal to 1e-7) without Newton's nv x nv factorisation, on the
+            matrix that noslip needs anyway.
+        iterations, tolerance: main solver settings.
         jacobian: ``"dense"`` or ``"sparse"``. With friction in the noslip pass (which
             works on the dense constraint matrix) dense measured ~15 % faster at 10 rollers;
             sparse was 2-6x faster when the main Newton solve carried the friction.
@@ -85,6 +102,7 @@ class SimConfig:
     kv: float = 30000.0
     torque_limit: float = 60.0
     lag: float = 0.0
+    drive_reference_mass: float | None = 20.0
     contact_timeconst: float = 0.0
     contact_dampratio: float = 1.0
     solimp: tuple[float, float, float, float, float] = (0.95, 0.99, 0.001, 0.5, 2.0)
@@ -95,6 +113,7 @@ class SimConfig:
     cone: str = "elliptic"
     impratio: float = 1e-4
     noslip_iterations: int = 20
+    solver: str = "PGS"
     iterations: int = 50
     tolerance: float = 1e-6
     jacobian: str = "dense"
@@ -115,6 +134,11 @@ class SimConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise InputError(f"sim config: '{name}' must be a number >= 0, got {value!r}")
+        if self.drive_reference_mass is not None and not (
+                isinstance(self.drive_reference_mass, (int, float)) and math.isfinite(self.drive_reference_mass)
+                and self.drive_reference_mass > 0):
+            raise InputError(f"sim config: 'drive_reference_mass' must be a positive number or None, "
+                             f"got {self.drive_reference_mass!r}")
         if not isinstance(self.n_rollers, int) or self.n_rollers < 2:
             raise InputError(f"sim config: 'n_rollers' must be an integer >= 2, got {self.n_rollers!r}")
         for name in ("noslip_iterations", "iterations"):
@@ -127,6 +151,8 @@ class SimConfig:
             raise InputError(f"sim config: 'cone' must be elliptic or pyramidal, got {self.cone!r}")
         if self.coupling not in ("servo", "equality"):
             raise InputError(f"sim config: 'coupling' must be servo or equality, got {self.coupling!r}")
+        if self.solver not in SOLVERS:
+            raise InputError(f"sim config: 'solver' must be one of {SOLVERS}, got {self.solver!r}")
         if self.jacobian not in ("sparse", "dense"):
             raise InputError(f"sim config: 'jacobian' must be sparse or dense, got {self.jacobian!r}")
         if self.integrator not in ("implicitfast", "Euler", "implicit", "RK4"):
@@ -151,6 +177,15 @@ class SimConfig:
         """Mass of one roller [kg] for a robot of ``robot_mass`` [kg]."""
         return self.unsprung_fraction * robot_mass / (2 * self.n_rollers)
 
+    def for_robot_mass(self, robot_mass: float) -> "SimConfig":
+        """The drive settings (track_mass, kv, torque_limit) scaled up to a robot of ``robot_mass``
+        [kg] (see ``drive_reference_mass``); unchanged when it is None or the robot is lighter."""
+        if self.drive_reference_mass is None:
+            return self
+        s = max(1.0, robot_mass / self.drive_reference_mass)
+        return self.replace(track_mass=self.track_mass * s, kv=self.kv * s, torque_limit=self.torque_limit * s,
+                            drive_reference_mass=None)
+
     def replace(self, **changes: Any) -> "SimConfig":
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)
@@ -161,11 +196,56 @@ class SimConfig:
         return d
 
 
+# The roller chain's defaults before the speed study (experiments/bench_sim.py --compare,
+# experiments/fidelity.py --wide --previous-defaults): Newton main solver, one drive for every
+# robot mass. Kept so that old and new settings are timed and checked in the same run (ratios
+# survive a loaded machine better than absolute numbers).
+PREVIOUS_ROLLER_DEFAULTS = dict(solver="Newton", noslip_iterations=20, drive_reference_mass=None)
+
+
+def previous_defaults() -> SimConfig:
+    """The roller chain's settings before the speed study (:data:`PREVIOUS_ROLLER_DEFAULTS`)."""
+    return SimConfig(**PREVIOUS_ROLLER_DEFAULTS)
+
+
+# Settings measured for the surfacevel track model (experiments/surfacevel_study.py; why each
+# one: mjtrack/sim/surfacevel.py's docstring), pinned here: the SimConfig
+# defaults are tuned for the roller chain and change with it. Why each one: module docstring.
+SURFACEVEL_SETTINGS = dict(
+    track_model="surfacevel",
+    timestep=0.002,  # [s] halving it moves the ICRs by < 0.2 % of T/2
+    n_rollers=12,  # elements per track at cell midpoints
+    roller_radius=0.03,  # [m] sphere radius
+    roller_mass=0.15,  # [kg] unsprung mass of one element (older SimConfig) ...
+    unsprung_fraction=0.18,  # ... or the same 24 x 0.15 kg as a share of the 20 kg robot
+    suspension_deflection=0.01,  # [m] static spring deflection: loads determinate
+    suspension_damping_ratio=1.0,
+    contact_timeconst=0.0,  # 2 timesteps
+    contact_dampratio=1.0,
+    solimp=(0.0, 0.99, 0.001, 0.5, 2.0),  # dmin = 0: no push at zero penetration, no element hop
+    friction_timeconst=0.0,  # friction rows as hard as the normal row: weak ones creep
+    cone="elliptic",
+    impratio=10.0,
+    noslip_iterations=0,  # no effect through surfacevel (measured), costs time
+    solver="Newton",  # pinned: the roller chain default (PGS) was not measured here
+    iterations=50,
+    tolerance=1e-8,
+    integrator="implicitfast",
+)
+
+
+def surfacevel_config(**changes) -> SimConfig:
+    """The SimConfig this model was measured with: :data:`SURFACEVEL_SETTINGS` plus ``changes``.
+
+    Settings that this version of SimConfig does not have are left out.
+    """
+    names = {f.name for f in dataclasses.fields(SimConfig)}
+    return SimConfig(**{k: v for k, v in {**SURFACEVEL_SETTINGS, **changes}.items() if k in names or k in changes})
+
+
 def sim_config(track_model: str = "rollers", *, timestep: float | None = None) -> SimConfig:
     """The measured default settings of a track model (the surfacevel model has its own)."""
     if track_model == "surfacevel":
-        from mjtrack.sim.surfacevel import surfacevel_config
-
         config = surfacevel_config(track_model="surfacevel")
     elif track_model == "rollers":
         config = SimConfig()

@@ -31,6 +31,9 @@ from mjtrack.errors import InputError, MjtrackError
 from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
+from mjtrack.sim.drivetrain import drive_commands
+from mjtrack.sim.surfacevel import TrackDrive
+from mjtrack.sim.terrain import Terrain, timestep_for
 
 logger = logging.getLogger(__name__)
 
@@ -147,6 +150,15 @@ def yaw_of(quat: np.ndarray) -> np.ndarray:
     return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
+def roll_pitch_of(quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Roll and pitch [rad] of quaternions (..., 4): Z-Y-X Euler angles after the heading
+    (:func:`yaw_of`); pitch positive nose down (rotation about body y), roll positive left side up."""
+    w, x, y, z = np.moveaxis(quat, -1, 0)
+    roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
+    return roll, pitch
+
+
 def log_columns(sensordata: np.ndarray, commands: np.ndarray, smap: SensorMap, *, timestep: float,
                 stride: int) -> dict[str, np.ndarray]:
     """Drive-log columns (CONTRACTS.md §1) from one rollout's sensordata (nstep, nsensordata).
@@ -169,6 +181,9 @@ def log_columns(sensordata: np.ndarray, commands: np.ndarray, smap: SensorMap, *
         "vx": s[:, smap.linvel][:, 0],
         "vy": s[:, smap.linvel][:, 1],
         "wz": s[:, smap.angvel][:, 2],
+        "z": s[:, smap.pos][:, 2],
+        "roll": roll_pitch_of(s[:, smap.quat])[0],
+        "pitch": roll_pitch_of(s[:, smap.quat])[1],
     }
 
 
@@ -197,25 +212,39 @@ def simulate(
     config: SimConfig | None = None,
     log_rate: float = 50.0,
     model: mujoco.MjModel | None = None,
+    terrain: Terrain | None = None,
 ) -> dict[str, np.ndarray]:
     """Roll out per-step commands (nstep, 2) [m/s] from rest; drive-log columns at ``log_rate``.
 
     Returns a dict of (nsample,) arrays with the columns t, v_left_cmd, v_right_cmd, x, y, yaw,
-    v_left, v_right, vx, vy, wz; the first row is the settled rest state at t = 0.
+    v_left, v_right, vx, vy, wz, and z, roll, pitch on a terrain other than flat; the first row
+    is the settled rest state at t = 0. On terrain with edges use a time step of at most
+    :data:`mjtrack.sim.terrain.EDGE_TIMESTEP` (:func:`drive_log` and ``steady`` do so themselves).
     """
     config = config or SimConfig()
     commands = np.asarray(commands, dtype=float)
+    terrain = terrain or Terrain()
     if config.track_model == "surfacevel":
-        return _simulate_surfacevel(robot, commands, config=config, log_rate=log_rate)
-    model = model or build_model(robot, config)
+        return _terrain_columns(_simulate_surfacevel(robot, commands, config=config, log_rate=log_rate,
+                                                     terrain=terrain), terrain)
+    model = model or build_model(robot, config, terrain)
     stride = steps_per_sample(model.opt.timestep, log_rate)
     s0 = settled_state(model)
-    _, sensordata = run_batch([model], commands[None], state0=s0[None])
+    driven = drive_commands(robot, commands, model.opt.timestep)  # speed scale and dead time
+    _, sensordata = run_batch([model], driven[None], state0=s0[None])
     cols = log_columns(sensordata[0], commands, SensorMap.of(model), timestep=model.opt.timestep, stride=stride)
     first = _rest_row(model, s0)
     out = {k: np.concatenate([[first[k]], v]) for k, v in cols.items()}
     out["yaw"] = np.unwrap(out["yaw"])
-    return _commands_in_force(out, commands, stride)
+    return _terrain_columns(_commands_in_force(out, commands, stride), terrain)
+
+
+def _terrain_columns(out: dict[str, np.ndarray], terrain: Terrain) -> dict[str, np.ndarray]:
+    """z, roll, pitch are logged on terrain only (flat logs keep their columns)."""
+    if terrain.is_flat:
+        for k in ("z", "roll", "pitch"):
+            out.pop(k, None)
+    return out
 
 
 def _commands_in_force(out: dict[str, np.ndarray], commands: np.ndarray, stride: int) -> dict[str, np.ndarray]:
@@ -232,15 +261,13 @@ def _commands_in_force(out: dict[str, np.ndarray], commands: np.ndarray, stride:
     return out
 
 
-def _simulate_surfacevel(robot: Robot, commands: np.ndarray, *, config: SimConfig, log_rate: float
-                         ) -> dict[str, np.ndarray]:
+def _simulate_surfacevel(robot: Robot, commands: np.ndarray, *, config: SimConfig, log_rate: float,
+                         terrain: Terrain) -> dict[str, np.ndarray]:
     """The surfacevel track model (:mod:`mjtrack.sim.surfacevel`): a Python step loop, because
     its track speeds are model fields set every step by its ``TrackDrive`` (no actuators, so
     ``mujoco.rollout`` cannot drive it). Same columns and sampling as :func:`simulate`; the
     track speeds logged are the drive's."""
-    from mjtrack.sim.surfacevel import TrackDrive
-
-    model = build_model(robot, config)
+    model = build_model(robot, config, terrain)
     stride = steps_per_sample(model.opt.timestep, log_rate)
     data = mujoco.MjData(model)
     drive = TrackDrive(model, robot, config)
@@ -252,19 +279,23 @@ def _simulate_surfacevel(robot: Robot, commands: np.ndarray, *, config: SimConfi
     def row(t: float, cmd) -> list[float]:
         s = data.sensordata
         p, q = smap["body_pos"], smap["body_quat"]
+        roll, pitch = roll_pitch_of(s[q:q + 4])
         return [t, cmd[0], cmd[1], s[p], s[p + 1], float(yaw_of(s[q:q + 4])), drive.speeds[0], drive.speeds[1],
-                s[smap["body_linvel"]], s[smap["body_linvel"] + 1], s[smap["body_angvel"] + 2]]
+                s[smap["body_linvel"]], s[smap["body_linvel"] + 1], s[smap["body_angvel"] + 2],
+                s[p + 2], float(roll), float(pitch)]
 
     mujoco.mj_forward(model, data)
     rows.append(row(0.0, (0.0, 0.0)))
+    driven = drive_commands(robot, commands, model.opt.timestep)  # speed scale and dead time
     for k, cmd in enumerate(commands):
-        drive.step(data, *cmd)
+        drive.step(data, *driven[k])
         if (k + 1) % stride == 0:
             rows.append(row((k + 1) * model.opt.timestep, cmd))
     a = np.array(rows)
     if not np.all(np.isfinite(a)):
         raise MjtrackError("surfacevel simulation diverged (non-finite state)")
-    names = ("t", "v_left_cmd", "v_right_cmd", "x", "y", "yaw", "v_left", "v_right", "vx", "vy", "wz")
+    names = ("t", "v_left_cmd", "v_right_cmd", "x", "y", "yaw", "v_left", "v_right", "vx", "vy", "wz", "z", "roll",
+             "pitch")
     out = {n: a[:, i] for i, n in enumerate(names)}
     out["yaw"] = np.unwrap(out["yaw"])
     return _commands_in_force(out, commands, stride)
@@ -276,20 +307,22 @@ def _rest_row(model: mujoco.MjModel, state: np.ndarray) -> dict[str, float]:
     mujoco.mj_forward(model, data)
     smap = SensorMap.of(model)
     s = data.sensordata
-    return {"t": 0.0, "v_left_cmd": 0.0, "v_right_cmd": 0.0, "x": s[smap.pos][0], "y": s[smap.pos][1],
+    roll, pitch = roll_pitch_of(s[smap.quat])
+    return {"z": s[smap.pos][2], "roll": float(roll), "pitch": float(pitch), "t": 0.0, "v_left_cmd": 0.0, "v_right_cmd": 0.0, "x": s[smap.pos][0], "y": s[smap.pos][1],
             "yaw": float(yaw_of(s[smap.quat])), "v_left": s[smap.track_speed[0]],
             "v_right": s[smap.track_speed[1]], "vx": s[smap.linvel][0], "vy": s[smap.linvel][1],
             "wz": s[smap.angvel][2]}
 
 
 def drive_log(robot: Robot, table: tuple[np.ndarray, np.ndarray, np.ndarray], *, duration: float,
-              config: SimConfig | None = None, log_rate: float = 50.0):
+              config: SimConfig | None = None, log_rate: float = 50.0, terrain: Terrain | None = None):
     """Roll out a command table (t, v_left, v_right) held for ``duration`` [s]: a DriveLog."""
     from mjtrack.io.logs import DriveLog
 
     config = config or SimConfig()
+    config = config.replace(timestep=timestep_for(config.timestep, terrain))  # smaller on edges
     commands = hold_commands(*table, timestep=config.timestep, duration=duration)
-    return DriveLog.from_columns(simulate(robot, commands, config=config, log_rate=log_rate))
+    return DriveLog.from_columns(simulate(robot, commands, config=config, log_rate=log_rate, terrain=terrain))
 
 
 def log_icrs(log, *, wz_min: float = 1e-3):

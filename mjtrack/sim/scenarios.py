@@ -13,6 +13,13 @@ the models of the project describe.
 | ``pivot`` | V_L = -0.4, V_R = +0.4 m/s (turn on the spot, CCW) |
 | ``u_path`` | the thesis's U path: straight 0.5 m/s, half turn at pi/6 rad/s (6 s), straight back; 27 s |
 | ``random_steps`` | seeded DRIVE-like steps: (V_L, V_R) uniform in [-1, 1] m/s, each held 2-4 s |
+| ``slope_traverse`` | 0.5 m/s straight across a 0.2 rad incline (uphill +y): the robot drifts and yaws downhill |
+| ``hill_climb`` | 0.5 m/s straight up a 0.25 rad incline (uphill +x) |
+| ``step_climb`` | 0.4 m/s straight onto a 4 cm step at x = 1 m |
+| ``ice_patch`` | v = 0.5 m/s on a nominal 2 m radius (CCW) crossing a mu 0.1 strip (x 1-3 m): friction changes mid-run |
+
+Terrain scenarios carry their terrain (``Scenario.terrain``); a ``--terrain`` given on the
+command line replaces it.
 """
 
 from __future__ import annotations
@@ -25,6 +32,7 @@ import numpy as np
 
 from mjtrack.errors import InputError
 from mjtrack.io.robot import Robot
+from mjtrack.sim.terrain import Patch, Step, Terrain
 
 CommandTable = tuple[np.ndarray, np.ndarray, np.ndarray]
 
@@ -37,6 +45,7 @@ class Scenario:
     description: str
     duration: float
     make: Callable[[Robot, float, np.random.Generator], CommandTable]
+    terrain: Terrain = Terrain()
 
 
 def _const(vl: float, vr: float) -> CommandTable:
@@ -79,6 +88,13 @@ def _random_steps(robot: Robot, duration: float, rng: np.random.Generator) -> Co
     return np.array(t), rng.uniform(-1.0, 1.0, n), rng.uniform(-1.0, 1.0, n)
 
 
+def _ice_patch(robot: Robot, duration: float, rng: np.random.Generator) -> CommandTable:
+    return _const(*nominal_speeds(robot, 0.5, 0.5 / 2.0))
+
+
+ICE_STRIP = Terrain(patches=(Patch(x=2.0, y=2.0, size_x=2.0, size_y=8.0, mu=0.1),), spec="ice_patch")
+
+
 SCENARIOS: dict[str, Scenario] = {
     s.name: s
     for s in (
@@ -88,6 +104,14 @@ SCENARIOS: dict[str, Scenario] = {
         Scenario("u_path", "thesis U path: straight, half turn at pi/6 rad/s, straight", 27.0, _u_path),
         Scenario("random_steps", "seeded random (V_L, V_R) steps in [-1, 1] m/s held 2-4 s", 60.0,
                  _random_steps),
+        Scenario("slope_traverse", "0.5 m/s across a 0.2 rad incline (uphill +y)", 20.0, _straight,
+                 Terrain(angle=0.2, direction=math.pi / 2, spec="incline:0.2:1.5707963267948966")),
+        Scenario("hill_climb", "0.5 m/s up a 0.25 rad incline", 10.0, _straight,
+                 Terrain(angle=0.25, spec="incline:0.25")),
+        Scenario("step_climb", "0.4 m/s onto a 4 cm step at x = 1 m", 10.0, lambda r, d, g: _const(0.4, 0.4),
+                 Terrain(steps=(Step(height=0.04, x=1.0),), spec="step:0.04:1.0")),
+        Scenario("ice_patch", "v = 0.5 m/s on a nominal 2 m radius crossing a mu 0.1 strip (x 1-3 m)", 30.0,
+                 _ice_patch, ICE_STRIP),
     )
 }
 

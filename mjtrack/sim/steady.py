@@ -6,7 +6,9 @@ the sensors over the next ``window_s`` and report the standard deviation over th
 too. The ICRs follow from the window means by (2.13) via :func:`mjtrack.icr.icr_from_twist`
 using the *measured* track speeds (what a robot's encoders give):
     y_l = (v_x - V_L)/w,  y_r = (v_x - V_R)/w,  x_c = -v_y/w;
-straight motion (|w| < ``WZ_STRAIGHT``) gives NaN ICRs, not an error.
+where the robot does not turn (|w| T/2 < ``TURN_TOL`` max(|V_L|, |V_R|): straight motion, or a
+track whose friction cannot turn the robot) the ICRs are NaN (null in JSON) and
+``icr_undefined`` says why; not an error.
 
 Contact persistence is reported per track as the fraction of steps in the whole run (settle
 + window) in which the track had at least one roller on the ground, and as the fraction of
@@ -30,12 +32,18 @@ from mjtrack.icr import icr_from_twist
 from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model
 from mjtrack.sim.config import SimConfig
+from mjtrack.sim.drivetrain import drive_commands
+from mjtrack.sim.surfacevel import run_steady
+from mjtrack.sim.terrain import Terrain, timestep_for
 from mjtrack.sim.rollout import SensorMap, run_batch, settled_state
 
 logger = logging.getLogger(__name__)
 
 WZ_STRAIGHT = 1e-5  # [rad/s] below this the run counts as straight (ICRs NaN): 1e-5 rad/s is
 # an ICR 100 km away at 1 m/s, and numerical yaw drift in straight runs is ~1e-6 rad/s
+TURN_TOL = 1e-3  # [-] the robot does not turn when |wz| T/2 < TURN_TOL max(|V_L|, |V_R|): the ICRs
+# would lie beyond 1000 T/2 (e.g. a low-friction track that cannot resist the other one: before,
+# steady printed y_l = -31473 m for mu_left 0.05 / mu_right 1 under (0.3, 0.5) m/s)
 SETTLE_S = 3.0  # [s] constant-command time before the averaging window
 WINDOW_S = 2.0  # [s] averaging window
 
@@ -60,6 +68,7 @@ class SteadyResult:
     contact_left: float
     contact_right: float
     roller_contact: float
+    icr_undefined: str | None = None  # why y_l, y_r, x_c are null (None when they are defined)
 
     def to_dict(self) -> dict[str, float]:
         return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in asdict(self).items()}
@@ -73,6 +82,7 @@ def steady_batch(
     settle_s: float = SETTLE_S,
     window_s: float = WINDOW_S,
     nthread: int = 1,
+    terrain: Terrain | None = None,
 ) -> list[SteadyResult]:
     """Steady states of robots[i] under commands[i] = (V_L, V_R) [m/s]; (nbatch, 2) commands.
 
@@ -80,29 +90,45 @@ def steady_batch(
     friction, mass or geometry.
     """
     config = config or SimConfig()
+    config = config.replace(timestep=timestep_for(config.timestep, terrain))  # smaller on edges
     commands = np.atleast_2d(np.asarray(commands, dtype=float))
     if config.track_model == "surfacevel":
-        return [_surfacevel(r, c, config, settle_s, window_s) for r, c in zip(robots, commands)]
-    models = [build_model(r, config) for r in robots]
+        return [_surfacevel(r, c, config, settle_s, window_s, terrain) for r, c in zip(robots, commands)]
+    models = [build_model(r, config, terrain) for r in robots]
     dt = models[0].opt.timestep
     n_settle, n_window = int(round(settle_s / dt)), int(round(window_s / dt))
     s0 = np.stack([settled_state(m) for m in models])
-    ctrl = np.repeat(commands[:, None, :], n_settle + n_window, axis=1)
+    ctrl = np.stack([drive_commands(r, np.repeat(c[None], n_settle + n_window, axis=0), dt)
+                     for r, c in zip(robots, commands)])  # each robot's speed scale and dead time
     _, sensordata = run_batch(models, ctrl, state0=s0, nthread=nthread)
     smap = SensorMap.of(models[0])
-    return [_stats(sensordata[i], commands[i], smap, n_settle) for i in range(len(models))]
+    return [_stats(sensordata[i], commands[i], smap, n_settle, robots[i].track_gauge / 2)
+            for i in range(len(models))]
 
 
-def _stats(sd: np.ndarray, cmd: np.ndarray, smap: SensorMap, n_settle: int) -> SteadyResult:
+def icrs_or_reason(vx: float, vy: float, wz: float, v_left: float, v_right: float, half_gauge: float
+                   ) -> tuple[float, float, float, str | None]:
+    """(y_l, y_r, x_c, None) by (2.13), or (NaN, NaN, NaN, reason) where the robot does not turn."""
+    v_max = max(abs(v_left), abs(v_right))
+    if v_max == 0 and abs(wz) < WZ_STRAIGHT:
+        return math.nan, math.nan, math.nan, "the robot is at rest"
+    if abs(wz) < WZ_STRAIGHT or abs(wz) * half_gauge < TURN_TOL * v_max:
+        return (math.nan, math.nan, math.nan,
+                f"the robot does not turn (|wz| = {abs(wz):.2g} rad/s: |wz| T/2 < {TURN_TOL:g} max|V|, "
+                "ICRs beyond 1000 T/2)")
+    try:
+        icr = icr_from_twist(vx, vy, wz, v_left, v_right, wz_min=WZ_STRAIGHT)
+    except SingularMotionError as exc:
+        return math.nan, math.nan, math.nan, str(exc)
+    return float(icr.y_l), float(icr.y_r), float(icr.x_c), None
+
+
+def _stats(sd: np.ndarray, cmd: np.ndarray, smap: SensorMap, n_settle: int, half_gauge: float) -> SteadyResult:
     w = sd[n_settle:]
     lin, ang = w[:, smap.linvel], w[:, smap.angvel]
     vl, vr = w[:, smap.track_speed[0]], w[:, smap.track_speed[1]]
     vx, vy, wz = lin[:, 0].mean(), lin[:, 1].mean(), ang[:, 2].mean()
-    try:
-        icr = icr_from_twist(vx, vy, wz, vl.mean(), vr.mean(), wz_min=WZ_STRAIGHT)
-        y_l, y_r, x_c = float(icr.y_l), float(icr.y_r), float(icr.x_c)
-    except SingularMotionError:
-        y_l = y_r = x_c = math.nan
+    y_l, y_r, x_c, reason = icrs_or_reason(vx, vy, wz, vl.mean(), vr.mean(), half_gauge)
     gl, gr = sd[:, smap.ground_left], sd[:, smap.ground_right]
     return SteadyResult(
         v_left_cmd=float(cmd[0]), v_right_cmd=float(cmd[1]), v_left=float(vl.mean()), v_right=float(vr.mean()),
@@ -111,33 +137,31 @@ def _stats(sd: np.ndarray, cmd: np.ndarray, smap: SensorMap, n_settle: int) -> S
         y_l=y_l, y_r=y_r, x_c=x_c,
         contact_left=float((gl.sum(axis=1) > 0).mean()), contact_right=float((gr.sum(axis=1) > 0).mean()),
         roller_contact=float(np.concatenate([gl[n_settle:], gr[n_settle:]], axis=1).mean()),
+        icr_undefined=reason,
     )
 
 
-def _surfacevel(robot: Robot, cmd: np.ndarray, config: SimConfig, settle_s: float, window_s: float
-                ) -> SteadyResult:
+def _surfacevel(robot: Robot, cmd: np.ndarray, config: SimConfig, settle_s: float, window_s: float,
+                terrain: Terrain | None) -> SteadyResult:
     """The surfacevel track model through its own ``run_steady`` (kinematic track speeds: the
     commands; no window standard deviations, reported as NaN; roller_contact as the mean of
     the per-track fractions)."""
-    from mjtrack.sim.surfacevel import run_steady
-
-    run = run_steady(build_model(robot, config), float(cmd[0]), float(cmd[1]),
+    scale = robot.track_speed_scale  # kinematic tracks: the scaled commands are the speeds
+    run = run_steady(build_model(robot, config, terrain), scale * float(cmd[0]), scale * float(cmd[1]),
                      duration=settle_s + window_s, average=window_s)
-    try:
-        icr = icr_from_twist(run.vx, run.vy, run.wz, run.v_left, run.v_right, wz_min=WZ_STRAIGHT)
-        y_l, y_r, x_c = float(icr.y_l), float(icr.y_r), float(icr.x_c)
-    except SingularMotionError:
-        y_l = y_r = x_c = math.nan
+    y_l, y_r, x_c, reason = icrs_or_reason(run.vx, run.vy, run.wz, run.v_left, run.v_right, robot.track_gauge / 2)
     nan = math.nan
     return SteadyResult(
         v_left_cmd=float(cmd[0]), v_right_cmd=float(cmd[1]), v_left=run.v_left, v_right=run.v_right,
         vx=run.vx, vy=run.vy, wz=run.wz, vx_std=nan, vy_std=nan, wz_std=nan, y_l=y_l, y_r=y_r, x_c=x_c,
         contact_left=run.contact_left, contact_right=run.contact_right,
-        roller_contact=(run.contact_left + run.contact_right) / 2,
+        roller_contact=(run.contact_left + run.contact_right) / 2, icr_undefined=reason,
     )
 
 
 def steady_state(robot: Robot, v_left: float, v_right: float, *, config: SimConfig | None = None,
-                 settle_s: float = SETTLE_S, window_s: float = WINDOW_S) -> SteadyResult:
+                 settle_s: float = SETTLE_S, window_s: float = WINDOW_S, terrain: Terrain | None = None
+                 ) -> SteadyResult:
     """Steady state of one robot under constant track speeds (see the module docstring)."""
-    return steady_batch([robot], [[v_left, v_right]], config=config, settle_s=settle_s, window_s=window_s)[0]
+    return steady_batch([robot], [[v_left, v_right]], config=config, settle_s=settle_s, window_s=window_s,
+                        terrain=terrain)[0]

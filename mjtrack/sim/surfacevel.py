@@ -79,7 +79,6 @@ within 0.031 T/2 and 0.011 L, contact 99.96 %; comparison with the roller chain 
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import time
@@ -90,48 +89,15 @@ import numpy as np
 
 from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
-from mjtrack.sim.builder import apply_solver_options
-from mjtrack.sim.config import SimConfig
+from mjtrack.sim.scene import (CHASSIS_HEIGHT, SIDES, add_ground, add_idlers, apply_solver_options, needs_idlers, suspension_range,
+                               track_contacts)
+from mjtrack.sim.config import SURFACEVEL_SETTINGS, SimConfig, surfacevel_config  # noqa: F401 (this module's API)
+from mjtrack.sim.drivetrain import drive_of
+from mjtrack.sim.terrain import Terrain
 
 log = logging.getLogger(__name__)
 
-SIDES = ("left", "right")
 ELEMENTS = ("sphere", "capsule", "box")
-CHASSIS_HEIGHT = 0.15  # [m] height of the box whose inertia the chassis is given (as builder)
-FLOOR_FRICTION = 1e-3  # the contact pairs carry the track friction; the floor's is unused
-
-
-# Settings measured for this model (experiments/surfacevel_study.py), pinned here: the SimConfig
-# defaults are tuned for the roller chain and change with it. Why each one: module docstring.
-SURFACEVEL_SETTINGS = dict(
-    track_model="surfacevel",
-    timestep=0.002,  # [s] halving it moves the ICRs by < 0.2 % of T/2
-    n_rollers=12,  # elements per track at cell midpoints
-    roller_radius=0.03,  # [m] sphere radius
-    roller_mass=0.15,  # [kg] unsprung mass of one element (older SimConfig) ...
-    unsprung_fraction=0.18,  # ... or the same 24 x 0.15 kg as a share of the 20 kg robot
-    suspension_deflection=0.01,  # [m] static spring deflection: loads determinate
-    suspension_damping_ratio=1.0,
-    contact_timeconst=0.0,  # 2 timesteps
-    contact_dampratio=1.0,
-    solimp=(0.0, 0.99, 0.001, 0.5, 2.0),  # dmin = 0: no push at zero penetration, no element hop
-    friction_timeconst=0.0,  # friction rows as hard as the normal row: weak ones creep
-    cone="elliptic",
-    impratio=10.0,
-    noslip_iterations=0,  # no effect through surfacevel (measured), costs time
-    iterations=50,
-    tolerance=1e-8,
-    integrator="implicitfast",
-)
-
-
-def surfacevel_config(**changes) -> SimConfig:
-    """The SimConfig this model was measured with: :data:`SURFACEVEL_SETTINGS` plus ``changes``.
-
-    Settings that this version of SimConfig does not have are left out.
-    """
-    names = {f.name for f in dataclasses.fields(SimConfig)}
-    return SimConfig(**{k: v for k, v in {**SURFACEVEL_SETTINGS, **changes}.items() if k in names or k in changes})
 
 
 def setting_problems(config: SimConfig) -> list[str]:
@@ -165,6 +131,7 @@ def robot_spec(
     element: str = "sphere",
     n_elements: int | None = None,
     sprung: bool = True,
+    idlers: bool = False,
     into: mujoco.MjSpec | None = None,
 ) -> mujoco.MjSpec:
     """The robot (no floor), added to ``into`` when given, else to a new spec.
@@ -217,12 +184,15 @@ def robot_spec(
                 host.ipos = [0, 0, r]
                 host.inertia = [0.4 * m_el * r**2] * 3
                 host.add_joint(name=f"susp_{side}_{i}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1],
-                               stiffness=k, damping=c, springref=-preload / k)
+                               stiffness=k, damping=c, springref=-preload / k,
+                               limited=mujoco.mjtLimited.mjLIMITED_TRUE, range=suspension_range(config))
                 gx = 0.0
             _add_element(host, element, name=f"track_{side}_{i}", x=gx, r=r, cell=L / n, width=w)
             # number of ground contacts of this element (0 or 1), as the builder's rollers
             spec.add_sensor(name=f"ground_{side}_{i}", type=mujoco.mjtSensor.mjSENS_CONTACT,
                             objtype=mujoco.mjtObj.mjOBJ_GEOM, objname=f"track_{side}_{i}", intprm=[1, 0, 1])
+    if idlers:
+        add_idlers(chassis, robot, config)
     for name, stype in (("body_linvel", mujoco.mjtSensor.mjSENS_VELOCIMETER),
                         ("body_angvel", mujoco.mjtSensor.mjSENS_GYRO),
                         ("body_pos", mujoco.mjtSensor.mjSENS_FRAMEPOS),
@@ -243,35 +213,29 @@ def _add_element(body, element: str, *, name: str, x: float, r: float, cell: flo
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[cell / 2, width / 2, r], pos=[x, 0, r], **common)
 
 
-def add_scene(spec: mujoco.MjSpec, robot: Robot, config: SimConfig | None = None) -> mujoco.MjSpec:
-    """Options, floor ``floor``, one contact pair per element and a light (in place)."""
+def add_scene(spec: mujoco.MjSpec, robot: Robot, config: SimConfig | None = None,
+              terrain: Terrain | None = None) -> mujoco.MjSpec:
+    """Options, the terrain (default flat: ``floor``), one contact pair per (element, terrain
+    geom) and a light, in place (the scene of :func:`mjtrack.sim.builder.add_ground`)."""
     config = config or surfacevel_config()
     apply_solver_options(spec, config)
-    spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[50, 50, 0.1],
-                            friction=[FLOOR_FRICTION, 0, 0], rgba=[0.8, 0.8, 0.75, 1])
-    elements = [g.name for g in spec.geoms if g.name.startswith("track_")]
     # friction_timeconst 0: the friction rows use the contact solref (MuJoCo's [0, 0] default)
     friction_solref = [config.friction_timeconst, 1.0] if config.friction_timeconst > 0 else [0.0, 0.0]
-    for name in elements:
-        side = name.split("_")[1]
-        mu = robot.friction_left if side == "left" else robot.friction_right
-        spec.add_pair(name="contact_" + name.removeprefix("track_"), geomname1="floor", geomname2=name,
-                      condim=3, friction=[mu, mu, 0.0, 0.0, 0.0], solref=config.contact_solref,
-                      solimp=config.solimp, solreffriction=friction_solref,
-                      margin=getattr(config, "contact_margin", 0.0))
-    spec.worldbody.add_light(name="sun", pos=[0, 0, 5], dir=[0, 0, -1],
-                             type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
-    return spec
+    pair_options = dict(condim=3, solref=config.contact_solref, solimp=config.solimp,
+                        solreffriction=friction_solref, margin=getattr(config, "contact_margin", 0.0))
+    return add_ground(spec, robot, terrain or Terrain(), track_contacts(spec, robot), pair_options)
 
 
-def build_surfacevel_spec(robot: Robot, config: SimConfig | None = None, **options) -> mujoco.MjSpec:
+def build_surfacevel_spec(robot: Robot, config: SimConfig | None = None, terrain: Terrain | None = None,
+                          **options) -> mujoco.MjSpec:
     """Robot (:func:`robot_spec`, ``options`` passed on) plus scene (:func:`add_scene`)."""
-    spec = robot_spec(robot, config, **options)
+    spec = robot_spec(robot, config, idlers=needs_idlers(terrain), **options)
     spec.modelname = "tracked_robot_surfacevel"
-    return add_scene(spec, robot, config)
+    return add_scene(spec, robot, config, terrain)
 
 
-def build_surfacevel_model(robot: Robot, config: SimConfig | None = None, **options) -> mujoco.MjModel:
+def build_surfacevel_model(robot: Robot, config: SimConfig | None = None, terrain: Terrain | None = None,
+                           **options) -> mujoco.MjModel:
     """Compiled model with the tracks at rest; drive it with :func:`set_track_speeds`.
 
     ``config`` defaults to :func:`surfacevel_config`; a SimConfig with the roller chain's
@@ -280,7 +244,7 @@ def build_surfacevel_model(robot: Robot, config: SimConfig | None = None, **opti
     config = config or surfacevel_config()
     for problem in setting_problems(config):
         log.warning("surfacevel: %s (experiments/surfacevel_study.py); see surfacevel_config()", problem)
-    model = build_surfacevel_spec(robot, config, **options).compile()
+    model = build_surfacevel_spec(robot, config, terrain, **options).compile()
     model.flg_surfacevel = 1
     return model
 
@@ -366,9 +330,10 @@ class TrackDrive:
 
     Per step of length dt with held commands c (left, right) [m/s]:
       set-point  u <- c + (u - c) exp(-dt/lag)        (exact first-order lag; u = c if lag = 0)
-      kinematic  V = u                                 (``torque_limited=False``)
-      servo      m_t dV/dt = F - F_g,  F = clip(kv (u - V), +-torque_limit/R_s)
-    with m_t = ``track_mass``, kv, torque_limit, lag from SimConfig (the roller chain's drive) and
+      kinematic  V <- V + clip(u - V, +-a_max dt)      (``torque_limited=False``)
+      servo      m_t dV/dt = F - F_g,  F = clip(kv (u - V), +-F_max)
+    with m_t, kv, F_max and the lag of :func:`mjtrack.sim.drivetrain.drive_of` (the roller chain's
+    drive: robot keys, mass-scaled defaults), a_max = F_max / (m_t + m/2) and
     F_g the ground's traction on the track (:func:`track_traction`). surfacevel has no degree of
     freedom for the contact force to act on, so F_g is fed back explicitly from the previous
     step; fed back raw it makes a period-2 oscillation (measured: F_g alternating +-78 N in
@@ -383,8 +348,12 @@ class TrackDrive:
         if not traction_filter > 0:
             raise InputError(f"surfacevel: 'traction_filter' must be positive, got {traction_filter!r}")
         self.model, self.ids = model, track_geom_ids(model)
-        self.lag, self.kv, self.track_mass = config.lag, config.kv, config.track_mass
-        self.force_limit = config.torque_limit / robot.sprocket_radius  # [N]
+        drive = drive_of(robot, config)  # the robot's drivetrain keys, scaled defaults
+        self.lag, self.kv, self.track_mass = drive.lag, drive.kv, drive.track_mass
+        self.force_limit = drive.force_limit  # [N]
+        # kinematic mode: the track speed changes at most as fast as the force limit can
+        # accelerate the drivetrain and the half robot it pushes (m_t + m/2)
+        self.max_accel = drive.force_limit / (drive.track_mass + robot.mass / 2)  # [m/s^2]
         self.torque_limited = torque_limited
         self.traction_filter = traction_filter
         self.setpoint = np.zeros(2)  # u [m/s]
@@ -409,7 +378,8 @@ class TrackDrive:
             self.speeds = np.where(sat, self.speeds + dt * (force - fg) / m, v_new)
             self.force = force
         else:
-            self.speeds = self.setpoint.copy()
+            dv = np.clip(self.setpoint - self.speeds, -self.max_accel * dt, self.max_accel * dt)
+            self.speeds = self.speeds + dv
         set_track_speeds(self.model, *self.speeds, ids=self.ids)
         mujoco.mj_step(self.model, data)
 

@@ -19,8 +19,14 @@ Filters (each as printed, then improved; :mod:`mjtrack.estimation`):
   vir_thesis_intended   the same with the velocity propagated through (3.27);
   vir_filter_twist      ψ-parametrised virtual robot, twist measurements only (the thesis's data);
   vir_filter            the same with pose and twist measurements.
-The ICR filters also run on the mirrored manoeuvre ω = +7 °/s (``mirror``), where the thesis
-saw its ICR filter fail.
+The ICR filters also run on two more manoeuvres (both in thesis.json and fig. 4.12):
+  ``mirror``            the mirror image of the whole setting (nominal ω = +7 °/s, s_L = 0, s_R = 0.2,
+                        α = −15°): the truth is a true *right* turn (ω = −0.090 rad/s), y_l − y_r and
+                        x_c of the mirrored robot; the ψ filter must work for it exactly as for the left turn;
+  ``opposite_command``  the thesis's "+7 °/s" run: only the commanded turn rate flips, the slips stay
+                        (s_L = 0.2, α = 15°) — still a *left* turn (ω = +0.31 rad/s), where the thesis saw
+                        its ICR filter fail; it tests the other sign of y_l − y_r − T, not the other turn
+                        direction.
 
 Metrics per filter (JSON ``filters[name]``):
   param_error_final — |estimate − truth| per parameter at the last step (slips [-], α [rad],
@@ -93,6 +99,11 @@ class Ex42Config:
     @property
     def twist_std(self) -> np.ndarray:
         return np.array([self.vel_std, self.vel_std, self.wz_std])
+
+    def mirrored(self) -> "Ex42Config":
+        """The mirror image of the setting (y → −y): turn rate, α negated, slips of the tracks swapped."""
+        return replace(self, turn_rate_deg=-self.turn_rate_deg, s_left=self.s_right, s_right=self.s_left,
+                       alpha_deg=-self.alpha_deg)
 
     def truth_model(self) -> MPP:
         return MPP(self.track_gauge, self.s_left, self.s_right, math.radians(self.alpha_deg))
@@ -227,7 +238,7 @@ def metrics(run: FilterRun) -> dict:
 
 @dataclass(frozen=True, eq=False)
 class Ex42:
-    """Everything section 4.2 computes: the main run (ω = −7°/s) and the mirrored ICR run."""
+    """Everything section 4.2 computes: the main run (ω = −7°/s), the mirrored and the opposite-command ICR runs."""
 
     config: Ex42Config
     truth: Truth
@@ -235,22 +246,29 @@ class Ex42:
     mirror_config: Ex42Config | None
     mirror_truth: Truth | None
     mirror_runs: dict
+    opposite_config: Ex42Config | None = None
+    opposite_truth: Truth | None = None
+    opposite_runs: dict | None = None
 
 
 def compute(config: Ex42Config | None = None, *, names=FILTER_NAMES, mirror_names=MIRROR_NAMES) -> Ex42:
-    """Run section 4.2: ``names`` on the thesis's setting, ``mirror_names`` at the opposite turn rate."""
+    """Run section 4.2: ``names`` on the thesis's setting, ``mirror_names`` on its mirror image (a true
+    right turn) and at the opposite commanded turn rate with the same slips (module docstring)."""
     cfg = config or Ex42Config()
     truth = simulate(cfg)
     runs = {n: run_filter(n, truth, cfg) for n in names}
-    mcfg = mtruth = None
-    mruns = {}
+    mcfg = mtruth = ocfg = otruth = None
+    mruns, oruns = {}, {}
     if mirror_names:
-        mcfg = replace(cfg, turn_rate_deg=-cfg.turn_rate_deg)
+        mcfg = cfg.mirrored()
         mtruth = simulate(mcfg)
         mruns = {n: run_filter(n, mtruth, mcfg) for n in mirror_names}
+        ocfg = replace(cfg, turn_rate_deg=-cfg.turn_rate_deg)
+        otruth = simulate(ocfg)
+        oruns = {n: run_filter(n, otruth, ocfg) for n in mirror_names}
     for n, r in runs.items():
         log.info("4.2 %s: converged after %s s", n, metrics(r)["converged_after_s"])
-    return Ex42(cfg, truth, runs, mcfg, mtruth, mruns)
+    return Ex42(cfg, truth, runs, mcfg, mtruth, mruns, ocfg, otruth, oruns)
 
 
 def summary(ex: Ex42) -> dict:
@@ -263,10 +281,15 @@ def summary(ex: Ex42) -> dict:
                     "truth_centre": dict(zip(("x_o", "y_o"), map(float, ex.truth.centre)))},
         "filters": {n: metrics(r) for n, r in ex.runs.items()},
     }
-    if ex.mirror_config is not None:
-        out["mirror"] = {"turn_rate_deg": ex.mirror_config.turn_rate_deg,
-                         "truth_icr": dict(zip(("y_l", "y_r", "x_c"), map(float, ex.mirror_truth.icr))),
-                         "filters": {n: metrics(r) for n, r in ex.mirror_runs.items()}}
+    for key, c, tr, runs in (("mirror", ex.mirror_config, ex.mirror_truth, ex.mirror_runs),
+                             ("opposite_command", ex.opposite_config, ex.opposite_truth, ex.opposite_runs)):
+        if c is None:
+            continue
+        w = float(tr.twist[0, 2])
+        out[key] = {"turn_rate_deg": c.turn_rate_deg, "s_left": c.s_left, "s_right": c.s_right,
+                    "alpha_deg": c.alpha_deg, "truth_wz_rad_s": w, "truth_turn": "left" if w > 0 else "right",
+                    "truth_icr": dict(zip(("y_l", "y_r", "x_c"), map(float, tr.icr))),
+                    "filters": {n: metrics(r) for n, r in runs.items()}}
     return out
 
 
@@ -399,10 +422,15 @@ def plot(ex: Ex42, out_dir) -> dict:
                       "improved psi filter predicts the pose."))
         groups = [("w = %g deg/s" % cfg.turn_rate_deg, icr)]
         if ex.mirror_runs:
-            groups.append(("w = %g deg/s (mirror)" % ex.mirror_config.turn_rate_deg, list(ex.mirror_runs.values())))
+            groups.append(("mirror image: w = %g deg/s, s_R = %g, alpha = %g deg (right turn)" % (
+                ex.mirror_config.turn_rate_deg, ex.mirror_config.s_right, ex.mirror_config.alpha_deg),
+                list(ex.mirror_runs.values())))
+        if ex.opposite_runs:
+            groups.append(("w = %g deg/s, same slips (still a left turn)" % ex.opposite_config.turn_rate_deg,
+                           list(ex.opposite_runs.values())))
         specs.append(("4.12", "fig4_12_icr_params.png", _fig_params(groups, "ICR estimates"),
-                      "ICR estimates y_l, y_r, x_c: thesis's regressors (3.14) vs the psi parametrisation, both turn "
-                      "directions."))
+                      "ICR estimates y_l, y_r, x_c: thesis's regressors (3.14) vs the psi parametrisation, on the "
+                      "setting, its mirror image (a true right turn) and the opposite command with the same slips."))
     vir = sel(["vir_thesis_printed", "vir_thesis_intended", "vir_filter_twist", "vir_filter"])
     if vir:
         specs.append(("4.13", "fig4_13_vir_pred.png", _fig_pred(vir, "virtual-robot filters: prediction error"),

@@ -13,6 +13,12 @@ Numbers (all on the noise-free truth, see :mod:`mjtrack.validate.truth`):
   from twists with the same track speeds. The median, because the own ICRs spike for a moment at
   every change of command (the twist and the speeds respond at different rates).
 * ``param_error_final`` (MPP truth, slip EKF): |estimate − truth| of (s_L, s_R, α) at the end.
+* ``consistency`` (each filter): ``{nis_mean, nis_dof, nees_mean, nees_dof, band95, n_nis, n_nees}``
+  (:mod:`mjtrack.estimation.consistency`) over the steps after the settling time. NEES is against
+  the truth's own parameters: on the MPP truth the known slips (slip EKF) and the exact per-sample
+  ψ_own = (−v_y, v_x − V̄, ω)/ΔV (ICR EKF, VIR filter); on a simulated log the mean of the
+  per-sample own values over the steady part of each constant-command stretch (1 s after the
+  command changed on); null on a measured log (no noise-free truth).
 """
 
 from __future__ import annotations
@@ -23,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mjtrack.estimation import consistency as cons
 from mjtrack.icr import ICR, icr_from_twist
 from mjtrack.metrics import HorizonErrors
 from mjtrack.progress import Progress
@@ -35,6 +42,7 @@ log = logging.getLogger(__name__)
 HORIZONS = (0.5, 1.0, 2.0, 5.0)  # [s]
 WZ_MIN = 0.05  # [rad/s] |ω| below which ICRs are not compared (they run off to infinity)
 ICR_HORIZON = 2.0  # [s] window of the oracle ICR traces
+STEADY_S = 1.0  # [s] after a command change before a simulated log's own parameters count as truth
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,6 +61,34 @@ class CaseResult:
 
 def _icr(twist: np.ndarray, case: Case, wz_min: float) -> ICR:
     return icr_from_twist(*twist.T, case.v_left, case.v_right, wz_min=wz_min, on_singular="mask")
+
+
+def param_truth(case: Case, filter_name: str, track_gauge: float) -> np.ndarray | None:
+    """(N, P) true parameters of a filter on ``case`` (module docstring), None without a truth."""
+    if not case.noise_free:
+        return None
+    if case.truth_params is not None:
+        if filter_name == "slip_ekf":
+            p = [case.truth_params[k] for k in ("s_left", "s_right", "alpha")]
+            return np.broadcast_to(np.asarray(p, float), (case.t.size, 3)).copy()
+        return cons.own_psi(case.twist, case.v_left, case.v_right)
+    own = (cons.own_slips(case.twist, case.v_left, case.v_right, track_gauge) if filter_name == "slip_ekf"
+           else cons.own_psi(case.twist, case.v_left, case.v_right))
+    stretch = case.stretch if case.stretch is not None else case.segments
+    return cons.steady_truth(case.t, own, stretch, settle_s=STEADY_S)
+
+
+def filter_consistency(case: Case, run: FilterRun, track_gauge: float, t_from: float) -> dict:
+    """The ``consistency`` entry of one filter on ``case`` (module docstring)."""
+    if not run.results:
+        return {"nis_mean": None, "nis_dof": None, "nees_mean": None, "nees_dof": len(run.param_names),
+                "band95": None, "n_nis": 0, "n_nees": 0}
+    truth = param_truth(case, run.name, track_gauge)
+    parts = None
+    if truth is not None:
+        # result row j of a segment starting at sample s is sample s + 1 + j
+        parts = [truth[s + 1:s + 1 + r.t.size] for r, s in zip(run.results, run.starts)]
+    return cons.summary(run.results, parts, t_from=t_from)
 
 
 def _median_abs(a: np.ndarray) -> float:
@@ -98,7 +134,9 @@ def evaluate_case(case: Case, track_gauge: float, *, horizons=HORIZONS, noise: N
         "icr_samples_compared": int(cmp_mask.sum()), "settle_s": settle_s,
         "predictors": table,
         "filters": {k: {"measures": f.measures, "final": dict(zip(f.param_names, map(float, f.params[-1]))),
-                        "failed": f.error} for k, f in filters.items()},
+                        "failed": f.error, "adaptive": f.results[0].info.get("adaptive") if f.results else None,
+                        "consistency": filter_consistency(case, f, track_gauge, t0 + settle_s)}
+                    for k, f in filters.items()},
     }
     if case.truth_params is not None:
         metrics["truth_params"] = dict(case.truth_params)

@@ -112,3 +112,47 @@ def mpp_params_figure(res: CaseResult) -> Figure:
     axes[-1].set_xlabel("time [s]")
     fig.tight_layout()
     return fig
+
+
+NIS_AVG_S = 1.0  # [s] moving-average window of the NIS curves
+
+
+def nis_figure(res: CaseResult) -> Figure:
+    """NIS over time of each filter (dots: per step; line: 1-s moving mean) with the χ² 95 % bands.
+
+    Light band: a single step's 95 % band (χ²(m) quantiles); dark band: the band of the moving mean
+    of that many independent steps. A consistent filter's dots scatter inside the light band and its
+    mean stays near m (dashed).
+    """
+    from mjtrack.estimation.common import chi2_band
+
+    keys = [k for k in FILTER_KEYS if k in res.filters and res.filters[k].results]
+    fig = Figure(figsize=(10, 2.4 * max(1, len(keys)) + 0.8))
+    axes = np.atleast_1d(fig.subplots(max(1, len(keys)), 1, sharex=True, squeeze=False)[:, 0])
+    for ax, key in zip(axes, keys):
+        run = res.filters[key]
+        t = np.concatenate([r.t for r in run.results])
+        nis = np.concatenate([r.nis() for r in run.results])
+        dof = len(run.results[0].meas_names)
+        dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+        w = max(1, int(round(NIS_AVG_S / dt)))
+        good = np.isfinite(nis)
+        filled = np.where(good, nis, 0.0)
+        cnt = np.convolve(good.astype(float), np.ones(w), "same")
+        mean = np.convolve(filled, np.ones(w), "same") / np.maximum(cnt, 1)
+        lo1, hi1 = chi2_band(dof)
+        low, hiw = chi2_band(dof, w)
+        ax.axhspan(lo1, hi1, color="0.9", zorder=0, label=f"95 % band of one step, χ²({dof})")
+        ax.axhspan(low, hiw, color="0.75", zorder=0, label=f"95 % band of a {NIS_AVG_S:g}-s mean")
+        ax.axhline(dof, color="k", ls="--", lw=0.8)
+        ax.plot(t[good], nis[good], ".", ms=1.5, color=COLORS[FILTER_KEYS[key]], alpha=0.35)
+        ax.plot(t, np.where(cnt > 0, mean, np.nan), color=COLORS[FILTER_KEYS[key]], lw=1.4,
+                label=f"{key}: {NIS_AVG_S:g}-s mean NIS")
+        ax.set_yscale("log")
+        ax.set_ylim(max(1e-2, lo1 / 3), max(hi1 * 10, np.nanpercentile(nis, 99.5) * 1.5 if good.any() else 10))
+        ax.set_ylabel(f"NIS ({run.measures})")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7, loc="upper right", ncol=3)
+    axes[-1].set_xlabel("time [s]")
+    fig.tight_layout()
+    return fig

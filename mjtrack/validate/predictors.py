@@ -10,7 +10,9 @@
 | ``micr_own_icr`` | MICR = MVIR | the truth's own ICRs (2.13): least-squares fit over each prediction window (oracle) |
 
 Online predictors are causal: a prediction starting at sample s uses the parameters the
-filter had after the measurement at s, held over the horizon. The oracles are not causal:
+filter had after the measurement at s, held over the horizon. The filters run with adaptive
+process noise (``adaptive="imm"``, :mod:`mjtrack.estimation.imm`) and carry their parameters
+across the segments (windows) of a log (:func:`_run_segments`). The oracles are not causal:
 they fit the best *constant* parameters to the true motion inside the window they then
 predict, so they bound what any constant-parameter model of their family can do over that
 horizon (the per-sample own ICRs would reproduce the true twist exactly and bound nothing).
@@ -73,52 +75,88 @@ class Predictor:
 
 @dataclass(frozen=True, eq=False)
 class FilterRun:
-    """Per-sample posterior parameters (N, P) of one filter over all segments (row s: after z_s)."""
+    """Per-sample posterior parameters (N, P) of one filter over all segments (row s: after z_s).
+
+    ``results`` holds each segment's :class:`~mjtrack.estimation.common.FilterResult` (its NIS and
+    covariances; empty if the filter failed), ``starts`` the sample index where each began.
+    """
 
     name: str
     param_names: tuple[str, ...]
     params: np.ndarray
     measures: str
     error: str | None = None
+    results: tuple = ()
+    starts: tuple = ()
 
 
-def _run_segments(case: Case, run, p0: np.ndarray, names: tuple[str, ...], name: str, measures: str) -> FilterRun:
-    """Run a filter on each segment (restarting from ``p0``); a filter that fails leaves NaN parameters.
+def _run_segments(case: Case, run, p0: np.ndarray, cov0: np.ndarray, q2: np.ndarray, names: tuple[str, ...],
+                  name: str, measures: str, *, carry: bool = True) -> FilterRun:
+    """Run a filter over the segments of ``case``; a filter that fails leaves NaN parameters.
+
+    ``carry``: the segments (windows) of one log are one robot, so each segment starts from the
+    previous one's final parameter estimate and covariance, the covariance grown by the slow random
+    walk over the gap, Δ = t_start − t_end_prev (P ← P + diag(q²)·Δ, the filter's own model of
+    how parameters drift when nothing is measured); only the pose restarts (from the segment's first
+    measurement). Without ``carry`` every segment restarts from (``p0``, ``cov0``).
 
     A failure (e.g. the slip EKF's α leaving (−π/2, π/2), which happens when the MPP model must
     explain a sideways velocity while v_x ≈ 0) is a finding of the validation, not a crash: it
     is logged and reported, and the predictor scores NaN.
     """
     out = np.empty((case.t.size, p0.size))
+    results, starts = [], []
+    p, P, t_end = np.asarray(p0, float), np.asarray(cov0, float), None
     for sl in case.segment_slices():
-        out[sl.start] = p0
+        if carry and t_end is not None:
+            P = P + np.diag(q2) * max(0.0, float(case.t[sl.start] - t_end))
+        elif not carry:
+            p, P = np.asarray(p0, float), np.asarray(cov0, float)
+        out[sl.start] = p
         if sl.stop - sl.start < 2:
-            out[sl] = p0
+            out[sl] = p
             continue
         try:
-            res = run(case.t[sl], case.v_left[sl], case.v_right[sl], case.pose_meas[sl], case.twist_meas[sl])
+            res = run(case.t[sl], case.v_left[sl], case.v_right[sl], case.pose_meas[sl], case.twist_meas[sl], p, P)
         except MjtrackError as exc:
             log.warning("%s failed on the %s truth: %s", name, case.name, exc)
             return FilterRun(name, names, np.full_like(out, np.nan), measures, str(exc))
         out[sl.start + 1:sl.stop] = res.x_post[:, 3:]
-    return FilterRun(name, names, out, measures)
+        results.append(res)
+        starts.append(sl.start)
+        p, P, t_end = res.x_post[-1, 3:].copy(), res.P_post[-1, 3:, 3:].copy(), float(case.t[sl.stop - 1])
+    return FilterRun(name, names, out, measures, None, tuple(results), tuple(starts))
 
 
-def run_filters(case: Case, track_gauge: float, *, noise: Noise = Noise()) -> dict[str, FilterRun]:
-    """The three improved filters on ``case`` (measurements: module docstring)."""
+# process-noise intensities of the filters as validate runs them (the run_* defaults; adaptive = IMM
+# pair whose slow mode is this)
+Q_SLIP = np.array([1e-3, 1e-3, np.radians(0.05)]) ** 2
+Q_PSI = np.full(3, 1e-3) ** 2
+SLIP_STD0 = np.array([0.3, 0.3, np.radians(20.0)])
+PSI_STD0 = np.array([2.0, 2.0, 4.0])
+
+
+def run_filters(case: Case, track_gauge: float, *, noise: Noise = Noise(), adaptive="imm",
+                carry: bool = True) -> dict[str, FilterRun]:
+    """The three improved filters on ``case`` (measurements: module docstring).
+
+    ``adaptive``: "imm" (default: slow/fast IMM pair, :mod:`mjtrack.estimation.imm`) or None (one
+    random walk, as printed); ``carry``: carry the parameters across segments (:func:`_run_segments`).
+    """
     T = track_gauge
     ps, ts = np.asarray(noise.pose_std), np.asarray(noise.twist_std)
     psi0 = InverseICR.nominal(T).params
+    kw = dict(pose_std=ps, twist_std=ts, adaptive=adaptive)
     return {
-        "slip_ekf": _run_segments(case, lambda t, vl, vr, pm, tm: run_slip_ekf(
-            t, vl, vr, track_gauge=T, pose_meas=pm, twist_meas=tm, pose_std=ps, twist_std=ts),
-            np.zeros(3), MPP.param_names, "slip_ekf", "pose + twist"),
-        "icr_ekf": _run_segments(case, lambda t, vl, vr, pm, tm: run_icr_ekf(
-            t, vl, vr, track_gauge=T, pose_meas=pm, pose_std=ps, twist_std=ts),
-            psi0, InverseICR.param_names, "icr_ekf", "pose"),
-        "vir_filter": _run_segments(case, lambda t, vl, vr, pm, tm: run_vir_filter(
-            t, vl, vr, track_gauge=T, twist_meas=tm, pose0=pm[0], pose_std=ps, twist_std=ts),
-            psi0, InverseICR.param_names, "vir_filter", "twist"),
+        "slip_ekf": _run_segments(case, lambda t, vl, vr, pm, tm, p, P: run_slip_ekf(
+            t, vl, vr, track_gauge=T, pose_meas=pm, twist_meas=tm, params0=p, param_cov0=P, **kw),
+            np.zeros(3), np.diag(SLIP_STD0**2), Q_SLIP, MPP.param_names, "slip_ekf", "pose + twist", carry=carry),
+        "icr_ekf": _run_segments(case, lambda t, vl, vr, pm, tm, p, P: run_icr_ekf(
+            t, vl, vr, track_gauge=T, pose_meas=pm, psi0=p, psi_cov0=P, **kw),
+            psi0, np.diag(PSI_STD0**2), Q_PSI, InverseICR.param_names, "icr_ekf", "pose", carry=carry),
+        "vir_filter": _run_segments(case, lambda t, vl, vr, pm, tm, p, P: run_vir_filter(
+            t, vl, vr, track_gauge=T, twist_meas=tm, pose0=pm[0], psi0=p, psi_cov0=P, **kw),
+            psi0, np.diag(PSI_STD0**2), Q_PSI, InverseICR.param_names, "vir_filter", "twist", carry=carry),
     }
 
 

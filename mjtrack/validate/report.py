@@ -189,6 +189,25 @@ def build_report(results: dict[str, CaseResult], robot: Robot, setup: dict, verd
                     [[k, tp[k], est[k], err[k]] for k in ("s_left", "s_right", "alpha")],
                     caption="parameter recovery by the slip EKF (α in rad)")
 
+    c = rep.section("Filter consistency")
+    c.paragraph("A filter is consistent when its errors are as large as its covariance says. NIS (normalised "
+                "innovation squared, εᵀS⁻¹ε) needs no truth: its mean should equal the number of measured "
+                "components m. Parameter NEES (eᵀP⁻¹e of the parameter error) needs true parameters: its mean "
+                "should equal the number of parameters. Ratios far above 1: over-confident (the filter believes "
+                "wrong estimates); far below 1: under-confident.")
+    rows = []
+    for r in results.values():
+        for name, fm in r.metrics["filters"].items():
+            cm = fm["consistency"]
+            rows.append([f"{name} on {r.case.title}", cm["nis_mean"], cm["nis_dof"],
+                         cm["nis_mean"] / cm["nis_dof"] if cm["nis_mean"] is not None else None,
+                         cm["nees_mean"], cm["nees_dof"],
+                         cm["nees_mean"] / cm["nees_dof"] if cm["nees_mean"] is not None else None])
+    c.table(["filter", "mean NIS", "m", "NIS/m", "mean NEES", "parameters", "NEES/parameters"], rows,
+            caption="consistency after the settling time (NEES: not available without a noise-free truth)")
+    for r in results.values():
+        c.figure(figures.nis_figure(r), f"NIS over time on the {r.case.title} with its 95 % bands (χ² quantiles).")
+
     f = rep.section("Filters")
     f.paragraph("Final estimates of each filter (ψ = (x_c, (y_l + y_r)/2, 1)/(y_l − y_r) for the ICR EKF and VIR "
                 "filter, which is also (x_o, y_o, 1)/T_v of the virtual robot).")

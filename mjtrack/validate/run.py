@@ -7,7 +7,8 @@ measurements and every predictor (:mod:`mjtrack.validate.predictors`) is scored
 self-contained file: verdicts, setup, definitions, error-vs-horizon figure and tables, paths,
 ICRs over time, parameter recovery, filters) and ``metrics.json`` (the same numbers:
 ``setup``, ``definitions``, ``verdicts``, ``headline`` (2-s errors per truth and predictor),
-``truths.<name>.predictors.<key>.horizons.<h>.{pos_rmse_m, yaw_rmse_deg, n}``, ...).
+``truths.<name>.predictors.<key>.horizons.<h>.{pos_rmse_m, yaw_rmse_deg, n}``,
+``truths.<name>.filters.<filter>.consistency.{nis_mean, nis_dof, nees_mean, nees_dof, band95}``, ...).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.progress import Progress
 from mjtrack.validate.evaluate import HORIZONS, WZ_MIN, CaseResult, evaluate_case
 from mjtrack.validate.report import DEFINITIONS, VERDICT_HORIZON, build_report, verdicts
-from mjtrack.validate.truth import MPP_TRUTH, Noise, case_from_log, mpp_case, resolve_speeds
+from mjtrack.validate.truth import MPP_TRUTH, Noise, case_from_log, estimate_noise, mpp_case, resolve_speeds
 
 log = logging.getLogger(__name__)
 
@@ -75,6 +76,7 @@ def validate(
     wz_min: float = WZ_MIN,
     quiet: bool = False,
     bar: Progress | None = None,
+    log_noise_free: bool | None = None,
 ) -> Validation:
     """Validate all models and filters on ``drive`` (with ``robot``); write report and metrics to ``out_dir``.
 
@@ -88,6 +90,9 @@ def validate(
         mpp_params: the MPP truth's (s_left, s_right, alpha) (default thesis 4.2).
         wz_min: |ω| [rad/s] below which ICRs are not compared.
         bar: a progress display to advance (one is made otherwise, silent with ``quiet``).
+        log_noise_free: whether the log is a noise-free simulation, so that the filters' parameter
+            NEES can be scored against its own parameters (default: unless ``truth_title`` is
+            "measured log").
     """
     speeds = resolve_speeds(drive, speeds)
     horizons = tuple(sorted(float(h) for h in horizons))
@@ -97,12 +102,23 @@ def validate(
     own_bar = bar is None
     bar = bar or Progress(2 * (N_PREDICTORS + 1) + 1, label="validate", quiet=quiet)
     try:
-        mj = case_from_log(drive, speeds=speeds, noise=noise, seed=seed, title=truth_title)
+        noise_free = truth_title != "measured log" if log_noise_free is None else bool(log_noise_free)
+        mj = case_from_log(drive, speeds=speeds, noise=noise, seed=seed, title=truth_title, noise_free=noise_free)
         cases = [mj, mpp_case(mj, robot, params=mpp_params, noise=noise, seed=seed)]
-        results = {c.name: evaluate_case(c, robot.track_gauge, horizons=horizons, noise=noise, wz_min=wz_min, bar=bar)
-                   for c in cases}
+        # a measured log's filters get the log's own noise as R (estimated), a simulation's the noise added
+        filter_noise = {"log": noise if noise_free else estimate_noise(mj), "mpp": noise}
+        results = {c.name: evaluate_case(c, robot.track_gauge, horizons=horizons, noise=filter_noise[c.name],
+                                         wz_min=wz_min, bar=bar) for c in cases}
         verdict = verdicts(results)
         setup = _setup(drive, robot, source, horizons, noise, seed, speeds, mpp_params, wz_min)
+        if not noise_free:
+            est = filter_noise["log"]
+            setup["filter_noise_log"] = {"pose_std": list(est.pose_std), "twist_std": list(est.twist_std),
+                                         "how": "estimated from the log (second differences of the poses)"}
+            setup["noise_text"] += (f"; on the measured log the filters' measurement noise is estimated from the log "
+                                    f"itself: σ = {est.pose_std[0]:.3g} m, {est.pose_std[1]:.3g} m, "
+                                    f"{math.degrees(est.pose_std[2]):.3g}° on the pose, {est.twist_std[0]:.3g} m/s, "
+                                    f"{est.twist_std[1]:.3g} m/s, {est.twist_std[2]:.3g} rad/s on the twist")
         report = build_report(results, robot, setup, verdict)
         bar.update(note="report")
         metrics = _json_safe({
@@ -147,7 +163,10 @@ def _setup(drive, robot, source, horizons, noise, seed, speeds, mpp_params, wz_m
                       f"α = {math.degrees(mpp_params['alpha']):g}° (thesis 4.2)"),
         "mpp_truth_params": mpp_params, "noise": applied, "noise_text": noise_text, "seed": seed,
         "filters_text": ("slip EKF (MPP; measures pose and twist), improved ICR EKF (MICR; measures the pose), "
-                         "improved VIR filter (MVIR; measures the twist); each starts from the nominal parameters "
-                         "and runs online through the log"),
+                         "improved VIR filter (MVIR; measures the twist); each with adaptive process noise (a slow "
+                         "and a fast random walk of its parameters mixed as an interacting multiple model), starts "
+                         "from the nominal parameters and runs online through the log; on a log of several windows "
+                         "the parameters are carried from one window to the next (their covariance grown over the "
+                         "gap) and only the pose restarts"),
         "horizons_s": list(horizons), "wz_min": wz_min,
     }

@@ -26,6 +26,7 @@ import numpy as np
 
 from mjtrack.errors import InputError
 from mjtrack.estimation.common import twist_from_poses
+from mjtrack.estimation.consistency import command_stretches
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.models import MPP, integrate
@@ -70,6 +71,10 @@ class Case:
         pose_meas, twist_meas: what the filters measure (truth + noise).
         segments: segment id per sample (predictions and filters never cross a boundary).
         truth_params: the MPP parameters of an analytic truth (None for a log).
+        stretch: (N,) id of the constant-command stretch of each sample (a new id at every change
+            of the commanded speeds and every segment), or None.
+        noise_free: whether ``pose``/``twist`` are a noise-free truth (a simulation) — only then
+            can a filter's parameter error be scored (a measured log carries its own noise).
     """
 
     name: str
@@ -84,6 +89,8 @@ class Case:
     segments: np.ndarray
     truth_params: dict | None = None
     info: dict = field(default_factory=dict)
+    stretch: np.ndarray | None = None
+    noise_free: bool = True
 
     def __post_init__(self):
         n = self.t.shape[0]
@@ -112,6 +119,35 @@ def _noisy(pose: np.ndarray, twist: np.ndarray, noise: Noise, seed: int) -> tupl
     return pose_m, twist_m
 
 
+def estimate_noise(case: Case) -> Noise:
+    """Measurement noise of a measured log's ``pose_meas``/``twist_meas`` (for the filters' R).
+
+    Pose: over a sample period the true motion changes the second difference of a pose by
+    about a·Δt² (≈ 2.6 mm at 1 m/s² and 20 Hz), white noise of std σ by √6·σ; so σ is taken
+    as the robust std (1.4826 × median absolute deviation) of the second differences within
+    each segment, over √6. Twist: a twist differenced from poses has std √2·σ_pose/Δt; a logged
+    twist, the robust std of its first differences over √2 (an upper bound: it includes the
+    true change over one step). Floors: 1 mm, 0.05°, 1 mm/s, 1 mrad/s.
+    """
+    d2, d1, dts = [], [], []
+    for sl in case.segment_slices():
+        if sl.stop - sl.start >= 3:
+            d2.append(np.diff(case.pose_meas[sl], 2, axis=0))
+            d1.append(np.diff(case.twist_meas[sl], axis=0))
+            dts.append(np.diff(case.t[sl]))
+    if not d2:
+        return Noise()
+    rstd = lambda a: 1.4826 * np.median(np.abs(a - np.median(a, 0)), 0)  # noqa: E731
+    pose = np.maximum(rstd(np.concatenate(d2)) / math.sqrt(6), [1e-3, 1e-3, math.radians(0.05)])
+    if case.info.get("twist_from") == "differenced poses":
+        dt = float(np.median(np.concatenate(dts)))
+        twist = math.sqrt(2) * pose / dt
+    else:
+        twist = rstd(np.concatenate(d1)) / math.sqrt(2)
+    twist = np.maximum(twist, [1e-3, 1e-3, 1e-3])
+    return Noise(scale=0.0, pose_std=tuple(map(float, pose)), twist_std=tuple(map(float, twist)))
+
+
 def resolve_speeds(log: DriveLog, speeds: str) -> str:
     """``"auto"`` is ``"measured"`` when the log has measured track speeds, else ``"cmd"``."""
     if speeds not in ("auto", "cmd", "measured"):
@@ -122,7 +158,7 @@ def resolve_speeds(log: DriveLog, speeds: str) -> str:
 
 
 def case_from_log(log: DriveLog, *, speeds: str = "auto", noise: Noise = Noise(), seed: int = 0,
-                  title: str = "MuJoCo rollout") -> Case:
+                  title: str = "MuJoCo rollout", noise_free: bool = True) -> Case:
     """The ``log`` case of a drive log (``title`` names it in the report: a MuJoCo rollout or a measured log).
 
     ``speeds="measured"`` drives the models with the logged track speeds, ``"cmd"`` with the
@@ -133,6 +169,7 @@ def case_from_log(log: DriveLog, *, speeds: str = "auto", noise: Noise = Noise()
     and which, measured on the demo rollout, dominates the filters' ICR error.
     Without twist columns the twist is differenced from the poses
     (:func:`~mjtrack.estimation.common.twist_from_poses`, last row repeated).
+    ``noise_free``: the log is a simulation (False for a measured log: no parameter NEES).
     """
     speeds = resolve_speeds(log, speeds)
     if speeds == "measured" and not log.has_track_speeds:
@@ -155,9 +192,10 @@ def case_from_log(log: DriveLog, *, speeds: str = "auto", noise: Noise = Noise()
         raise InputError(f"{log.source or 'drive log'}: poses or twist contain NaN; validate needs complete rows")
     vl, vr = (log.v_left_cmd, log.v_right_cmd) if speeds == "cmd" else (log.v_left, log.v_right)
     pose_m, twist_m = _noisy(pose, twist, noise, seed)
+    stretch = command_stretches(t, log.v_left_cmd, log.v_right_cmd, seg)
     return Case("log", title, t, np.asarray(vl, float), np.asarray(vr, float), pose, twist, pose_m, twist_m,
                 seg, None, {"twist_from": "log columns" if log.has_twist else "differenced poses",
-                            "speeds": speeds})
+                            "speeds": speeds}, stretch, noise_free)
 
 
 def mpp_case(like: Case, robot: Robot, *, params: dict | None = None, noise: Noise = Noise(),
@@ -171,4 +209,4 @@ def mpp_case(like: Case, robot: Robot, *, params: dict | None = None, noise: Noi
         pose[sl] = integrate(model, like.pose[sl][0], like.t[sl], like.v_left[sl], like.v_right[sl])
     pose_m, twist_m = _noisy(pose, twist, noise, seed + 1)
     return Case("mpp", "MPP analytic truth", like.t, like.v_left, like.v_right, pose, twist, pose_m, twist_m,
-                like.segments, params, {"model": "MPP (2.9), exact SE(2) integration"})
+                like.segments, params, {"model": "MPP (2.9), exact SE(2) integration"}, like.stretch, True)

@@ -1,0 +1,121 @@
+"""Simulation settings of the roller chain: the faster defaults keep the old answers, the drive
+scales with the robot, and the wider fidelity grid (issue 11) as far as it passes."""
+
+from __future__ import annotations
+
+import functools
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mjtrack.errors import InputError
+from mjtrack.io.robot import Robot
+from mjtrack.models.coulomb import steady_state as coulomb
+from mjtrack.sim.config import SimConfig, previous_defaults
+from mjtrack.sim.steady import steady_batch
+
+EXPERIMENTS = Path(__file__).resolve().parents[1] / "experiments"
+
+
+def test_solver_and_drive_settings_are_validated():
+    with pytest.raises(InputError, match="solver"):
+        SimConfig(solver="Jacobi")
+    with pytest.raises(InputError, match="drive_reference_mass"):
+        SimConfig(drive_reference_mass=0.0)
+    cfg = SimConfig().for_robot_mass(80.0)
+    base = SimConfig()
+    assert (cfg.kv, cfg.track_mass, cfg.torque_limit) == (4 * base.kv, 4 * base.track_mass, 4 * base.torque_limit)
+    assert cfg.drive_reference_mass is None and cfg.for_robot_mass(5.0) == cfg  # scaled once only
+    light = base.for_robot_mass(5.0)  # never softer than the default robot's drive
+    assert (light.kv, light.track_mass, light.torque_limit) == (base.kv, base.track_mass, base.torque_limit)
+    assert SimConfig(drive_reference_mass=None).for_robot_mass(80.0).kv == base.kv
+
+
+def test_faster_defaults_give_the_previous_icrs():
+    """PGS main solver against Newton (drive unscaled in both: default robot of 20 kg)."""
+    robots = [Robot(cg_x=0.05), Robot(cg_x=-0.05, mu=0.4), Robot()]
+    cmds = np.array([[0.6, 1.0], [-0.8, -0.5], [-0.5, 0.5]])  # R ~ 1 m, reverse R ~ 0.9 m, pivot
+    new = steady_batch(robots, cmds, config=SimConfig(), settle_s=2.0, window_s=1.0)
+    old = steady_batch(robots, cmds, config=previous_defaults(), settle_s=2.0, window_s=1.0)
+    for a, b, r in zip(new, old, robots):
+        # the main solve carries only the normal rows: PGS and Newton agree to 1e-7 T/2 on the
+        # issue-3 quick grid (assets/README.md "Speed"); 1e-4 leaves room for summation order
+        assert max(abs(a.y_l - b.y_l), abs(a.y_r - b.y_r)) < 1e-4 * r.track_gauge / 2
+        assert abs(a.x_c - b.x_c) < 1e-4 * r.track_length
+
+
+def test_straight_driving_does_not_drift_with_the_defaults():
+    """Too few noslip iterations break the left/right symmetry: 4 drifted 2 mm/m at 2 m/s."""
+    from mjtrack.sim.rollout import drive_log
+
+    log = drive_log(Robot(), (np.array([0.0]), np.array([2.0]), np.array([2.0])), duration=4.0, config=SimConfig())
+    dist = float(np.hypot(log.x[-1] - log.x[0], log.y[-1] - log.y[0]))
+    assert abs(log.y[-1] - log.y[0]) / dist < 1e-3  # measured 0.09 mm/m over 10 s (fidelity.py)
+
+
+def test_heavy_robot_keeps_the_commanded_speed_difference():
+    """80 kg, R = 5 m at 1.5 m/s: with the 20 kg robot's drive the servo error F/kv (~1 cm/s)
+    ate most of the 0.15 m/s difference; the scaled drive keeps >= 90 % and the ICRs follow Coulomb."""
+    robot = Robot(track_gauge=0.5, track_length=1.0, mass=80.0, cg_z=0.15)
+    v, R = 1.5, 5.0
+    cmd = np.array([[v * (1 - robot.track_gauge / (2 * R)), v * (1 + robot.track_gauge / (2 * R))]])
+    res = steady_batch([robot], cmd, config=SimConfig(), settle_s=2.0, window_s=1.0)[0]
+    assert (res.v_right - res.v_left) > 0.9 * (cmd[0, 1] - cmd[0, 0])
+    ref = coulomb(robot, res.v_left, res.v_right)
+    # measured 0.05 T/2 here at dt 5 ms (experiments/fidelity.py --wide); the unscaled drive gave 0.05-0.13
+    assert max(abs(res.y_l - ref.y_l), abs(res.y_r - ref.y_r)) < 0.08 * robot.track_gauge / 2
+
+
+@functools.lru_cache(maxsize=1)
+def _wide_rows():
+    sys.path.insert(0, str(EXPERIMENTS))
+    try:
+        import fidelity
+    finally:
+        sys.path.remove(str(EXPERIMENTS))
+    return fidelity, fidelity.run_wide(True, SimConfig(), half_dt=True)
+
+
+@pytest.mark.slow
+def test_wide_grid_passes_where_the_slips_are_large():
+    """The part of the issue-11 quick grid that passes at the default time step: pivots at 0.2
+    and 2 m/s (4 robots of 5-150 kg, L/T 0.6-2) and R = 1 m turns at 0.2 m/s of the 26 and
+    150 kg robots, both directions, cg +-0.1 L (R = 1 m at 2 m/s slides out: not in the grid).
+    The 5 kg robots at R = 1 m miss (dt halving moves y by up to 0.026 T/2, x_c off by up to
+    0.021 L); R = 5-10 m fail widely (test below, assets/README.md "Wider grid")."""
+    fidelity, rows = _wide_rows()
+    sel = [r for r in rows if r["radius"] == "pivot" or (r["radius"] == 1.0 and r["mass"] > 5.0)]
+    assert len(sel) == 40
+    for r in sel:
+        assert r["err_y"] <= fidelity.TOL_WIDE_Y and r["err_x"] <= fidelity.TOL_WIDE_X, r
+        assert r["dt_dy"] < fidelity.TOL_WIDE_DT and r["contact_min"] >= 0.99, r
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="issue 11 target not met: gentle turns (R 5-10 m) whose slips are "
+                   "below ~mu g dt miss 0.05 T/2 at dt 5 ms (assets/README.md 'Wider grid')")
+def test_wide_grid_passes_everywhere():
+    _, rows = _wide_rows()
+    assert all(r["pass"] for r in rows)
+
+
+@pytest.mark.slow
+def test_new_defaults_cost_less_cpu_than_the_previous():
+    """CPU time (not wall: less sensitive to a shared machine), repeats interleaved."""
+    from mjtrack.sim.builder import build_model
+    from mjtrack.sim.rollout import run_batch, settled_state
+
+    models = {k: build_model(Robot(), c) for k, c in (("old", previous_defaults()), ("new", SimConfig()))}
+    s0 = {k: settled_state(m)[None] for k, m in models.items()}
+    cmds = np.tile([0.3, 0.6], (1, 2000, 1))
+    cpu = {"old": [], "new": []}
+    for _ in range(5):
+        for k, m in models.items():
+            t0 = time.process_time()
+            run_batch([m], cmds, state0=s0[k])
+            cpu[k].append(time.process_time() - t0)
+    # measured 1.11x in CPU time (assets/README.md "Speed"); 1.04 leaves room for timer noise
+    assert np.median(cpu["old"]) > 1.04 * np.median(cpu["new"])
