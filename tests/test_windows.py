@@ -91,9 +91,9 @@ def test_model_field_variant_equals_a_rebuilt_robot(robot, log, sim, change):
 def test_drive_lag_variant_equals_a_lagged_build(robot, log, sim):
     ws = make_windows(log, 2.0).subset(slice(1, 3))
     a = simulate_windows(sim, log, ws, [{"drive_lag": 0.2}])
-    lagged = WindowSim(robot, SimConfig(lag=0.2), lagged=False)
-    b = simulate_windows(lagged, log, ws)
-    np.testing.assert_allclose(a.poses, b.poses, atol=1e-6)
+    for lagged in (WindowSim(robot, SimConfig(lag=0.2), lagged=False), WindowSim(robot.replace(drive_lag=0.2))):
+        b = simulate_windows(lagged, log, ws)
+        np.testing.assert_allclose(a.poses, b.poses, atol=1e-6)
 
 
 def test_variants_batch_and_change_the_errors(log, sim):

@@ -103,10 +103,13 @@ def start_values(robot: Robot, names: list[str], config: SimConfig) -> dict[str,
         v = current.get(n)
         if n in ("mu_left", "mu_right") and v is None:
             v = robot.mu
-        if n in DRIVE_START and drive.get(n) is None:
+        given = robot.provided is None or n in robot.provided
+        if n in DRIVE_START and (drive.get(n) is None or not given):
             v = DRIVE_START[n]
         if n == "drive_force_limit" and v is None:
-            v = config.torque_limit / robot.sprocket_radius
+            from mjtrack.sim.drivetrain import drive_of
+
+            v = drive_of(robot, config).force_limit
         s = specs[n]
         if v is None or not s.lo <= v <= s.hi:
             raise InputError(f"robot: {n} = {v!r} is outside the range calibrate fits in [{s.lo:g}, {s.hi:g}] {s.unit}")

@@ -193,8 +193,10 @@ def assumed_values(robot: Robot, names: list[str]) -> dict[str, str]:
             v = getattr(robot, k)
             out[k] = f"not in the robot description: default {v:g}" + (" (start value; fitted)" if k in names else "")
     for k in DRIVE_DEFAULTS:
-        if robot.extra.get(k) is None and getattr(robot, k, None) is None:
-            out[k] = "not in the robot description: ideal drive (none)" + ("; fitted" if k in names else "")
+        if k not in provided:
+            v = getattr(robot, k, None)
+            what = "the simulator's default drive" if v is None else f"default {v:g}"
+            out[k] = f"not in the robot description: {what}" + (" (fitted)" if k in names else "")
     for k, v in robot.extra.items():
         if isinstance(k, str) and k.startswith("source_") and isinstance(v, str):
             out[k.removeprefix("source_")] = v

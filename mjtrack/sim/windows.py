@@ -163,6 +163,8 @@ def drive_params(robot: Robot) -> dict[str, float | None]:
         if v is None:
             v = robot.extra.get(k)
         out[k] = None if v is None else float(v)
+    if not out["drive_lag"]:  # 0: no lag of the robot's own; the model keeps the lag it was built with
+        out["drive_lag"] = None
     return out
 
 
