@@ -221,8 +221,11 @@ def make_log(params: dict | None = None, *, geometry: str = "small", seed: int =
                         slope_dir=p.get("slope_direction", 0.0))
     poses = poses[::sub]
     # a speed sample at t_k is the speed just before t_k (the command of row k is in force from
-    # t_k on and cannot show in it yet): the sub-step before
-    vs = v[np.maximum(np.arange(t.size) * sub - 1, 0)]
+    # t_k on and cannot show in it yet): its left limit. Behind a first-order lag the speed is
+    # continuous, its value at t_k (the lag state, driven by the inputs before t_k); otherwise it
+    # is held, and its left limit is the value of the sub-step before
+    k = np.arange(t.size) * sub
+    vs = v[k] if "actuator_lag" in p else v[np.maximum(k - 1, 0)]
     cols = {"t": t, "v_left_cmd": cl, "v_right_cmd": cr,
             "x": poses[:, 0] + rng.normal(0, XY_STD, t.size), "y": poses[:, 1] + rng.normal(0, XY_STD, t.size),
             "yaw": poses[:, 2] + rng.normal(0, YAW_STD, t.size)}
