@@ -202,8 +202,8 @@ class Surrogate:
                   instant: bool = False) -> np.ndarray:
         """Track speeds (N, 2) [m/s] that drive the ground model: ``source`` (default the commands)
         transformed by the input effects among ``parts`` ((Effect, theta) pairs; ground effects are
-        ignored), in the order of :data:`INPUT_ORDER` (the controller's limits on the command, then
-        the actuator's dead time and lag, then the scale). ``instant``: the speeds at the sample
+        ignored), in the order of :data:`INPUT_ORDER` (the controller's limits on the command, the
+        scale, then the actuator's dead time and lag). ``instant``: the speeds at the sample
         times (what a sensor reads) instead of their means over each held step (what drives the
         model). Causal: a row's command is in force from its time on, so the speed sampled at t_k
         is the one just before t_k (the MuJoCo logs' convention, :func:`mjtrack.sim.rollout.simulate`):
@@ -293,7 +293,10 @@ class Surrogate:
         return tw
 
 
-INPUT_ORDER = ("yaw_rate_limit", "speed_limit", "command_delay", "actuator_lag", "track_speed_scale")
+# the controller's limits, the scale (linear: it commutes with the dead time and the lag), then the
+# dynamics, whose speed before a segment start is the measured one when the log has it (already
+# limited and scaled: nothing after it may transform it again)
+INPUT_ORDER = ("yaw_rate_limit", "speed_limit", "track_speed_scale", "command_delay", "actuator_lag")
 
 
 _LOOP_MAX = 400  # segments up to this many samples use the exact recursion, longer ones lfilter
