@@ -45,6 +45,12 @@ def run_one(effect: str | None, *, duration: float, seed: int, effects=None, n_f
     if effect is not None:
         truth = HIDDEN[effect].params
         match = next((c for c in d.findings if c.effect.name == effect), None)
+        cand = next((c for c in d.candidates if c.effect.name == effect), None)
+        if match is None and cand is not None:  # why the hidden effect was not a finding
+            row["missed"] = {"estimate": list(cand.estimate), "before": cand.before, "after": cand.after,
+                             "t": cand.t_stat, "decision": cand.why}
+            print(f"  ({effect} not a finding: estimate {list(cand.estimate)}, held-out {cand.before:.3g} -> "
+                  f"{cand.after:.3g} m, paired t {cand.t_stat:.2f}: {cand.why})", flush=True)
         row["truth"] = truth
         row["named"] = d.cause == effect or (match is not None and d.cause in match.tied_with)
         if match is not None:

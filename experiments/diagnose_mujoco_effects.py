@@ -150,7 +150,7 @@ def main(argv=None) -> int:
             log, robot = make_log(effect, seed=args.seed, duration=args.duration, speeds=variant == "speeds",
                                   config=SimConfig() if args.default_drives else None)
             t1 = time.perf_counter()
-            d = diagnose(log, robot)
+            d = diagnose(log, robot, baseline="surrogate", max_effects=1)
             t2 = time.perf_counter()
             row = {"effect": name, "variant": variant, "transient": d.transient,
                    "drives": "default" if args.default_drives else "ideal", "seed": args.seed, "duration_s": args.duration,

@@ -18,7 +18,8 @@ Integrator: linearly implicit Euler on the CoM twist (the friction Jacobian in c
 stiff sticking handled without tiny steps), step H; the pose by the exact constant-twist
 SE(2) step (written out here). Track speeds: the commands through the hidden input effects at
 sub-step resolution (held commands, yaw-rate limit, speed limit, dead time, exact first-order
-lag, scale).
+lag, scale); a measured speed at t_k is the one just before t_k (causal: the command of row k
+is in force from t_k on).
 
 Logs: random held commands (2-4 s steps; straight, turns both ways, spins), or the DRIVE
 layout (commands held 6 s, logged as 2 s windows of 1.95 s each, every window its own
@@ -219,7 +220,12 @@ def make_log(params: dict | None = None, *, geometry: str = "small", seed: int =
     poses, _ = simulate(robot, kind, t_fine, v, cg=cg, mu=(mu_l, mu_r), slope=p.get("slope", 0.0),
                         slope_dir=p.get("slope_direction", 0.0))
     poses = poses[::sub]
-    vs = v[::sub]
+    # a speed sample at t_k is the speed just before t_k (the command of row k is in force from
+    # t_k on and cannot show in it yet): its left limit. Behind a first-order lag the speed is
+    # continuous, its value at t_k (the lag state, driven by the inputs before t_k); otherwise it
+    # is held, and its left limit is the value of the sub-step before
+    k = np.arange(t.size) * sub
+    vs = v[k] if "actuator_lag" in p else v[np.maximum(k - 1, 0)]
     cols = {"t": t, "v_left_cmd": cl, "v_right_cmd": cr,
             "x": poses[:, 0] + rng.normal(0, XY_STD, t.size), "y": poses[:, 1] + rng.normal(0, XY_STD, t.size),
             "yaw": poses[:, 2] + rng.normal(0, YAW_STD, t.size)}

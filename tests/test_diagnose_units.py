@@ -223,3 +223,52 @@ def test_friction_limited_yaw_dead_time_against_the_coulomb_rollout(step, tol):
     ramp = abs(u1[1] - u1[0] - u0[1] + u0[0]) / 2 / (2 * ROBOT.mu * G)  # accel_limited's D / (2 a)
     if u0 == (0.6, 0.6):
         assert abs(t_model - t_ref) < 0.5 * abs(ramp - t_ref)
+
+
+# -- statistics on per-window arrays (mjtrack.diagnose.stats) and the physics of ties -------
+def test_blocks_pool_short_segments_and_cut_long_ones():
+    from mjtrack.diagnose.stats import sample_blocks
+
+    t = np.arange(0.0, 60.0, 0.05)
+    blocks = sample_blocks(t, np.zeros(t.size, int), 2.0)  # 3 horizons = 6 s, 1 % of 60 s < 6 s
+    assert blocks.max() + 1 == 10 and np.all(np.diff(blocks) >= 0)
+    seg = (t // 2.0).astype(int)  # 2 s windows: pooled by three (6 s)
+    blocks = sample_blocks(t, seg, 2.0)
+    assert blocks.max() + 1 == 10
+    assert all(np.unique(blocks[seg == k]).size == 1 for k in range(30))  # a segment is never split
+
+
+def test_gain_test_sees_an_effect_in_part_of_the_log_and_not_noise():
+    from mjtrack.diagnose.stats import gain_test
+
+    rng = np.random.default_rng(0)
+    m = 6000
+    block = np.arange(m) // 60  # 100 blocks
+    before = rng.chisquare(2, m) * 1e-4
+    after = before.copy()
+    part = block % 6 == 0  # the effect acts in a sixth of the blocks only, removing 80 % of its error there
+    before[part] += 25e-4
+    after[part] = 0.2 * before[part]
+    g = gain_test(before, after, block)
+    assert g.lower > 0 and g.relative > 0.3 and g.blocks == 100
+    noise = gain_test(before, before * rng.uniform(0.98, 1.02, m), block)
+    assert noise.lower < 0 < noise.upper
+
+
+def test_sandwich_reduces_to_the_iid_formula():
+    from mjtrack.diagnose.stats import sandwich
+
+    rng = np.random.default_rng(1)
+    jac = rng.normal(size=(4000, 2))
+    r = rng.normal(0, 0.5, 4000)
+    cov = sandwich(jac, r, np.arange(4000))
+    np.testing.assert_allclose(cov, 0.25 * np.linalg.inv(jac.T @ jac), rtol=0.1, atol=1e-6)
+
+
+def test_traction_ratio_equivalents_round_trip():
+    from mjtrack.diagnose.select import equivalent, traction_ratio
+
+    a = equivalent(ROBOT, "cg_offset_y", 0.06)  # the friction asymmetry that sets the same ratio
+    assert traction_ratio(ROBOT, "friction_asymmetry", a) == pytest.approx(traction_ratio(ROBOT, "cg_offset_y", 0.06))
+    assert equivalent(ROBOT, "friction_asymmetry", a) == pytest.approx(0.06)
+    assert a == pytest.approx((0.2 + 0.06) / (0.2 - 0.06))  # lever rule with T = 0.4 m

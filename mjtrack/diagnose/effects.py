@@ -202,8 +202,8 @@ class Surrogate:
                   instant: bool = False) -> np.ndarray:
         """Track speeds (N, 2) [m/s] that drive the ground model: ``source`` (default the commands)
         transformed by the input effects among ``parts`` ((Effect, theta) pairs; ground effects are
-        ignored), in the order of :data:`INPUT_ORDER` (the controller's limits on the command, then
-        the actuator's dead time and lag, then the scale). ``instant``: the speeds at the sample
+        ignored), in the order of :data:`INPUT_ORDER` (the controller's limits on the command, the
+        scale, then the actuator's dead time and lag). ``instant``: the speeds at the sample
         times (what a sensor reads) instead of their means over each held step (what drives the
         model). Causal: a row's command is in force from its time on, so the speed sampled at t_k
         is the one just before t_k (the MuJoCo logs' convention, :func:`mjtrack.sim.rollout.simulate`):
@@ -293,7 +293,10 @@ class Surrogate:
         return tw
 
 
-INPUT_ORDER = ("yaw_rate_limit", "speed_limit", "command_delay", "actuator_lag", "track_speed_scale")
+# the controller's limits, the scale (linear: it commutes with the dead time and the lag), then the
+# dynamics, whose speed before a segment start is the measured one when the log has it (already
+# limited and scaled: nothing after it may transform it again)
+INPUT_ORDER = ("yaw_rate_limit", "speed_limit", "track_speed_scale", "command_delay", "actuator_lag")
 
 
 _LOOP_MAX = 400  # segments up to this many samples use the exact recursion, longer ones lfilter
@@ -306,10 +309,22 @@ def _segments(data: DriveData):
 
 def _initial(data: DriveData, v: np.ndarray) -> np.ndarray:
     """(N, 2) track speeds before/at each segment start: measured where the log has them (a
-    segment may start while the tracks still run at the previous command), else the command."""
+    segment may start while the tracks still run at the previous command); else the previous
+    segment's last value when it ended just before (a gap of at most 2.5 sample periods: logs cut
+    into windows, such as DRIVE's 2 s windows of 1.95 s, where the robot kept driving between
+    them), else the command."""
+    out = v
+    starts = np.flatnonzero(np.r_[False, data.seg[1:] != data.seg[:-1]])
+    if starts.size:
+        dt = float(np.median(np.diff(data.t)[data.seg[1:] == data.seg[:-1]])) if data.n > 1 else 0.0
+        gap = data.t[starts] - data.t[starts - 1]
+        near = starts[(gap > 0) & (gap <= 2.5 * dt)]
+        if near.size:
+            out = v.copy()
+            out[near] = v[near - 1]
     if data.meas is None:
-        return v
-    return np.where(np.isfinite(data.meas), data.meas, v)
+        return out
+    return np.where(np.isfinite(data.meas), data.meas, out)
 
 
 def _previous(data: DriveData, v: np.ndarray, init: np.ndarray) -> np.ndarray:
@@ -337,11 +352,13 @@ def _delay(data: DriveData, v: np.ndarray, d: float, init: np.ndarray, *, instan
         at = ts - d
         if instant and hi - lo > 1:
             at = at - np.r_[ts[1] - ts[0], np.diff(ts)]
+        # the step means of the held signal are its linear interpolation; before the segment the
+        # tracks run at the initial speed: one more held step [t0 - h0, t0) at init, so that a
+        # window that straddles t0 mixes the two (d -> 0 gives the first command, not init)
+        h0 = ts[1] - ts[0] if hi - lo > 1 else 1.0
+        grid = np.r_[ts[0] - h0, ts]
         for j in range(2):
-            out[lo:hi, j] = np.interp(at, ts, v[lo:hi, j], left=init[lo, j])
-            # between t0 - d and t0 the held signal moves from the initial speed to the first command
-            first = at < ts[0]
-            out[lo:hi, j][first] = init[lo, j]
+            out[lo:hi, j] = np.interp(at, grid, np.r_[init[lo, j], v[lo:hi, j]], left=init[lo, j])
     return out
 
 

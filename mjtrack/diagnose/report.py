@@ -178,7 +178,8 @@ def build_report(d: Diagnosis) -> Report:
         "segments": str(int(d.data.seg[-1]) + 1),
         "measured track speeds": "yes" if d.data.meas is not None else "no",
         "robot keys given": ", ".join(sorted(d.robot.provided)) if d.robot.provided is not None else "all (built in code)",
-        "baseline": d.baseline_text(),
+        "baseline": d.baseline_text() + (f" (chosen: {d.baseline_choice})" if d.baseline_choice else ""),
+        "test log": d.test_log or "none (held-out cross-validation on the log itself)",
         "metric": f"RMS position error after {d.horizon_s:g} s of open-loop prediction from every measured pose",
         "windows": f"{d.starts.size} (cross-validation: {d.n_folds} contiguous folds)",
     })

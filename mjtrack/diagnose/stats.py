@@ -45,10 +45,12 @@ def sample_blocks(t: np.ndarray, seg: np.ndarray, horizon_s: float, *, min_fract
     lo_hi = list(zip(np.r_[0, cuts], np.r_[cuts, t.size]))
     dur = sum(float(t[hi - 1] - t[lo]) for lo, hi in lo_hi)
     length = max(3.0 * horizon_s, min_fraction * dur)
+    same = seg[1:] == seg[:-1]
+    step = float(np.median(np.diff(t)[same])) if same.any() else 0.0
     out = np.empty(t.size, dtype=np.int64)
     block, acc = 0, 0.0
     for lo, hi in lo_hi:
-        seg_len = float(t[hi - 1] - t[lo])
+        seg_len = float(t[hi - 1] - t[lo]) + step  # the time its samples stand for
         if seg_len <= length:  # a short segment: pooled with its neighbours
             out[lo:hi] = block
             acc += seg_len

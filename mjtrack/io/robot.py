@@ -121,8 +121,6 @@ class Robot:
         cg_z: height of the centre of mass above the ground [m].
         mu: ground friction coefficient (both tracks unless mu_left/mu_right are set) [-].
         mu_left, mu_right: per-track friction coefficients; ``None`` means ``mu`` [-].
-        ground: the ground model and its parameters (:class:`Ground`; default rigid-track
-            isotropic Coulomb). A dict or a model name is accepted and converted.
         drive_lag: first-order time constant from track command to track speed [s]; 0: the
             track speeds follow the commands as fast as the drive's force limit allows.
         drive_delay: dead time from track command to track speed [s] (applied exactly to the
@@ -133,6 +131,8 @@ class Robot:
             robots up to 20 kg, proportional to the mass above).
         track_speed_scale: actual / commanded track speed, both tracks [-] (multiplies the
             commands before lag, delay and force limit).
+        ground: the ground model and its parameters (:class:`Ground`; default rigid-track
+            isotropic Coulomb). A dict or a model name is accepted and converted.
         extra: project-specific keys read from a description file, kept for round trips.
         provided: the contract keys that a description file actually gave (the others took
             their defaults), or None for a robot built in code. Diagnosis uses it to tell
@@ -150,11 +150,11 @@ class Robot:
     mu: float = 0.8
     mu_left: float | None = None
     mu_right: float | None = None
-    ground: Ground = field(default_factory=Ground)
     drive_lag: float = 0.0
     drive_delay: float = 0.0
     drive_force_limit: float | None = None
     track_speed_scale: float = 1.0
+    ground: Ground = field(default_factory=Ground)
     extra: dict[str, Any] = field(default_factory=dict, compare=False)
     provided: frozenset[str] | None = field(default=None, compare=False, repr=False)
 

@@ -63,8 +63,8 @@ import numpy as np
 from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
 from mjtrack.sim.config import SimConfig
-from mjtrack.sim.ground import apply_ground, require_supported
 from mjtrack.sim.drivetrain import drive_of
+from mjtrack.sim.ground import apply_ground, require_supported
 from mjtrack.sim.scene import (CHASSIS_HEIGHT, add_ground, add_idlers, apply_solver_options, needs_idlers,
                                suspension_range, track_contacts)
 from mjtrack.sim.surfacevel import build_surfacevel_model
