@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Iterable
 
 from mjtrack.errors import InputError
+from mjtrack.io.logs import read_log, robot_path_for
 from mjtrack.io.robot import Robot, read_robot
 
 # option dest -> (Robot field, metavar, help)
@@ -229,3 +230,27 @@ def check_out_file(
     else:
         _writable_ancestor(path.parent, "output file")
     return path
+
+
+def log_and_robot(args: argparse.Namespace):
+    """The drive log ``args.log`` and its robot: ``--robot FILE`` when given, else the log's
+    own ``LOG.json`` (required then), with the robot options on top. The one way commands
+    find a log's robot description."""
+    log = read_log(args.log)
+    base = None
+    if args.robot is None:
+        path = robot_path_for(args.log)
+        if not path.exists():
+            raise InputError(f"{args.log}: no robot description: {path} does not exist and no --robot FILE was given "
+                             "(a robot JSON with at least 'track_gauge' is required)")
+        base = read_robot(path)
+    return log, robot_from_args(args, base)
+
+
+def test_log_and_robot(path: Path | None):
+    """A held-out log (``--test LOG2``) and the robot its own ``LOG2.json`` describes (None
+    without one); (None, None) when no test log was given."""
+    if path is None:
+        return None, None
+    robot_path = robot_path_for(path)
+    return read_log(path), (read_robot(robot_path) if robot_path.exists() else None)

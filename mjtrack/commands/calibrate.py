@@ -24,9 +24,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjtrack.commands._common import (add_output_options, add_robot_options, check_out_dir, positive_float,
-                                      positive_int, robot_from_args)
-from mjtrack.errors import InputError
+from mjtrack.commands._common import (add_output_options, add_robot_options, check_out_dir, log_and_robot,
+                                      positive_float, positive_int, test_log_and_robot)
 
 HELP = "fit the MuJoCo robot to a measured log (windows from the measured state): robot.json + calibration.json + report.html"
 
@@ -50,25 +49,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mjtrack.calibrate.run import calibrate, check_same_robot, write_outputs
-    from mjtrack.io.logs import read_log, robot_path_for
-    from mjtrack.io.robot import read_robot
 
     out = check_out_dir(args.out)
-    train = read_log(args.log)
-    base = None
-    if args.robot is None:
-        path = robot_path_for(args.log)
-        if not path.exists():
-            raise InputError(f"{args.log}: no robot description: {path} does not exist and no --robot FILE was given "
-                             "(a robot JSON with at least 'track_gauge' is required)")
-        base = read_robot(path)
-    robot = robot_from_args(args, base)
-    test = None
-    if args.test is not None:
-        test = read_log(args.test)
-        tpath = robot_path_for(args.test)
-        if tpath.exists():
-            check_same_robot(robot, read_robot(tpath), str(args.test))
+    train, robot = log_and_robot(args)
+    test, test_robot = test_log_and_robot(args.test)
+    if test_robot is not None:
+        check_same_robot(robot, test_robot, str(args.test))
     cal = calibrate(train, robot, test=test, track_model=args.track_model, names=args.params, horizon_s=args.horizon,
                     n_rollers=args.rollers, max_iter=args.max_iter, nthread=args.threads, quiet=args.quiet,
                     train_path=str(args.log), test_path=None if args.test is None else str(args.test))

@@ -20,8 +20,7 @@ import sys
 from pathlib import Path
 
 from mjtrack.commands._common import (add_output_options, add_robot_options, check_out_dir, finite_float, int_at_least,
-                                      robot_from_args)
-from mjtrack.errors import InputError
+                                      log_and_robot, test_log_and_robot)
 
 HELP = "what the nominal model gets wrong on a measured log, the cause and its gain: report.html + diagnosis.json"
 
@@ -70,25 +69,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mjtrack.diagnose import diagnose, write_outputs
-    from mjtrack.io.logs import read_log, robot_path_for
-    from mjtrack.io.robot import read_robot
 
     out = check_out_dir(args.out)
-    drive_log = read_log(args.log)
-    base = None
-    if args.robot is None:
-        path = robot_path_for(args.log)
-        if not path.exists():
-            raise InputError(f"{args.log}: no robot description: {path} does not exist and no --robot FILE was given "
-                             "(a robot JSON with at least 'track_gauge' is required)")
-        base = read_robot(path)
-    robot = robot_from_args(args, base)
-    test_log = test_robot = None
-    if args.test is not None:
-        test_log = read_log(args.test)
-        path = robot_path_for(args.test)
-        if path.exists():
-            test_robot = read_robot(path)
+    drive_log, robot = log_and_robot(args)
+    test_log, test_robot = test_log_and_robot(args.test)
     result = diagnose(drive_log, robot, horizon_s=args.horizon, n_folds=args.folds, confirm=args.confirm,
                       quiet=args.quiet, baseline=args.baseline, test_log=test_log, test_robot=test_robot)
     write_outputs(result, out)
