@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Iterable
 
 from mjtrack.errors import InputError
-from mjtrack.io.logs import read_log, robot_path_for
+from mjtrack.io.logs import read_log, read_log_with_robot, robot_path_for
 from mjtrack.io.robot import Robot, read_robot
 
 # option dest -> (Robot field, metavar, help)
@@ -234,16 +234,9 @@ def check_out_file(
 
 def log_and_robot(args: argparse.Namespace):
     """The drive log ``args.log`` and its robot: ``--robot FILE`` when given, else the log's
-    own ``LOG.json`` (required then), with the robot options on top. The one way commands
-    find a log's robot description."""
-    log = read_log(args.log)
-    base = None
-    if args.robot is None:
-        path = robot_path_for(args.log)
-        if not path.exists():
-            raise InputError(f"{args.log}: no robot description: {path} does not exist and no --robot FILE was given "
-                             "(a robot JSON with at least 'track_gauge' is required)")
-        base = read_robot(path)
+    own ``LOG.json`` (:func:`mjtrack.io.logs.read_log_with_robot`, the one way a log's robot is
+    found), with the robot options on top."""
+    log, base = read_log_with_robot(args.log, args.robot)
     return log, robot_from_args(args, base)
 
 
