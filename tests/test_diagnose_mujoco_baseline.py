@@ -13,9 +13,13 @@ import json
 import pytest
 
 from mujoco_effects import HIDDEN, ROBOT, make_log
-from mjtrack.diagnose.mujoco_baseline import can_build, diagnose_mujoco, write_mujoco_outputs
+import numpy as np
+
+from mjtrack.diagnose.mujoco_baseline import _Scoring, can_build, diagnose_mujoco, write_mujoco_outputs
 from mjtrack.errors import InputError
+from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
+from mjtrack.sim.windows import make_windows
 
 NOMINAL = Robot.from_dict({**ROBOT.to_dict(), "drive_force_limit": 600.0 / ROBOT.sprocket_radius})
 
@@ -42,6 +46,52 @@ def test_hidden_ground_extension_is_found_and_estimated(tmp_path):
     assert data["test_log"] == test_log.source
     assert fj["gain"]["after"] < fj["gain"]["before"]
     assert "<table>" in (tmp_path / "report.html").read_text()
+
+
+def _segmented_log(lengths_s, dt=0.05):
+    t, win, t0 = [], [], 0.0
+    for k, n in enumerate(lengths_s):
+        tk = t0 + np.arange(0.0, n + 1e-9, dt)
+        t.append(tk)
+        win.append(np.full(tk.size, k))
+        t0 = tk[-1] + 5.0  # a gap between segments
+    t = np.concatenate(t)
+    z = np.zeros(t.size)
+    return DriveLog.from_columns({"t": t, "v_left_cmd": z, "v_right_cmd": z, "x": z, "y": z, "yaw": z,
+                                  "window": np.concatenate(win)})
+
+
+def test_scoring_blocks_keep_segments_and_folds_whole():
+    # short segments (one 2 s window each, as in the Marmotte log) and long ones (many windows)
+    lg = _segmented_log([2.0] * 9 + [30.0, 2.0, 2.0, 20.0])
+    ws = make_windows(lg, 2.0)
+    ok = np.ones(len(ws), bool)
+    ok[3] = False  # a diverged baseline window: never drawn
+    sc = _Scoring.of(lg, ws, 4, ok, seed=0)
+    for b in np.unique(sc.block):  # a block is part of one segment, or whole segments pooled
+        segs = np.unique(ws.segment[sc.block == b])
+        if segs.size > 1:
+            assert all(np.all(sc.block[ws.segment == g] == b) for g in segs)
+    for g in np.unique(ws.segment):  # 13 segments >= 2 x 4 folds: folds are whole segments
+        assert np.unique(sc.fold[ws.segment == g]).size == 1
+    assert np.unique(sc.block[ws.segment == 9]).size >= 3  # 30 s: blocks of >= 3 horizons
+    assert np.all(np.diff(sc.fold) >= 0) and np.unique(sc.fold).size == 4
+    assert sc.n_blocks == np.unique(sc.block[ok]).size
+    assert all(3 not in d for d in sc.draws)
+    sizes = {len(d) for d in sc.draws}
+    assert len(sizes) > 1  # blocks of unequal size: the replicates' sizes vary
+    again = _Scoring.of(lg, ws, 4, ok, seed=0)
+    assert all(np.array_equal(a, b) for a, b in zip(sc.draws, again.draws))  # seeded
+
+
+def test_clean_log_gives_no_cause():
+    # the finding test must hold on a log with nothing hidden (2 candidates, 30 s, 5 folds; the
+    # experiment's clean 60 s log tests every candidate)
+    lg, _ = make_log(None, seed=4, duration=30.0)
+    d = diagnose_mujoco(lg, NOMINAL, effects=["friction_scale", "command_delay"])
+    assert d.cause == "none", d.summary()
+    assert all(not c.passed and c.gain.blocks >= 4 for c in d.candidates)
+    assert "cause: none" in d.summary()
 
 
 def test_can_build_needs_the_contact_length():
