@@ -2,8 +2,9 @@
 
 The logs come from tests/mujoco_effects.py (no code shared with mjtrack.diagnose; its anisotropic
 ground is its own implementation, not mjtrack.sim.ground). Default: the hidden ground extension
-among three candidates on a 40 s log (~30 s on a loaded 2-core machine); slow: every hidden
-effect against every candidate (experiments/diagnose_mujoco_baseline.py prints the same table).
+among three candidates on a 40 s log (~30 s on a loaded 2-core machine), the blocks of the
+finding test on a segmented log, and a clean log (no cause); slow: every hidden effect against
+every candidate (experiments/diagnose_mujoco_baseline.py --all prints the same table).
 """
 
 from __future__ import annotations
@@ -113,7 +114,7 @@ def test_too_few_windows_is_refused():
 @pytest.mark.parametrize("effect", sorted(HIDDEN))
 def test_every_hidden_effect_is_named_and_estimated(effect):
     lg, _ = make_log(effect, seed=1, duration=60.0)
-    d = diagnose_mujoco(lg, NOMINAL, n_folds=4)
+    d = diagnose_mujoco(lg, NOMINAL)  # every candidate, 5 folds (the experiment's --all run)
     found = {c.effect.name: c for c in d.findings}
     assert effect in found, f"cause {d.cause}, findings {list(found)}"
     assert d.cause == effect or d.cause in found[effect].tied_with
@@ -121,8 +122,9 @@ def test_every_hidden_effect_is_named_and_estimated(effect):
     c = found[effect]
     key = "lateral_ratio" if effect == "ground_anisotropy" else c.effect.params[0]
     lo, hi = c.interval[0]
-    # the interval is statistical only; allow the grid's parabola 10 % of the truth beyond it
-    assert lo - 0.1 * abs(truth[key]) <= truth[key] <= hi + 0.1 * abs(truth[key])
+    # the interval carries the baseline's own error (MODEL_REL, measured on these logs; the experiment
+    # checks coverage with the value measured on the other nine effects only)
+    assert lo <= truth[key] <= hi
 
 
 def _write(tmp_path, robot_dict, *, effect="cg_offset_x", duration=30.0):
