@@ -342,7 +342,7 @@ def _candidate(ctx: "_Context", sc: _Scoring, eff: MjEffect, base_err: np.ndarra
     else:
         size = np.abs(est - np.array([eff.nominal(ctx.robot, ctx.log)]))
     se_model = MODEL_REL * size
-    ivl, se = sel.interval(est, fold_est, cov, angular, sc.n_blocks)
+    _, se = sel.interval(est, fold_est, cov, angular, sc.n_blocks)  # statistical only
     ivl, _ = sel.interval(est, fold_est, cov, angular, sc.n_blocks, se_model)
     return Candidate(eff, tuple(float(v) for v in est), tuple((float(a), float(b)) for a, b in ivl),
                      st.pos_rmse(base_err[ok]), st.pos_rmse(held[ok]), gt, held, fold_est, se, se_model)
