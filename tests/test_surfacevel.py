@@ -280,3 +280,10 @@ def test_builder_switch_builds_this_model():
 
     m = build_model(Robot(), CONFIG)
     assert len(track_geom_ids(m)["left"]) == CONFIG.n_rollers and m.flg_surfacevel == 1
+
+
+def test_wide_tracks_build_with_the_shared_hull():
+    # tracks wider than half the gauge: the surfacevel model used to give its visual hull a
+    # width T/2 - w <= 0 ("size 1 must be positive in geom"); the shared chassis keeps 0.1 T
+    m = build_surfacevel_model(Robot(track_gauge=0.3, track_width=0.15), CONFIG)
+    assert m.geom("hull").size[1] == pytest.approx(0.03)
