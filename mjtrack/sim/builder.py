@@ -84,7 +84,6 @@ class RollerChain(TrackModel):
         # every damper an explicit, known force.
         if config.integrator == "Euler" and not config.implicit_damping:
             opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EULERDAMP
-        opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET  # divergence -> NaN, not a silent reset
 
     def check(self, config: SimConfig, suspension: Suspension, element_mass: float) -> None:
         """Explicit dampers need c dt / m < 2: suspension on the roller, servo on the track inertia."""

@@ -27,8 +27,9 @@ Derivation of the shared part (``assets/README.md`` gives the measurements):
 * **Sensors**: ``ground_<side>_<i>`` (element in contact, 0/1), added with the elements; the body
   twist of ``centre`` in its own frame (``body_linvel`` velocimeter, ``body_angvel`` gyro) and its
   pose (``body_pos``, ``body_quat``).
-* **Options**: the solver settings of ``config`` (:func:`mjtrack.sim.scene.apply_solver_options`)
-  plus those of the track model (:meth:`TrackModel.set_options`).
+* **Options**: the solver settings of ``config`` (:func:`mjtrack.sim.scene.apply_solver_options`),
+  no automatic reset on divergence (NaN instead), plus those of the track model
+  (:meth:`TrackModel.set_options`).
 * MjSpec pitfall: a body with ``explicitinertial`` must be given ``ipos``; left unset the centre of
   mass was compiled at the body's offset from its parent (spinning rollers then orbited an
   eccentric axis: several newtons of spurious vertical force, micro-hops).
@@ -135,8 +136,12 @@ def add_contact_sensor(spec: mujoco.MjSpec, side: str, i: int, geom: str) -> Non
 
 
 def set_options(spec: mujoco.MjSpec, config: SimConfig, tracks: TrackModel) -> None:
-    """The shared solver settings of ``config`` plus the track model's."""
-    tracks.set_options(apply_solver_options(spec, config), config)
+    """The shared solver settings of ``config`` plus the track model's. A diverging simulation
+    ends in NaN, not in MuJoCo's silent reset to the initial state (which the surfacevel model
+    used to get: rollouts and steady runs then carried on from rest unnoticed)."""
+    opt = apply_solver_options(spec, config)
+    opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+    tracks.set_options(opt, config)
 
 
 def build_robot_spec(robot: Robot, config: SimConfig | None, tracks: TrackModel, *, idlers: bool = False,
