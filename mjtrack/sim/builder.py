@@ -161,7 +161,7 @@ ROLLER_CHAIN = RollerChain()
 def build_spec(robot: Robot, config: SimConfig | None = None, *, idlers: bool = False) -> mujoco.MjSpec:
     """The roller-chain robot alone (no floor) as an ``MjSpec``, with simulation options set;
     ``idlers``: with the front and rear idlers (:func:`mjtrack.sim.scene.add_idlers`)."""
-    return build_robot_spec(robot, config or SimConfig(), ROLLER_CHAIN, idlers=idlers)
+    return build_robot_spec(robot, config, ROLLER_CHAIN, idlers=idlers)
 
 
 def _add_sprocket(chassis, side: str, robot: Robot, config: SimConfig, y: float) -> None:

@@ -17,7 +17,7 @@ MuJoCo by :class:`TrackDrive` (one step of explicit coupling, see there).
 
 Derivation of the model.
 
-* Chassis: the roller chain's (:mod:`mjtrack.sim.chassis`), the elements' mass taken out of it.
+* Chassis: the shared one (:mod:`mjtrack.sim.chassis`), the elements' mass taken out of it.
 * Track contact: each track (body ``<side>_track`` at y = +-T/2) is N contact elements
   (``track_<side>_<i>``) at the midpoints x_i = -L/2 + (i + 1/2) L/N (midpoint rule, the
   grid of mjtrack.models.coulomb: the Coulomb pivot yaw ratio with 12 points is within 0.2 %
@@ -90,9 +90,9 @@ from mjtrack.errors import InputError
 from mjtrack.io.robot import Robot
 from mjtrack.sim.chassis import (Suspension, TrackModel, add_contact_sensor, build_robot_model, build_robot_scene,
                                  build_robot_spec, element_positions)
-from mjtrack.sim.scene import SIDES
 from mjtrack.sim.config import SURFACEVEL_SETTINGS, SimConfig, surfacevel_config  # noqa: F401 (this module's API)
 from mjtrack.sim.drivetrain import drive_of
+from mjtrack.sim.scene import SIDES
 from mjtrack.sim.terrain import Terrain
 
 log = logging.getLogger(__name__)
