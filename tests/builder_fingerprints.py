@@ -168,7 +168,7 @@ def current(stored: dict | None = None) -> dict:
             config = SimConfig(**{k: v for k, v in cfg.items() if k in names})
         else:
             config = _config(case[3], case[4])
-        out[case[0]] = fingerprint(case, config)
+        out[case[0]] = {**fingerprint(case, config), "mujoco": mujoco.__version__}
     return out
 
 

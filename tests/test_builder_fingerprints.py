@@ -13,10 +13,15 @@ from __future__ import annotations
 
 import json
 
+import mujoco
+import pytest
 from builder_fingerprints import STORE, current, differences
 
 
 def test_models_and_rollouts_unchanged():
     stored = json.loads(STORE.read_text())
+    versions = {case.get("mujoco") for case in stored.values()}
+    if versions != {mujoco.__version__}:  # another MuJoCo compiles and steps differently by design
+        pytest.skip(f"fingerprints stored with mujoco {sorted(map(str, versions))}, running {mujoco.__version__}")
     diff = differences(stored, current(stored))
     assert not diff, "robot models changed:\n" + "\n".join(diff)
