@@ -95,6 +95,22 @@ def test_clean_log_gives_no_cause():
     assert "cause: none" in d.summary()
 
 
+def test_grids_extend_a_calibrated_robot():
+    # a calibrated drivetrain is the "no effect" value: lag and dead time are added to it, the speed
+    # scale and centre of mass are searched around it (not reset to an ideal robot's)
+    from mjtrack.diagnose.mujoco_baseline import EFFECTS
+
+    cal = Robot.from_dict({**NOMINAL.to_dict(), "drive_delay": 0.42, "drive_lag": 0.08, "track_speed_scale": 0.95,
+                           "cg_x": 0.03})
+    lg, _ = make_log(None, seed=0, duration=4.0)
+    for name, own in (("command_delay", 0.42), ("actuator_lag", 0.08), ("track_speed_scale", 0.95),
+                      ("cg_offset_x", 0.03)):
+        grid, nominal = EFFECTS[name].grid(cal, lg), EFFECTS[name].nominal(cal, lg)
+        assert nominal == pytest.approx(own) and np.any(np.isclose(grid, own)), name
+    assert EFFECTS["command_delay"].grid(cal, lg).min() == pytest.approx(0.42)
+    assert EFFECTS["track_speed_scale"].grid(cal, lg).min() < 0.95 < EFFECTS["track_speed_scale"].grid(cal, lg).max()
+
+
 def test_can_build_needs_the_contact_length():
     ok, why = can_build(Robot.from_dict({"track_gauge": 0.59}))
     assert not ok and "track_length" in why

@@ -12,9 +12,11 @@ input (speed scale, dead time, saturation).
 Fit and score, per effect (all numbers are MuJoCo's):
 
 1. every window is simulated at a fixed grid of the effect's parameter (7 values chosen before
-   seeing the data, the nominal "no effect" value among them; the centre of mass within +-0.15 L
-   and +-0.15 T: beyond L/6 Wong's linear load goes negative at one end, the end rollers lift,
-   and windows started from a moving state diverged in development runs at 0.2 L);
+   seeing the data, the robot's own "no effect" value among them: a calibrated robot's drive lag,
+   dead time, speed scale, centre of mass and friction ratio are where its grids start or centre;
+   the centre of mass within +-0.15 L and +-0.15 T of it: beyond L/6 Wong's linear load goes
+   negative at one end, the end rollers lift, and windows started from a moving state diverged
+   in development runs at 0.2 L);
 2. ``n_folds`` contiguous folds of windows (whole segments when there are at least 2K): on each
    fold's training windows the RMS error curve over the grid is minimised (parabola through the
    best grid value and its neighbours), and the fold's windows are simulated again at that
@@ -63,7 +65,7 @@ from mjtrack.io.atomic import atomic_write_text
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import G, Robot
 from mjtrack.sim.config import SimConfig
-from mjtrack.sim.windows import WindowSet, WindowSim, make_windows, simulate_windows
+from mjtrack.sim.windows import WindowSet, WindowSim, drive_params, make_windows, simulate_windows
 
 log = logging.getLogger(__name__)
 
@@ -95,21 +97,36 @@ def _vmax(lg: DriveLog) -> float:
     return float(max(np.abs(lg.v_left_cmd).max(), np.abs(lg.v_right_cmd).max()))
 
 
+def _own(r: Robot, key: str, default: float) -> float:
+    """The robot's own drivetrain value (``drive_lag``, ``drive_delay``, ``track_speed_scale``)."""
+    v = drive_params(r)[key]
+    return default if v is None else float(v)
+
+
+# Grids around the robot's own value (its "no effect"), so that a calibrated robot is extended, not
+# reset: lag and dead time are added to the robot's own (an extension cannot remove them).
 EFFECTS: dict[str, MjEffect] = {e.name: e for e in (
-    MjEffect("cg_offset_x", "ground", ("cg_offset_x",), lambda r, lg: r.track_length * np.linspace(-0.15, 0.15, 7),
+    MjEffect("cg_offset_x", "ground", ("cg_offset_x",),
+             lambda r, lg: r.cg_x + r.track_length * np.linspace(-0.15, 0.15, 7),
              lambda r, lg: r.cg_x, "centre of mass x in the MuJoCo chassis (model field)"),
-    MjEffect("cg_offset_y", "ground", ("cg_offset_y",), lambda r, lg: r.track_gauge * np.linspace(-0.15, 0.15, 7),
+    MjEffect("cg_offset_y", "ground", ("cg_offset_y",),
+             lambda r, lg: r.cg_y + r.track_gauge * np.linspace(-0.15, 0.15, 7),
              lambda r, lg: r.cg_y, "centre of mass y in the MuJoCo chassis (model field)"),
     MjEffect("friction_scale", "ground", ("friction_scale",), lambda r, lg: np.geomspace(0.35, 1.6, 7),
              lambda r, lg: 1.0, "both tracks' contact-pair friction times the scale"),
-    MjEffect("friction_asymmetry", "ground", ("friction_asymmetry",), lambda r, lg: np.geomspace(0.4, 2.5, 7),
+    MjEffect("friction_asymmetry", "ground", ("friction_asymmetry",),
+             lambda r, lg: r.friction_left / r.friction_right * np.geomspace(0.4, 2.5, 7),
              lambda r, lg: r.friction_left / r.friction_right, "left-track friction = ratio x right-track friction"),
-    MjEffect("track_speed_scale", "input", ("track_speed_scale",), lambda r, lg: np.linspace(0.7, 1.15, 7),
-             lambda r, lg: 1.0, "the drives' set-points = scale x command"),
-    MjEffect("actuator_lag", "input", ("actuator_lag",), lambda r, lg: np.array([0.0, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6]),
-             lambda r, lg: 0.0, "first-order filter on the drives' set-points (actuator dynamics)"),
-    MjEffect("command_delay", "input", ("command_delay",), lambda r, lg: np.array([0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4]),
-             lambda r, lg: 0.0, "dead time on the drives' set-points"),
+    MjEffect("track_speed_scale", "input", ("track_speed_scale",),
+             lambda r, lg: _own(r, "track_speed_scale", 1.0) * np.linspace(0.7, 1.15, 7),
+             lambda r, lg: _own(r, "track_speed_scale", 1.0), "the drives' set-points = scale x command"),
+    MjEffect("actuator_lag", "input", ("actuator_lag",),
+             lambda r, lg: _own(r, "drive_lag", 0.0) + np.array([0.0, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6]),
+             lambda r, lg: _own(r, "drive_lag", 0.0),
+             "first-order filter on the drives' set-points (actuator dynamics; time constant)"),
+    MjEffect("command_delay", "input", ("command_delay",),
+             lambda r, lg: _own(r, "drive_delay", 0.0) + np.array([0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4]),
+             lambda r, lg: _own(r, "drive_delay", 0.0), "dead time on the drives' set-points (total)"),
     MjEffect("speed_limit", "input", ("speed_limit",),
              lambda r, lg: _vmax(lg) * np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
              lambda r, lg: _vmax(lg), "commands clipped at +-limit"),
@@ -559,7 +576,8 @@ def _decide(cands: list[Candidate], min_gain: float, base_sq: np.ndarray, sc: _S
                 f"bound {100 * g.lower:.1f} % by blocked bootstrap over {g.blocks} blocks of windows; gain floor "
                 f"{100 * min_gain:.0f} %)")
         if not np.isfinite(c.after):
-            c.why = "diverged on held-out windows"
+            bad = int(np.sum(~np.isfinite(_sq(c.held_err[sc.ok]))))
+            c.why = f"MuJoCo diverged on {bad} of {int(sc.ok.sum())} held-out windows"
         elif g.relative < min_gain:
             c.why = f"{text}: below the floor"
         elif g.lower <= 0.0:
