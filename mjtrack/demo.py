@@ -13,6 +13,10 @@ Stages (each timed, :class:`DemoResult` ``stage_s``):
    path trail and ICRs on the ground (skipped with a warning where no offscreen OpenGL
    exists: :class:`~mjtrack.render.RenderUnavailableError`).
 
+``terrain`` (a :class:`~mjtrack.sim.terrain.Terrain`, default flat) runs the same manoeuvres on
+other ground; it is recorded in ``rollout.json`` (key ``terrain``) and drawn in the video. The
+kinematic models stay planar: on a slope or steps the validation shows how far they get.
+
 The manoeuvres: each held 3–5 s, a forward or backward speed |v| in [0.2, 0.6] m/s and a
 nominal turn radius of 0.5–3 m either way, or straight (one in five). Spin turns are left
 out on purpose: while v_x ≈ 0 the MPP model cannot express the sideways velocity that a
@@ -74,25 +78,27 @@ def demo_commands(robot: Robot, *, duration: float = DEMO_DURATION, seed: int = 
 
 def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, seed: int = 0, video: bool = True,
              video_size: tuple[int, int] = (640, 480), fps: float = 25.0, speed: float = 2.0,
-             quiet: bool = False) -> DemoResult:
+             quiet: bool = False, terrain=None) -> DemoResult:
     """Run the demo into ``out_dir`` (created); see the module docstring."""
     from mjtrack.io.logs import robot_path_for, write_log
     from mjtrack.io.robot import write_robot
     from mjtrack.progress import Progress
     from mjtrack.render import RenderUnavailableError
     from mjtrack.sim.rollout import drive_log
+    from mjtrack.sim.terrain import Terrain, with_terrain
     from mjtrack.validate import validate
     from mjtrack.validate.video import render_log
 
     start = time.perf_counter()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    robot = DEMO_ROBOT
+    terrain = terrain or Terrain()
+    robot = with_terrain(DEMO_ROBOT, terrain)
     stage_s = {}
 
     tic = time.perf_counter()
     with Progress(1, label="rollout", quiet=quiet) as bar:
-        drive = drive_log(robot, demo_commands(robot, duration=duration, seed=seed), duration=duration)
+        drive = drive_log(robot, demo_commands(robot, duration=duration, seed=seed), duration=duration, terrain=terrain)
         log_path = out / "rollout.csv"
         write_log(drive, log_path)
         write_robot(robot, robot_path_for(log_path))
@@ -100,7 +106,8 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
     stage_s["rollout"] = time.perf_counter() - tic
 
     tic = time.perf_counter()
-    source = (f"MuJoCo rollout of the default robot with cg_x = +{robot.cg_x:g} m: seeded everyday manoeuvres "
+    ground = "" if terrain.is_flat else f" on terrain {terrain.spec}"
+    source = (f"MuJoCo rollout of the default robot with cg_x = +{robot.cg_x:g} m{ground}: seeded everyday manoeuvres "
               f"(seed {seed}, {duration:g} s; mjtrack demo)")
     val = validate(drive.replace(source=str(log_path)), robot, out, source=source, seed=seed, quiet=quiet)
     stage_s["validate"] = time.perf_counter() - tic

@@ -39,7 +39,8 @@ import numpy as np
 
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import G, Robot
-from mjtrack.sim.builder import add_scene, build_model, build_spec
+from mjtrack.sim.builder import ROLLER_CHAIN, build_model, build_spec
+from mjtrack.sim.chassis import add_scene
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.rollout import hold_commands, simulate
 
@@ -148,7 +149,7 @@ def anisotropic_model(robot: Robot, config: SimConfig, lateral_ratio: float):
     """The MuJoCo robot on a ground with lateral friction ``lateral_ratio`` x mu (own implementation)."""
     import mujoco
 
-    spec = add_scene(build_spec(robot, config), robot, config)
+    spec = add_scene(build_spec(robot, config), robot, config, tracks=ROLLER_CHAIN)
     for geom in spec.geoms:
         if geom.name.startswith("roller_"):
             geom.type = mujoco.mjtGeom.mjGEOM_CAPSULE

@@ -120,3 +120,12 @@ def test_cli_demo_end_to_end(cli, tmp_path):
         assert (tmp_path / "d" / name).exists()
         assert name in res.out
     assert "2-s position RMSE" not in res.out  # --quiet keeps only where the outputs are
+
+
+def test_demo_on_terrain_records_it_and_logs_height(tmp_path):
+    from mjtrack.sim.terrain import parse_terrain
+
+    res = run_demo(tmp_path / "d", duration=4.0, video=False, quiet=True, terrain=parse_terrain("incline:0.1"))
+    drive, robot = read_log_with_robot(res.log)
+    assert robot.extra["terrain"]["spec"] == "incline:0.1"
+    assert drive.z is not None and np.ptp(drive.z) > 0.01  # it drove up or down the slope

@@ -280,3 +280,22 @@ def test_builder_switch_builds_this_model():
 
     m = build_model(Robot(), CONFIG)
     assert len(track_geom_ids(m)["left"]) == CONFIG.n_rollers and m.flg_surfacevel == 1
+
+
+def test_wide_tracks_build_with_the_shared_hull():
+    # tracks wider than half the gauge: the surfacevel model used to give its visual hull a
+    # width T/2 - w <= 0 ("size 1 must be positive in geom"); the shared chassis keeps 0.1 T
+    m = build_surfacevel_model(Robot(track_gauge=0.3, track_width=0.15), CONFIG)
+    assert m.geom("hull").size[1] == pytest.approx(0.03)
+
+
+def test_divergence_ends_in_nan_not_in_a_silent_reset():
+    # the shared chassis options disable MuJoCo's auto-reset (the roller chain's setting): before,
+    # this unstable surfacevel model (dt 0.05 s, stiff springs) jumped back to rest unnoticed
+    m = build_surfacevel_model(Robot(), surfacevel_config(timestep=0.05, suspension_deflection=0.0005))
+    d = mujoco.MjData(m)
+    set_track_speeds(m, -1.0, 1.0)
+    for _ in range(100):
+        mujoco.mj_step(m, d)
+    assert d.time == pytest.approx(100 * 0.05)
+    assert not np.isfinite(d.qpos).all()

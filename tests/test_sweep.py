@@ -213,3 +213,13 @@ def test_sweep_killed_mid_run_resumes(tmp_path):
     assert subprocess.run([*cmd, "--out", str(tmp_path / "k")], capture_output=True).returncode == 0
     assert subprocess.run([*cmd, "--out", str(tmp_path / "full")], capture_output=True).returncode == 0
     assert csv_path.read_bytes() == (tmp_path / "full" / "sweep.csv").read_bytes()
+
+
+def test_auto_chunk_size_gives_every_thread_two_tasks_and_caps_the_chunk():
+    from mjtrack.sweep.run import MAX_CHUNK, auto_chunk_size
+
+    assert auto_chunk_size(24, 2) == 6 and auto_chunk_size(24, 1) == 12
+    assert auto_chunk_size(3, 8) == 1 and auto_chunk_size(1000, 2) == MAX_CHUNK
+    for n, slots in [(1, 1), (7, 3), (50, 4), (1000, 16)]:  # every case in a chunk, no chunk above the cap
+        size = auto_chunk_size(n, slots)
+        assert 1 <= size <= MAX_CHUNK and size * 2 * slots >= n or size == MAX_CHUNK

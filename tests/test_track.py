@@ -354,7 +354,35 @@ def test_track_command_writes_json_and_figure(cli, tmp_path):
     assert (out / "tracking.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-@pytest.mark.parametrize("argv", [["--compensation", "magic"], ["--control-rate", "7"], ["--speed", "-1"]])
+def test_the_plant_drives_up_an_incline_by_distance_times_its_sine():
+    # Closed form: on a plane tilted by alpha about y (uphill +x), the centre rises by s*sin(alpha)
+    # over a driven distance s. Tolerance 2 mm: suspension settles and the chassis pitches with load.
+    from mjtrack.control.mujoco_plant import MujocoTrackedPlant
+    from mjtrack.io.robot import Robot
+    from mjtrack.sim.terrain import parse_terrain
+
+    alpha = 0.15
+    plant = MujocoTrackedPlant(Robot(), terrain=parse_terrain(f"incline:{alpha}"))
+    z0, p0 = float(plant.data.qpos[2]), plant.pose()
+    plant.advance(0.5, 0.5, 2.0)
+    p1 = plant.pose()
+    s = math.hypot(p1[0] - p0[0], p1[1] - p0[1])  # planar distance of the centre
+    assert s > 0.5
+    assert float(plant.data.qpos[2]) - z0 == pytest.approx(s * math.tan(alpha), abs=2e-3)
+
+
+def test_track_command_on_terrain_records_it(cli, tmp_path):
+    out = tmp_path / "run"
+    res = cli(["track", "--scenario", "lane_change", "--compensation", "none", "--terrain", "step:0.03:1.0",
+               "-q", "--out", out])
+    assert res.rc == 0, res.err
+    doc = json.loads((out / "tracking.json").read_text())
+    assert doc["settings"]["terrain"] == "step:0.03:1.0"
+    assert doc["max_cross_track_m"] < 0.05  # the 3 cm step does not throw it off the lane change
+
+
+@pytest.mark.parametrize("argv", [["--compensation", "magic"], ["--control-rate", "7"], ["--speed", "-1"],
+                                  ["--terrain", "incline:abc"], ["--terrain", "step:0.03:1.0", "--control-rate", "30"]])
 def test_track_command_bad_input_exits_2(cli, tmp_path, argv):
     res = cli(["track", "--scenario", "circle", "--laps", "0.1", "-q", "--out", tmp_path / "x", *argv])
     assert res.rc == 2

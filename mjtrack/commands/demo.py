@@ -4,7 +4,8 @@ A MuJoCo rollout of the default robot with its centre of gravity 5 cm ahead of t
 centre (cg_x = +0.05 m) driving seeded everyday manoeuvres; its ICRs; the nominal, MPP, MICR
 and MVIR models with their filters validated against the rollout and against an MPP
 analytic truth; DIR/report.html, DIR/metrics.json, DIR/video.mp4, and the rollout itself
-(DIR/rollout.csv + rollout.json, for mjtrack validate / render).
+(DIR/rollout.csv + rollout.json, for mjtrack validate / render). --terrain runs the same
+manoeuvres on sloped, stepped, rough or patchy ground (recorded in rollout.json; the video shows it).
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjtrack.commands._common import add_output_options, check_out_dir
+from mjtrack.commands._common import TERRAIN_HELP, add_output_options, check_out_dir, terrain_from_args
 
 HELP = "the main job on defaults: MuJoCo rollout, all models and filters validated, report, video"
 
@@ -21,6 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="DIR", type=Path, required=True,
                         help="output folder (created if missing)")
     parser.add_argument("--no-video", action="store_true", help="skip the video")
+    parser.add_argument("--terrain", metavar="SPEC", default=None, help=TERRAIN_HELP + " (default flat)")
     add_output_options(parser)
 
 
@@ -28,7 +30,7 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.demo import run_demo
 
     out = check_out_dir(args.out)
-    res = run_demo(out, video=not args.no_video, quiet=args.quiet)
+    res = run_demo(out, video=not args.no_video, quiet=args.quiet, terrain=terrain_from_args(args))
     head = res.headline
     if not args.quiet:
         for truth, table in head["pos_rmse_m"].items():

@@ -12,7 +12,9 @@ unconverged, physically impossible, or no better than the nominal map at explain
 measured motion; so compensation fades out where it cannot help. Same controller and gains for
 all compensations. Writes DIR/tracking.json (rms_cross_track_m, max_cross_track_m,
 final_pos_err_m, mean_trust_weight, the settings, the robot, the final ICR estimate) and
-DIR/tracking.png (path vs reference, cross-track error over time).
+DIR/tracking.png (path vs reference, cross-track error over time). --terrain puts the robot on
+sloped, stepped, rough or patchy ground (the reference is followed in the horizontal plane;
+steps and height fields are simulated at 2.5 ms, so --control-rate must divide into that).
 """
 
 from __future__ import annotations
@@ -21,7 +23,8 @@ import argparse
 import json
 from pathlib import Path
 
-from mjtrack.commands._common import add_output_options, add_robot_options, check_out_dir, finite_float, robot_from_args
+from mjtrack.commands._common import (TERRAIN_HELP, add_output_options, add_robot_options, check_out_dir, finite_float,
+                                      robot_from_args, terrain_from_args)
 
 HELP = "slip-compensated trajectory tracking on the MuJoCo robot -> tracking.json + tracking.png"
 
@@ -44,6 +47,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the measurement noise (default 0)")
     parser.add_argument("--no-noise", action="store_true", help="exact pose and twist measurements")
     parser.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder")
+    parser.add_argument("--terrain", metavar="SPEC", default=None,
+                        help=TERRAIN_HELP + " (default flat); the reference path lies in the horizontal plane")
     add_robot_options(parser)
     add_output_options(parser)
 
@@ -97,9 +102,11 @@ def run(args: argparse.Namespace) -> int:
     if not args.control_rate > 0:
         raise InputError(f"--control-rate must be positive, got {args.control_rate}")
     robot = robot_from_args(args)
+    terrain = terrain_from_args(args)
     noise = {} if not args.no_noise else {"pose_noise": (0.0, 0.0, 0.0), "twist_noise": (0.0, 0.0, 0.0)}
     result = run_tracking(robot, scenario=args.scenario, compensation=args.compensation, controller=args.controller,
-                          control_dt=1.0 / args.control_rate, speed=args.speed, laps=args.laps, seed=args.seed, **noise)
+                          control_dt=1.0 / args.control_rate, speed=args.speed, laps=args.laps, seed=args.seed,
+                          terrain=terrain, **noise)
     hist = result.icr_history
     doc = dict(result.metrics)
     doc["settings"] = result.settings

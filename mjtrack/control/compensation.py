@@ -462,6 +462,7 @@ def run_tracking(
     seed: int = 0,
     config=None,
     compensation_options: dict | None = None,
+    terrain=None,
 ) -> TrackingResult:
     """Track a scenario's reference with the MuJoCo robot (:mod:`mjtrack.control.mujoco_plant`).
 
@@ -473,6 +474,8 @@ def run_tracking(
             or "feedforward" (open loop: the reference's (v_d, w_d) only).
         control_dt: control period [s]; pose_noise / twist_noise: seeded measurement noise std
             seen by the controller and the estimator.
+        terrain: :class:`~mjtrack.sim.terrain.Terrain` under the robot (default flat); the
+            reference path is followed in the horizontal plane.
     Returns:
         :class:`TrackingResult`.
     """
@@ -498,7 +501,7 @@ def run_tracking(
     duration = reference.duration
     loop = run_mujoco_loop(robot, policy, duration, control_dt=control_dt, pose0=reference.start_pose(), config=config,
                            pose_noise=tuple(pose_noise), twist_noise=tuple(twist_noise),
-                           track_speed_noise=track_speed_noise, seed=seed)
+                           track_speed_noise=track_speed_noise, seed=seed, terrain=terrain)
     ct = cross_track_errors(reference, loop.poses, t=loop.t)
     end = reference.at(duration).pose
     metrics = {
@@ -514,5 +517,6 @@ def run_tracking(
                 "poles": [float(p) for p in poles], "control_dt": control_dt, "duration_s": duration,
                 "speed_m_s": reference.profile.speed_value, "path_length_m": reference.path.length,
                 "pose_noise": list(pose_noise), "twist_noise": list(twist_noise),
-                "track_speed_noise": track_speed_noise, "seed": seed, "compensation_options": dict(compensation_options or {})}
+                "track_speed_noise": track_speed_noise, "seed": seed, "compensation_options": dict(compensation_options or {}),
+                "terrain": "flat" if terrain is None or terrain.is_flat else terrain.spec}
     return TrackingResult(loop, reference, metrics, hist, settings, applied)

@@ -38,6 +38,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.rollout import STATE_SPEC, SensorMap, settled_state, yaw_of
+from mjtrack.sim.terrain import Terrain, timestep_for
 
 log = logging.getLogger(__name__)
 
@@ -71,12 +72,18 @@ class MujocoTrackedPlant:
     Args:
         robot: robot description; config: simulation settings (default :class:`SimConfig`).
         pose0: (3,) pose [m, m, rad] that the settled robot has in the reported frame.
+        terrain: ground under the robot (default flat); on steps and height fields the time step
+            is cut to :data:`mjtrack.sim.terrain.EDGE_TIMESTEP` (:func:`~mjtrack.sim.terrain.timestep_for`).
+            Poses stay planar (x, y, heading of the ``centre`` site).
     """
 
-    def __init__(self, robot: Robot, *, config: SimConfig | None = None, pose0=(0.0, 0.0, 0.0)) -> None:
+    def __init__(self, robot: Robot, *, config: SimConfig | None = None, pose0=(0.0, 0.0, 0.0),
+                 terrain: Terrain | None = None) -> None:
         self.robot = robot
-        self.config = config or SimConfig()
-        self.model = build_model(robot, self.config)
+        config = config or SimConfig()
+        self.config = config.replace(timestep=timestep_for(config.timestep, terrain))
+        self.terrain = terrain
+        self.model = build_model(robot, self.config, terrain)
         self.data = mujoco.MjData(self.model)
         self.smap = SensorMap.of(self.model)
         self.B = control_matrix(self.model)
@@ -139,6 +146,7 @@ def run_mujoco_loop(
     twist_noise: tuple[float, float, float] = (0.0, 0.0, 0.0),
     track_speed_noise: float = 0.0,
     seed: int = 0,
+    terrain: Terrain | None = None,
 ) -> MujocoLoopResult:
     """Drive the MuJoCo robot with ``policy`` for ``duration`` [s] (module docstring).
 
@@ -150,12 +158,13 @@ def run_mujoco_loop(
         pose_noise, twist_noise, track_speed_noise: std of seeded Gaussian noise on what the
             policy sees (track speeds: both tracks; drawn after pose and twist, so a run without
             it sees the same pose and twist noise as before).
+        terrain: ground under the robot (default flat, :class:`MujocoTrackedPlant`).
     Returns:
         :class:`MujocoLoopResult` with N = round(duration / control_dt) + 1 samples.
     """
     if not (duration > 0 and control_dt > 0):
         raise InputError(f"run_mujoco_loop: need duration > 0 and control_dt > 0, got {duration}, {control_dt}")
-    plant = MujocoTrackedPlant(robot, config=config, pose0=pose0)
+    plant = MujocoTrackedPlant(robot, config=config, pose0=pose0, terrain=terrain)
     rng = np.random.default_rng(seed)
     n = int(round(duration / control_dt))
     rows = {k: np.zeros((n + 1, 3)) for k in ("poses", "twists", "measured_poses", "measured_twists")}
@@ -180,4 +189,5 @@ def run_mujoco_loop(
                             rows["measured_twists"], cmd, speed,
                             info={"control_dt": control_dt, "timestep": float(plant.model.opt.timestep),
                                   "pose_noise": list(pose_noise), "twist_noise": list(twist_noise),
-                                  "track_speed_noise": track_speed_noise, "seed": seed})
+                                  "track_speed_noise": track_speed_noise, "seed": seed,
+                                  **({"terrain": terrain.to_dict()} if terrain is not None and not terrain.is_flat else {})})

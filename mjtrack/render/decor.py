@@ -1,7 +1,7 @@
 """Decorations drawn into a rendered scene: ground grid, path trail, point markers, camera framing,
 track belts with moving grousers.
 
-All of them assume flat ground at z = 0 (the floor of :func:`mjtrack.sim.builder.add_scene`)
+All of them assume flat ground at z = 0 (the floor of :func:`mjtrack.sim.chassis.add_scene`)
 and are drawn a few millimetres above it so that they do not z-fight with the plane.
 """
 

@@ -1,14 +1,15 @@
 """MuJoCo tracked robot: model builder, rollouts, scenarios, steady states (issue 3).
 
-``builder`` makes the roller-chain robot from a :class:`~mjtrack.io.robot.Robot` and a
-:class:`SimConfig`; ``rollout`` rolls out track-speed commands (``mujoco.rollout``) into
-drive-log columns; ``scenarios`` names command tables; ``steady`` measures steady-state
+``chassis`` is the one robot builder (chassis, suspension, sensors, scene) into which a track
+model plugs; ``builder`` makes the roller-chain robot from a :class:`~mjtrack.io.robot.Robot` and
+a :class:`SimConfig` (and dispatches to the other track model); ``rollout`` rolls out track-speed
+commands (``mujoco.rollout``) into drive-log columns; ``scenarios`` names command tables; ``steady`` measures steady-state
 twists and ICRs; ``assets`` writes ``assets/robot.xml`` and ``assets/scene.xml``. The
 ``surfacevel`` track model (``SimConfig(track_model="surfacevel")``) lives in
 :mod:`mjtrack.sim.surfacevel`; what both track models share (terrain contacts, suspension travel,
 idlers, solver options) in :mod:`mjtrack.sim.scene`; ``terrain`` parses ``--terrain`` specs and
 ``drivetrain`` turns the robot's drive keys into simulation terms. Import order (no circles):
-config, terrain, drivetrain -> scene -> surfacevel -> builder -> rollout -> steady.
+config, terrain, drivetrain -> scene -> chassis -> ground, surfacevel -> builder -> rollout -> steady.
 """
 
 from mjtrack.sim.builder import build_model as build_model

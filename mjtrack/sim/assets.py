@@ -17,7 +17,8 @@ import mujoco
 
 from mjtrack.io.atomic import atomic_write_text
 from mjtrack.io.robot import Robot
-from mjtrack.sim.builder import add_scene, build_spec
+from mjtrack.sim.builder import ROLLER_CHAIN, build_spec
+from mjtrack.sim.chassis import add_scene
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.terrain import FLOOR_FRICTION
 
@@ -29,7 +30,7 @@ def asset_texts(robot: Robot | None = None, config: SimConfig | None = None) -> 
     robot = robot or Robot()
     config = config or SimConfig()
     robot_xml = build_spec(robot, config).to_xml()
-    scene = add_scene(build_spec(robot, config), robot, config)
+    scene = add_scene(build_spec(robot, config), robot, config, tracks=ROLLER_CHAIN)
     lines = ['<mujoco model="tracked_robot_scene">', '  <include file="robot.xml"/>', "",
              '  <visual>', '    <headlight diffuse="0.6 0.6 0.6" ambient="0.3 0.3 0.3"/>', '  </visual>', "",
              "  <worldbody>",

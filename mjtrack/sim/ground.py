@@ -36,9 +36,10 @@ import numpy as np
 
 from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
+from mjtrack.sim.chassis import suspension_stiffness
 from mjtrack.sim.config import SimConfig
+from mjtrack.sim.scene import SIDES
 
-SIDES = ("left", "right")
 CAPSULE_HALF = 0.001  # [m] half-length of an anisotropic roller's capsule (across the track)
 
 
@@ -86,7 +87,7 @@ def apply_ground(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> mujoco
 def _road_wheels(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> None:
     n = config.n_rollers
     w = load_shares(robot, np.array([spec.body(f"roller_left_{i}").pos[0] for i in range(n)]))
-    k = robot.weight / (2 * n * config.suspension_deflection)
+    k = suspension_stiffness(robot, config, n)
     m_r = config.roller_mass(robot.mass)
     for side in SIDES:
         for i in range(n):

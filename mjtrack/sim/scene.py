@@ -1,10 +1,10 @@
-"""What the two track models share: solver options, suspension travel, idlers and the scene.
+"""The scene parts that both track models share: solver options, suspension travel, idlers, terrain.
 
-The roller chain (:mod:`mjtrack.sim.builder`) and the surfacevel row (:mod:`mjtrack.sim.surfacevel`)
-build their own track bodies; everything else is here, so that both sit on the same terrain with
-the same contact pairs (:func:`add_ground`), the same limited suspension travel
+Used by the one robot builder (:mod:`mjtrack.sim.chassis`), so that the roller chain
+(:mod:`mjtrack.sim.builder`) and the surfacevel row (:mod:`mjtrack.sim.surfacevel`) sit on the same
+terrain with the same contact pairs (:func:`add_ground`), the same limited suspension travel
 (:func:`suspension_range`), the same idlers (:func:`add_idlers`) and the same solver settings
-(:func:`apply_solver_options`). Imported by both, importing neither (no import circle).
+(:func:`apply_solver_options`). Imports none of them (no import circle).
 """
 
 from __future__ import annotations
@@ -20,7 +20,6 @@ from mjtrack.sim.config import SimConfig
 from mjtrack.sim.terrain import Terrain, add_terrain
 
 SIDES = ("left", "right")
-CHASSIS_HEIGHT = 0.15  # [m] height of the box whose inertia the chassis is given (both models)
 
 _INTEGRATORS = {
     "Euler": mujoco.mjtIntegrator.mjINT_EULER,

@@ -1,7 +1,9 @@
 """Tracked robot whose tracks are moving contact surfaces (MuJoCo ``geom/surfacevel``).
 
 The second MuJoCo track model (``SimConfig.track_model = "surfacevel"``), beside the roller
-chain of :mod:`mjtrack.sim.builder`, whose names and settings it shares.
+chain of :mod:`mjtrack.sim.builder`, whose names and settings it shares: :class:`SurfacevelTracks`
+plugged into the one robot builder (:mod:`mjtrack.sim.chassis`: chassis, suspension, sensors,
+scene).
 
 MuJoCo's surface velocity (MuJoCo >= 3.x; docs: XMLreference ``body/geom/surfacevel``).
 ``geom_surfacevel`` (ngeom x 6) is a velocity field sigma(x) = v + w x (x - p) in the *geom*
@@ -15,10 +17,7 @@ MuJoCo by :class:`TrackDrive` (one step of explicit coupling, see there).
 
 Derivation of the model.
 
-* Chassis: body ``chassis`` with free joint ``root``, frame origin at the geometric centre of
-  the contact patches on the ground (site ``centre``), x forward, y left. Chassis mass is
-  ``robot.mass`` minus the contact elements' and sits where it puts the total centre of mass
-  at (cg_x, cg_y, cg_z); inertia of a uniform box L x (T + width) x ``CHASSIS_HEIGHT``.
+* Chassis: the shared one (:mod:`mjtrack.sim.chassis`), the elements' mass taken out of it.
 * Track contact: each track (body ``<side>_track`` at y = +-T/2) is N contact elements
   (``track_<side>_<i>``) at the midpoints x_i = -L/2 + (i + 1/2) L/N (midpoint rule, the
   grid of mjtrack.models.coulomb: the Coulomb pivot yaw ratio with 12 points is within 0.2 %
@@ -27,11 +26,11 @@ Derivation of the model.
 * Track motion: the bottom run of a track driven forward at V moves backwards relative to
   the chassis, so every element of that track has surfacevel = (-V, 0, 0, 0, 0, 0) in its
   geom frame (aligned with the chassis). Straight driving is then exact: vx = V.
-* Suspension: each element sits on a vertical slide ``susp_<side>_<i>`` with the builder's
+* Suspension: each element sits on a vertical slide ``susp_<side>_<i>`` with the chassis'
   spring k = m g / (2 N d), preloaded so q = 0 under the nominal share: the loads are set by
   the springs (Wong's linear distribution from the cg offset) and are determinate.
 * Sensors: ``body_linvel``, ``body_angvel`` (twist of ``centre`` in the chassis frame),
-  ``body_pos``, ``body_quat``, ``ground_<side>_<i>`` (element in contact, 0/1), as the builder;
+  ``body_pos``, ``body_quat``, ``ground_<side>_<i>`` (element in contact, 0/1), the chassis';
   no ``track_speed_<side>``: the track speed is the value last set (:class:`TrackDrive`).
 * Friction: explicit contact pairs ``contact_<side>_<i>`` (floor, element), condim 3, the
   track's mu, elliptic cone, impratio, solref/solimp and ``solreffriction`` from SimConfig.
@@ -88,11 +87,12 @@ import mujoco
 import numpy as np
 
 from mjtrack.errors import InputError
-from mjtrack.io.robot import G, Robot
-from mjtrack.sim.scene import (CHASSIS_HEIGHT, SIDES, add_ground, add_idlers, apply_solver_options, needs_idlers, suspension_range,
-                               track_contacts)
+from mjtrack.io.robot import Robot
+from mjtrack.sim.chassis import (Suspension, TrackModel, add_contact_sensor, build_robot_model, build_robot_scene,
+                                 build_robot_spec, element_positions)
 from mjtrack.sim.config import SURFACEVEL_SETTINGS, SimConfig, surfacevel_config  # noqa: F401 (this module's API)
 from mjtrack.sim.drivetrain import drive_of
+from mjtrack.sim.scene import SIDES
 from mjtrack.sim.terrain import Terrain
 
 log = logging.getLogger(__name__)
@@ -112,16 +112,59 @@ def setting_problems(config: SimConfig) -> list[str]:
     return out
 
 
-def element_mass(robot: Robot, config: SimConfig, n: int) -> float:
-    """Unsprung mass of one contact element [kg]: ``unsprung_fraction`` m / 2N or ``roller_mass``."""
-    if hasattr(config, "unsprung_fraction"):
-        return config.unsprung_fraction * robot.mass / (2 * n)
-    return config.roller_mass
+class SurfacevelTracks(TrackModel):
+    """Each track a row of N contact elements whose surface moves at the track speed (module
+    docstring); plugged into the one robot builder (:mod:`mjtrack.sim.chassis`).
 
+    Args:
+        element: shape of a contact element: "sphere" (radius ``roller_radius``), "capsule"
+            (across the track, like a road wheel) or "box" (an L/N x width cell).
+        n_elements: elements per track (default ``config.n_rollers``); 1 with "box" is one box.
+        sprung: elements on sprung vertical slides (else bolted to the chassis).
+    """
 
-def element_positions(robot: Robot, n: int) -> np.ndarray:
-    """x of the contact elements along a track, (n,) [m]: midpoints of n equal cells of L."""
-    return -robot.track_length / 2 + (np.arange(n) + 0.5) * robot.track_length / n
+    name = "surfacevel"
+    modelname = "tracked_robot_surfacevel"
+
+    def __init__(self, element: str = "sphere", n_elements: int | None = None, sprung: bool = True) -> None:
+        if element not in ELEMENTS:
+            raise InputError(f"surfacevel: 'element' must be one of {ELEMENTS}, got {element!r}")
+        if n_elements is not None and (int(n_elements) != n_elements or n_elements < 1):
+            raise InputError(f"surfacevel: 'n_elements' must be an integer >= 1, got {n_elements!r}")
+        self.element, self.n_elements, self.sprung = element, n_elements, sprung
+
+    def elements(self, config: SimConfig) -> int:
+        return config.n_rollers if self.n_elements is None else self.n_elements
+
+    def element_mass(self, robot: Robot, config: SimConfig) -> float:
+        return super().element_mass(robot, config) if self.sprung else 0.0
+
+    def add_track(self, spec: mujoco.MjSpec, chassis, robot: Robot, config: SimConfig, *, side: str, y: float,
+                  mu: float, suspension: Suspension) -> None:
+        n, r, w = self.elements(config), config.roller_radius, robot.track_width
+        m_el = self.element_mass(robot, config)
+        track = chassis.add_body(name=f"{side}_track", pos=[0, y, 0])
+        track.add_site(name=f"{side}_track", pos=[0, 0, 0], size=[0.01, 0.01, 0.01])
+        for i, x in enumerate(element_positions(robot, n)):
+            host, gx = track, x
+            if self.sprung:
+                host = track.add_body(name=f"wheel_{side}_{i}", pos=[x, 0, 0])
+                host.explicitinertial = True
+                host.mass = m_el
+                host.ipos = [0, 0, r]
+                host.inertia = [0.4 * m_el * r**2] * 3
+                suspension.add_slide(host, f"susp_{side}_{i}", config)
+                gx = 0.0
+            _add_element(host, self.element, name=f"track_{side}_{i}", x=gx, r=r, cell=robot.track_length / n, width=w)
+            add_contact_sensor(spec, side, i, f"track_{side}_{i}")  # as the roller chain's rollers
+
+    def friction_solref(self, config: SimConfig) -> list[float]:
+        # friction_timeconst 0: the friction rows use the contact solref (MuJoCo's [0, 0] default)
+        return [config.friction_timeconst, 1.0] if config.friction_timeconst > 0 else [0.0, 0.0]
+
+    def finish_model(self, model: mujoco.MjModel) -> mujoco.MjModel:
+        model.flg_surfacevel = 1
+        return model
 
 
 def robot_spec(
@@ -134,71 +177,9 @@ def robot_spec(
     idlers: bool = False,
     into: mujoco.MjSpec | None = None,
 ) -> mujoco.MjSpec:
-    """The robot (no floor), added to ``into`` when given, else to a new spec.
-
-    Args:
-        element: shape of a contact element: "sphere" (radius ``roller_radius``), "capsule"
-            (across the track, like a road wheel) or "box" (an L/N x width cell).
-        n_elements: elements per track (default ``config.n_rollers``); 1 with "box" is one box.
-        sprung: elements on sprung vertical slides (else bolted to the chassis).
-    """
-    config = config or surfacevel_config()
-    if element not in ELEMENTS:
-        raise InputError(f"surfacevel: 'element' must be one of {ELEMENTS}, got {element!r}")
-    n = config.n_rollers if n_elements is None else n_elements
-    if int(n) != n or n < 1:
-        raise InputError(f"surfacevel: 'n_elements' must be an integer >= 1, got {n!r}")
-    spec = into if into is not None else mujoco.MjSpec()
-    T, L, w, r = robot.track_gauge, robot.track_length, robot.track_width, config.roller_radius
-    m_el = element_mass(robot, config, n) if sprung else 0.0
-    m_chassis = robot.mass - 2 * n * m_el
-    if m_chassis <= 0.2 * robot.mass:
-        raise InputError(f"surfacevel: elements weigh {2 * n * m_el:.3g} kg of {robot.mass:.3g} kg; "
-                         "reduce the unsprung mass")
-    cg = np.array([robot.cg_x, robot.cg_y, robot.cg_z])
-    ly, lz = T + w, CHASSIS_HEIGHT
-    chassis = spec.worldbody.add_body(name="chassis", pos=[0, 0, 0])
-    chassis.add_freejoint(name="root")
-    chassis.explicitinertial = True
-    chassis.mass = m_chassis
-    chassis.ipos = (robot.mass * cg - 2 * n * m_el * np.array([0.0, 0.0, r])) / m_chassis
-    chassis.inertia = m_chassis / 12 * np.array([ly**2 + lz**2, L**2 + lz**2, L**2 + ly**2])
-    chassis.add_site(name="centre", pos=[0, 0, 0], size=[0.01, 0.01, 0.01])
-    chassis.add_site(name="cg", pos=cg, size=[0.015, 0.015, 0.015], rgba=[1, 0, 0, 1])
-    chassis.add_geom(
-        name="hull", type=mujoco.mjtGeom.mjGEOM_BOX, size=[L / 2, T / 2 - w, 0.04],
-        pos=[0, 0, 2 * r + 0.06], contype=0, conaffinity=0, density=0, rgba=[0.35, 0.4, 0.45, 1],
-    )
-    k = robot.weight / (2 * n * config.suspension_deflection)  # [N/m], as builder.suspension_stiffness
-    c = config.suspension_damping_ratio * 2 * math.sqrt(k * m_chassis / (2 * n))
-    preload = robot.weight / (2 * n) - m_el * G
-    for side, sign in zip(SIDES, (1.0, -1.0)):
-        track = chassis.add_body(name=f"{side}_track", pos=[0, sign * T / 2, 0])
-        track.add_site(name=f"{side}_track", pos=[0, 0, 0], size=[0.01, 0.01, 0.01])
-        for i, x in enumerate(element_positions(robot, n)):
-            host, gx = track, x
-            if sprung:
-                host = track.add_body(name=f"wheel_{side}_{i}", pos=[x, 0, 0])
-                host.explicitinertial = True
-                host.mass = m_el
-                host.ipos = [0, 0, r]
-                host.inertia = [0.4 * m_el * r**2] * 3
-                host.add_joint(name=f"susp_{side}_{i}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1],
-                               stiffness=k, damping=c, springref=-preload / k,
-                               limited=mujoco.mjtLimited.mjLIMITED_TRUE, range=suspension_range(config))
-                gx = 0.0
-            _add_element(host, element, name=f"track_{side}_{i}", x=gx, r=r, cell=L / n, width=w)
-            # number of ground contacts of this element (0 or 1), as the builder's rollers
-            spec.add_sensor(name=f"ground_{side}_{i}", type=mujoco.mjtSensor.mjSENS_CONTACT,
-                            objtype=mujoco.mjtObj.mjOBJ_GEOM, objname=f"track_{side}_{i}", intprm=[1, 0, 1])
-    if idlers:
-        add_idlers(chassis, robot, config)
-    for name, stype in (("body_linvel", mujoco.mjtSensor.mjSENS_VELOCIMETER),
-                        ("body_angvel", mujoco.mjtSensor.mjSENS_GYRO),
-                        ("body_pos", mujoco.mjtSensor.mjSENS_FRAMEPOS),
-                        ("body_quat", mujoco.mjtSensor.mjSENS_FRAMEQUAT)):
-        spec.add_sensor(name=name, type=stype, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="centre")
-    return spec
+    """The robot (no floor) with its solver options, added to ``into`` when given, else to a new
+    spec; ``element``, ``n_elements``, ``sprung``: :class:`SurfacevelTracks`."""
+    return build_robot_spec(robot, config, SurfacevelTracks(element, n_elements, sprung), idlers=idlers, into=into)
 
 
 def _add_element(body, element: str, *, name: str, x: float, r: float, cell: float, width: float) -> None:
@@ -213,25 +194,11 @@ def _add_element(body, element: str, *, name: str, x: float, r: float, cell: flo
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[cell / 2, width / 2, r], pos=[x, 0, r], **common)
 
 
-def add_scene(spec: mujoco.MjSpec, robot: Robot, config: SimConfig | None = None,
-              terrain: Terrain | None = None) -> mujoco.MjSpec:
-    """Options, the terrain (default flat: ``floor``), one contact pair per (element, terrain
-    geom) and a light, in place (the scene of :func:`mjtrack.sim.builder.add_ground`)."""
-    config = config or surfacevel_config()
-    apply_solver_options(spec, config)
-    # friction_timeconst 0: the friction rows use the contact solref (MuJoCo's [0, 0] default)
-    friction_solref = [config.friction_timeconst, 1.0] if config.friction_timeconst > 0 else [0.0, 0.0]
-    pair_options = dict(condim=3, solref=config.contact_solref, solimp=config.solimp,
-                        solreffriction=friction_solref, margin=getattr(config, "contact_margin", 0.0))
-    return add_ground(spec, robot, terrain or Terrain(), track_contacts(spec, robot), pair_options)
-
-
 def build_surfacevel_spec(robot: Robot, config: SimConfig | None = None, terrain: Terrain | None = None,
                           **options) -> mujoco.MjSpec:
-    """Robot (:func:`robot_spec`, ``options`` passed on) plus scene (:func:`add_scene`)."""
-    spec = robot_spec(robot, config, idlers=needs_idlers(terrain), **options)
-    spec.modelname = "tracked_robot_surfacevel"
-    return add_scene(spec, robot, config, terrain)
+    """Robot and scene (:func:`mjtrack.sim.chassis.build_robot_scene`); ``options``:
+    :class:`SurfacevelTracks`."""
+    return build_robot_scene(robot, config, SurfacevelTracks(**options), terrain)
 
 
 def build_surfacevel_model(robot: Robot, config: SimConfig | None = None, terrain: Terrain | None = None,
@@ -244,9 +211,7 @@ def build_surfacevel_model(robot: Robot, config: SimConfig | None = None, terrai
     config = config or surfacevel_config()
     for problem in setting_problems(config):
         log.warning("surfacevel: %s (experiments/surfacevel_study.py); see surfacevel_config()", problem)
-    model = build_surfacevel_spec(robot, config, terrain, **options).compile()
-    model.flg_surfacevel = 1
-    return model
+    return build_robot_model(robot, config, SurfacevelTracks(**options), terrain)
 
 
 def track_geom_ids(model: mujoco.MjModel) -> dict[str, np.ndarray]:

@@ -1,0 +1,224 @@
+"""The one robot builder: the chassis that both track models share, with the track model plugged in.
+
+A robot spec is built by :func:`build_robot_spec` from a :class:`~mjtrack.io.robot.Robot`, a
+:class:`SimConfig` and a :class:`TrackModel`: the roller chain
+(:data:`mjtrack.sim.builder.ROLLER_CHAIN`) or the ``geom/surfacevel`` rows
+(:class:`mjtrack.sim.surfacevel.SurfacevelTracks`). This module builds what they share; the track
+model adds the contact elements of each track, its drive and its solver settings. :func:`add_scene`
+puts the robot on its terrain, :func:`build_robot_model` does both and compiles.
+
+Derivation of the shared part (``assets/README.md`` gives the measurements):
+
+* **Chassis**: one body with a free joint ``root``. Its frame origin is the geometric centre of the
+  two contact patches on the ground (site ``centre``), x forward, y left, z up. The chassis mass is
+  ``robot.mass`` minus the 2N contact elements' (unsprung) mass, whose centres sit at height r; it
+  sits where it puts the total centre of mass at (cg_x, cg_y, cg_z) (site ``cg``); its inertia is
+  a uniform box L x (T + width) x ``CHASSIS_HEIGHT``. A visual hull (no contact, no mass).
+* **Tracks**: each track (``left`` at y = T/2, ``right`` at y = -T/2, its μ) is N contact
+  elements at the midpoints x_i = -L/2 + (i + 1/2) L/N (:func:`element_positions`: the N point
+  loads integrate a linear load over [-L/2, L/2] exactly), added by the track model.
+* **Suspension**: a rigid chassis on 2N point contacts is statically indeterminate and MuJoCo's
+  solver then spreads the normal load arbitrarily; each sprung element therefore rides on a
+  vertical slide ``susp_<side>_<i>`` with a spring k = m g / (2 N d) (d: static deflection),
+  preloaded so that q = 0 at the nominal load, damped at ``suspension_damping_ratio`` of critical
+  for the element's share of the sprung mass (:class:`Suspension`): the loads are k times the
+  chassis' (linear) deflection at each element, Wong's linear load distribution from the cg offset.
+* **Idlers** on terrain they can touch (:func:`mjtrack.sim.scene.add_idlers`).
+* **Sensors**: ``ground_<side>_<i>`` (element in contact, 0/1), added with the elements; the body
+  twist of ``centre`` in its own frame (``body_linvel`` velocimeter, ``body_angvel`` gyro) and its
+  pose (``body_pos``, ``body_quat``).
+* **Options**: the solver settings of ``config`` (:func:`mjtrack.sim.scene.apply_solver_options`),
+  no automatic reset on divergence (NaN instead), plus those of the track model
+  (:meth:`TrackModel.set_options`).
+* MjSpec pitfall: a body with ``explicitinertial`` must be given ``ipos``; left unset the centre of
+  mass was compiled at the body's offset from its parent (spinning rollers then orbited an
+  eccentric axis: several newtons of spurious vertical force, micro-hops).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from mjtrack.errors import InputError
+from mjtrack.io.robot import G, Robot
+from mjtrack.sim.config import SimConfig, sim_config
+from mjtrack.sim.scene import add_ground, add_idlers, apply_solver_options, needs_idlers, suspension_range, track_contacts
+from mjtrack.sim.terrain import Terrain
+
+CHASSIS_HEIGHT = 0.15  # [m] height of the box whose inertia the chassis is given
+
+
+def element_positions(robot: Robot, n: int) -> np.ndarray:
+    """x of the contact elements along a track, (n,) [m]: midpoints of n equal cells of L."""
+    return -robot.track_length / 2 + (np.arange(n) + 0.5) * robot.track_length / n
+
+
+def suspension_stiffness(robot: Robot, config: SimConfig, n: int) -> float:
+    """k = m g / (2 N d) [N/m] of n elements per track: the static deflection under an equal
+    load share is d."""
+    return robot.weight / (2 * n * config.suspension_deflection)
+
+
+@dataclass(frozen=True)
+class Suspension:
+    """The sprung elements' slide: stiffness k [N/m], damping c [N s/m], preload [N] (spring force
+    at q = 0: the nominal load share less the element's weight)."""
+
+    k: float
+    c: float
+    preload: float
+
+    def add_slide(self, body, name: str, config: SimConfig) -> None:
+        """The vertical slide ``name`` of ``body``, with travel :func:`suspension_range`."""
+        body.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1],
+                       stiffness=self.k, damping=self.c, springref=-self.preload / self.k,
+                       limited=mujoco.mjtLimited.mjLIMITED_TRUE, range=suspension_range(config))
+
+
+class TrackModel:
+    """The pluggable part of a robot: how a track touches the ground and is driven.
+
+    ``name`` is the ``SimConfig.track_model`` it realises (its default settings:
+    :func:`mjtrack.sim.config.sim_config`), ``modelname`` the compiled model's name. Subclasses
+    implement :meth:`add_track` and may override the other hooks.
+    """
+
+    name = ""
+    modelname = ""
+
+    def default_config(self) -> SimConfig:
+        return sim_config(self.name)
+
+    def configure(self, robot: Robot, config: SimConfig) -> SimConfig:
+        """The settings the robot is built with (e.g. the drive scaled to the robot's mass)."""
+        return config
+
+    def elements(self, config: SimConfig) -> int:
+        """Contact elements per track."""
+        return config.n_rollers
+
+    def element_mass(self, robot: Robot, config: SimConfig) -> float:
+        """Unsprung mass of one element [kg]: ``unsprung_fraction`` of the robot over 2N."""
+        return config.unsprung_fraction * robot.mass / (2 * self.elements(config))
+
+    def set_options(self, opt: mujoco.MjOption, config: SimConfig) -> None:
+        """Solver settings of this track model beyond the shared ones."""
+
+    def check(self, config: SimConfig, suspension: Suspension, element_mass: float) -> None:
+        """Refuse settings this model cannot run with (InputError)."""
+
+    def add_track(self, spec: mujoco.MjSpec, chassis, robot: Robot, config: SimConfig, *, side: str, y: float,
+                  mu: float, suspension: Suspension) -> None:
+        """The contact elements of track ``side`` (at chassis y, friction μ) and their drive."""
+        raise NotImplementedError
+
+    def friction_solref(self, config: SimConfig) -> list[float]:
+        """``solreffriction`` of the element-terrain contact pairs."""
+        raise NotImplementedError
+
+    def finish_spec(self, spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> mujoco.MjSpec:
+        """Last changes to the robot + scene spec before compiling (e.g. the ground model)."""
+        return spec
+
+    def finish_model(self, model: mujoco.MjModel) -> mujoco.MjModel:
+        """Last changes to the compiled model."""
+        return model
+
+
+def add_contact_sensor(spec: mujoco.MjSpec, side: str, i: int, geom: str) -> None:
+    """Sensor ``ground_<side>_<i>``: number of ground contacts of element geom ``geom`` (0 or 1)."""
+    spec.add_sensor(name=f"ground_{side}_{i}", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                    objtype=mujoco.mjtObj.mjOBJ_GEOM, objname=geom, intprm=[1, 0, 1])
+
+
+def set_options(spec: mujoco.MjSpec, config: SimConfig, tracks: TrackModel) -> None:
+    """The shared solver settings of ``config`` plus the track model's. A diverging simulation
+    ends in NaN, not in MuJoCo's silent reset to the initial state (which the surfacevel model
+    used to get: rollouts and steady runs then carried on from rest unnoticed)."""
+    opt = apply_solver_options(spec, config)
+    opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+    tracks.set_options(opt, config)
+
+
+def build_robot_spec(robot: Robot, config: SimConfig | None, tracks: TrackModel, *, idlers: bool = False,
+                     into: mujoco.MjSpec | None = None) -> mujoco.MjSpec:
+    """The robot alone (no floor) with its simulation options, added to ``into`` when given, else
+    to a new spec named ``tracks.modelname``; ``idlers``: with the front and rear idlers."""
+    config = tracks.configure(robot, config or tracks.default_config())
+    spec = into if into is not None else mujoco.MjSpec()
+    if into is None:
+        spec.modelname = tracks.modelname
+    set_options(spec, config, tracks)
+    n, r = tracks.elements(config), config.roller_radius
+    m_el = tracks.element_mass(robot, config)
+    T, L, w = robot.track_gauge, robot.track_length, robot.track_width
+    m_unsprung = 2 * n * m_el
+    m_chassis = robot.mass - m_unsprung
+    if m_chassis <= 0.2 * robot.mass:
+        raise InputError(f"{tracks.name}: elements weigh {m_unsprung:.3g} kg of {robot.mass:.3g} kg; "
+                         "reduce the unsprung mass")
+    cg = np.array([robot.cg_x, robot.cg_y, robot.cg_z])
+    ly, lz = T + w, CHASSIS_HEIGHT
+
+    chassis = spec.worldbody.add_body(name="chassis", pos=[0, 0, 0])
+    chassis.add_freejoint(name="root")
+    chassis.explicitinertial = True
+    chassis.mass = m_chassis
+    chassis.ipos = (robot.mass * cg - m_unsprung * np.array([0.0, 0.0, r])) / m_chassis
+    chassis.inertia = m_chassis / 12 * np.array([ly**2 + lz**2, L**2 + lz**2, L**2 + ly**2])
+    chassis.add_site(name="centre", pos=[0, 0, 0], size=[0.01, 0.01, 0.01])
+    chassis.add_site(name="cg", pos=cg, size=[0.015, 0.015, 0.015], rgba=[1, 0, 0, 1])
+    chassis.add_geom(
+        name="hull", type=mujoco.mjtGeom.mjGEOM_BOX, size=[L / 2, max(T / 2 - w, 0.1 * T), 0.04],  # visual only; narrow robots keep a hull
+        pos=[0, 0, 2 * r + 0.06], contype=0, conaffinity=0, density=0, rgba=[0.35, 0.4, 0.45, 1],
+    )
+
+    k = suspension_stiffness(robot, config, n)
+    # critical damping of the element's share of the sprung mass (m_chassis / 2N) on k
+    suspension = Suspension(k=k, c=config.suspension_damping_ratio * 2 * math.sqrt(k * m_chassis / (2 * n)),
+                            preload=robot.weight / (2 * n) - m_el * G)
+    tracks.check(config, suspension, m_el)
+    for side, y, mu in (("left", T / 2, robot.friction_left), ("right", -T / 2, robot.friction_right)):
+        tracks.add_track(spec, chassis, robot, config, side=side, y=y, mu=mu, suspension=suspension)
+    if idlers:
+        add_idlers(chassis, robot, config)
+    # velocimeter / gyro: velocity of the site expressed in the site's (= chassis) frame
+    for name, stype in (("body_linvel", mujoco.mjtSensor.mjSENS_VELOCIMETER),
+                        ("body_angvel", mujoco.mjtSensor.mjSENS_GYRO),
+                        ("body_pos", mujoco.mjtSensor.mjSENS_FRAMEPOS),
+                        ("body_quat", mujoco.mjtSensor.mjSENS_FRAMEQUAT)):
+        spec.add_sensor(name=name, type=stype, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="centre")
+    return spec
+
+
+def add_scene(spec: mujoco.MjSpec, robot: Robot, config: SimConfig | None, terrain: Terrain | None = None, *,
+              tracks: TrackModel) -> mujoco.MjSpec:
+    """Add the terrain (default flat: ``floor``), the element-terrain contact pairs and a light (in place).
+
+    The elements collide with nothing else (contype = conaffinity = 0): one explicit pair per
+    (element, terrain geom) carries the track's friction, the contact softness and the track
+    model's friction solref (:meth:`TrackModel.friction_solref`) -- see :class:`SimConfig`.
+    """
+    config = config or tracks.default_config()
+    pair_options = dict(condim=3, solref=config.contact_solref, solimp=config.solimp,
+                        solreffriction=tracks.friction_solref(config), margin=config.contact_margin)
+    return add_ground(spec, robot, terrain or Terrain(), track_contacts(spec, robot), pair_options)
+
+
+def build_robot_scene(robot: Robot, config: SimConfig | None, tracks: TrackModel, terrain: Terrain | None = None,
+                      **options) -> mujoco.MjSpec:
+    """Robot (:func:`build_robot_spec`, with idlers where the terrain needs them) plus scene
+    (:func:`add_scene`), ready to compile; ``options`` go to :func:`build_robot_spec`."""
+    config = config or tracks.default_config()
+    spec = build_robot_spec(robot, config, tracks, idlers=needs_idlers(terrain), **options)
+    return tracks.finish_spec(add_scene(spec, robot, config, terrain, tracks=tracks), robot, config)
+
+
+def build_robot_model(robot: Robot, config: SimConfig | None, tracks: TrackModel,
+                      terrain: Terrain | None = None) -> mujoco.MjModel:
+    """Compiled robot + terrain (default flat)."""
+    return tracks.finish_model(build_robot_scene(robot, config, tracks, terrain).compile())
