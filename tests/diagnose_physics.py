@@ -198,11 +198,13 @@ def track_speeds(t_fine: np.ndarray, t: np.ndarray, cl: np.ndarray, cr: np.ndarr
 
 def make_log(params: dict | None = None, *, geometry: str = "small", seed: int = 0, duration: float = 240.0,
              rate: float = 20.0, speeds: bool = False, turning: bool = True, layout: str = "continuous",
-             vmax: float = VMAX) -> tuple[DriveLog, Robot]:
+             vmax: float = VMAX, true_speeds: bool = False):
     """A log of the geometry's robot with hidden effect parameters ``params`` (names of the
     effect vocabulary, e.g. {"cg_offset_x": 0.05, "actuator_lag": 0.2}; {} or None = clean).
     ``layout``: "continuous" (one segment) or "drive" (2 s windows of 1.95 s, separate segments,
-    commands held 6 s). Returns (log, the nominal robot description)."""
+    commands held 6 s). Returns (log, the nominal robot description); with ``true_speeds`` also
+    the noise-free track speeds (N, 2) at the log's rows, with the hidden input effects and
+    without them (what shows where an input effect acts)."""
     p = dict(params or {})
     unknown = set(p) - set(INPUT) - set(GROUND) - {"slope_direction"}
     assert not unknown, unknown
@@ -226,6 +228,7 @@ def make_log(params: dict | None = None, *, geometry: str = "small", seed: int =
     # is held, and its left limit is the value of the sub-step before
     k = np.arange(t.size) * sub
     vs = v[k] if "actuator_lag" in p else v[np.maximum(k - 1, 0)]
+    v_nominal = track_speeds(t_fine, t, cl, cr, {}, robot.track_gauge)[np.maximum(k - 1, 0)]
     cols = {"t": t, "v_left_cmd": cl, "v_right_cmd": cr,
             "x": poses[:, 0] + rng.normal(0, XY_STD, t.size), "y": poses[:, 1] + rng.normal(0, XY_STD, t.size),
             "yaw": poses[:, 2] + rng.normal(0, YAW_STD, t.size)}
@@ -238,5 +241,7 @@ def make_log(params: dict | None = None, *, geometry: str = "small", seed: int =
         keep = (np.arange(t.size) % per) != per - 1  # 1.95 s of every 2 s window
         cols = {k: c[keep] for k, c in cols.items()}
         cols["window"] = win[keep]
+        vs, v_nominal = vs[keep], v_nominal[keep]
     tag = "+".join(f"{k}={v:g}" for k, v in sorted(p.items())) or "clean"
-    return DriveLog.from_columns(cols, source=f"physics-{geometry}-{tag}-{seed}.csv"), robot
+    log = DriveLog.from_columns(cols, source=f"physics-{geometry}-{tag}-{seed}.csv")
+    return (log, robot, vs, v_nominal) if true_speeds else (log, robot)

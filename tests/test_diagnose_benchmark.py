@@ -1,6 +1,8 @@
 """The fast subset of experiments/diagnose_benchmark.py (the short logs: a slope on the large
-robot, a near-noise command delay, a clean 30 s log at 50 Hz), run by the default test run; the
-whole benchmark (41 logs) is ``python experiments/diagnose_benchmark.py`` and ``-m slow`` here."""
+robot, a near-noise command delay, a clean 30 s log at 50 Hz; and the wheeled robot's DRIVE-layout
+logs, clean and command delay + speed scale, whose body transient carries on across the window
+starts), run by the default test run; the whole benchmark (41 logs) is
+``python experiments/diagnose_benchmark.py`` and ``-m slow`` here."""
 
 from __future__ import annotations
 
@@ -30,7 +32,8 @@ def test_fast_subset(case):
 def test_whole_benchmark_meets_the_targets():
     rows = [bench.run_case(c) for c in bench.cases()]
     s = bench.summarise(rows)
-    assert s["named_right"] >= 0.95 * s["with_effect"]
+    assert s["named_right"] >= 0.95 * s["with_effect"]  # the logs above the detectability floor
+    assert s["below_floor_fooled"] == 0 and s["below_floor"] <= 2  # below it: no wrong cause named
     assert s["clean_none"] == s["clean"]
     assert s["covered"] >= 0.9 * s["params"]
     assert s["median_abs_bias"] < 0.05

@@ -272,3 +272,47 @@ def test_traction_ratio_equivalents_round_trip():
     assert traction_ratio(ROBOT, "friction_asymmetry", a) == pytest.approx(traction_ratio(ROBOT, "cg_offset_y", 0.06))
     assert equivalent(ROBOT, "friction_asymmetry", a) == pytest.approx(0.06)
     assert a == pytest.approx((0.2 + 0.06) / (0.2 - 0.06))  # lever rule with T = 0.4 m
+
+
+def test_transient_carries_on_across_a_chained_window_start():
+    """A DRIVE log's windows (1.95 s of every 2 s, each its own segment): a command change at a
+    window start is followed by the friction-limited transient, starting from the previous
+    window's motion; after a long gap (an unchained segment) the segment starts in steady motion."""
+    h = 0.05
+    t = np.r_[np.arange(39) * h, 2.0 + np.arange(39) * h]  # the sample at 1.95 s dropped
+    seg = np.r_[np.zeros(39, int), np.ones(39, int)]
+    v = np.r_[np.full((39, 2), 0.2), np.full((39, 2), 0.9)]
+    sur = Surrogate(ROBOT, "coulomb", transient=True)
+    chained = rs.DriveData(t=t, seg=seg, cmd=v, meas=None, poses=np.zeros((t.size, 3)))
+    e = sur.effective_speeds(chained, v)
+    b = ROBOT.mu * G / 2  # per track, equal loads: the common mode ramps at mu g
+    ramp = 0.7 / (2 * b)  # [s] from 0.2 to 0.9 m/s
+    assert e[39, 0] < 0.9 - 0.5 * h * 2 * b  # still ramping through the first step of the new window
+    # the straight ramp of the new window is the mu g ramp from the previous window's speed
+    u = np.r_[0.2, v[39:, 0]]
+    np.testing.assert_allclose(e[39:, 0], sg.accel_limited(u, np.full(u.size, h), 2 * b, np.r_[True, np.zeros(39, bool)])[1:],
+                               atol=1e-9)
+    k = int(np.ceil(ramp / h)) + 1
+    np.testing.assert_allclose(e[39 + k:], 0.9, atol=1e-9)  # arrived
+    far = rs.DriveData(t=np.r_[t[:39], t[39:] + 1.0], seg=seg, cmd=v, meas=None, poses=np.zeros((t.size, 3)))
+    np.testing.assert_allclose(sur.effective_speeds(far, v)[39:], 0.9, atol=1e-12)
+
+
+def test_min_active_blocks_is_where_the_blocked_bootstrap_bound_leaves_zero():
+    """An effect that acts in k of B blocks (exactly no change elsewhere): the one-sided 95 %
+    bound of the gain test exceeds zero from k = min_active_blocks(B) on, not below."""
+    from mjtrack.diagnose.select import min_active_blocks
+    from mjtrack.diagnose.stats import gain_test
+
+    rng = np.random.default_rng(1)
+    n_blocks = 40
+    block = np.arange(n_blocks * 30) // 30
+    before = rng.chisquare(2, block.size) * 1e-4 + 1e-3
+    need = min_active_blocks(n_blocks)
+    assert need == 3
+    for k in (need - 1, need, need + 2):
+        after = before.copy()
+        act = np.isin(block, rng.choice(n_blocks, k, replace=False))
+        after[act] *= 0.1
+        g = gain_test(before, after, block)
+        assert (g.lower > 0) == (k >= need), (k, g)

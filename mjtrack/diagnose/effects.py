@@ -185,6 +185,15 @@ class Surrogate:
             return hit
         dt = data.step_dt()
         starts = np.r_[True, data.seg[1:] != data.seg[:-1]]
+        # a segment that follows the previous one closely (a DRIVE log's windows) does not start
+        # in steady motion: the body carries on from where the previous segment left it, the
+        # last command held over the gap (as for the input effects, :func:`_initial`), so the
+        # transient after a command change at a window start is modelled
+        near = _chained_starts(data)
+        if near.size:
+            starts[near] = False
+            dt = dt.copy()
+            dt[near - 1] = data.t[near] - data.t[near - 1]
         out = sg.friction_limited(speeds, dt, starts, b_left=b_l, b_right=b_r, kappa=kappa,
                                   resist=self.resp.resist_ratio * (b_l + b_r))
         if len(self._transient_cache) > 64:
@@ -307,6 +316,19 @@ def _segments(data: DriveData):
     return zip(np.r_[0, cuts], np.r_[cuts, data.n])
 
 
+def _chained_starts(data: DriveData) -> np.ndarray:
+    """Indices of the segment starts that follow the previous segment's end within 2.5 sample
+    periods (a log cut into windows, such as DRIVE's 2 s windows of 1.95 s, where the robot kept
+    driving between them): the motion carries on across such a start."""
+    starts = np.flatnonzero(np.r_[False, data.seg[1:] != data.seg[:-1]])
+    if not starts.size:
+        return starts
+    same = data.seg[1:] == data.seg[:-1]
+    dt = float(np.median(np.diff(data.t)[same])) if same.any() else 0.0
+    gap = data.t[starts] - data.t[starts - 1]
+    return starts[(gap > 0) & (gap <= 2.5 * dt)]
+
+
 def _initial(data: DriveData, v: np.ndarray) -> np.ndarray:
     """(N, 2) track speeds before/at each segment start: measured where the log has them (a
     segment may start while the tracks still run at the previous command); else the previous
@@ -314,14 +336,10 @@ def _initial(data: DriveData, v: np.ndarray) -> np.ndarray:
     into windows, such as DRIVE's 2 s windows of 1.95 s, where the robot kept driving between
     them), else the command."""
     out = v
-    starts = np.flatnonzero(np.r_[False, data.seg[1:] != data.seg[:-1]])
-    if starts.size:
-        dt = float(np.median(np.diff(data.t)[data.seg[1:] == data.seg[:-1]])) if data.n > 1 else 0.0
-        gap = data.t[starts] - data.t[starts - 1]
-        near = starts[(gap > 0) & (gap <= 2.5 * dt)]
-        if near.size:
-            out = v.copy()
-            out[near] = v[near - 1]
+    near = _chained_starts(data)
+    if near.size:
+        out = v.copy()
+        out[near] = v[near - 1]
     if data.meas is None:
         return out
     return np.where(np.isfinite(data.meas), data.meas, out)

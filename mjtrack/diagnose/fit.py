@@ -29,6 +29,11 @@ from mjtrack.diagnose.stats import pos_rmse, sandwich  # noqa: F401  (pos_rmse: 
 
 log = logging.getLogger(__name__)
 
+# relative finite-difference step of the Jacobian: also the resolution of an optimum at a kink of
+# the cost (a dead time fitted to sampled speeds has a V-shaped cost, kinks one sample apart), so
+# the intervals include it (:func:`mjtrack.diagnose.select.score`)
+DIFF_STEP = 1e-3
+
 
 @dataclass(frozen=True)
 class Problem:
@@ -152,7 +157,7 @@ def fit(problem: Problem, effect: Effect, train_folds: np.ndarray, *, covariance
     starts = np.clip(starts, inner_lo, inner_hi)
     costs = [float(np.sum(resid(p) ** 2)) for p in starts] if len(starts) > 1 else [0.0]
     x0 = starts[int(np.argmin(costs))]
-    res = optimize.least_squares(resid, x0, bounds=(lo, hi), method="trf", x_scale="jac", diff_step=1e-3,
+    res = optimize.least_squares(resid, x0, bounds=(lo, hi), method="trf", x_scale="jac", diff_step=DIFF_STEP,
                                  xtol=1e-6, ftol=1e-8, max_nfev=60)
     p = res.x
     if "slope" in effect.params and p[0] < 0:  # a negative angle is the opposite direction
@@ -191,6 +196,6 @@ def fit_inputs_jointly(problem: Problem, parts: list, train_folds: np.ndarray) -
         v = problem.surrogate.inputs_of(problem.data, fixed + list(zip(effects, split(x))), instant=True)
         return (v[samples] - problem.data.meas[samples]).ravel()
 
-    res = optimize.least_squares(resid, x0, bounds=(lo, hi), method="trf", x_scale="jac", diff_step=1e-3,
+    res = optimize.least_squares(resid, x0, bounds=(lo, hi), method="trf", x_scale="jac", diff_step=DIFF_STEP,
                                  xtol=1e-6, ftol=1e-8, max_nfev=100)
     return split(res.x)

@@ -71,8 +71,11 @@ class Diagnosis:
         return self.final_after / self.before if self.before > 0 else 0.0
 
     def warnings(self) -> list[str]:
-        """Verdict warnings: unexplained error beyond the pose noise."""
+        """Verdict warnings: unexplained error beyond the pose noise; input effects the measured
+        track speeds suggest in too few blocks of the log to establish them."""
         out = []
+        last = self.steps[-1].results if self.steps else []
+        out += [r.below_floor for r in last if r.below_floor and not r.passed]
         if self.unexplained > UNEXPLAINED and self.final_after > 2.0 * self.noise_floor:
             what = " with " + " + ".join(r.effect.name for r in self.chosen) if self.chosen else ""
             out.append(f"most of the error remains unexplained: the model{what} keeps {100 * self.unexplained:.0f} % "
