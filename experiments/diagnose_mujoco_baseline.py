@@ -1,30 +1,44 @@
 """``diagnose --baseline mujoco`` on MuJoCo logs with one hidden effect each: named and estimated?
 
-    python experiments/diagnose_mujoco_baseline.py [--duration 60] [--effects a,b] [--out FILE.json]
+    python experiments/diagnose_mujoco_baseline.py [--duration 60] [--hidden a,b] [--all] [--out FILE.json]
 
 Logs: tests/mujoco_effects.py (the MuJoCo robot with one hidden effect, seeded random step
 commands, 20 Hz, noisy poses; written without mjtrack.diagnose; the anisotropic ground there is
-its own implementation, not mjtrack.sim.ground). The diagnosis is given the nominal robot (with
-the generator's drive force limit, 600 N m at the 6 cm sprocket = 10 kN per track) and tests all
-its candidate effects. Printed per log: the cause, the estimate with its 95 % interval, whether
-the interval holds the truth, the held-out gain, the effects reported as tied with the cause,
-and the wall time. The machine's load average is printed (shared 2-core machine).
+its own implementation, not mjtrack.sim.ground), and a clean log. The diagnosis is given the
+nominal robot (with the generator's drive force limit, 600 N m at the 6 cm sprocket = 10 kN per
+track) and runs as ``mjtrack diagnose LOG --baseline mujoco`` does
+(:func:`mjtrack.diagnose.run.diagnose_simulation`: the surrogate pre-screens its 3 best effects,
+plus the two MuJoCo-only grounds; ``--all``: every MuJoCo candidate, no pre-screen), 5 folds.
+
+Printed per log: the cause, the hidden effect's estimate with its 95 % interval, whether the
+interval holds the truth, the held-out gain and its one-sided 95 % bound, the effects tied with
+it, the candidates MuJoCo fitted, and the wall time with the machine's load average (shared
+2-core machine). Then: the MuJoCo baseline's own error on an effect's size (RMS of |estimate -
+truth| / |truth - nominal| over the hidden effects: :data:`MODEL_REL` of
+mjtrack.diagnose.mujoco_baseline is set from it), and the intervals' coverage with the model
+term measured on the other nine effects only (leave one effect out: no effect's own error
+widens its own interval).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))  # the MuJoCo log generator lives with the tests
 
 from mujoco_effects import HIDDEN, ROBOT, make_log  # noqa: E402
-from mjtrack.diagnose.mujoco_baseline import diagnose_mujoco  # noqa: E402
+from mjtrack.diagnose import mujoco_baseline as mb  # noqa: E402
+from mjtrack.diagnose.run import diagnose_simulation  # noqa: E402
+from mjtrack.diagnose.stats import t_quantile  # noqa: E402
 from mjtrack.io.robot import Robot  # noqa: E402
 
 DRIVE_FORCE_LIMIT = 600.0 / ROBOT.sprocket_radius  # [N] the generator's drives (mujoco_effects.DRIVES)
@@ -35,69 +49,122 @@ def nominal_robot() -> Robot:
     return Robot.from_dict({**ROBOT.to_dict(), "drive_force_limit": DRIVE_FORCE_LIMIT})
 
 
-def run_one(effect: str | None, *, duration: float, seed: int, effects=None, n_folds: int = 4) -> dict:
+def truth_of(effect: str) -> tuple[str, float]:
+    """(estimate key, true value) of a hidden effect's first parameter."""
+    key = next(iter(HIDDEN[effect].params))
+    return ("lateral_ratio" if effect == "ground_anisotropy" else key), float(HIDDEN[effect].params[key])
+
+
+def run_one(effect: str | None, *, duration: float, seed: int, n_folds: int, screen: int | None) -> dict:
     lg, _ = make_log(effect, seed=seed, duration=duration)
     t0 = time.perf_counter()
-    d = diagnose_mujoco(lg, nominal_robot(), effects=effects, n_folds=n_folds)
+    d = diagnose_simulation(lg, nominal_robot(), n_folds=n_folds, screen=screen)
     wall = time.perf_counter() - t0
-    row = {"hidden": effect or "none", "cause": d.cause, "wall_s": wall, "windows": d.n_windows,
-           "before": d.before}
-    if effect is not None:
-        truth = HIDDEN[effect].params
-        match = next((c for c in d.findings if c.effect.name == effect), None)
-        cand = next((c for c in d.candidates if c.effect.name == effect), None)
-        if match is None and cand is not None:  # why the hidden effect was not a finding
-            row["missed"] = {"estimate": list(cand.estimate), "before": cand.before, "after": cand.after,
-                             "t": cand.t_stat, "decision": cand.why}
-            print(f"  ({effect} not a finding: estimate {list(cand.estimate)}, held-out {cand.before:.3g} -> "
-                  f"{cand.after:.3g} m, paired t {cand.t_stat:.2f}: {cand.why})", flush=True)
-        row["truth"] = truth
-        row["named"] = d.cause == effect or (match is not None and d.cause in match.tied_with)
-        if match is not None:
-            est = dict(zip(match.effect.params, match.estimate))
-            iv = dict(zip(match.effect.params, match.interval))
-            key = match.effect.params[0]
-            tkey = "lateral_ratio" if effect == "ground_anisotropy" else key
-            row.update(estimate=est, interval=iv, after=match.after, relative=match.relative,
-                       tied_with=match.tied_with,
-                       covered=bool(iv[key][0] <= truth[tkey] <= iv[key][1]),
-                       rel_error=abs(est[key] - truth[tkey]) / abs(truth[tkey]))
+    row = {"hidden": effect or "none", "cause": d.cause, "wall_s": wall, "load_average": os.getloadavg(),
+           "windows": d.n_windows, "blocks": d.n_blocks, "before": d.before,
+           "fitted": [c.effect.name for c in d.candidates], "screened": d.choice.get("screened_by_surrogate"),
+           "findings": [c.effect.name for c in d.findings], "timings_s": d.timings}
+    if effect is None:
+        return row
+    key, truth = truth_of(effect)
+    row["truth"] = {k: float(v) for k, v in HIDDEN[effect].params.items()}
+    c = next((c for c in d.candidates if c.effect.name == effect), None)
+    row["named"] = bool(c is not None and c.passed and (d.cause == effect or d.cause in c.tied_with))
+    if c is None:
+        return row
+    k0 = c.effect.params[0]
+    nominal = 0.0 if effect == "slope" else float(c.effect.nominal(nominal_robot(), lg))
+    est = float(c.estimate[0])
+    row.update(finding=bool(c.passed), decision=c.why, estimate=dict(zip(c.effect.params, c.estimate)),
+               interval=dict(zip(c.effect.params, c.interval)), after=c.after, relative=c.relative,
+               gain_lower=c.gain.lower, tied_with=c.tied_with, tie_notes=c.tie_notes,
+               se_stat=float(c.se_stat[0]), nominal=nominal, size=abs(est - nominal), n_blocks=d.n_blocks,
+               covered=bool(c.interval[0][0] <= truth <= c.interval[0][1]),
+               rel_error=abs(est - truth) / abs(truth), size_error=abs(est - truth) / abs(truth - nominal))
+    if effect == "slope":
+        row["direction_error"] = abs(math.remainder(float(c.estimate[1]) - HIDDEN[effect].params["slope_direction"],
+                                                    2 * math.pi))
     return row
+
+
+def summary(rows: list[dict]) -> dict:
+    """Model term (RMS size error), leave-one-effect-out coverage, error median / worst."""
+    hid = [r for r in rows if r["hidden"] != "none" and "size_error" in r]
+    out = {"named": sum(bool(r.get("named")) for r in rows if r["hidden"] != "none"),
+           "hidden": sum(r["hidden"] != "none" for r in rows),
+           "covered_statistical_and_model": sum(r["covered"] for r in hid),
+           "clean_cause": next((r["cause"] for r in rows if r["hidden"] == "none"), None)}
+    if not hid:
+        return out
+    errs = np.array([r["size_error"] for r in hid])
+    out["model_rel"] = float(np.sqrt(np.mean(errs ** 2)))
+    loo = []
+    for i, r in enumerate(hid):
+        rel = float(np.sqrt(np.mean(np.delete(errs, i) ** 2))) if len(hid) > 1 else 0.0
+        key, truth = truth_of(r["hidden"])
+        est = r["estimate"][next(iter(r["estimate"]))]
+        half = t_quantile(r["n_blocks"]) * math.hypot(r["se_stat"], rel * r["size"])
+        stat_half = t_quantile(r["n_blocks"]) * r["se_stat"]
+        loo.append({"hidden": r["hidden"], "model_rel_others": rel, "half_width": half,
+                    "covered": bool(abs(est - truth) <= half), "covered_statistical": bool(abs(est - truth) <= stat_half)})
+    out["leave_one_out"] = loo
+    out["covered_leave_one_out"] = sum(x["covered"] for x in loo)
+    out["covered_statistical_only"] = sum(x["covered_statistical"] for x in loo)
+    rel = sorted(r["rel_error"] for r in hid)
+    out["rel_error_median"], out["rel_error_worst"] = float(np.median(rel)), float(rel[-1])
+    out["worst"] = max(hid, key=lambda r: r["rel_error"])["hidden"]
+    return out
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--duration", type=float, default=60.0, help="seconds of driving per log (default 60)")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--hidden", default=None, help="comma-separated hidden effects (default: all, and a clean log)")
-    ap.add_argument("--effects", default=None, help="comma-separated candidate effects (default: all)")
+    ap.add_argument("--folds", type=int, default=5)
+    ap.add_argument("--hidden", default=None, help="comma-separated hidden effects, 'none' for the clean log "
+                                                   "(default: the clean log and all ten)")
+    ap.add_argument("--all", action="store_true", help="fit every MuJoCo candidate (no surrogate pre-screen)")
+    ap.add_argument("--merge", default=None, help="earlier results JSON whose rows are kept unless rerun here")
     ap.add_argument("--out", default=str(ROOT / "experiments" / "results" / "diagnose_mujoco_baseline.json"))
     args = ap.parse_args(argv)
-    hidden = args.hidden.split(",") if args.hidden else [None, *HIDDEN]
-    effects = args.effects.split(",") if args.effects else None
-    rows = []
-    print(f"{'hidden':<20} {'cause':<20} {'estimate [95 % interval]':<44} {'truth in':<8} {'gain':>6} {'s':>6}  tied")
+    hidden = args.hidden.split(",") if args.hidden else ["none", *HIDDEN]
+    rows = json.loads(Path(args.merge).read_text())["rows"] if args.merge else []
+    print(f"MODEL_REL in use {mb.MODEL_REL}; load average {os.getloadavg()}", flush=True)
+    print(f"{'hidden':<19} {'cause':<19} {'estimate [95 % interval]':<46} {'truth in':<8} {'gain (bound)':>13} "
+          f"{'s':>5} {'load':>5}  tied / fitted")
     for h in hidden:
-        h = None if h in (None, "none") else h
-        r = run_one(h, duration=args.duration, seed=args.seed, effects=effects)
-        rows.append(r)
+        r = run_one(None if h == "none" else h, duration=args.duration, seed=args.seed, n_folds=args.folds,
+                    screen=None if args.all else 3)
+        rows = [x for x in rows if x["hidden"] != r["hidden"]] + [r]
         est = ", ".join(f"{k}={v:.4g} [{r['interval'][k][0]:.4g}, {r['interval'][k][1]:.4g}]"
                         for k, v in r["estimate"].items()) if "estimate" in r else "-"
         cov = "-" if "covered" not in r else ("yes" if r["covered"] else "NO")
-        gain = f"{100 * r['relative']:.0f} %" if "relative" in r else "-"
-        print(f"{r['hidden']:<20} {r['cause']:<20} {est:<44} {cov:<8} {gain:>6} {r['wall_s']:6.0f}  "
-              f"{','.join(r.get('tied_with', []))}", flush=True)
-    named = [r for r in rows if r["hidden"] != "none"]
-    ok = sum(bool(r.get("named")) for r in named)
-    cov = sum(bool(r.get("covered")) for r in named)
-    errs = sorted(r["rel_error"] for r in named if "rel_error" in r)
-    print(f"named {ok}/{len(named)}; truth inside the interval {cov}/{len(named)}; "
-          f"relative estimate error median {errs[len(errs) // 2] if errs else float('nan'):.3f}, "
-          f"worst {errs[-1] if errs else float('nan'):.3f}; clean log cause: "
-          f"{next((r['cause'] for r in rows if r['hidden'] == 'none'), '-')}; load average {os.getloadavg()}")
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps({"duration_s": args.duration, "seed": args.seed, "rows": rows,
-                                          "load_average": os.getloadavg()}, indent=2, default=float) + "\n")
+        gain = f"{100 * r['relative']:.0f} % ({100 * r['gain_lower']:.0f})" if "relative" in r else "-"
+        mark = "" if r["hidden"] == "none" or r.get("named") else " NOT NAMED"
+        print(f"{r['hidden']:<19} {r['cause']:<19} {est:<46} {cov:<8} {gain:>13} {r['wall_s']:5.0f} "
+              f"{r['load_average'][0]:5.1f}  {','.join(r.get('tied_with', []))} / {','.join(r['fitted'])}{mark}",
+              flush=True)
+        if r["hidden"] != "none" and not r.get("named"):
+            print(f"    decision: {r.get('decision', 'not fitted (pre-screened out)')}", flush=True)
+        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.out).write_text(json.dumps({"duration_s": args.duration, "seed": args.seed, "folds": args.folds,
+                                              "all_candidates": args.all, "rows": rows,
+                                              "summary": summary(rows)}, indent=2, default=float) + "\n")
+    s = summary(rows)
+    print(f"named {s['named']}/{s['hidden']}; clean log cause: {s['clean_cause']}")
+    if "model_rel" in s:
+        print(f"relative estimate error median {s['rel_error_median']:.3f}, worst {s['rel_error_worst']:.3f} "
+              f"({s['worst']}); the baseline's own error on an effect's size (RMS over {len(s['leave_one_out'])} "
+              f"effects): {s['model_rel']:.3f}")
+        print(f"truth inside the 95 % interval: {s['covered_statistical_and_model']}/{len(s['leave_one_out'])} "
+              f"(MODEL_REL {mb.MODEL_REL}); with the model term measured on the other effects only "
+              f"{s['covered_leave_one_out']}/{len(s['leave_one_out'])}; statistical only "
+              f"{s['covered_statistical_only']}/{len(s['leave_one_out'])}")
+        for x in s["leave_one_out"]:
+            print(f"    {x['hidden']:<19} model term of the others {x['model_rel_others']:.3f}, half width "
+                  f"{x['half_width']:.4g}, covered {x['covered']} (statistical only {x['covered_statistical']})")
+    print(f"per-log wall time median {np.median([r['wall_s'] for r in rows]):.0f} s, max "
+          f"{max(r['wall_s'] for r in rows):.0f} s; load average now {os.getloadavg()}")
 
 
 if __name__ == "__main__":

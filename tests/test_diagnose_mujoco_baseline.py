@@ -2,8 +2,9 @@
 
 The logs come from tests/mujoco_effects.py (no code shared with mjtrack.diagnose; its anisotropic
 ground is its own implementation, not mjtrack.sim.ground). Default: the hidden ground extension
-among three candidates on a 40 s log (~30 s on a loaded 2-core machine); slow: every hidden
-effect against every candidate (experiments/diagnose_mujoco_baseline.py prints the same table).
+among three candidates on a 40 s log (~30 s on a loaded 2-core machine), the blocks of the
+finding test on a segmented log, and a clean log (no cause); slow: every hidden effect against
+every candidate (experiments/diagnose_mujoco_baseline.py --all prints the same table).
 """
 
 from __future__ import annotations
@@ -13,9 +14,13 @@ import json
 import pytest
 
 from mujoco_effects import HIDDEN, ROBOT, make_log
-from mjtrack.diagnose.mujoco_baseline import can_build, diagnose_mujoco, write_mujoco_outputs
+import numpy as np
+
+from mjtrack.diagnose.mujoco_baseline import _Scoring, can_build, diagnose_mujoco, write_mujoco_outputs
 from mjtrack.errors import InputError
+from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
+from mjtrack.sim.windows import make_windows
 
 NOMINAL = Robot.from_dict({**ROBOT.to_dict(), "drive_force_limit": 600.0 / ROBOT.sprocket_radius})
 
@@ -44,6 +49,68 @@ def test_hidden_ground_extension_is_found_and_estimated(tmp_path):
     assert "<table>" in (tmp_path / "report.html").read_text()
 
 
+def _segmented_log(lengths_s, dt=0.05):
+    t, win, t0 = [], [], 0.0
+    for k, n in enumerate(lengths_s):
+        tk = t0 + np.arange(0.0, n + 1e-9, dt)
+        t.append(tk)
+        win.append(np.full(tk.size, k))
+        t0 = tk[-1] + 5.0  # a gap between segments
+    t = np.concatenate(t)
+    z = np.zeros(t.size)
+    return DriveLog.from_columns({"t": t, "v_left_cmd": z, "v_right_cmd": z, "x": z, "y": z, "yaw": z,
+                                  "window": np.concatenate(win)})
+
+
+def test_scoring_blocks_keep_segments_and_folds_whole():
+    # short segments (one 2 s window each, as in the Marmotte log) and long ones (many windows)
+    lg = _segmented_log([2.0] * 9 + [30.0, 2.0, 2.0, 20.0])
+    ws = make_windows(lg, 2.0)
+    ok = np.ones(len(ws), bool)
+    ok[3] = False  # a diverged baseline window: never drawn
+    sc = _Scoring.of(lg, ws, 4, ok, seed=0)
+    for b in np.unique(sc.block):  # a block is part of one segment, or whole segments pooled
+        segs = np.unique(ws.segment[sc.block == b])
+        if segs.size > 1:
+            assert all(np.all(sc.block[ws.segment == g] == b) for g in segs)
+    for g in np.unique(ws.segment):  # 13 segments >= 2 x 4 folds: folds are whole segments
+        assert np.unique(sc.fold[ws.segment == g]).size == 1
+    assert np.unique(sc.block[ws.segment == 9]).size >= 3  # 30 s: blocks of >= 3 horizons
+    assert np.all(np.diff(sc.fold) >= 0) and np.unique(sc.fold).size == 4
+    assert sc.n_blocks == np.unique(sc.block[ok]).size
+    assert all(3 not in d for d in sc.draws)
+    sizes = {len(d) for d in sc.draws}
+    assert len(sizes) > 1  # blocks of unequal size: the replicates' sizes vary
+    again = _Scoring.of(lg, ws, 4, ok, seed=0)
+    assert all(np.array_equal(a, b) for a, b in zip(sc.draws, again.draws))  # seeded
+
+
+def test_clean_log_gives_no_cause():
+    # the finding test must hold on a log with nothing hidden (2 candidates, 30 s, 5 folds; the
+    # experiment's clean 60 s log tests every candidate)
+    lg, _ = make_log(None, seed=4, duration=30.0)
+    d = diagnose_mujoco(lg, NOMINAL, effects=["friction_scale", "command_delay"])
+    assert d.cause == "none", d.summary()
+    assert all(not c.passed and c.gain.blocks >= 4 for c in d.candidates)
+    assert "cause: none" in d.summary()
+
+
+def test_grids_extend_a_calibrated_robot():
+    # a calibrated drivetrain is the "no effect" value: lag and dead time are added to it, the speed
+    # scale and centre of mass are searched around it (not reset to an ideal robot's)
+    from mjtrack.diagnose.mujoco_baseline import EFFECTS
+
+    cal = Robot.from_dict({**NOMINAL.to_dict(), "drive_delay": 0.42, "drive_lag": 0.08, "track_speed_scale": 0.95,
+                           "cg_x": 0.03})
+    lg, _ = make_log(None, seed=0, duration=4.0)
+    for name, own in (("command_delay", 0.42), ("actuator_lag", 0.08), ("track_speed_scale", 0.95),
+                      ("cg_offset_x", 0.03)):
+        grid, nominal = EFFECTS[name].grid(cal, lg), EFFECTS[name].nominal(cal, lg)
+        assert nominal == pytest.approx(own) and np.any(np.isclose(grid, own)), name
+    assert EFFECTS["command_delay"].grid(cal, lg).min() == pytest.approx(0.42)
+    assert EFFECTS["track_speed_scale"].grid(cal, lg).min() < 0.95 < EFFECTS["track_speed_scale"].grid(cal, lg).max()
+
+
 def test_can_build_needs_the_contact_length():
     ok, why = can_build(Robot.from_dict({"track_gauge": 0.59}))
     assert not ok and "track_length" in why
@@ -63,7 +130,7 @@ def test_too_few_windows_is_refused():
 @pytest.mark.parametrize("effect", sorted(HIDDEN))
 def test_every_hidden_effect_is_named_and_estimated(effect):
     lg, _ = make_log(effect, seed=1, duration=60.0)
-    d = diagnose_mujoco(lg, NOMINAL, n_folds=4)
+    d = diagnose_mujoco(lg, NOMINAL)  # every candidate, 5 folds (the experiment's --all run)
     found = {c.effect.name: c for c in d.findings}
     assert effect in found, f"cause {d.cause}, findings {list(found)}"
     assert d.cause == effect or d.cause in found[effect].tied_with
@@ -71,8 +138,9 @@ def test_every_hidden_effect_is_named_and_estimated(effect):
     c = found[effect]
     key = "lateral_ratio" if effect == "ground_anisotropy" else c.effect.params[0]
     lo, hi = c.interval[0]
-    # the interval is statistical only; allow the grid's parabola 10 % of the truth beyond it
-    assert lo - 0.1 * abs(truth[key]) <= truth[key] <= hi + 0.1 * abs(truth[key])
+    # the interval carries the baseline's own error (MODEL_REL, measured on these logs; the experiment
+    # checks coverage with the value measured on the other nine effects only)
+    assert lo <= truth[key] <= hi
 
 
 def _write(tmp_path, robot_dict, *, effect="cg_offset_x", duration=30.0):

@@ -25,7 +25,7 @@ from scipy import optimize
 
 from mjtrack.diagnose.effects import Effect, Surrogate
 from mjtrack.diagnose.residuals import DriveData, window_errors
-from mjtrack.diagnose.stats import sandwich
+from mjtrack.diagnose.stats import pos_rmse, sandwich  # noqa: F401  (pos_rmse: fit.pos_rmse for callers)
 
 log = logging.getLogger(__name__)
 
@@ -112,11 +112,6 @@ def errors(problem: Problem, effect: Effect | None, theta, windows: np.ndarray, 
     """Window errors (W, 3) (along, across [m], yaw [rad]) of baseline + effect on ``windows``."""
     tw = twist(problem, effect, theta, drive=drive)
     return window_errors(tw, problem.dt, problem.data.poses, problem.starts[windows], problem.ends[windows])
-
-
-def pos_rmse(err: np.ndarray) -> float:
-    """RMS position error [m] of window errors (W, 3)."""
-    return float(np.sqrt(np.mean(err[:, 0] ** 2 + err[:, 1] ** 2))) if err.size else float("nan")
 
 
 def speed_residuals(problem: Problem, effect: Effect, theta, samples: np.ndarray) -> np.ndarray:

@@ -124,13 +124,6 @@ def noise_floor(data: rs.DriveData) -> float:
     return 2.0 * sigma
 
 
-def _folds(data: rs.DriveData, n_folds: int) -> np.ndarray:
-    nseg = int(data.seg[-1]) + 1
-    if nseg >= 2 * n_folds:
-        return (data.seg * n_folds) // nseg
-    return (np.arange(data.n) * n_folds) // data.n
-
-
 def _concat(a: rs.DriveData, b: rs.DriveData) -> rs.DriveData:
     meas = None
     if a.meas is not None or b.meas is not None:
@@ -235,7 +228,7 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n
         sample_fold = np.r_[np.ones(train_data.n, dtype=np.int64), np.zeros(test_data.n, dtype=np.int64)]
         n_folds_used = 2
     else:
-        sample_fold = _folds(data, n_folds)
+        sample_fold = st.contiguous_folds(data.n, n_folds, data.seg)
         n_folds_used = n_folds
     if rs.windows(data.t, data.seg, horizon_s)[0].size == 0:
         longest = max(float(data.t[data.seg == k][-1] - data.t[data.seg == k][0]) for k in np.unique(data.seg))

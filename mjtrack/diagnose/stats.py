@@ -35,6 +35,20 @@ from scipy import stats
 N_BOOT = 2000
 
 
+def pos_rmse(err: np.ndarray) -> float:
+    """RMS position error [m] of window errors (W, 3) (along, across, yaw)."""
+    return float(np.sqrt(np.mean(err[:, 0] ** 2 + err[:, 1] ** 2))) if err.size else float("nan")
+
+
+def contiguous_folds(n: int, n_folds: int, group: np.ndarray | None = None) -> np.ndarray:
+    """Fold (n,) of n items in time order, ``n_folds`` contiguous folds: whole groups (segments,
+    ids 0..G-1 in order) when there are at least 2 n_folds of them, else equal runs of items."""
+    if group is not None and group.size:
+        n_groups = int(group[-1]) + 1
+        if n_groups >= 2 * n_folds:
+            return (np.asarray(group) * n_folds) // n_groups
+    return (np.arange(n) * n_folds) // n
+
 
 def sample_blocks(t: np.ndarray, seg: np.ndarray, horizon_s: float, *, min_fraction: float = 0.01) -> np.ndarray:
     """Block id (N,) of every sample (module docstring): consecutive samples, at least
@@ -68,7 +82,8 @@ def sample_blocks(t: np.ndarray, seg: np.ndarray, horizon_s: float, *, min_fract
     return np.unique(out, return_inverse=True)[1]
 
 
-def _boot_counts(n_blocks: int, n_boot: int, seed: int) -> np.ndarray:
+def boot_counts(n_blocks: int, n_boot: int, seed: int) -> np.ndarray:
+    """(n_boot, n_blocks) how often each block is drawn in each bootstrap replicate (seeded)."""
     rng = np.random.default_rng(seed)
     idx = rng.integers(0, n_blocks, size=(n_boot, n_blocks))
     flat = (idx + n_blocks * np.arange(n_boot)[:, None]).ravel()
@@ -98,7 +113,7 @@ def gain_test(before_sq: np.ndarray, after_sq: np.ndarray, block: np.ndarray, *,
     sb = np.bincount(inv, weights=before_sq, minlength=ids.size)
     sa = np.bincount(inv, weights=after_sq, minlength=ids.size)
     rel = 1.0 - np.sqrt(sa.sum() / sb.sum()) if sb.sum() > 0 else 0.0
-    w = _boot_counts(ids.size, n_boot, seed)
+    w = boot_counts(ids.size, n_boot, seed)
     b, a = w @ sb, w @ sa
     reps = 1.0 - np.sqrt(a / np.where(b > 0, b, 1.0))
     lo, hi = np.quantile(reps, [1.0 - level, level])
@@ -112,7 +127,7 @@ def difference_test(before_sq: np.ndarray, a_sq: np.ndarray, b_sq: np.ndarray, b
     ids, inv = np.unique(block, return_inverse=True)
     s0, sa, sb = (np.bincount(inv, weights=np.asarray(x, float), minlength=ids.size) for x in (before_sq, a_sq, b_sq))
     d = (np.sqrt(sb.sum()) - np.sqrt(sa.sum())) / np.sqrt(s0.sum())
-    w = _boot_counts(ids.size, n_boot, seed)
+    w = boot_counts(ids.size, n_boot, seed)
     r0 = np.sqrt(w @ s0)
     reps = (np.sqrt(w @ sb) - np.sqrt(w @ sa)) / np.where(r0 > 0, r0, 1.0)
     q = (1.0 - level) / 2
@@ -139,4 +154,4 @@ def t_quantile(n_blocks: int, level: float = 0.975) -> float:
     return float(stats.t.ppf(level, max(n_blocks - 1, 1)))
 
 
-__all__ = ["sample_blocks", "GainTest", "gain_test", "difference_test", "sandwich", "t_quantile"]
+__all__ = ["pos_rmse", "contiguous_folds", "boot_counts", "sample_blocks", "GainTest", "gain_test", "difference_test", "sandwich", "t_quantile"]
