@@ -162,9 +162,11 @@ def _multistart(obj: Objective, z0: np.ndarray) -> tuple[np.ndarray, list[tuple[
 
 
 def fit(obj: Objective, start: dict[str, float], *, max_iter: int = 8, multistart: bool = True,
-        on_iter: Callable[[int, float], None] | None = None, mu_min: float = LM_MU_MIN,
-        mu_factor: float = LM_MU_FACTOR) -> FitResult:
-    """Fit ``obj.names`` from ``start`` (physical values); see the module docstring."""
+        on_iter: Callable[[int, float], None] | None = None, mu_min: float | None = None,
+        mu_factor: float | None = None) -> FitResult:
+    """Fit ``obj.names`` from ``start`` (physical values); see the module docstring.
+    ``mu_min`` / ``mu_factor``: Levenberg-Marquardt damping (default :data:`LM_MU_MIN`,
+    :data:`LM_MU_FACTOR`, read at call time)."""
     import mujoco.sysid as sysid
 
     t0 = time.perf_counter()
@@ -191,8 +193,9 @@ def fit(obj: Objective, start: dict[str, float], *, max_iter: int = 8, multistar
             on_iter(len(trace), float(trace[-1].objective))
 
     opt, result = sysid.optimize(pdict, residual_fn, optimizer="mujoco", verbose=False, max_iters=max_iter,
-                                 eps=FD_EPS, iter_callback=callback, output=io.StringIO(), mu_min=mu_min,
-                                 mu_factor=mu_factor)
+                                 eps=FD_EPS, iter_callback=callback, output=io.StringIO(),
+                                 mu_min=LM_MU_MIN if mu_min is None else mu_min,
+                                 mu_factor=LM_MU_FACTOR if mu_factor is None else mu_factor)
     z = opt.as_vector()
     r = obj.residuals(z)
     J = np.asarray(result.jac)
