@@ -43,6 +43,15 @@ log = logging.getLogger(__name__)
 CHECKPOINTS = (0.25, 0.5, 0.75, 1.0)  # fractions of a window at which the pose error counts
 DIVERGED_RESIDUAL = 3.0  # [m] residual of a window whose simulation blew up
 FD_EPS = 0.05  # finite-difference step in units of a parameter's typical change (ParamSpec.scale)
+# Levenberg-Marquardt damping after a rejected step (mujoco.minimize.least_squares). Its defaults
+# (mu from 0 to 1e-6, then x1.26 per rejection) suit cheap residuals; here one residual is a pass
+# over every window, and on the Marmotte log the first Gauss-Newton step (a near-degenerate
+# direction: cg_y against a short contact) was rejected 30 times in a row, each rejection a full
+# pass, while mu crept up to 1e-3. Damping of 1e-3 of the scaled Hessian's order (the cost is a
+# mean over windows in m^2, parameters in units of their typical change) and x10 per rejection
+# (the classic Levenberg-Marquardt factor) reach it in 2-3 passes. experiments/bench_calibrate.py.
+LM_MU_MIN = 1e-3
+LM_MU_FACTOR = 10.0
 
 
 @dataclass
@@ -153,8 +162,11 @@ def _multistart(obj: Objective, z0: np.ndarray) -> tuple[np.ndarray, list[tuple[
 
 
 def fit(obj: Objective, start: dict[str, float], *, max_iter: int = 8, multistart: bool = True,
-        on_iter: Callable[[int, float], None] | None = None) -> FitResult:
-    """Fit ``obj.names`` from ``start`` (physical values); see the module docstring."""
+        on_iter: Callable[[int, float], None] | None = None, mu_min: float | None = None,
+        mu_factor: float | None = None) -> FitResult:
+    """Fit ``obj.names`` from ``start`` (physical values); see the module docstring.
+    ``mu_min`` / ``mu_factor``: Levenberg-Marquardt damping (default :data:`LM_MU_MIN`,
+    :data:`LM_MU_FACTOR`, read at call time)."""
     import mujoco.sysid as sysid
 
     t0 = time.perf_counter()
@@ -181,7 +193,9 @@ def fit(obj: Objective, start: dict[str, float], *, max_iter: int = 8, multistar
             on_iter(len(trace), float(trace[-1].objective))
 
     opt, result = sysid.optimize(pdict, residual_fn, optimizer="mujoco", verbose=False, max_iters=max_iter,
-                                 eps=FD_EPS, iter_callback=callback, output=io.StringIO())
+                                 eps=FD_EPS, iter_callback=callback, output=io.StringIO(),
+                                 mu_min=LM_MU_MIN if mu_min is None else mu_min,
+                                 mu_factor=LM_MU_FACTOR if mu_factor is None else mu_factor)
     z = opt.as_vector()
     r = obj.residuals(z)
     J = np.asarray(result.jac)
