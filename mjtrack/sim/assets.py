@@ -17,7 +17,7 @@ import mujoco
 
 from mjtrack.io.atomic import atomic_write_text
 from mjtrack.io.robot import Robot
-from mjtrack.sim.builder import ROLLER_CHAIN, build_spec
+from mjtrack.sim.builder import ROLLER_CHAIN, build_model, build_spec
 from mjtrack.sim.chassis import add_scene
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.terrain import FLOOR_FRICTION
@@ -31,6 +31,10 @@ def asset_texts(robot: Robot | None = None, config: SimConfig | None = None) -> 
     config = config or SimConfig()
     robot_xml = build_spec(robot, config).to_xml()
     scene = add_scene(build_spec(robot, config), robot, config, tracks=ROLLER_CHAIN)
+    # the compiled model's margins: the builder adds the rollers' rest penetrations after compiling
+    # (mjtrack.sim.builder.apply_rest_margins)
+    model = build_model(robot, config)
+    margin = {model.pair(i).name: float(model.pair_margin[i]) for i in range(model.npair)}
     lines = ['<mujoco model="tracked_robot_scene">', '  <include file="robot.xml"/>', "",
              '  <visual>', '    <headlight diffuse="0.6 0.6 0.6" ambient="0.3 0.3 0.3"/>', '  </visual>', "",
              "  <worldbody>",
@@ -42,7 +46,7 @@ def asset_texts(robot: Robot | None = None, config: SimConfig | None = None) -> 
         lines.append(
             f'    <pair name="{p.name}" geom1="{p.geomname1}" geom2="{p.geomname2}" condim="{p.condim}" '
             f'friction="{_vec(p.friction)}" solref="{_vec(p.solref)}" solreffriction="{_vec(p.solreffriction)}" '
-            f'solimp="{_vec(p.solimp)}" margin="{_fmt(p.margin)}"/>'
+            f'solimp="{_vec(p.solimp)}" margin="{_fmt(margin.get(p.name, p.margin))}"/>'
         )
     lines += ["  </contact>", "</mujoco>", ""]
     return {"robot.xml": robot_xml, "scene.xml": "\n".join(lines)}

@@ -154,6 +154,61 @@ class RollerChain(TrackModel):
     def finish_spec(self, spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> mujoco.MjSpec:
         return apply_ground(spec, robot, config)  # the robot's ground model (mjtrack.sim.ground)
 
+    def finish_model(self, model: mujoco.MjModel, config: SimConfig) -> mujoco.MjModel:
+        if config.rest_margin:
+            apply_rest_margins(model)
+        return model
+
+
+REST_SETTLE_S = 0.5  # [s] at rest before the penetrations are read (as rollout.settled_state)
+
+
+def apply_rest_margins(model: mujoco.MjModel) -> np.ndarray:
+    """Move each roller's contact point to the roller radius at rest (in place): every contact
+    pair of roller ``roller_<side>_<i>`` gets its rest penetration added to its margin; returns
+    the penetrations [m], one per pair (0 for pairs of other elements, e.g. idlers).
+
+    Why: MuJoCo puts a sphere-plane (and capsule-plane) contact point half-way into the
+    penetration d, at r - d/2 from the roller's axis, so a roller turning at V/r moves its
+    contact point at V (1 - d/(2r)) while its drive and the track-speed sensor see V. The soft
+    contacts (time constant 2 dt) let the default robot rest d = 0.06 mm deep: its straight-line
+    speed fell 0.10 % short of the track speed, and in gentle turns, whose track slips are
+    0.5-2 mm/s, the 0.1-0.3 mm/s offset moved the ICRs by up to 0.4 T/2 (R 10 m;
+    assets/README.md, "Gentle turns"). A margin moves where the contact starts, not the
+    constraint's rest position r = dist - margin (same rest forces): with the depth as margin the
+    roller rests with its surface on the ground and the contact point at radius r. Loads that
+    change in motion (load transfer, the friction of a turn) still move it by a fraction of d.
+
+    The depth is read after :data:`REST_SETTLE_S` at rest with zero command from the model's
+    initial state, as ``margin - dist`` (the constraint's own violation, which a margin does not
+    change), and becomes the pair's margin (replacing ``SimConfig.contact_margin``): calling this
+    again, or after a change of the centre of mass in the model's fields, gives the margins of a
+    fresh build. A roller out of contact at rest (terrain) gets the mean depth of its track's
+    touching rollers.
+    """
+    data = mujoco.MjData(model)
+    for _ in range(max(1, int(round(REST_SETTLE_S / model.opt.timestep)))):
+        mujoco.mj_step(model, data)
+    roller = {g: model.geom(g).name for g in range(model.ngeom) if model.geom(g).name.startswith("roller_")}
+    depth: dict[int, float] = {}
+    for i in range(data.ncon):
+        c = data.contact[i]
+        for g in (c.geom1, c.geom2):
+            if g in roller:
+                depth[g] = max(depth.get(g, 0.0), float(c.includemargin - c.dist))
+    for side in ("left", "right"):
+        touching = [v for g, v in depth.items() if roller[g].startswith(f"roller_{side}_")]
+        for g, name in roller.items():
+            if name.startswith(f"roller_{side}_") and g not in depth:
+                depth[g] = float(np.mean(touching)) if touching else 0.0
+    out = np.zeros(model.npair)
+    for p in range(model.npair):
+        for g in (model.pair_geom1[p], model.pair_geom2[p]):
+            if g in depth:
+                out[p] = depth[g]
+                model.pair_margin[p] = depth[g]
+    return out
+
 
 ROLLER_CHAIN = RollerChain()
 

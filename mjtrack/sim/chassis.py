@@ -124,7 +124,7 @@ class TrackModel:
         """Last changes to the robot + scene spec before compiling (e.g. the ground model)."""
         return spec
 
-    def finish_model(self, model: mujoco.MjModel) -> mujoco.MjModel:
+    def finish_model(self, model: mujoco.MjModel, config: SimConfig) -> mujoco.MjModel:
         """Last changes to the compiled model."""
         return model
 
@@ -221,4 +221,5 @@ def build_robot_scene(robot: Robot, config: SimConfig | None, tracks: TrackModel
 def build_robot_model(robot: Robot, config: SimConfig | None, tracks: TrackModel,
                       terrain: Terrain | None = None) -> mujoco.MjModel:
     """Compiled robot + terrain (default flat)."""
-    return tracks.finish_model(build_robot_scene(robot, config, tracks, terrain).compile())
+    config = tracks.configure(robot, config or tracks.default_config())
+    return tracks.finish_model(build_robot_scene(robot, config, tracks, terrain).compile(), config)

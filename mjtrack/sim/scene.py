@@ -82,6 +82,7 @@ def apply_solver_options(spec: mujoco.MjSpec, config: SimConfig) -> mujoco.MjOpt
     opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC if config.cone == "elliptic" else mujoco.mjtCone.mjCONE_PYRAMIDAL
     opt.impratio = config.impratio
     opt.noslip_iterations = config.noslip_iterations
+    opt.noslip_tolerance = config.noslip_tolerance
     opt.iterations = config.iterations
     opt.tolerance = config.tolerance
     opt.solver = {"Newton": mujoco.mjtSolver.mjSOL_NEWTON, "PGS": mujoco.mjtSolver.mjSOL_PGS,

@@ -162,7 +162,7 @@ class SurfacevelTracks(TrackModel):
         # friction_timeconst 0: the friction rows use the contact solref (MuJoCo's [0, 0] default)
         return [config.friction_timeconst, 1.0] if config.friction_timeconst > 0 else [0.0, 0.0]
 
-    def finish_model(self, model: mujoco.MjModel) -> mujoco.MjModel:
+    def finish_model(self, model: mujoco.MjModel, config: SimConfig) -> mujoco.MjModel:
         model.flg_surfacevel = 1
         return model
 

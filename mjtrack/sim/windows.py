@@ -46,7 +46,7 @@ from mjtrack.errors import InputError
 from mjtrack.geometry import relative_pose, wrap_angle, world_to_body_velocity
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
-from mjtrack.sim.builder import build_model, control_matrix
+from mjtrack.sim.builder import apply_rest_margins, build_model, control_matrix
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.rollout import STATE_SPEC, SensorMap, settled_state, yaw_of
 
@@ -276,6 +276,8 @@ class WindowSim:
             # quantities the compiler derives from the mass distribution (constraint scaling
             # through body_invweight0 / dof_invweight0): recomputed as a rebuild would
             mujoco.mj_setConst(m, mujoco.MjData(m))
+            if self.config.track_model == "rollers" and self.config.rest_margin:
+                apply_rest_margins(m)  # the rest penetrations follow the loads, as a rebuild's
         lag = params.get("drive_lag")
         if lag is not None:
             if lag < 0:

@@ -1,0 +1,203 @@
+"""Why the roller chain misses Coulomb in gentle turns (issue 11's wider grid), measured.
+
+    python experiments/gentle_turns.py [--out experiments/results/gentle_turns.json]
+
+In a turn of radius R at speed v the tracks slip by |w| (y - T/2) longitudinally and |w| x
+laterally: at R 10 m and 0.2 m/s for the 5 kg, T 0.2 / L 0.4 m robot of the wide grid that is
+0.5-2 mm/s, so the ICRs y = (v_x - V)/w move by 0.05 T/2 (5 mm) for a velocity error of
+0.1 mm/s. Each section isolates one candidate cause on that robot (cg 0.1 L forward, turning
+left, forward) and on the 80 kg issue-11 robot, with steady states as ``experiments/fidelity.py``
+measures them (3 s settle, 2 s mean, ICRs from the measured track speeds, Coulomb reference with
+load transfer at those speeds):
+
+1. **Is the friction Coulomb at each contact?** After the settle, for every roller contact:
+   |f_t| / (mu f_n) and the cosine between the friction force and the contact point's slip
+   velocity (relative to the ground, from the roller body's velocity at the contact point).
+2. **Time step or contact softness?** ICR error at dt 5, 2.5, 1.25 ms, and at dt 2.5 ms with
+   the contact (normal) and friction time constants held at 2 x 5 ms (``contact_timeconst``,
+   ``friction_timeconst``): if the error follows the time constants, it is the soft contact.
+3. **Where the contact point sits.** MuJoCo puts a sphere-plane contact half-way into the
+   penetration, at r - d/2 from the roller axis, so the ground sees a roller turning at w_r
+   move at w_r (r - d/2) while the track-speed sensor reports w_r r. Printed: the mean of
+   w_r (r + dist/2) minus the mean of w_r r per track (the belt-speed offset the ground sees),
+   the straight-line speed error |v_x - V| / V, and the ICR error, without and with the rest
+   margins (``SimConfig.rest_margin``, :func:`mjtrack.sim.builder.apply_rest_margins`).
+4. **What is left with the margins.** The penetration of each roller in the turn (with margins
+   it is 0 at rest) and the spread of the rollers' surface speeds along a track (servo
+   compliance F_i / (kv/N)).
+
+About 1 min on one core.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fidelity import commands_for, wide_robots  # noqa: E402
+
+from mjtrack.models.coulomb import steady_state as coulomb  # noqa: E402
+from mjtrack.sim.builder import build_model, control_matrix  # noqa: E402
+from mjtrack.sim.config import SimConfig  # noqa: E402
+from mjtrack.sim.rollout import STATE_SPEC, drive_log, settled_state  # noqa: E402
+from mjtrack.sim.steady import steady_batch  # noqa: E402
+
+ROBOTS = ("5kg_long", "80kg_issue11")
+TURNS = ((5.0, 0.2), (10.0, 0.2), (10.0, 2.0))  # (R [m], v [m/s])
+
+
+def robot_of(name: str):
+    r = wide_robots()[name]
+    return r.replace(cg_x=0.1 * r.track_length)
+
+
+def icr_errors(name: str, config: SimConfig) -> list[dict]:
+    """|dy| / (T/2) and |dx_c| / L against Coulomb for the TURNS (left, forward)."""
+    robot = robot_of(name)
+    cmds = np.array([commands_for(robot, R, v, 1, 1) for R, v in TURNS])
+    res = steady_batch([robot] * len(TURNS), cmds, config=config)
+    out = []
+    for (R, v), s in zip(TURNS, res):
+        ref = coulomb(robot, s.v_left, s.v_right)
+        out.append({"R": R, "v": v, "err_y": max(abs(s.y_l - ref.y_l), abs(s.y_r - ref.y_r)) / (robot.track_gauge / 2),
+                    "err_x": abs(s.x_c - ref.x_c) / robot.track_length, "y_l": s.y_l, "y_r": s.y_r,
+                    "ref_y_l": ref.y_l, "ref_y_r": ref.y_r})
+    return out
+
+
+def _turning(name: str, config: SimConfig, R: float, v: float):
+    robot = robot_of(name)
+    model = build_model(robot, config)
+    data = mujoco.MjData(model)
+    mujoco.mj_setState(model, data, settled_state(model), STATE_SPEC)
+    data.ctrl[:] = control_matrix(model) @ np.array(commands_for(robot, R, v, 1, 1))
+    for _ in range(int(round(3.0 / model.opt.timestep))):
+        mujoco.mj_step(model, data)
+    return robot, model, data
+
+
+def _roller_of(model, c) -> str:
+    return next(model.geom(g).name for g in (c.geom1, c.geom2) if model.geom(g).name.startswith("roller_"))
+
+
+def contact_friction(name: str, R: float = 10.0, v: float = 0.2) -> dict:
+    """Section 1: per-contact saturation and alignment with the slip, after the settle."""
+    robot, model, data = _turning(name, SimConfig(), R, v)
+    mujoco.mj_step(model, data)
+    sat, cosines, slips = [], [], []
+    f6, vel = np.zeros(6), np.zeros(6)
+    for i in range(data.ncon):
+        c = data.contact[i]
+        body = model.geom_bodyid[c.geom1] if model.geom_bodyid[c.geom1] != 0 else model.geom_bodyid[c.geom2]
+        mujoco.mj_contactForce(model, data, i, f6)
+        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, body, vel, 0)
+        vp = vel[3:] + np.cross(vel[:3], c.pos - data.xipos[body])  # contact point of the roller, world
+        slip = (c.frame.reshape(3, 3) @ vp)[1:]
+        ft = f6[1:3]
+        mu = robot.mu
+        sat.append(float(np.linalg.norm(ft) / (mu * f6[0])))
+        cosines.append(float(ft @ slip / (np.linalg.norm(ft) * np.linalg.norm(slip) + 1e-15)))
+        slips.append(float(1000 * np.linalg.norm(slip)))
+    return {"R": R, "v": v, "saturation_min": min(sat), "saturation_max": max(sat),
+            "cos_friction_slip_max": max(cosines), "slip_mm_s_min": min(slips), "slip_mm_s_max": max(slips)}
+
+
+def belt_offsets(name: str, config: SimConfig, R: float = 10.0, v: float = 0.2) -> dict:
+    """Section 3/4: belt-speed offset the ground sees, in-turn penetrations, roller spread."""
+    _, model, data = _turning(name, config, R, v)
+    r = config.roller_radius
+    n = config.n_rollers
+    spin = {s: np.zeros(n) for s in ("left", "right")}
+    dist = {s: np.zeros(n) for s in ("left", "right")}
+    steps = int(round(1.0 / model.opt.timestep))
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+        d = {}
+        for i in range(data.ncon):
+            d[_roller_of(model, data.contact[i])] = data.contact[i].dist
+        for s in spin:
+            spin[s] += np.array([data.joint(f"roll_{s}_{i}").qvel[0] for i in range(n)]) / steps
+            dist[s] += np.array([d.get(f"roller_{s}_{i}", np.nan) for i in range(n)]) / steps
+    out = {}
+    for s in spin:
+        seen = np.mean(spin[s] * (r + dist[s] / 2))
+        reported = np.mean(spin[s] * r)
+        surf = 1000 * spin[s] * r
+        out[s] = {"belt_offset_mm_s": float(1000 * (seen - reported)),
+                  "dist_um_min": float(1e6 * np.min(dist[s])), "dist_um_max": float(1e6 * np.max(dist[s])),
+                  "roller_speed_spread_mm_s": float(np.ptp(surf))}
+    return out
+
+
+def straight_speed_error(config: SimConfig, v: float = 0.8) -> float:
+    from mjtrack.io.robot import Robot
+
+    log = drive_log(Robot(), (np.array([0.0]), np.array([v]), np.array([v])), duration=5.0, config=config)
+    k = log.t >= 2.0
+    V = float(np.mean(log.v_left[k] + log.v_right[k]) / 2)
+    return float(abs(np.mean(log.vx[k]) - V) / V)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", type=Path, default=Path("experiments/results/gentle_turns.json"))
+    args = p.parse_args(argv)
+    print(f"load average before: {os.getloadavg()}")
+    doc: dict = {"turns": TURNS, "robots": ROBOTS}
+
+    print("\n1. friction at each roller contact (5 kg, R 10 m, 0.2 m/s, margins on)")
+    doc["contact_friction"] = cf = contact_friction("5kg_long")
+    print(f"   |f_t|/(mu f_n) {cf['saturation_min']:.4f}-{cf['saturation_max']:.4f}; cos(friction, slip) <= "
+          f"{cf['cos_friction_slip_max']:+.4f}; slips {cf['slip_mm_s_min']:.2f}-{cf['slip_mm_s_max']:.2f} mm/s")
+
+    print("\n2./3. ICR error |dy|/(T/2) per turn (R m, v m/s) -- time step, contact softness, rest margins")
+    variants = {
+        "dt 5 ms, no margins": SimConfig(rest_margin=False),
+        "dt 2.5 ms, no margins": SimConfig(rest_margin=False, timestep=0.0025),
+        "dt 1.25 ms, no margins": SimConfig(rest_margin=False, timestep=0.00125),
+        "dt 2.5 ms, contact+friction tc 10 ms, no margins": SimConfig(rest_margin=False, timestep=0.0025,
+                                                                     contact_timeconst=0.01, friction_timeconst=0.01),
+        "dt 2.5 ms, contact tc 10 ms, no margins": SimConfig(rest_margin=False, timestep=0.0025, contact_timeconst=0.01),
+        "dt 5 ms, margins (default)": SimConfig(),
+        "dt 2.5 ms, margins": SimConfig(timestep=0.0025),
+        "dt 1.25 ms, margins": SimConfig(timestep=0.00125),
+    }
+    doc["icr_errors"] = {}
+    for name in ROBOTS:
+        for label, cfg in variants.items():
+            rows = icr_errors(name, cfg)
+            doc["icr_errors"][f"{name} | {label}"] = rows
+            print(f"   {name:13s} {label:50s} " + "  ".join(f"R{r['R']:g}/{r['v']:g}: {r['err_y']:.3f}" for r in rows))
+
+    print("\n3. belt speed the ground sees minus the track-speed sensor, R 10 m at 0.2 m/s [mm/s]")
+    doc["belt_offsets"] = {}
+    for name in ROBOTS:
+        for label, cfg in (("no margins, dt 5 ms", SimConfig(rest_margin=False)),
+                           ("no margins, dt 2.5 ms", SimConfig(rest_margin=False, timestep=0.0025)),
+                           ("margins, dt 5 ms", SimConfig())):
+            b = belt_offsets(name, cfg)
+            doc["belt_offsets"][f"{name} | {label}"] = b
+            print(f"   {name:13s} {label:22s} left {b['left']['belt_offset_mm_s']:+.3f}  right "
+                  f"{b['right']['belt_offset_mm_s']:+.3f}; penetration (dist) left {b['left']['dist_um_min']:.1f}.."
+                  f"{b['left']['dist_um_max']:.1f} um, right {b['right']['dist_um_min']:.1f}..{b['right']['dist_um_max']:.1f} um; "
+                  f"roller speed spread {b['left']['roller_speed_spread_mm_s']:.2f} / {b['right']['roller_speed_spread_mm_s']:.2f} mm/s")
+    doc["straight_speed_error"] = {"no margins": straight_speed_error(SimConfig(rest_margin=False)),
+                                   "margins": straight_speed_error(SimConfig())}
+    print(f"\n   straight line at 0.8 m/s, |v_x - V|/V: no margins {doc['straight_speed_error']['no margins']:.2e}, "
+          f"margins {doc['straight_speed_error']['margins']:.2e}")
+    print(f"\nload average after: {os.getloadavg()}")
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(doc, indent=1) + "\n")
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
