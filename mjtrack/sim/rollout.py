@@ -20,6 +20,7 @@ seen as time going back) raises :class:`~mjtrack.errors.MjtrackError`.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 from dataclasses import dataclass
 
@@ -69,6 +70,21 @@ class SensorMap:
             track_speed=(int(model.sensor("track_speed_left").adr[0]), int(model.sensor("track_speed_right").adr[0])),
             ground_left=ground("left"), ground_right=ground("right"),
         )
+
+
+@contextlib.contextmanager
+def collected_mujoco_warnings():
+    """Collect MuJoCo's warnings in a list (yielded) instead of printing them to stderr; the
+    previous handler is restored. A diverging rollout prints one "Nan, Inf or huge value in QACC"
+    per window, thousands in a calibration whose line search tries extreme values; the callers
+    count diverged windows themselves and log one summary line."""
+    messages: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(messages.append)
+    try:
+        yield messages
+    finally:
+        mujoco.set_mju_user_warning(previous)
 
 
 def initial_state(model: mujoco.MjModel) -> np.ndarray:

@@ -34,6 +34,7 @@ sample against the measured one, in the frame of the measured start pose (along,
 from __future__ import annotations
 
 import copy
+import logging
 import math
 from dataclasses import dataclass
 from typing import Mapping, Sequence
@@ -48,7 +49,9 @@ from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import apply_rest_margins, build_model, control_matrix
 from mjtrack.sim.config import SimConfig
-from mjtrack.sim.rollout import STATE_SPEC, SensorMap, settled_state, yaw_of
+from mjtrack.sim.rollout import STATE_SPEC, SensorMap, collected_mujoco_warnings, settled_state, yaw_of
+
+logger = logging.getLogger(__name__)
 
 #: parameters that :meth:`WindowSim.variant_model` sets on a compiled model (``lateral_ratio``: the
 #: anisotropic ground's lateral / longitudinal friction, on a robot built with that ground)
@@ -427,40 +430,44 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
         idx[j, :tj.size] = np.clip(np.round(tj / sim.dt).astype(int) - 1, -1, nstep - 1)
     datas = [mujoco.MjData(sim.model) for _ in range(max(1, nthread))]
     total, done = P * M, 0
-    for p, params in enumerate(variants):
-        vsim = sim.for_params(params)
-        model = vsim.variant_model(params)
-        key = (params.get("cg_x"), params.get("cg_y"))
-        rest = vsim.settled(model, key)
-        state0 = vsim.initial_states(model, rest, poses0, twists, speeds0)
-        scale = 1.0 if params.get("track_speed_scale") is None else float(params["track_speed_scale"])
-        delay = float(params.get("drive_delay") or 0.0)
-        if delay < 0 or not scale > 0:
-            raise InputError(f"windows: drive_delay must be >= 0 and track_speed_scale > 0, got {delay!r}, {scale!r}")
-        cmds = window_commands(log, ws, sim.dt, nstep, delay=delay, scale=scale, before=speeds0)
-        control = cmds @ sim.B.T
-        for lo in range(0, M, CHUNK):
-            hi = min(M, lo + CHUNK)
-            _, sens = mj_rollout.rollout([model] * (hi - lo), datas if nthread > 1 else datas[0],
-                                         state0[lo:hi], np.ascontiguousarray(control[lo:hi]))
-            bad = ~np.all(np.isfinite(sens), axis=(1, 2))
-            lin = sens[:, :, sim.smap.linvel]
-            bad |= np.nanmax(np.abs(np.nan_to_num(lin, nan=np.inf)), axis=(1, 2)) > DIVERGED_SPEED
-            diverged[p, lo:hi] = bad
-            for j in range(lo, hi):
-                ii = idx[j][idx[j] >= -1]
-                n = ii.size
-                s = sens[j - lo]
-                pos = s[:, sim.smap.pos]
-                yaw = yaw_of(s[:, sim.smap.quat])
-                ts = s[:, list(sim.smap.track_speed)]
-                body = np.concatenate([[poses0[j]], np.column_stack([pos[:, :2], yaw])])
-                body[:, 2] = np.unwrap(body[:, 2])
-                poses[p, j, :n] = body[ii + 1]
-                speeds[p, j, :n] = np.concatenate([[speeds0[j]], ts])[ii + 1]
-            done += hi - lo
-            if progress is not None:
-                progress(done, total)
+    with collected_mujoco_warnings() as warned:
+        for p, params in enumerate(variants):
+            vsim = sim.for_params(params)
+            model = vsim.variant_model(params)
+            key = (params.get("cg_x"), params.get("cg_y"))
+            rest = vsim.settled(model, key)
+            state0 = vsim.initial_states(model, rest, poses0, twists, speeds0)
+            scale = 1.0 if params.get("track_speed_scale") is None else float(params["track_speed_scale"])
+            delay = float(params.get("drive_delay") or 0.0)
+            if delay < 0 or not scale > 0:
+                raise InputError(f"windows: drive_delay must be >= 0 and track_speed_scale > 0, got {delay!r}, {scale!r}")
+            cmds = window_commands(log, ws, sim.dt, nstep, delay=delay, scale=scale, before=speeds0)
+            control = cmds @ sim.B.T
+            for lo in range(0, M, CHUNK):
+                hi = min(M, lo + CHUNK)
+                _, sens = mj_rollout.rollout([model] * (hi - lo), datas if nthread > 1 else datas[0],
+                                             state0[lo:hi], np.ascontiguousarray(control[lo:hi]))
+                bad = ~np.all(np.isfinite(sens), axis=(1, 2))
+                lin = sens[:, :, sim.smap.linvel]
+                bad |= np.nanmax(np.abs(np.nan_to_num(lin, nan=np.inf)), axis=(1, 2)) > DIVERGED_SPEED
+                diverged[p, lo:hi] = bad
+                for j in range(lo, hi):
+                    ii = idx[j][idx[j] >= -1]
+                    n = ii.size
+                    s = sens[j - lo]
+                    pos = s[:, sim.smap.pos]
+                    yaw = yaw_of(s[:, sim.smap.quat])
+                    ts = s[:, list(sim.smap.track_speed)]
+                    body = np.concatenate([[poses0[j]], np.column_stack([pos[:, :2], yaw])])
+                    body[:, 2] = np.unwrap(body[:, 2])
+                    poses[p, j, :n] = body[ii + 1]
+                    speeds[p, j, :n] = np.concatenate([[speeds0[j]], ts])[ii + 1]
+                done += hi - lo
+                if progress is not None:
+                    progress(done, total)
+    if warned:
+        logger.info("windows: %d of %d rollouts diverged (MuJoCo warned %d times, e.g. %r); scored as diverged",
+                    int(diverged.sum()), P * M, len(warned), warned[0])
     errors = window_errors(log, ws, poses)
     return WindowResult(poses=poses, errors=errors, speeds=speeds, diverged=diverged)
 
