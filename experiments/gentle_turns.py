@@ -22,9 +22,19 @@ load transfer at those speeds):
    w_r (r + dist/2) minus the mean of w_r r per track (the belt-speed offset the ground sees),
    the straight-line speed error |v_x - V| / V, and the ICR error, without and with the rest
    margins (``SimConfig.rest_margin``, :func:`mjtrack.sim.builder.apply_rest_margins`).
-4. **What is left with the margins.** The penetration of each roller in the turn (with margins
-   it is 0 at rest) and the spread of the rollers' surface speeds along a track (servo
-   compliance F_i / (kv/N)).
+4. **What the margins leave: a pitched chassis.** With the centre of mass off-centre the
+   chassis used to rest pitched on equal springs, so the slides lean: the noslip pass's
+   longitudinal friction then has a component along them that the main solve never saw, and
+   the rollers sink (inner track) or rise (outer) in a turn. Printed: the in-turn penetrations
+   and the ICR errors with the chassis pitched (``level_chassis=False``) and level (default).
+5. **x_c: drive compliance and the time step.** The rollers' servos let their surface speeds
+   spread by F_i / (kv/N) along a track; near x_c, where the slip is mostly longitudinal, this
+   bends the friction directions. Printed: x_c against Coulomb for the 80 kg robot (cg +-0.1 L,
+   R 10 m at 0.2 m/s) with the default drive, a 10x stiffer one (kv and track_mass x10: the
+   same kv dt / track_mass) and the equality-coupled chain; and at 2 m/s (cg 0) the x_c offset
+   against v dt at dt 5 and 2.5 ms: semi-implicit Euler's friction opposes the slip of the
+   *next* velocity, which the turn has rotated by w dt in the step's frame, so the steady state
+   the sensors report sits v dt off the Coulomb one (an O(dt) integration error).
 
 About 1 min on one core.
 """
@@ -136,6 +146,28 @@ def belt_offsets(name: str, config: SimConfig, R: float = 10.0, v: float = 0.2) 
     return out
 
 
+def x_c_study() -> dict:
+    """Section 5 (80 kg issue-11 robot)."""
+    base = wide_robots()["80kg_issue11"]
+    out: dict = {"drive": [], "time_step": []}
+    drives = {"default drive (servo per roller)": SimConfig(),
+              "10x stiffer drive": SimConfig(kv=10 * SimConfig().kv, track_mass=10 * SimConfig().track_mass),
+              "equality-coupled chain": SimConfig(coupling="equality")}
+    robots = [base.replace(cg_x=c * base.track_length) for c in (-0.1, 0.1)]
+    cmds = np.array([commands_for(r, 10.0, 0.2, 1, 1) for r in robots])
+    for label, cfg in drives.items():
+        for cgf, r, s in zip((-0.1, 0.1), robots, steady_batch(robots, cmds, config=cfg)):
+            ref = coulomb(r, s.v_left, s.v_right)
+            out["drive"].append({"drive": label, "cg_frac": cgf, "x_c_mm": 1000 * s.x_c, "ref_x_c_mm": 1000 * ref.x_c,
+                                 "err_x": abs(s.x_c - ref.x_c) / r.track_length})
+    cmd = np.array([commands_for(base, 10.0, 2.0, 1, 1)])
+    for dt in (0.005, 0.0025):
+        s = steady_batch([base], cmd, config=SimConfig(timestep=dt))[0]
+        ref = coulomb(base, s.v_left, s.v_right)
+        out["time_step"].append({"dt": dt, "offset_mm": 1000 * (s.x_c - ref.x_c), "v_dt_mm": 1000 * 2.0 * dt})
+    return out
+
+
 def straight_speed_error(config: SimConfig, v: float = 0.8) -> float:
     from mjtrack.io.robot import Robot
 
@@ -157,17 +189,20 @@ def main(argv: list[str] | None = None) -> int:
     print(f"   |f_t|/(mu f_n) {cf['saturation_min']:.4f}-{cf['saturation_max']:.4f}; cos(friction, slip) <= "
           f"{cf['cos_friction_slip_max']:+.4f}; slips {cf['slip_mm_s_min']:.2f}-{cf['slip_mm_s_max']:.2f} mm/s")
 
-    print("\n2./3. ICR error |dy|/(T/2) per turn (R m, v m/s) -- time step, contact softness, rest margins")
+    print("\n2.-4. ICR error |dy|/(T/2) per turn (R m, v m/s) -- time step, contact softness, rest margins, level chassis")
     variants = {
-        "dt 5 ms, no margins": SimConfig(rest_margin=False),
-        "dt 2.5 ms, no margins": SimConfig(rest_margin=False, timestep=0.0025),
-        "dt 1.25 ms, no margins": SimConfig(rest_margin=False, timestep=0.00125),
-        "dt 2.5 ms, contact+friction tc 10 ms, no margins": SimConfig(rest_margin=False, timestep=0.0025,
+        "dt 5 ms, no margins": SimConfig(rest_margin=False, level_chassis=False),
+        "dt 2.5 ms, no margins": SimConfig(rest_margin=False, level_chassis=False, timestep=0.0025),
+        "dt 1.25 ms, no margins": SimConfig(rest_margin=False, level_chassis=False, timestep=0.00125),
+        "dt 2.5 ms, contact+friction tc 10 ms, no margins": SimConfig(rest_margin=False, level_chassis=False, timestep=0.0025,
                                                                      contact_timeconst=0.01, friction_timeconst=0.01),
-        "dt 2.5 ms, contact tc 10 ms, no margins": SimConfig(rest_margin=False, timestep=0.0025, contact_timeconst=0.01),
-        "dt 5 ms, margins (default)": SimConfig(),
-        "dt 2.5 ms, margins": SimConfig(timestep=0.0025),
-        "dt 1.25 ms, margins": SimConfig(timestep=0.00125),
+        "dt 2.5 ms, contact tc 10 ms, no margins": SimConfig(rest_margin=False, level_chassis=False, timestep=0.0025,
+                                                             contact_timeconst=0.01),
+        "dt 5 ms, margins, pitched chassis": SimConfig(level_chassis=False),
+        "dt 2.5 ms, margins, pitched chassis": SimConfig(level_chassis=False, timestep=0.0025),
+        "dt 1.25 ms, margins, pitched chassis": SimConfig(level_chassis=False, timestep=0.00125),
+        "dt 5 ms, margins, level chassis (default)": SimConfig(),
+        "dt 2.5 ms, margins, level chassis": SimConfig(timestep=0.0025),
     }
     doc["icr_errors"] = {}
     for name in ROBOTS:
@@ -176,22 +211,31 @@ def main(argv: list[str] | None = None) -> int:
             doc["icr_errors"][f"{name} | {label}"] = rows
             print(f"   {name:13s} {label:50s} " + "  ".join(f"R{r['R']:g}/{r['v']:g}: {r['err_y']:.3f}" for r in rows))
 
-    print("\n3. belt speed the ground sees minus the track-speed sensor, R 10 m at 0.2 m/s [mm/s]")
+    print("\n3./4. belt speed the ground sees minus the track-speed sensor, R 10 m at 0.2 m/s [mm/s]")
     doc["belt_offsets"] = {}
     for name in ROBOTS:
-        for label, cfg in (("no margins, dt 5 ms", SimConfig(rest_margin=False)),
-                           ("no margins, dt 2.5 ms", SimConfig(rest_margin=False, timestep=0.0025)),
-                           ("margins, dt 5 ms", SimConfig())):
+        for label, cfg in (("no margins, dt 5 ms", SimConfig(rest_margin=False, level_chassis=False)),
+                           ("no margins, dt 2.5 ms", SimConfig(rest_margin=False, level_chassis=False, timestep=0.0025)),
+                           ("margins, pitched, dt 5 ms", SimConfig(level_chassis=False)),
+                           ("margins, level, dt 5 ms", SimConfig())):
             b = belt_offsets(name, cfg)
             doc["belt_offsets"][f"{name} | {label}"] = b
             print(f"   {name:13s} {label:22s} left {b['left']['belt_offset_mm_s']:+.3f}  right "
                   f"{b['right']['belt_offset_mm_s']:+.3f}; penetration (dist) left {b['left']['dist_um_min']:.1f}.."
                   f"{b['left']['dist_um_max']:.1f} um, right {b['right']['dist_um_min']:.1f}..{b['right']['dist_um_max']:.1f} um; "
                   f"roller speed spread {b['left']['roller_speed_spread_mm_s']:.2f} / {b['right']['roller_speed_spread_mm_s']:.2f} mm/s")
-    doc["straight_speed_error"] = {"no margins": straight_speed_error(SimConfig(rest_margin=False)),
+    doc["straight_speed_error"] = {"no margins": straight_speed_error(SimConfig(rest_margin=False, level_chassis=False)),
                                    "margins": straight_speed_error(SimConfig())}
     print(f"\n   straight line at 0.8 m/s, |v_x - V|/V: no margins {doc['straight_speed_error']['no margins']:.2e}, "
           f"margins {doc['straight_speed_error']['margins']:.2e}")
+    print("\n5. x_c against Coulomb [mm] (80 kg, T 0.5 / L 1.0 m)")
+    doc["x_c"] = xc = x_c_study()
+    for row in xc["drive"]:
+        print(f"   R 10 m, 0.2 m/s, cg {row['cg_frac']:+.1f} L, {row['drive']:28s} x_c {row['x_c_mm']:7.1f}  Coulomb "
+              f"{row['ref_x_c_mm']:7.1f}  error {row['err_x']:.4f} L")
+    for row in xc["time_step"]:
+        print(f"   R 10 m, 2 m/s, cg 0, dt {1000 * row['dt']:.2f} ms: x_c - Coulomb {row['offset_mm']:+.1f} mm; "
+              f"v dt = {row['v_dt_mm']:.1f} mm")
     print(f"\nload average after: {os.getloadavg()}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(doc, indent=1) + "\n")

@@ -36,11 +36,11 @@ def test_solver_and_drive_settings_are_validated():
 
 def test_faster_defaults_give_the_previous_icrs():
     """PGS main solver against Newton (drive unscaled in both: default robot of 20 kg; the rest
-    margins, a later and separate change, on in both)."""
+    margins and the level chassis, later and separate changes, on in both)."""
     robots = [Robot(cg_x=0.05), Robot(cg_x=-0.05, mu=0.4), Robot()]
     cmds = np.array([[0.6, 1.0], [-0.8, -0.5], [-0.5, 0.5]])  # R ~ 1 m, reverse R ~ 0.9 m, pivot
     new = steady_batch(robots, cmds, config=SimConfig(), settle_s=2.0, window_s=1.0)
-    old = steady_batch(robots, cmds, config=previous_defaults().replace(rest_margin=True), settle_s=2.0, window_s=1.0)
+    old = steady_batch(robots, cmds, config=previous_defaults().replace(rest_margin=True, level_chassis=True), settle_s=2.0, window_s=1.0)
     for a, b, r in zip(new, old, robots):
         # the main solve carries only the normal rows: PGS and Newton agree to 1e-7 T/2 on the
         # issue-3 quick grid (assets/README.md "Speed"); 1e-4 leaves room for summation order

@@ -116,7 +116,7 @@ class RollerChain(TrackModel):
             roller.mass = mr
             roller.ipos = [0, 0, 0]  # MjSpec leaves ipos unset otherwise (not on the spin axis)
             roller.inertia = [0.4 * mr * r**2] * 3
-            suspension.add_slide(roller, f"susp_{side}_{i}", config)
+            suspension.add_slide(roller, side, i, config)
             roller.add_joint(
                 name=f"roll_{side}_{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0],
                 armature=0.0 if equality else config.track_mass * r**2 / n,

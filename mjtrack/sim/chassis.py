@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Mapping
 
 import mujoco
 import numpy as np
@@ -63,20 +64,61 @@ def suspension_stiffness(robot: Robot, config: SimConfig, n: int) -> float:
     return robot.weight / (2 * n * config.suspension_deflection)
 
 
+def rest_loads(robot: Robot, n: int, *, level: bool = True) -> dict[str, np.ndarray]:
+    """Static load [N] of each of the n elements per track (``{"left": (n,), "right": (n,)}``).
+
+    A rigid chassis on equal springs carries a load linear in the elements' positions whose
+    resultant is the weight at the centre of mass: N_i = W/(2n) (1 + c_x x_i / mean(x^2) +
+    c_y y_i / (T/2)^2) (Wong's linear distribution and lever rule). ``level``: these loads, the
+    springs' preloads then holding the chassis level at rest; with a centre of mass so far out
+    that some N_i would be negative (|c_x| > mean(x^2)/max|x|, about L/6), or with ``level``
+    False: the equal share W/(2n) for every element, the chassis then pitching and rolling on its
+    springs until they carry the same linear loads (or lifting the unloaded end).
+    """
+    x = element_positions(robot, n)
+    half = robot.track_gauge / 2
+    share = robot.weight / (2 * n)
+    mx2 = float(np.mean(x**2))
+    if not level or mx2 == 0.0:  # (one element per track: nothing to level)
+        return {side: np.full(n, share) for side in ("left", "right")}
+    loads = {side: share * (1 + robot.cg_x * x / mx2 + robot.cg_y * y / half**2)
+             for side, y in (("left", half), ("right", -half))}
+    if min(v.min() for v in loads.values()) <= 0:
+        return {side: np.full(n, share) for side in loads}
+    return loads
+
+
 @dataclass(frozen=True)
 class Suspension:
-    """The sprung elements' slide: stiffness k [N/m], damping c [N s/m], preload [N] (spring force
-    at q = 0: the nominal load share less the element's weight)."""
+    """The sprung elements' slides: stiffness k [N/m], damping c [N s/m], preloads [N] per side
+    and element (spring force at q = 0: the element's rest load less its weight,
+    :func:`rest_loads`)."""
 
     k: float
     c: float
-    preload: float
+    preload: Mapping[str, np.ndarray]
 
-    def add_slide(self, body, name: str, config: SimConfig) -> None:
-        """The vertical slide ``name`` of ``body``, with travel :func:`suspension_range`."""
-        body.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1],
-                       stiffness=self.k, damping=self.c, springref=-self.preload / self.k,
+    def add_slide(self, body, side: str, i: int, config: SimConfig) -> None:
+        """The vertical slide ``susp_<side>_<i>`` of ``body``, with travel :func:`suspension_range`."""
+        body.add_joint(name=f"susp_{side}_{i}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1],
+                       stiffness=self.k, damping=self.c, springref=-float(self.preload[side][i]) / self.k,
                        limited=mujoco.mjtLimited.mjLIMITED_TRUE, range=suspension_range(config))
+
+
+def set_rest_springs(model: mujoco.MjModel, robot: Robot, config: SimConfig) -> None:
+    """Spring rest positions of a compiled model's slides ``susp_<side>_<i>`` for ``robot``'s
+    centre of mass (in place), as :func:`build_robot_spec` sets them: for a model whose centre
+    of mass was moved through its fields (``mjtrack.sim.windows``)."""
+    n = sum(1 for j in range(model.njnt) if model.joint(j).name.startswith("susp_left_"))
+    if n == 0:
+        return
+    loads = rest_loads(robot, n, level=config.level_chassis)
+    for side, values in loads.items():
+        for i, load in enumerate(values):
+            j = model.joint(f"susp_{side}_{i}")
+            body = model.jnt_bodyid[j.id]
+            k = float(model.jnt_stiffness[j.id])
+            model.qpos_spring[j.qposadr[0]] = -(float(load) - float(model.body_mass[body]) * G) / k
 
 
 class TrackModel:
@@ -180,7 +222,7 @@ def build_robot_spec(robot: Robot, config: SimConfig | None, tracks: TrackModel,
     k = suspension_stiffness(robot, config, n)
     # critical damping of the element's share of the sprung mass (m_chassis / 2N) on k
     suspension = Suspension(k=k, c=config.suspension_damping_ratio * 2 * math.sqrt(k * m_chassis / (2 * n)),
-                            preload=robot.weight / (2 * n) - m_el * G)
+                            preload={side: v - m_el * G for side, v in rest_loads(robot, n, level=config.level_chassis).items()})
     tracks.check(config, suspension, m_el)
     for side, y, mu in (("left", T / 2, robot.friction_left), ("right", -T / 2, robot.friction_right)):
         tracks.add_track(spec, chassis, robot, config, side=side, y=y, mu=mu, suspension=suspension)

@@ -94,9 +94,16 @@ class SimConfig:
             1e-6). 1e-4 is 7 % faster at 10 rollers and moves issue-3 grid ICRs by <= 0.0012 T/2,
             but the most ill-conditioned gentle turns (5 kg, R 10 m) by 0.07 T/2: kept at 1e-6.
         rest_margin: roller chain only: add each roller's rest penetration to its contact margin
-            (:func:`mjtrack.sim.builder.add_rest_margins`), so that the contact point lies at the
+            (:func:`mjtrack.sim.builder.apply_rest_margins`), so that the contact point lies at the
             roller radius and the ground sees the measured track speed (MuJoCo puts a
             sphere-plane contact half-way into the penetration).
+        level_chassis: preload each element's spring with its share of Wong's linear load
+            distribution (:func:`mjtrack.sim.chassis.rest_loads`), so that a chassis whose
+            centre of mass is off-centre rests level instead of pitching on its springs. On a
+            pitched chassis the slides lean, and the noslip pass's longitudinal friction pushed
+            the rollers along them (an acceleration the main solve never saw): inner rollers sank
+            and outer ones rose by up to 48 um in a turn, moving the contact points
+            (experiments/gentle_turns.py). Off (or |c_x| beyond ~L/6): equal preloads.
     """
 
     timestep: float = 0.005
@@ -122,6 +129,7 @@ class SimConfig:
     noslip_iterations: int = 20
     noslip_tolerance: float = 1e-6
     rest_margin: bool = True
+    level_chassis: bool = True
     solver: str = "PGS"
     iterations: int = 50
     tolerance: float = 1e-6
@@ -209,7 +217,8 @@ class SimConfig:
 # experiments/fidelity.py --wide --previous-defaults): Newton main solver, one drive for every
 # robot mass. Kept so that old and new settings are timed and checked in the same run (ratios
 # survive a loaded machine better than absolute numbers).
-PREVIOUS_ROLLER_DEFAULTS = dict(solver="Newton", noslip_iterations=20, drive_reference_mass=None, rest_margin=False)
+PREVIOUS_ROLLER_DEFAULTS = dict(solver="Newton", noslip_iterations=20, drive_reference_mass=None, rest_margin=False,
+                                level_chassis=False)
 
 
 def previous_defaults() -> SimConfig:

@@ -153,7 +153,7 @@ class SurfacevelTracks(TrackModel):
                 host.mass = m_el
                 host.ipos = [0, 0, r]
                 host.inertia = [0.4 * m_el * r**2] * 3
-                suspension.add_slide(host, f"susp_{side}_{i}", config)
+                suspension.add_slide(host, side, i, config)
                 gx = 0.0
             _add_element(host, self.element, name=f"track_{side}_{i}", x=gx, r=r, cell=robot.track_length / n, width=w)
             add_contact_sensor(spec, side, i, f"track_{side}_{i}")  # as the roller chain's rollers

@@ -48,6 +48,7 @@ from mjtrack.geometry import relative_pose, wrap_angle, world_to_body_velocity
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import apply_rest_margins, build_model, control_matrix
+from mjtrack.sim.chassis import set_rest_springs
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.rollout import STATE_SPEC, SensorMap, collected_mujoco_warnings, settled_state, yaw_of
 
@@ -278,6 +279,8 @@ class WindowSim:
             m.site_pos[self.cg_site, :2] = cg
             # quantities the compiler derives from the mass distribution (constraint scaling
             # through body_invweight0 / dof_invweight0): recomputed as a rebuild would
+            if robot.ground.model != "road_wheels":  # (road wheels keep their own springs)
+                set_rest_springs(m, robot.replace(cg_x=float(cg[0]), cg_y=float(cg[1])), self.config)
             mujoco.mj_setConst(m, mujoco.MjData(m))
             if self.config.track_model == "rollers" and self.config.rest_margin:
                 apply_rest_margins(m)  # the rest penetrations follow the loads, as a rebuild's
