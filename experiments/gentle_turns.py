@@ -32,9 +32,11 @@ load transfer at those speeds):
    bends the friction directions. Printed: x_c against Coulomb for the 80 kg robot (cg +-0.1 L,
    R 10 m at 0.2 m/s) with the default drive, a 10x stiffer one (kv and track_mass x10: the
    same kv dt / track_mass) and the equality-coupled chain; and at 2 m/s (cg 0) the x_c offset
-   against v dt at dt 5 and 2.5 ms: semi-implicit Euler's friction opposes the slip of the
-   *next* velocity, which the turn has rotated by w dt in the step's frame, so the steady state
-   the sensors report sits v dt off the Coulomb one (an O(dt) integration error).
+   against v tc/2, tc the friction rows' time constant (2 dt by default, the least MuJoCo
+   allows): the friction rows' reference acceleration -v_slip/(tc/2) makes the friction oppose
+   the slip predicted tc/2 ahead, which the turn has rotated by w tc/2 in the world-fixed
+   contact frame, so the steady state sits v tc/2 off the Coulomb one along x. RK4 does not
+   change it (the contact solve, not the integrator); a longer friction time constant does.
 
 About 1 min on one core.
 """
@@ -161,10 +163,15 @@ def x_c_study() -> dict:
             out["drive"].append({"drive": label, "cg_frac": cgf, "x_c_mm": 1000 * s.x_c, "ref_x_c_mm": 1000 * ref.x_c,
                                  "err_x": abs(s.x_c - ref.x_c) / r.track_length})
     cmd = np.array([commands_for(base, 10.0, 2.0, 1, 1)])
-    for dt in (0.005, 0.0025):
-        s = steady_batch([base], cmd, config=SimConfig(timestep=dt))[0]
+    for label, cfg in (("dt 5 ms", SimConfig()), ("dt 5 ms, RK4", SimConfig(integrator="RK4")),
+                       ("dt 5 ms, friction tc 20 ms", SimConfig(friction_timeconst=0.02)),
+                       ("dt 2.5 ms", SimConfig(timestep=0.0025)),
+                       ("dt 2.5 ms, friction tc 10 ms", SimConfig(timestep=0.0025, friction_timeconst=0.01))):
+        s = steady_batch([base], cmd, config=cfg)[0]
         ref = coulomb(base, s.v_left, s.v_right)
-        out["time_step"].append({"dt": dt, "offset_mm": 1000 * (s.x_c - ref.x_c), "v_dt_mm": 1000 * 2.0 * dt})
+        tc = cfg.friction_timeconst or 2 * cfg.timestep
+        out["time_step"].append({"case": label, "dt": cfg.timestep, "friction_timeconst": tc,
+                                 "offset_mm": 1000 * (s.x_c - ref.x_c), "v_tc_half_mm": 1000 * 2.0 * tc / 2})
     return out
 
 
@@ -234,8 +241,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"   R 10 m, 0.2 m/s, cg {row['cg_frac']:+.1f} L, {row['drive']:28s} x_c {row['x_c_mm']:7.1f}  Coulomb "
               f"{row['ref_x_c_mm']:7.1f}  error {row['err_x']:.4f} L")
     for row in xc["time_step"]:
-        print(f"   R 10 m, 2 m/s, cg 0, dt {1000 * row['dt']:.2f} ms: x_c - Coulomb {row['offset_mm']:+.1f} mm; "
-              f"v dt = {row['v_dt_mm']:.1f} mm")
+        print(f"   R 10 m, 2 m/s, cg 0, {row['case']:30s}: x_c - Coulomb {row['offset_mm']:+6.2f} mm; "
+              f"v x (friction time constant)/2 = {row['v_tc_half_mm']:.1f} mm")
     print(f"\nload average after: {os.getloadavg()}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(doc, indent=1) + "\n")

@@ -134,10 +134,11 @@ def test_wide_grid_passes_where_the_slips_are_large():
 
 
 @pytest.mark.slow
-def test_wide_grid_x_c_error_is_the_integration_offset_v_dt():
-    """Semi-implicit Euler: the noslip friction opposes the slip of the next velocity, which the
-    turn has rotated by w dt in the step's frame, so the steady x_c the sensors report lies
-    v_x dt ahead of the Coulomb one (derivation: assets/README.md). Less that offset, every
+def test_wide_grid_x_c_error_is_the_friction_horizon_offset_v_dt():
+    """The friction rows' reference acceleration -v_slip/dt makes the noslip friction oppose the
+    slip predicted one step ahead, which the turn has rotated by w dt, so the steady x_c lies
+    v_x dt ahead of the Coulomb one (derivation and checks: assets/README.md, experiments/
+    gentle_turns.py: RK4 gives the same offset, a longer friction time constant a longer one). Less that offset, every
     turn of the quick grid but R = 10 m at 0.2 m/s is within 0.02 L (measured 0.016 L); with
     it, 0.056 L (the 5 kg robot with L = 0.18 m at 2 m/s)."""
     fidelity, rows = _wide_rows()
