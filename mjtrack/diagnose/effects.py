@@ -164,9 +164,8 @@ class Surrogate:
         (:func:`mjtrack.diagnose.surrogate.friction_limited`): per-track force bounds
         b_s = fs mu_s g N_s/(m g), the yaw gain kappa = m T (y_l - y_r)/(4 I) with the box inertia
         I = m (L^2 + T^2)/12 and the ICRs q of the model (default the nominal ones), and the
-        turning resistance transient_resist_ratio (b_L + b_R) (surrogate docstring, item 5).
-        ``params``: ground-effect parameters by name; the friction effects change b (and the
-        resistance with it), cg_offset_y the load split."""
+        turning resistance resist_ratio (b_L + b_R). ``params``: ground-effect parameters by name;
+        the friction effects change b (and the resistance with it), cg_offset_y the load split."""
         r = self.robot
         params = params or {}
         mu_l, mu_r = r.friction_left, r.friction_right
@@ -196,7 +195,7 @@ class Surrogate:
             dt = dt.copy()
             dt[near - 1] = data.t[near] - data.t[near - 1]
         out = sg.friction_limited(speeds, dt, starts, b_left=b_l, b_right=b_r, kappa=kappa,
-                                  resist=self.resp.transient_resist_ratio * (b_l + b_r))
+                                  resist=self.resp.resist_ratio * (b_l + b_r))
         if len(self._transient_cache) > 64:
             self._transient_cache.clear()
         self._transient_cache[key] = out

@@ -53,22 +53,7 @@ ground effects are visible only when the robot turns.
    0.042 s (Coulomb 0.044 s, MuJoCo 0.067 s); turn reversal (0.6, 0) -> (0, 0.6): 0.025 s
    (Coulomb 0.026 s, MuJoCo 0.043 s). ``python experiments/diagnose_mujoco_effects.py --steps``
    prints the step responses; tests/test_diagnose_units.py checks the closed forms and the
-   Coulomb rollout. (These numbers are with r at its steady value rho; item 5.)
-5. The turning resistance of the transient (``transient_resist_ratio``). At the instant a turn
-   starts from straight or from rest, the contacts slip along the tracks and the lateral friction,
-   which makes the resistance, is zero; the rigid body builds the steady slip pattern, and the
-   resistance with it, gradually. The steady rho applied from the first instant makes every turn
-   entry too slow: +32 % / +40 % dead time on the default robot against its own Coulomb rollout,
-   +58 % / +81 % on a long-contact description (L = 0.97 m, T = 0.55 m, rho 0.69), where a
-   friction_scale ~ 1.2 was fitted to logs of a clean four-wheel robot to make up for it (the
-   scale shortens every transient). The reduced model keeps one constant resistance (its exact
-   piecewise-constant integration) but takes the ratio that matches the time-domain Coulomb
-   rollout of the same robot (``coulomb.rollout``, box inertia) best: least squares in the log of
-   the yaw dead times over turn entries, spins from rest and turn / spin reversals, both turn
-   directions (:data:`_STEPS`, at 0.5 m/s). Default robot: 0.400 (rho 0.553); turn entry 0.052 s
-   (Coulomb 0.053 s, MuJoCo 0.062 s), spin reversal 0.039 s (Coulomb 0.044 s, MuJoCo 0.067 s),
-   turn reversal 0.023 s (Coulomb 0.026 s, MuJoCo 0.043 s): the entries now match the Coulomb
-   body, the reversals are 12-13 % faster than it (a constant resistance cannot have both).
+   Coulomb rollout.
 """
 
 from __future__ import annotations
@@ -82,7 +67,7 @@ import numpy as np
 from scipy import optimize
 
 from mjtrack.errors import MjtrackError
-from mjtrack.io.robot import G, Robot
+from mjtrack.io.robot import Robot
 from mjtrack.models import coulomb
 
 log = logging.getLogger(__name__)
@@ -123,15 +108,12 @@ class GroundResponse:
     b_transfer, b_inertia: (2, 3, 2) dq/da_eff [m per m/s^2]; index 0 for wz > 0, 1 for wz < 0.
     resist_ratio: turning resistance / available track force [-]: the differential longitudinal
         track force (F_R - F_L) s of the quasi-static turn over sum mu_s N_s (item 4).
-    transient_resist_ratio: the resistance ratio the reduced transient uses (item 5): the one
-        whose yaw dead times match the time-domain Coulomb rollout of the same robot.
     """
 
     q0: np.ndarray
     b_transfer: np.ndarray
     b_inertia: np.ndarray
     resist_ratio: float = 0.0
-    transient_resist_ratio: float = 0.0
 
     def icr(self, q_static: np.ndarray, wz_sign: np.ndarray, a_eff: np.ndarray, *, friction_scale=1.0,
             inertia: bool = True) -> np.ndarray:
@@ -161,9 +143,7 @@ def _response_cached(key: tuple) -> GroundResponse:
                 qp = _solve_icr(robot, s, da, transfer=transfer, q0=q0)
                 qm = _solve_icr(robot, s, -da, transfer=transfer, q0=q0)
                 out[k, :, j] = (qp - qm) / (2 * _DA)
-    rho = _resist_ratio(robot, q0)
-    return GroundResponse(q0=q0, b_transfer=bt - bi, b_inertia=bi, resist_ratio=rho,
-                          transient_resist_ratio=_transient_resist_ratio(robot, q0, rho))
+    return GroundResponse(q0=q0, b_transfer=bt - bi, b_inertia=bi, resist_ratio=_resist_ratio(robot, q0))
 
 
 def _resist_ratio(robot: Robot, q0: np.ndarray) -> float:
@@ -181,75 +161,6 @@ def _resist_ratio(robot: Robot, q0: np.ndarray) -> float:
             fx.append(coulomb.contact_wrench(r, 0.0, -s * xc, s, -s * yl, -s * yr, n_points=_N_POINTS)[0])
         out.append(s * (fx[1] - fx[0]))
     return float(np.mean(out)) / (robot.weight * 0.5 * (robot.friction_left + robot.friction_right))
-
-
-def _transient_params(robot: Robot, q0: np.ndarray) -> tuple[float, float, float]:
-    """(b_L, b_R, kappa) of the reduced transient (item 4): per-mass force bounds of the tracks
-    (lever-rule loads) and the yaw gain with the box inertia and the ICRs q0."""
-    T, L = robot.track_gauge, robot.track_length
-    share = float(np.clip(0.5 + robot.cg_y / T, 0.05, 0.95))
-    b_l = max(robot.friction_left, 1e-3) * G * share
-    b_r = max(robot.friction_right, 1e-3) * G * (1.0 - share)
-    return b_l, b_r, 3.0 * T * float(q0[0] - q0[1]) / (L * L + T * T)
-
-
-# item 5: the yaw steps the transient's resistance is matched on (speeds in units of V, both
-# turn directions): turn entries from straight, a spin from rest, turn and spin reversals
-_STEPS = (((1.0, 1.0), (1.0, 0.0)), ((1.0, 1.0), (0.0, 1.0)), ((0.0, 0.0), (-1.0, 1.0)), ((0.0, 0.0), (1.0, -1.0)),
-          ((1.0, 0.0), (0.0, 1.0)), ((1.0, -1.0), (-1.0, 1.0)))
-_STEP_V = 0.5  # [m/s]
-_STEP_H = 1e-3  # [s]
-
-
-def yaw_dead_time(x: np.ndarray, x0: float, h: float) -> float:
-    """Equivalent dead time [s] int (x_end - x)/(x_end - x0) dt of a step response x (n,) from x0."""
-    return float(np.sum(x[-1] - x) * h / (x[-1] - x0))
-
-
-def rollout_dead_times(robot: Robot, steps=_STEPS, v: float = _STEP_V, h: float = _STEP_H) -> np.ndarray:
-    """Yaw-rate dead times [s] of the time-domain Coulomb rollout (``coulomb.rollout``, box yaw
-    inertia) after each step u0 -> u1 (x v [m/s]) of ``steps``, from the steady motion under u0."""
-    dur = max(0.4, 12.0 * v / (min(robot.friction_left, robot.friction_right) * G))
-    out = []
-    for u0, u1 in steps:
-        u0, u1 = (v * u0[0], v * u0[1]), (v * u1[0], v * u1[1])
-        tw0 = (u0[0], 0.0, 0.0) if u0[0] == u0[1] else tuple(coulomb.steady_state(robot, *u0).twist)
-        wz = coulomb.rollout(robot, np.arange(0.0, dur, h), u1[0], u1[1], twist0=tw0, n_points=20).twist[:, 2]
-        out.append(yaw_dead_time(wz, wz[0], h))
-    return np.array(out)
-
-
-def reduced_dead_times(robot: Robot, q0: np.ndarray, ratio: float, steps=_STEPS, v: float = _STEP_V,
-                       h: float = _STEP_H) -> np.ndarray:
-    """Yaw dead times [s] of the reduced transient (:func:`friction_limited`) with the turning
-    resistance ``ratio`` (b_L + b_R), for the steps of :func:`rollout_dead_times`."""
-    b_l, b_r, kappa = _transient_params(robot, q0)
-    n = int(round(max(0.4, 12.0 * v / (min(robot.friction_left, robot.friction_right) * G)) / h))
-    out = []
-    for u0, u1 in steps:
-        u = v * np.array([u0] * 10 + [u1] * n, float)
-        starts = np.zeros(u.shape[0], bool)
-        starts[0] = True
-        e = friction_limited(u, np.full(u.shape[0], h), starts, b_left=b_l, b_right=b_r, kappa=kappa,
-                             resist=ratio * (b_l + b_r))[10:]
-        out.append(yaw_dead_time(0.5 * (e[:, 1] - e[:, 0]), 0.5 * v * (u0[1] - u0[0]), h))
-    return np.array(out)
-
-
-def _transient_resist_ratio(robot: Robot, q0: np.ndarray, rho: float) -> float:
-    """The turning resistance ratio of the reduced transient (item 5): the one that minimises the
-    squared log ratio of its yaw dead times to the Coulomb rollout's over :data:`_STEPS`."""
-    ref = rollout_dead_times(robot)
-    ok = np.isfinite(ref) & (ref > 0)
-    if not ok.any() or rho <= 0:
-        return rho
-
-    def cost(k: float) -> float:
-        t = reduced_dead_times(robot, q0, k * rho)
-        return float(np.sum(np.log(np.maximum(t[ok], 1e-9) / ref[ok]) ** 2))
-
-    sol = optimize.minimize_scalar(cost, bounds=(0.2, 1.5), method="bounded", options={"xatol": 1e-3})
-    return float(sol.x) * rho
 
 
 def ground_response(robot: Robot) -> GroundResponse:
