@@ -71,8 +71,9 @@ class Diagnosis:
         return self.final_after / self.before if self.before > 0 else 0.0
 
     def warnings(self) -> list[str]:
-        """Verdict warnings: unexplained error beyond the pose noise; input effects the measured
-        track speeds suggest in too few blocks of the log to establish them."""
+        """Verdict warnings: unexplained error beyond the pose noise; effects the measured track
+        speeds (input effects) or the pose (ground effects, or input effects without measured
+        speeds) suggest in too few blocks of the log to establish them."""
         out = []
         last = self.steps[-1].results if self.steps else []
         out += [r.below_floor for r in last if r.below_floor and not r.passed]

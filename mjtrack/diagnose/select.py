@@ -15,6 +15,13 @@ reduce the held-out track-speed error by the same test over the same blocks (the
 whether the actuators are the cause); an input effect the speeds contradict is refuted even
 when it helps the pose error.
 
+Below the floor. An effect that acts in k of B blocks cannot pass the blocked bootstrap unless
+(1 - k/B)^B < 5 % (:func:`min_active_blocks`), however large its gain there: no test that takes
+only the blocks as independent can do better. Such a candidate is not reported as a cause, but
+when its point gain reaches the floor and fewer blocks than that show it, the verdict warns and
+names it (``below_floor``): read off the measured track speeds for an input effect when the log
+has them, else off the pose.
+
 Forward selection (:func:`forward_select`). Step 1 scores every effect against the baseline;
 the best finding is added to the baseline at its estimate, and step 2 scores every remaining
 effect (either kind) on top of it, and so on until no candidate passes (at most
@@ -231,6 +238,16 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
                                f"position {100 * gt.relative:.1f} %) but only {k} of the log's {n_blocks} blocks show it, "
                                f"and a blocked bootstrap cannot establish an effect from fewer than {need}: not reported "
                                f"as a cause. A log with more of the commands it acts on would settle it")
+    if below_floor is None and not passed and not speeds and gt.relative >= min_gain and gt.lower <= 0.0:
+        # no measured speeds to speak for it (or a ground effect): the pose's own blocks
+        below = _too_few_blocks(sq_b, sq_a, wblock, min_gain)
+        if below is not None:
+            k, n_blocks, need = below
+            below_floor = (f"{eff.name} = {', '.join(f'{v:.4g}' for v in full)} is suggested by the pose (held-out "
+                           f"position RMSE {before:.3g} -> {after:.3g} m, {100 * gt.relative:.0f} %) but only {k} of "
+                           f"the log's {n_blocks} blocks show it, and a blocked bootstrap cannot establish an effect "
+                           f"from fewer than {need}: not reported as a cause. A longer log, or one with more of the "
+                           f"manoeuvres it acts on, would settle it")
     return CandidateResult(eff, full, ests, ivl, fold_before, fold_after, before, after,
                            paired_t(fold_before, fold_after), sb, sa, stt, passed, why, after_err, gain=gt,
                            speed_gain=sg, on_top_of=tuple(e.name for e, _ in problem.base), se=se,
