@@ -1,0 +1,158 @@
+"""Model-error term: covariance matching of the parameter covariance on the filter's own innovations.
+
+**Why.** A parameter filter is consistent only while its model describes the motion and its
+process noise describes how fast the parameters move. MPP's slips (:mod:`mjtrack.estimation.slip_ekf`)
+are neither well described by one random walk nor by the IMM's slow/fast pair: at a change of the
+command they jump by amounts that have no fixed scale (s = 1 − u/V is a ratio: a track commanded
+at a few cm/s jumps by O(1); MPP's slip angle α = −atan(v_y/v_x) swings by a radian when a spin
+turn starts with the centre of gravity off the geometric centre). Then the filter's covariance
+says "σ_α = 0.08 rad" while the error is 1 rad and the twist innovations sit at −10σ for a
+second (experiments/filter_consistency.py, ``tuning`` case, t = 46.6 s): NIS/dof ≈ 2 and
+parameter NEES/dof ≈ 3–5.
+
+**Model.** The parameter block P_pp of the predicted covariance is right up to an unknown factor
+λ_k ≥ 1 (the random walk under-states how far the parameters moved); the pose block and the
+measurement noise are as given. Only the twist components are used to find λ: their prediction
+h = ν(p, u) depends on the parameters alone, so their innovation covariance is
+
+    E[ε εᵀ] = J P⁻_pp Jᵀ + R_tw                                                  (ME1)
+
+(the pose components also carry the pose process noise and the integration of the twist over
+the step, which is the IMM's and q_pose's business).
+
+**Covariance matching (the "strong tracking" fading factor of Zhou & Frank 1996; Mehra 1970).**
+With R-normalised components (v_i = ε_i²/R_ii, m_i = (S_ii − n R_ii)/R_ii the parameter part of
+the step's S, n R_ii the noise part the filter put into S — n = 1 for one EKF, the mixture
+Σ_j c̄_j r_j² of the IMM's modes' noise factors otherwise), the factor that makes the trace of (ME1)
+match an exponentially weighted average ⟨·⟩ of the recent innovations (time constant
+``window_s``) is
+
+    λ = max(1, (⟨Σ_i v_i⟩ − ⟨Σ_i n⟩) / Σ_i m_i),                                 (ME2)
+
+⟨⟩ over the past steps, m from the latest step (so that λ falls back to 1 as soon as the
+inflated covariance explains the innovations — the STF's rule). The next step's prediction
+starts from the posterior with its parameter block scaled, D P⁺ D with
+D = diag(1, 1, 1, √λ, …, √λ) (positive definite for any λ > 0; the pose–parameter correlations
+scale with √λ; ``params`` picks which parameters get the √λ), in every IMM mode. λ ≥ 1 always:
+the matching only ever says "you moved more than you thought".
+
+**Gate.** A noisy average exceeds its mean half of the time, and every λ > 1 on a still
+parameter widens a covariance that then takes many steps to shrink again (on the ``tuning``
+circle an ungated 0.2-s average made the slips' rmse 10x larger, 0.015 instead of 0.0015). The
+matching therefore acts only when the innovations are significantly too large: when the averaged
+twist NIS ⟨ε_twᵀ S_tw⁻¹ ε_tw⟩ (mean d = the number of twist components for a consistent filter,
+variance ≈ 2d/N_eff for an average of N_eff = (Σw)²/Σw² independent steps) exceeds
+d + z·√(2d/N_eff), z = ``gate_z`` (2.33: one-sided 1 %). Otherwise λ = 1 and the filter is the
+plain EKF/IMM.
+
+Rejected (measured on the ``tuning`` case of experiments/filter_consistency.py, slip EKF with
+its IMM, three noise seeds): matching the *measurement* noise instead (R_ii scaled by the excess
+of ⟨ε_i²⟩ with a long-run factor for its correlation, Myers & Tapley 1976) made the parameter
+NEES/dof 8–15 instead of 2.6–3.1: a larger twist noise moves the misfit into the pose innovations
+(NIS of x, y, θ ≈ 2.1) and the parameter covariance, held small by the pose information, did not
+grow; with the pose components matched as well the filter ran away (NIS/dof 0.1, NEES/dof 10³).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from mjtrack.errors import InputError
+
+
+@dataclass(frozen=True)
+class ModelErrorSettings:
+    """Settings of the model-error term (module docstring).
+
+    Attributes:
+        window_s: time constant [s] of the exponentially weighted innovation average ⟨·⟩.
+        lambda_max: upper bound of the per-step factor λ.
+        gate_z: the matching acts only when the averaged twist NIS exceeds its mean m by
+            ``gate_z`` standard deviations of that average (module docstring); 0: always.
+        params: indices of the parameters whose covariance is scaled (None: all).
+    """
+
+    window_s: float = 0.2
+    lambda_max: float = 100.0
+    gate_z: float = 2.33
+    params: tuple[int, ...] | None = None
+
+    def __post_init__(self):
+        if not (math.isfinite(self.window_s) and self.window_s > 0):
+            raise InputError(f"model error: window_s must be a positive time [s], got {self.window_s!r}")
+        if not (math.isfinite(self.lambda_max) and self.lambda_max >= 1.0):
+            raise InputError(f"model error: lambda_max must be a number >= 1, got {self.lambda_max!r}")
+        if not (math.isfinite(self.gate_z) and self.gate_z >= 0):
+            raise InputError(f"model error: gate_z must be a number >= 0, got {self.gate_z!r}")
+
+    def to_dict(self) -> dict:
+        return {"kind": "matching", "window_s": self.window_s, "lambda_max": self.lambda_max, "gate_z": self.gate_z,
+                "params": None if self.params is None else list(self.params)}
+
+
+def model_error_settings(value) -> ModelErrorSettings | None:
+    """None/False -> None; True or "matching" -> :class:`ModelErrorSettings`(); an instance as is."""
+    if value is None or value is False:
+        return None
+    if value is True or (isinstance(value, str) and value == "matching"):
+        return ModelErrorSettings()
+    if isinstance(value, ModelErrorSettings):
+        return value
+    raise InputError(f"model_error must be None, True, 'matching' or ModelErrorSettings, got {value!r}")
+
+
+class CovarianceMatching:
+    """Running estimate of the parameter-covariance factor λ (ME2) from the twist innovations."""
+
+    def __init__(self, settings: ModelErrorSettings):
+        self.settings = settings
+        self.reset()
+
+    def reset(self) -> None:
+        self.w = 0.0  # normalising weight of ⟨·⟩
+        self.v = 0.0  # ⟨Σ ε²/R⟩
+        self.n = 0.0  # ⟨Σ noise part / R⟩
+        self.w2 = 0.0  # Σ of squared weights (effective number of steps 1 / Σ (w_k/Σw)²)
+        self.nis = 0.0  # ⟨ε_twᵀ S_tw⁻¹ ε_tw⟩
+        self.dof = 0.0
+        self.lam = 1.0
+
+    def factor(self) -> float:
+        """λ to scale the parameter block of the next prediction with (≥ 1)."""
+        return self.lam
+
+    def observe(self, dt: float, e: np.ndarray, S: np.ndarray, r_diag: np.ndarray, noise_mult: float) -> None:
+        """One step's twist innovations ``e`` with their S, the sensor's R_ii and the noise
+        multiplier n the filter used (module docstring)."""
+        e, S, r_diag = (np.asarray(a, float) for a in (e, S, r_diag))
+        if e.size == 0:
+            return
+        S_diag = np.diag(S)
+        a = math.exp(-dt / self.settings.window_s)
+        self.w = a * self.w + 1.0
+        self.w2 = a * a * self.w2 + 1.0
+        self.nis = a * self.nis + float(e @ np.linalg.solve(S, e))
+        self.dof = a * self.dof + e.size
+        self.v = a * self.v + float(np.sum(e**2 / r_diag))
+        self.n = a * self.n + noise_mult * e.size
+        m = float(np.sum(S_diag / r_diag)) - noise_mult * e.size
+        excess = (self.v - self.n) / self.w
+        n_eff = self.w**2 / self.w2
+        dof = self.dof / self.w
+        if self.nis / self.w <= dof + self.settings.gate_z * math.sqrt(2.0 * dof / n_eff):
+            self.lam = 1.0
+            return
+        self.lam = float(np.clip(excess / m, 1.0, self.settings.lambda_max)) if m > 0 else 1.0
+
+
+def scale_param_block(P: np.ndarray, lam: float, n_pose: int = 3, params=None) -> np.ndarray:
+    """D P D with D = diag(1 (pose), √λ (the parameters ``params``, default all), 1 (the others))."""
+    d = np.ones(P.shape[0])
+    if params is None:
+        d[n_pose:] = math.sqrt(lam)
+    else:
+        d[[n_pose + i for i in params]] = math.sqrt(lam)
+    return P * np.outer(d, d)
