@@ -1,0 +1,146 @@
+"""Model-error term (mjtrack.estimation.model_error): covariance matching of the parameter covariance.
+
+Truths written here, independently of the filter: innovations drawn with a known excess
+covariance, and an MPP robot (closed-form twist, exact SE(2) step of mjtrack.geometry) whose
+slips jump to known values at each command change, by a track-speed deficit that does not scale
+with the command (s = d/V: large for a slow track), which no fixed random walk describes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mjtrack.errors import InputError
+from mjtrack.estimation import run_slip_ekf
+from mjtrack.estimation import consistency as cons
+from mjtrack.estimation.model_error import CovarianceMatching, ModelErrorSettings, model_error_settings, scale_param_block
+from mjtrack.geometry import se2_step
+from mjtrack.models import MPP
+
+T = 0.4
+POSE_STD = np.array([0.01, 0.01, 0.01])
+TWIST_STD = np.array([0.02, 0.02, 0.02])
+
+
+def _matched_lambda(lam_true: float, noise_mult: float, *, n=6000, seed=0, gate_z=0.0):
+    """Feed innovations ε ~ N(0, λ_true·JPJᵀ + n·R) with the filter's claim S = JPJᵀ + n·R; return λ's."""
+    rng = np.random.default_rng(seed)
+    r = np.array([0.02, 0.03, 0.01]) ** 2
+    A = rng.normal(size=(3, 3)) * 0.02
+    M = A @ A.T  # J P Jᵀ: correlated components, same order as R
+    S = M + noise_mult * np.diag(r)
+    C = lam_true * M + noise_mult * np.diag(r)
+    L = np.linalg.cholesky(C)
+    cm = CovarianceMatching(ModelErrorSettings(window_s=40.0, gate_z=gate_z))
+    out = []
+    for _ in range(n):
+        cm.observe(0.04, L @ rng.normal(size=3), S, r, noise_mult)
+        out.append(cm.factor())
+    return np.asarray(out)
+
+
+@pytest.mark.parametrize("lam_true, noise_mult", [(1.0, 1.0), (4.0, 1.0), (25.0, 1.0), (9.0, 2.5)])
+def test_matching_recovers_a_known_excess(lam_true, noise_mult):
+    lam = _matched_lambda(lam_true, noise_mult)
+    est = lam[2000:].mean()  # after the 40-s average has filled (1000 steps per window)
+    if lam_true == 1.0:
+        assert est < 1.1  # max(1, ·) of a noisy average: a small upward bias only
+    else:
+        assert est == pytest.approx(lam_true, rel=0.1)
+
+
+def test_gate_keeps_lambda_one_when_the_filter_is_right_and_opens_when_it_is_not():
+    cm_settings = ModelErrorSettings(window_s=0.5, gate_z=2.33)
+    rng = np.random.default_rng(1)
+    r = TWIST_STD**2
+    S = np.diag(r) * 1.2
+    for lam_true, expect_open in ((1.0, False), (30.0, True)):
+        cm = CovarianceMatching(cm_settings)
+        opened = []
+        for _ in range(5000):
+            e = rng.normal(size=3) * np.sqrt(r + lam_true * 0.2 * r)
+            cm.observe(0.04, e, S, r, 1.0)
+            opened.append(cm.factor() > 1.0)
+        frac = np.mean(opened[100:])
+        assert (frac > 0.9) if expect_open else (frac < 0.03), (lam_true, frac)
+
+
+def test_settings_and_scaling():
+    assert model_error_settings(None) is None and model_error_settings(False) is None
+    assert model_error_settings("matching") == ModelErrorSettings()
+    for bad in (dict(window_s=0.0), dict(lambda_max=0.5), dict(gate_z=-1.0)):
+        with pytest.raises(InputError):
+            ModelErrorSettings(**bad)
+    with pytest.raises(InputError):
+        model_error_settings("sage-husa")
+    rng = np.random.default_rng(2)
+    A = rng.normal(size=(6, 6))
+    P = A @ A.T
+    Q = scale_param_block(P, 4.0, params=(0, 1))
+    np.testing.assert_allclose(Q[:3, :3], P[:3, :3])
+    np.testing.assert_allclose(Q[3:5, 3:5], 4.0 * P[3:5, 3:5])
+    np.testing.assert_allclose(Q[5, 5], P[5, 5])
+    np.testing.assert_allclose(Q[:3, 3:5], 2.0 * P[:3, 3:5])
+    assert np.all(np.linalg.eigvalsh(Q) > 0)
+
+
+def jumping_slips_drive(seed, *, duration=60.0, dt=0.04, deficit=0.04, alpha=math.radians(3.0)):
+    """Random steps (held 2–4 s); at each change the tracks' speed deficits d_L, d_R ~ U(−d, d) [m/s]
+    are redrawn and the slips are s = d/V. Returns t, V_L, V_R, noisy pose, noisy twist, true params (N, 3)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(round(duration / dt)) + 1) * dt
+    vl, vr, par = np.zeros(t.size), np.zeros(t.size), np.zeros((t.size, 3))
+    k = 0
+    while k < t.size:
+        n = int(round(rng.uniform(2.0, 4.0) / dt))
+        V = rng.choice([-1, 1], 2) * rng.uniform(0.1, 0.9, 2)
+        d = rng.uniform(-deficit, deficit, 2)
+        vl[k:k + n], vr[k:k + n] = V
+        par[k:k + n] = (d[0] / V[0], d[1] / V[1], alpha)
+        k += n
+    pose, twist = np.zeros((t.size, 3)), np.zeros((t.size, 3))
+    for k in range(t.size):
+        twist[k] = MPP(T, *par[k]).twist(vl[k], vr[k])
+        if k + 1 < t.size:
+            pose[k + 1] = se2_step(pose[k], twist[k], dt)
+    pm = pose + rng.normal(size=pose.shape) * POSE_STD
+    tm = twist + rng.normal(size=twist.shape) * TWIST_STD
+    return t, vl, vr, pm, tm, par
+
+
+def test_matching_makes_the_slip_ekf_consistent_when_the_slips_jump():
+    """The IMM alone is over-confident when slips jump by d/V; with the matching it is not."""
+    res = {}
+    for label, me in (("imm", None), ("imm+matching", "auto")):
+        nis, nees = [], []
+        for seed in (0, 1):
+            t, vl, vr, pm, tm, par = jumping_slips_drive(seed)
+            r = run_slip_ekf(t, vl, vr, track_gauge=T, pose_meas=pm, twist_meas=tm, pose_std=POSE_STD,
+                             twist_std=TWIST_STD, adaptive="imm", model_error=me)
+            # truth on the steady parts (from 1 s after each change), the estimate's own time index
+            st = cons.command_stretches(t, vl, vr)
+            truth = cons.steady_truth(t, par, st, settle_s=1.0)
+            c = cons.per_dof(cons.summary(r, truth[1:], t_from=5.0))
+            nis.append(c[0])
+            nees.append(c[1])
+        res[label] = (max(nis), max(nees))
+    assert res["imm"][1] > 3.0, res  # the truth written here does break the plain IMM
+    nis, nees = res["imm+matching"]
+    assert 0.5 <= nis <= 2.0 and 1 / 3 <= nees <= 3.0, res
+
+
+def test_unopened_gate_is_the_plain_imm_and_the_thesis_filter_is_unchanged():
+    t, vl, vr, pm, tm, _ = jumping_slips_drive(3, duration=10.0)
+    kw = dict(track_gauge=T, pose_meas=pm, twist_meas=tm, pose_std=POSE_STD, twist_std=TWIST_STD)
+    never = run_slip_ekf(t, vl, vr, adaptive="imm", model_error=ModelErrorSettings(gate_z=1e12), **kw)
+    plain = run_slip_ekf(t, vl, vr, adaptive="imm", model_error=None, **kw)
+    np.testing.assert_array_equal(never.x_post, plain.x_post)
+    np.testing.assert_array_equal(never.P_post, plain.P_post)
+    assert never.info["model_error"]["inflated_steps"] == 0
+    thesis = run_slip_ekf(t, vl, vr, **kw)
+    assert "model_error" not in thesis.info and "adaptive" not in thesis.info
+    auto = run_slip_ekf(t, vl, vr, adaptive="imm", **kw)
+    assert auto.info["model_error"]["params"] == [0, 1]
