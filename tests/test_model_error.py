@@ -71,7 +71,8 @@ def test_gate_keeps_lambda_one_when_the_filter_is_right_and_opens_when_it_is_not
 def test_settings_and_scaling():
     assert model_error_settings(None) is None and model_error_settings(False) is None
     assert model_error_settings("matching") == ModelErrorSettings()
-    for bad in (dict(window_s=0.0), dict(lambda_max=0.5), dict(gate_z=-1.0)):
+    for bad in (dict(window_s=0.0), dict(lambda_max=0.5), dict(gate_z=-1.0), dict(restart_after_s=0.0),
+                dict(restart_window_s=-1.0), dict(steady_tol=math.nan)):
         with pytest.raises(InputError):
             ModelErrorSettings(**bad)
     with pytest.raises(InputError):
@@ -144,3 +145,48 @@ def test_unopened_gate_is_the_plain_imm_and_the_thesis_filter_is_unchanged():
     assert "model_error" not in thesis.info and "adaptive" not in thesis.info
     auto = run_slip_ekf(t, vl, vr, adaptive="imm", **kw)
     assert auto.info["model_error"]["params"] == [0, 1]
+
+
+def test_mpp_from_twist_inverts_mpp_and_refuses_where_undefined():
+    from mjtrack.estimation.slip_ekf import mpp_from_twist
+
+    rng = np.random.default_rng(4)
+    for _ in range(50):
+        p = np.array([rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5), rng.uniform(-1.2, 1.2)])
+        vl, vr = rng.choice([-1, 1], 2) * rng.uniform(0.1, 1.0, 2)
+        tw = MPP(T, *p).twist(vl, vr)
+        if abs(tw[0]) < 0.05:
+            assert mpp_from_twist(T, tw, vl, vr) is None
+            continue
+        np.testing.assert_allclose(mpp_from_twist(T, tw, vl, vr), p, atol=1e-12)
+    assert mpp_from_twist(T, (0.3, 0.0, 0.1), 0.01, 0.5) is None
+
+
+def test_restart_leaves_the_wrong_side_of_the_alpha_pole():
+    """A spin turn backwards with α = −40°, the filter started at α = +80°: without the restart
+    the slips turn v_x positive to suit α at the bound (+85°) and it stays there; with it the filter
+    restarts from the twist's own parameters and ends at the truth."""
+    import dataclasses
+
+    from mjtrack.estimation.slip_ekf import SLIP_MODEL_ERROR
+
+    dt = 0.04
+    t = np.arange(int(10 / dt) + 1) * dt
+    vl, vr = np.full(t.size, -0.9), np.full(t.size, 0.7)
+    truth = np.array([0.15, 0.25, math.radians(-40.0)])
+    tw = MPP(T, *truth).twist(vl[0], vr[0])
+    assert tw[0] < 0  # v_x backwards: tan α = −v_y/v_x has the other sign than with v_x > 0
+    pose = np.zeros((t.size, 3))
+    for k in range(t.size - 1):
+        pose[k + 1] = se2_step(pose[k], tw, dt)
+    rng = np.random.default_rng(0)
+    kw = dict(track_gauge=T, pose_meas=pose + rng.normal(size=pose.shape) * POSE_STD,
+              twist_meas=tw + rng.normal(size=pose.shape) * TWIST_STD, pose_std=POSE_STD, twist_std=TWIST_STD,
+              adaptive="imm", params0=(0.0, 0.0, math.radians(80.0)))
+    stuck = run_slip_ekf(t, vl, vr, model_error=dataclasses.replace(SLIP_MODEL_ERROR, restart_after_s=None), **kw)
+    assert stuck.x_post[-1, 5] > math.radians(80.0) and stuck.info["model_error"]["restarts"] == 0
+    r = run_slip_ekf(t, vl, vr, **kw)
+    assert r.info["model_error"]["restarts"] >= 1
+    err = r.x_post[-1, 3:] - truth
+    np.testing.assert_allclose(err, 0.0, atol=0.03)
+    assert err @ np.linalg.solve(r.P_post[-1, 3:, 3:], err) < 16.0  # within 4σ of its own covariance

@@ -45,6 +45,24 @@ variance ≈ 2d/N_eff for an average of N_eff = (Σw)²/Σw² independent steps)
 d + z·√(2d/N_eff), z = ``gate_z`` (2.33: one-sided 1 %). Otherwise λ = 1 and the filter is the
 plain EKF/IMM.
 
+**Restart.** Fading cannot leave a wrong basin of a non-linear model. MPP's α = −atan(v_y/v_x)
+has a pole where v_x changes sign — as it does in the first 0.3 s of a spin turn, while the
+tracks' speeds ramp — and the EKF can end up at (α = +85°, the slips turning v_x to +0.01 m/s)
+against a truth of (−59°, v_x = −0.11 m/s): a local optimum in which the twist innovations stay
+at 6σ for seconds whatever λ does (``tuning`` case, t = 46.6 s). When the gate has stayed open
+for ``restart_after_s`` without a break, the track speeds have stayed within ``steady_tol`` over
+the last ``restart_window_s`` and the model can be inverted there (``twist_inverse``; MPP:
+u = v_x ∓ ωT/2, s = 1 − u/V, tan α = −v_y/v_x, defined for |V_L|, |V_R|, |v_x| ≥ 0.05 m/s,
+:func:`~mjtrack.estimation.slip_ekf.mpp_from_twist`), the parameters restart from the inverse of
+the mean measured twist z̄ of those n steps, with the first-order covariance of that inverse,
+
+    p₀ = ν⁻¹(z̄, u),   P₀ = J⁻¹ R_tw J⁻ᵀ / n   (J = ∂ν/∂p at p₀),
+
+and no correlation with the pose (in every IMM mode; the matching's averages restart too). This
+is the usual answer to a diverged filter — detect it from the innovations, re-initialise from a
+direct solution of the measurement equation. The n twists were used by the filter already; the
+restart discards its parameter estimate and keeps only them, so nothing is counted twice.
+
 Rejected (measured on the ``tuning`` case of experiments/filter_consistency.py, slip EKF with
 its IMM, three noise seeds): matching the *measurement* noise instead (R_ii scaled by the excess
 of ⟨ε_i²⟩ with a long-run factor for its correlation, Myers & Tapley 1976) made the parameter
@@ -73,12 +91,20 @@ class ModelErrorSettings:
         gate_z: the matching acts only when the averaged twist NIS exceeds its mean m by
             ``gate_z`` standard deviations of that average (module docstring); 0: always.
         params: indices of the parameters whose covariance is scaled (None: all).
+        restart_after_s: restart the parameters from the model's inverse of the recent twist
+            when the gate has stayed open this long [s] (module docstring, "Restart"); None: never.
+            Needs a filter that was given an inverse (``twist_inverse``).
+        restart_window_s: length [s] of the twist average the restart inverts.
+        steady_tol: the track speeds must stay within this band [m/s] over that window.
     """
 
     window_s: float = 0.2
     lambda_max: float = 100.0
     gate_z: float = 2.33
     params: tuple[int, ...] | None = None
+    restart_after_s: float | None = None
+    restart_window_s: float = 0.2
+    steady_tol: float = 0.02
 
     def __post_init__(self):
         if not (math.isfinite(self.window_s) and self.window_s > 0):
@@ -87,10 +113,18 @@ class ModelErrorSettings:
             raise InputError(f"model error: lambda_max must be a number >= 1, got {self.lambda_max!r}")
         if not (math.isfinite(self.gate_z) and self.gate_z >= 0):
             raise InputError(f"model error: gate_z must be a number >= 0, got {self.gate_z!r}")
+        if self.restart_after_s is not None and not (math.isfinite(self.restart_after_s) and self.restart_after_s > 0):
+            raise InputError(f"model error: restart_after_s must be a positive time [s] or None, got {self.restart_after_s!r}")
+        if not (math.isfinite(self.restart_window_s) and self.restart_window_s > 0):
+            raise InputError(f"model error: restart_window_s must be a positive time [s], got {self.restart_window_s!r}")
+        if not (math.isfinite(self.steady_tol) and self.steady_tol >= 0):
+            raise InputError(f"model error: steady_tol must be a speed >= 0 [m/s], got {self.steady_tol!r}")
 
     def to_dict(self) -> dict:
         return {"kind": "matching", "window_s": self.window_s, "lambda_max": self.lambda_max, "gate_z": self.gate_z,
-                "params": None if self.params is None else list(self.params)}
+                "params": None if self.params is None else list(self.params),
+                "restart_after_s": self.restart_after_s, "restart_window_s": self.restart_window_s,
+                "steady_tol": self.steady_tol}
 
 
 def model_error_settings(value) -> ModelErrorSettings | None:
@@ -119,6 +153,8 @@ class CovarianceMatching:
         self.nis = 0.0  # ⟨ε_twᵀ S_tw⁻¹ ε_tw⟩
         self.dof = 0.0
         self.lam = 1.0
+        self.gate_open = False
+        self.open_s = 0.0  # how long the gate has been open without a break [s]
 
     def factor(self) -> float:
         """λ to scale the parameter block of the next prediction with (≥ 1)."""
@@ -142,7 +178,9 @@ class CovarianceMatching:
         excess = (self.v - self.n) / self.w
         n_eff = self.w**2 / self.w2
         dof = self.dof / self.w
-        if self.nis / self.w <= dof + self.settings.gate_z * math.sqrt(2.0 * dof / n_eff):
+        self.gate_open = self.nis / self.w > dof + self.settings.gate_z * math.sqrt(2.0 * dof / n_eff)
+        self.open_s = self.open_s + dt if self.gate_open else 0.0
+        if not self.gate_open:
             self.lam = 1.0
             return
         self.lam = float(np.clip(excess / m, 1.0, self.settings.lambda_max)) if m > 0 else 1.0

@@ -123,15 +123,21 @@ class PoseParamFilter:
             before each prediction the parameter covariance is scaled by the covariance-matching
             factor λ ≥ 1 of :mod:`mjtrack.estimation.model_error`, found from the twist innovations
             (None: no scaling; without a twist measurement λ stays 1).
+        twist_inverse: optional ``f(twist (3,), v_left, v_right) -> params (P,) or None``, the
+            model's parameters that produce a given twist (None where they are not defined); with
+            ``model_error.restart_after_s`` the filter restarts its parameters from it when the
+            twist innovations have stayed too large that long (:mod:`~mjtrack.estimation.model_error`).
     """
 
     def __init__(self, model: KinematicModel, s0, P0, q2, *, step: str = "midpoint", adaptive=None,
-                 param_bounds=None, model_error=None):
+                 param_bounds=None, model_error=None, twist_inverse=None):
         self.model = model
         self.step_kind = step
         self.imm: IMMSettings | None = imm_settings(adaptive)
         self.model_error: ModelErrorSettings | None = model_error_settings(model_error)
         self._me = None if self.model_error is None else CovarianceMatching(self.model_error)
+        self.twist_inverse = twist_inverse
+        self.restarts = 0
         self.q2 = np.asarray(q2, float)
         self.bounds = None if param_bounds is None else np.asarray(param_bounds, float)
         self.projected = 0
@@ -143,6 +149,7 @@ class PoseParamFilter:
         s0, P0 = np.asarray(s0, float).copy(), np.asarray(P0, float).copy()
         self.s, self.P = s0, P0
         self.u_last = None
+        self._recent: list[tuple[float, np.ndarray, np.ndarray]] = []  # (dt, twist z, u) of the last steps
         if self._me is not None:
             self._me.reset()
         if self.imm is not None:
@@ -198,7 +205,57 @@ class PoseParamFilter:
             sel = tw[mask]  # twist components among those present
             noise = 1.0 if self.imm is None else self._noise_mix
             self._me.observe(dt, e[sel], S[np.ix_(sel, sel)], np.diag(np.asarray(R, float))[mask][sel], noise)
+            if self.model_error.restart_after_s is not None and self.twist_inverse is not None:
+                self._maybe_restart(dt, z[z.size - 3:], u_meas, np.diag(np.asarray(R, float))[z.size - 3:])
         return out
+
+    def _maybe_restart(self, dt: float, zt: np.ndarray, u, r_tw: np.ndarray) -> None:
+        """Restart the parameters from the inverse of the recent mean twist (model_error docstring)."""
+        me = self.model_error
+        self._recent.append((dt, np.asarray(zt, float), np.asarray(u, float)))
+        total = 0.0
+        for i in range(len(self._recent) - 1, -1, -1):
+            total += self._recent[i][0]
+            if total >= me.restart_window_s - 1e-9:
+                self._recent = self._recent[i:]
+                break
+        if self._me.open_s < me.restart_after_s - 1e-9 or total < me.restart_window_s - 1e-9:
+            return
+        zs = np.array([r[1] for r in self._recent])
+        us = np.array([r[2] for r in self._recent])
+        if not np.all(np.isfinite(zs)) or np.ptp(us, axis=0).max() > me.steady_tol:
+            return
+        u_mean = us.mean(0)
+        p = self.twist_inverse(zs.mean(0), u_mean[0], u_mean[1])
+        if p is None:
+            return
+        p = np.asarray(p, float)
+        if self.bounds is not None:
+            p = np.clip(p, self.bounds[:, 0], self.bounds[:, 1])
+        J = self.model.with_params(p).twist_jacobian(u_mean[0], u_mean[1])
+        try:
+            Jinv = np.linalg.inv(J)
+        except np.linalg.LinAlgError:
+            return
+        Pp = Jinv @ np.diag(r_tw) @ Jinv.T / len(self._recent)
+
+        def restart(s, P):
+            s, P = s.copy(), P.copy()
+            s[3:] = p
+            P[3:, :] = 0.0
+            P[:, 3:] = 0.0
+            P[3:, 3:] = 0.5 * (Pp + Pp.T)
+            return s, P
+
+        if self.imm is None:
+            self.s, self.P = restart(self.s, self.P)
+        else:
+            for j in range(len(self.xs)):
+                self.xs[j], self.Ps[j] = restart(self.xs[j], self.Ps[j])
+            self.s, self.P = combine(self.xs, self.Ps, self.mu)
+        self._me.reset()
+        self._recent = []
+        self.restarts += 1
 
     @property
     def param_cov_factor(self) -> float | None:
@@ -258,6 +315,7 @@ def run_pose_param_ekf(
     adaptive=None,
     param_cov0=None,
     model_error=None,
+    twist_inverse=None,
 ) -> FilterResult:
     """Run the pose-augmented EKF over a drive (see module docstring).
 
@@ -284,7 +342,10 @@ def run_pose_param_ekf(
             :class:`~mjtrack.estimation.model_error.ModelErrorSettings`: the parameter covariance
             is scaled by the covariance-matching factor λ ≥ 1 of
             :mod:`mjtrack.estimation.model_error` whenever the twist innovations are larger than
-            S says; ``info["model_error"]["inflated_steps"]`` counts the steps with λ > 1.
+            S says; ``info["model_error"]["inflated_steps"]`` counts the steps with λ > 1,
+            ``["restarts"]`` the restarts (``twist_inverse``, below).
+        twist_inverse: optional ``f(twist, v_left, v_right) -> params or None`` (the model's
+            inverse) for the restart of :mod:`mjtrack.estimation.model_error`.
     Returns:
         :class:`FilterResult` of N−1 steps (t[1:]); states (x, y, theta, *model.param_names);
         measurements: pose and/or twist components.
@@ -322,7 +383,8 @@ def run_pose_param_ekf(
         bounds = np.asarray(param_bounds, dtype=float)
         if bounds.shape != (P_, 2) or np.any(bounds[:, 0] >= bounds[:, 1]):
             raise InputError(f"{name}: param_bounds must be {P_} (low, high) pairs with low < high")
-    filt = PoseParamFilter(model, s, P, q2, step=step, adaptive=adaptive, param_bounds=bounds, model_error=model_error)
+    filt = PoseParamFilter(model, s, P, q2, step=step, adaptive=adaptive, param_bounds=bounds, model_error=model_error,
+                           twist_inverse=twist_inverse)
     lam_n = 0
     for k in range(1, t.size):
         if filt.model_error is not None:
@@ -338,6 +400,6 @@ def run_pose_param_ekf(
     if filt.imm is not None:
         info["adaptive"] = {"kind": "imm", **filt.imm.to_dict()}
     if filt.model_error is not None:
-        info["model_error"] = {**filt.model_error.to_dict(), "inflated_steps": lam_n}
+        info["model_error"] = {**filt.model_error.to_dict(), "inflated_steps": lam_n, "restarts": filt.restarts}
     return hist.result(name, POSE_NAMES + tuple(model.param_names), meas_names, state_angles=(2,),
                        meas_angles=meas_angles, info=info)
