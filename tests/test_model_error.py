@@ -190,3 +190,42 @@ def test_restart_leaves_the_wrong_side_of_the_alpha_pole():
     err = r.x_post[-1, 3:] - truth
     np.testing.assert_allclose(err, 0.0, atol=0.03)
     assert err @ np.linalg.solve(r.P_post[-1, 3:, 3:], err) < 16.0  # within 4σ of its own covariance
+
+
+@pytest.mark.parametrize("cap_std", [None, 1e6])
+def test_matching_stays_bounded_when_the_twist_does_not_depend_on_a_slip(cap_std):
+    """Left track at rest (∂ν/∂s_L = 0) and a twist 10x noisier than the filter's R: the excess is
+    large and the parameters cannot explain it; the covariance must stay at most the fresh-start one
+    (with ``cap_std`` the same run with a cap of 1e6 shows that without it the variance explodes)."""
+    import dataclasses
+
+    from mjtrack.estimation.pose_ekf import run_pose_param_ekf
+    from mjtrack.estimation.slip_ekf import SLIP_MODEL_ERROR
+
+    dt = 0.04
+    t = np.arange(int(20 / dt) + 1) * dt
+    vl, vr = np.zeros(t.size), np.full(t.size, 0.5)
+    truth = MPP(T, 0.0, 0.1, 0.05)
+    tw = truth.twist(vl[0], vr[0])
+    pose = np.zeros((t.size, 3))
+    for k in range(t.size - 1):
+        pose[k + 1] = se2_step(pose[k], tw, dt)
+    rng = np.random.default_rng(7)
+    pm = pose + rng.normal(size=pose.shape) * POSE_STD * 10
+    tm = tw + rng.normal(size=pose.shape) * TWIST_STD * 10
+    std0 = np.array([0.3, 0.3, math.radians(20.0)]) if cap_std is None else np.full(3, cap_std)
+    me = dataclasses.replace(SLIP_MODEL_ERROR, restart_after_s=None)
+    r = run_pose_param_ekf(MPP(T, 0.0, 0.0, 0.0), t, vl, vr, pose_meas=pm, twist_meas=tm, pose_std=POSE_STD,
+                           twist_std=TWIST_STD, param_std0=std0, q_param_std=(1e-3, 1e-3, 1e-3), adaptive="imm",
+                           model_error=me)
+    var = r.P_post[:, 3, 3]
+    assert np.all(np.isfinite(r.P_post)) and r.info["model_error"]["inflated_steps"] > 100
+    if cap_std is None:
+        # s_L is unobservable here, so the IMM's random walk alone lets its variance grow; the
+        # matching adds no more than the fresh-start variance on top of that
+        plain = run_pose_param_ekf(MPP(T, 0.0, 0.0, 0.0), t, vl, vr, pose_meas=pm, twist_meas=tm, pose_std=POSE_STD,
+                                   twist_std=TWIST_STD, param_std0=std0, q_param_std=(1e-3, 1e-3, 1e-3),
+                                   adaptive="imm")
+        assert var.max() <= plain.P_post[:, 3, 3].max() + 0.3**2
+    else:
+        assert var.max() > 1e3  # what the cap prevents

@@ -34,7 +34,12 @@ inflated covariance explains the innovations — the STF's rule). The next step'
 starts from the posterior with its parameter block scaled, D P⁺ D with
 D = diag(1, 1, 1, √λ, …, √λ) (positive definite for any λ > 0; the pose–parameter correlations
 scale with √λ; ``params`` picks which parameters get the √λ), in every IMM mode. λ ≥ 1 always:
-the matching only ever says "you moved more than you thought".
+the matching only ever says "you moved more than you thought". No parameter's variance is
+scaled above its variance at a fresh start (``param_std0``²): where the twist hardly depends on a
+parameter (a track at rest: ∂ν/∂s = 0) the denominator of (ME2) is ~0, λ would sit at
+``lambda_max`` every step, and the covariance would grow without bound (it did, on the real
+Marmotte log with a measurement noise far below the log's, until S was no longer positive
+definite).
 
 **Gate.** A noisy average exceeds its mean half of the time, and every λ > 1 on a still
 parameter widens a covariance that then takes many steps to shrink again (on the ``tuning``
@@ -58,7 +63,23 @@ the mean measured twist z̄ of those n steps, with the first-order covariance of
 
     p₀ = ν⁻¹(z̄, u),   P₀ = J⁻¹ R_tw J⁻ᵀ / n   (J = ∂ν/∂p at p₀),
 
-and no correlation with the pose (in every IMM mode; the matching's averages restart too). This
+and no correlation with the pose (in every IMM mode; the matching's averages restart too). A
+restart also needs the innovations to be *biased*: a wrong basin shows as a mean innovation that
+stays away from zero (6σ above), a measurement noise larger than the filter's R only as a larger
+spread. So the twist innovations (each over its √S_ii) of the steps with the gate open must have
+a component whose t statistic |mean|/(std/√n) is at least ``restart_t`` (4: p < 0.005 for the
+~12 steps of 0.5 s): a guard against restarting from the noise of a mis-stated R (it moved the
+``tuning`` case's NEES/dof by less than 0.03 and the Marmotte numbers below by less than 1 cm).
+
+**Where it does harm: a measurement noise far below the real one.** The gate then stays open
+(the innovations exceed S because R is wrong, not because the parameters moved), and the slips'
+covariance sits at its cap: on the real Marmotte log with validate's *default* noise (σ 1 cm,
+0.02 m/s, far below the log's differenced twist, 0.3 m/s; experiments/filters_marmotte.py,
+carried across windows, IMM) the slip EKF's NIS/dof fell from 264 to 64 but its 2-s predictions
+got worse, 0.68 → 1.37 m (nominal: 0.24 m); with the noise estimated from the log, as validate
+does now, nothing changed (0.243 m, NIS/dof 0.73). Restricting the matching to innovations with
+a significant mean (a bias test on the EW mean of ε/√S, z = 2 or 3) was tried and rejected: on
+the ``tuning`` cases NIS/dof rose to 1.7–2.0 and the circle's NEES/dof fell to 0.30. This
 is the usual answer to a diverged filter — detect it from the innovations, re-initialise from a
 direct solution of the measurement equation. The n twists were used by the filter already; the
 restart discards its parameter estimate and keeps only them, so nothing is counted twice.
@@ -96,6 +117,8 @@ class ModelErrorSettings:
             Needs a filter that was given an inverse (``twist_inverse``).
         restart_window_s: length [s] of the twist average the restart inverts.
         steady_tol: the track speeds must stay within this band [m/s] over that window.
+        restart_t: the restart also needs a bias in the twist innovations while the gate was open:
+            the largest |t| statistic (mean / (std/√n)) of their components ≥ ``restart_t``.
     """
 
     window_s: float = 0.2
@@ -105,6 +128,7 @@ class ModelErrorSettings:
     restart_after_s: float | None = None
     restart_window_s: float = 0.2
     steady_tol: float = 0.02
+    restart_t: float = 4.0
 
     def __post_init__(self):
         if not (math.isfinite(self.window_s) and self.window_s > 0):
@@ -117,6 +141,8 @@ class ModelErrorSettings:
             raise InputError(f"model error: restart_after_s must be a positive time [s] or None, got {self.restart_after_s!r}")
         if not (math.isfinite(self.restart_window_s) and self.restart_window_s > 0):
             raise InputError(f"model error: restart_window_s must be a positive time [s], got {self.restart_window_s!r}")
+        if not (math.isfinite(self.restart_t) and self.restart_t >= 0):
+            raise InputError(f"model error: restart_t must be a number >= 0, got {self.restart_t!r}")
         if not (math.isfinite(self.steady_tol) and self.steady_tol >= 0):
             raise InputError(f"model error: steady_tol must be a speed >= 0 [m/s], got {self.steady_tol!r}")
 
@@ -124,7 +150,7 @@ class ModelErrorSettings:
         return {"kind": "matching", "window_s": self.window_s, "lambda_max": self.lambda_max, "gate_z": self.gate_z,
                 "params": None if self.params is None else list(self.params),
                 "restart_after_s": self.restart_after_s, "restart_window_s": self.restart_window_s,
-                "steady_tol": self.steady_tol}
+                "steady_tol": self.steady_tol, "restart_t": self.restart_t}
 
 
 def model_error_settings(value) -> ModelErrorSettings | None:
@@ -186,11 +212,19 @@ class CovarianceMatching:
         self.lam = float(np.clip(excess / m, 1.0, self.settings.lambda_max)) if m > 0 else 1.0
 
 
-def scale_param_block(P: np.ndarray, lam: float, n_pose: int = 3, params=None) -> np.ndarray:
-    """D P D with D = diag(1 (pose), √λ (the parameters ``params``, default all), 1 (the others))."""
+def scale_param_block(P: np.ndarray, lam: float, n_pose: int = 3, params=None, var_max=None) -> np.ndarray:
+    """D P D with D = diag(1 (pose), √λ_i (the parameters ``params``, default all), 1 (the others)).
+
+    λ_i = λ, or less where that would take the parameter's variance above ``var_max[i]`` (never
+    below 1): the matching never makes a parameter more uncertain than a fresh start.
+    """
     d = np.ones(P.shape[0])
-    if params is None:
-        d[n_pose:] = math.sqrt(lam)
-    else:
-        d[[n_pose + i for i in params]] = math.sqrt(lam)
+    idx = list(range(P.shape[0] - n_pose)) if params is None else list(params)
+    lam_i = np.full(len(idx), float(lam))
+    if var_max is not None:
+        var = np.diag(P)[[n_pose + i for i in idx]]
+        cap = np.asarray(var_max, float)[idx]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lam_i = np.clip(np.minimum(lam_i, np.where(var > 0, cap / var, lam_i)), 1.0, None)
+    d[[n_pose + i for i in idx]] = np.sqrt(lam_i)
     return P * np.outer(d, d)

@@ -127,16 +127,19 @@ class PoseParamFilter:
             model's parameters that produce a given twist (None where they are not defined); with
             ``model_error.restart_after_s`` the filter restarts its parameters from it when the
             twist innovations have stayed too large that long (:mod:`~mjtrack.estimation.model_error`).
+        param_var_max: (P,) variances the model-error term never scales a parameter above (its
+            restart is capped there too); None: no cap.
     """
 
     def __init__(self, model: KinematicModel, s0, P0, q2, *, step: str = "midpoint", adaptive=None,
-                 param_bounds=None, model_error=None, twist_inverse=None):
+                 param_bounds=None, model_error=None, twist_inverse=None, param_var_max=None):
         self.model = model
         self.step_kind = step
         self.imm: IMMSettings | None = imm_settings(adaptive)
         self.model_error: ModelErrorSettings | None = model_error_settings(model_error)
         self._me = None if self.model_error is None else CovarianceMatching(self.model_error)
         self.twist_inverse = twist_inverse
+        self.param_var_max = None if param_var_max is None else np.asarray(param_var_max, float)
         self.restarts = 0
         self.q2 = np.asarray(q2, float)
         self.bounds = None if param_bounds is None else np.asarray(param_bounds, float)
@@ -150,6 +153,7 @@ class PoseParamFilter:
         self.s, self.P = s0, P0
         self.u_last = None
         self._recent: list[tuple[float, np.ndarray, np.ndarray]] = []  # (dt, twist z, u) of the last steps
+        self._innov: list[tuple[float, np.ndarray]] = []  # (dt, twist innovation / √S_ii) while the gate is open
         if self._me is not None:
             self._me.reset()
         if self.imm is not None:
@@ -193,10 +197,11 @@ class PoseParamFilter:
         ang = [int(np.sum(mask[:i])) for i in meas_angles if mask[i]]
         if self._me is not None and self._me.factor() > 1.0:
             lam, which = self._me.factor(), self.model_error.params
+            cap = self.param_var_max
             if self.imm is None:
-                self.P = scale_param_block(self.P, lam, params=which)
+                self.P = scale_param_block(self.P, lam, params=which, var_max=cap)
             else:
-                self.Ps = [scale_param_block(Pj, lam, params=which) for Pj in self.Ps]
+                self.Ps = [scale_param_block(Pj, lam, params=which, var_max=cap) for Pj in self.Ps]
         out = self._step(dt, u_pred, u_meas, z, R, pose, twist, mask, ang)
         if self._me is not None and twist and out[4] is not None:
             e, S, _ = out[4]
@@ -206,6 +211,8 @@ class PoseParamFilter:
             noise = 1.0 if self.imm is None else self._noise_mix
             self._me.observe(dt, e[sel], S[np.ix_(sel, sel)], np.diag(np.asarray(R, float))[mask][sel], noise)
             if self.model_error.restart_after_s is not None and self.twist_inverse is not None:
+                en = e[sel] / np.sqrt(np.diag(S)[sel])
+                self._innov = self._innov + [(dt, en)] if self._me.gate_open and en.size == 3 else []
                 self._maybe_restart(dt, z[z.size - 3:], u_meas, np.diag(np.asarray(R, float))[z.size - 3:])
         return out
 
@@ -220,6 +227,13 @@ class PoseParamFilter:
                 self._recent = self._recent[i:]
                 break
         if self._me.open_s < me.restart_after_s - 1e-9 or total < me.restart_window_s - 1e-9:
+            return
+        # a misfit of the parameters biases the innovations; a measurement noise larger than R does not
+        en = np.array([r[1] for r in self._innov])
+        if len(en) < 3:
+            return
+        tstat = np.abs(en.mean(0)) / np.maximum(en.std(0, ddof=1), 1e-12) * np.sqrt(len(en))
+        if tstat.max() < me.restart_t:
             return
         zs = np.array([r[1] for r in self._recent])
         us = np.array([r[2] for r in self._recent])
@@ -238,6 +252,12 @@ class PoseParamFilter:
         except np.linalg.LinAlgError:
             return
         Pp = Jinv @ np.diag(r_tw) @ Jinv.T / len(self._recent)
+        if not np.all(np.isfinite(Pp)) or not np.all(np.isfinite(p)):
+            return
+        if self.param_var_max is not None:  # no more uncertain than a fresh start
+            sd = np.sqrt(np.diag(Pp))
+            f = np.minimum(1.0, np.sqrt(self.param_var_max) / np.where(sd > 0, sd, 1.0))
+            Pp = Pp * np.outer(f, f)
 
         def restart(s, P):
             s, P = s.copy(), P.copy()
@@ -255,6 +275,7 @@ class PoseParamFilter:
             self.s, self.P = combine(self.xs, self.Ps, self.mu)
         self._me.reset()
         self._recent = []
+        self._innov = []
         self.restarts += 1
 
     @property
@@ -384,7 +405,7 @@ def run_pose_param_ekf(
         if bounds.shape != (P_, 2) or np.any(bounds[:, 0] >= bounds[:, 1]):
             raise InputError(f"{name}: param_bounds must be {P_} (low, high) pairs with low < high")
     filt = PoseParamFilter(model, s, P, q2, step=step, adaptive=adaptive, param_bounds=bounds, model_error=model_error,
-                           twist_inverse=twist_inverse)
+                           twist_inverse=twist_inverse, param_var_max=np.asarray(param_std0, float) ** 2)
     lam_n = 0
     for k in range(1, t.size):
         if filt.model_error is not None:
