@@ -69,7 +69,10 @@ stays away from zero (6σ above), a measurement noise larger than the filter's R
 spread. So the twist innovations (each over its √S_ii) of the steps with the gate open must have
 a component whose t statistic |mean|/(std/√n) is at least ``restart_t`` (4: p < 0.005 for the
 ~12 steps of 0.5 s): a guard against restarting from the noise of a mis-stated R (it moved the
-``tuning`` case's NEES/dof by less than 0.03 and the Marmotte numbers below by less than 1 cm).
+``tuning`` case's NEES/dof by less than 0.03 and the Marmotte numbers below by less than 1 cm). This
+is the usual answer to a diverged filter — detect it from the innovations, re-initialise from a
+direct solution of the measurement equation. The n twists were used by the filter already; the
+restart discards its parameter estimate and keeps only them, so nothing is counted twice.
 
 **Where it does harm: a measurement noise far below the real one.** The gate then stays open
 (the innovations exceed S because R is wrong, not because the parameters moved), and the slips'
@@ -79,10 +82,7 @@ carried across windows, IMM) the slip EKF's NIS/dof fell from 264 to 64 but its 
 got worse, 0.68 → 1.37 m (nominal: 0.24 m); with the noise estimated from the log, as validate
 does now, nothing changed (0.243 m, NIS/dof 0.73). Restricting the matching to innovations with
 a significant mean (a bias test on the EW mean of ε/√S, z = 2 or 3) was tried and rejected: on
-the ``tuning`` cases NIS/dof rose to 1.7–2.0 and the circle's NEES/dof fell to 0.30. This
-is the usual answer to a diverged filter — detect it from the innovations, re-initialise from a
-direct solution of the measurement equation. The n twists were used by the filter already; the
-restart discards its parameter estimate and keeps only them, so nothing is counted twice.
+the ``tuning`` cases NIS/dof rose to 1.7–2.0 and the circle's NEES/dof fell to 0.30.
 
 Rejected (measured on the ``tuning`` case of experiments/filter_consistency.py, slip EKF with
 its IMM, three noise seeds): matching the *measurement* noise instead (R_ii scaled by the excess
