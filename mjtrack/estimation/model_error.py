@@ -67,12 +67,14 @@ and no correlation with the pose (in every IMM mode; the matching's averages res
 restart also needs the innovations to be *biased*: a wrong basin shows as a mean innovation that
 stays away from zero (6σ above), a measurement noise larger than the filter's R only as a larger
 spread. So the twist innovations (each over its √S_ii) of the steps with the gate open must have
-a component whose t statistic |mean|/(std/√n) is at least ``restart_t`` (4: p < 0.005 for the
-~12 steps of 0.5 s): a guard against restarting from the noise of a mis-stated R (it moved the
+a component whose t statistic |mean|/(std/√n) is at least ``restart_t`` (4: for white
+innovations over the ~12 steps of 0.5 s the largest of the three exceeds it with p ≈ 0.006): a guard against restarting from the noise of a mis-stated R (it moved the
 ``tuning`` case's NEES/dof by less than 0.03 and the Marmotte numbers below by less than 1 cm). This
 is the usual answer to a diverged filter — detect it from the innovations, re-initialise from a
 direct solution of the measurement equation. The n twists were used by the filter already; the
-restart discards its parameter estimate and keeps only them, so nothing is counted twice.
+restart discards its parameter estimate and keeps only them, so the parameters count nothing
+twice (the pose keeps what it learnt through them and is now taken as uncorrelated with the
+parameters: a slight over-confidence of the pose, for one step's worth of prediction).
 
 **Where it does harm: a measurement noise far below the real one.** The gate then stays open
 (the innovations exceed S because R is wrong, not because the parameters moved), and the slips'
