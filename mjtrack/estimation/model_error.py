@@ -74,7 +74,7 @@ is the usual answer to a diverged filter — detect it from the innovations, re-
 direct solution of the measurement equation. The n twists were used by the filter already; the
 restart discards its parameter estimate and keeps only them, so the parameters count nothing
 twice (the pose keeps what it learnt through them and is now taken as uncorrelated with the
-parameters: a slight over-confidence of the pose, for one step's worth of prediction).
+parameters, which over-states what the pose and the parameters know together; not measured).
 
 **Where it does harm: a measurement noise far below the real one.** The gate then stays open
 (the innovations exceed S because R is wrong, not because the parameters moved), and the slips'
