@@ -50,7 +50,7 @@ Q_POSE_STD_IMM = (0.002, 0.002, 0.0008)  # with adaptive="imm"
 # 'tuning' cases of experiments/filter_consistency.py only): the slips' covariance is matched to
 # the twist innovations (0.5-s average, acting when the average NIS is 2.33 sigma above its mean),
 # and when that gate stays open for 0.5 s the parameters restart from the inverse of the mean
-# twist of the last 0.2 s (mpp_from_twist; tuning case NEES/dof 2.0-2.8 -> 1.1-1.3);
+# twist of the last 0.2 s (mpp_from_twist; tuning case NEES/dof 2.0-2.8 -> 1.2-1.5);
 # alpha is left out of the matching (the restart sets it too): in a spin turn whose v_x changes sign MPP's alpha passes its pole (+-90 deg),
 # and a freer alpha ran into the projection bound and stuck there, the slips compensating
 # (tuning case, 3 noise seeds: alpha rmse 0.70 rad, parameter NEES/dof 233-244 with alpha matched
