@@ -16,7 +16,10 @@ The IMM settings (:mod:`mjtrack.estimation.imm`) were chosen on the two ``tuning
 
 **Filters** as ``mjtrack validate`` runs them: slip EKF (MPP; pose + twist), ICR EKF (ψ; pose),
 VIR filter (ψ; twist), measured track speeds, each as printed (one random walk, the thesis's
-settings) and adaptive (``adaptive="imm"``). Measurements: the rollout's pose and twist with seeded
+settings) and adaptive (``adaptive="imm"``; for the slip EKF this includes the covariance matching
+of the slips' covariance on the twist innovations and its restart from MPP's inverse of the
+recent twist, :mod:`mjtrack.estimation.model_error`, whose
+settings were chosen on the two ``tuning`` cases only). Measurements: the rollout's pose and twist with seeded
 Gaussian noise, std 1 cm, 1 cm, 0.01 rad; 0.02 m/s, 0.02 m/s, 0.02 rad/s (the filters' R).
 
 **Consistency** (:mod:`mjtrack.estimation.consistency`): NIS/dof = mean NIS over the steps

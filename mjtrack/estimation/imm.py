@@ -64,7 +64,9 @@ command is 0.5–1 m/s: it triggers the fast mode; the time term only matters wh
 constant); τ_f = 1 s (a burst lasts about one drive transient). With τ_s = 20 s and no command
 term the constant-command runs came out under-confident (parameter NEES/dof 0.2–0.4: the mixing
 feeds the fast mode's covariance into the slow one at the rate the chain assumes) and the
-random-step runs over-confident. The slip EKF uses c = 100, r = 3 (``slip_ekf.SLIP_IMM``).
+random-step runs over-confident. The slip EKF uses c = 100, r = 3 (``slip_ekf.SLIP_IMM``) and,
+with ``adaptive``, a covariance-matching factor on the slips' covariance
+(:mod:`mjtrack.estimation.model_error`): its slips jump by amounts no fixed fast intensity covers.
 """
 
 from __future__ import annotations

@@ -35,6 +35,8 @@ the position rows' parameter columns. ``step="euler"`` is the thesis's (3.11).
 Adaptive process noise: ``adaptive="imm"`` (or an :class:`~mjtrack.estimation.imm.IMMSettings`)
 runs a slow/fast pair of parameter random walks as an interacting multiple model
 (:mod:`mjtrack.estimation.imm`, derivation there); the default (None) is the single EKF above.
+``model_error`` adds a covariance-matching factor on the parameter covariance, found from the
+twist innovations (:mod:`mjtrack.estimation.model_error`, derivation there); default: off.
 
 Noise units: measurement noise as standard deviations ``*_std`` [m, m, rad, m/s, m/s, rad/s];
 process noise as random-walk intensities ``q_*_std`` [unit/√s], Q = diag(q²)·Δt, so the result
@@ -51,6 +53,7 @@ import numpy as np
 from mjtrack.errors import InputError
 from mjtrack.estimation.common import FilterResult, History, check_inputs, predict, residual, update
 from mjtrack.estimation.imm import IMMSettings, combine, imm_settings, log_likelihood, mix, posterior_probabilities
+from mjtrack.estimation.model_error import CovarianceMatching, ModelErrorSettings, model_error_settings, scale_param_block
 from mjtrack.models import KinematicModel
 
 log = logging.getLogger(__name__)
@@ -116,16 +119,32 @@ class PoseParamFilter:
         step: "midpoint" or "euler".
         adaptive: None, "imm" or :class:`~mjtrack.estimation.imm.IMMSettings`.
         param_bounds: optional (P, 2) box the parameters are projected into after each update.
+        model_error: None, True/"matching" or :class:`~mjtrack.estimation.model_error.ModelErrorSettings`:
+            before each prediction the parameter covariance is scaled by the covariance-matching
+            factor λ ≥ 1 of :mod:`mjtrack.estimation.model_error`, found from the twist innovations
+            (None: no scaling; without a twist measurement λ stays 1).
+        twist_inverse: optional ``f(twist (3,), v_left, v_right) -> params (P,) or None``, the
+            model's parameters that produce a given twist (None where they are not defined); with
+            ``model_error.restart_after_s`` the filter restarts its parameters from it when the
+            twist innovations have stayed too large that long (:mod:`~mjtrack.estimation.model_error`).
+        param_var_max: (P,) variances the model-error term never scales a parameter above (its
+            restart is capped there too); None: no cap.
     """
 
     def __init__(self, model: KinematicModel, s0, P0, q2, *, step: str = "midpoint", adaptive=None,
-                 param_bounds=None):
+                 param_bounds=None, model_error=None, twist_inverse=None, param_var_max=None):
         self.model = model
         self.step_kind = step
         self.imm: IMMSettings | None = imm_settings(adaptive)
+        self.model_error: ModelErrorSettings | None = model_error_settings(model_error)
+        self._me = None if self.model_error is None else CovarianceMatching(self.model_error)
+        self.twist_inverse = twist_inverse
+        self.param_var_max = None if param_var_max is None else np.asarray(param_var_max, float)
+        self.restarts = 0
         self.q2 = np.asarray(q2, float)
         self.bounds = None if param_bounds is None else np.asarray(param_bounds, float)
         self.projected = 0
+        self._noise_mix = 1.0
         self.reset(s0, P0)
 
     def reset(self, s0, P0, mode_prob=None) -> None:
@@ -133,6 +152,10 @@ class PoseParamFilter:
         s0, P0 = np.asarray(s0, float).copy(), np.asarray(P0, float).copy()
         self.s, self.P = s0, P0
         self.u_last = None
+        self._recent: list[tuple[float, np.ndarray, np.ndarray]] = []  # (dt, twist z, u) of the last steps
+        self._innov: list[tuple[float, np.ndarray]] = []  # (dt, twist innovation / √S_ii) while the gate is open
+        if self._me is not None:
+            self._me.reset()
         if self.imm is not None:
             self.xs, self.Ps = [s0.copy(), s0.copy()], [P0.copy(), P0.copy()]
             self.mu = np.asarray(self.imm.prior if mode_prob is None else mode_prob, float).copy()
@@ -172,6 +195,95 @@ class PoseParamFilter:
         z = np.asarray(z, float)
         mask = ~np.isnan(z)
         ang = [int(np.sum(mask[:i])) for i in meas_angles if mask[i]]
+        if self._me is not None and self._me.factor() > 1.0:
+            lam, which = self._me.factor(), self.model_error.params
+            cap = self.param_var_max
+            if self.imm is None:
+                self.P = scale_param_block(self.P, lam, params=which, var_max=cap)
+            else:
+                self.Ps = [scale_param_block(Pj, lam, params=which, var_max=cap) for Pj in self.Ps]
+        out = self._step(dt, u_pred, u_meas, z, R, pose, twist, mask, ang)
+        if self._me is not None and twist and out[4] is not None:
+            e, S, _ = out[4]
+            tw = np.zeros(z.size, bool)
+            tw[z.size - 3:] = True
+            sel = tw[mask]  # twist components among those present
+            noise = 1.0 if self.imm is None else self._noise_mix
+            self._me.observe(dt, e[sel], S[np.ix_(sel, sel)], np.diag(np.asarray(R, float))[mask][sel], noise)
+            if self.model_error.restart_after_s is not None and self.twist_inverse is not None:
+                en = e[sel] / np.sqrt(np.diag(S)[sel])
+                self._innov = self._innov + [(dt, en)] if self._me.gate_open and en.size == 3 else []
+                self._maybe_restart(dt, z[z.size - 3:], u_meas, np.diag(np.asarray(R, float))[z.size - 3:])
+        return out
+
+    def _maybe_restart(self, dt: float, zt: np.ndarray, u, r_tw: np.ndarray) -> None:
+        """Restart the parameters from the inverse of the recent mean twist (model_error docstring)."""
+        me = self.model_error
+        self._recent.append((dt, np.asarray(zt, float), np.asarray(u, float)))
+        total = 0.0
+        for i in range(len(self._recent) - 1, -1, -1):
+            total += self._recent[i][0]
+            if total >= me.restart_window_s - 1e-9:
+                self._recent = self._recent[i:]
+                break
+        if self._me.open_s < me.restart_after_s - 1e-9 or total < me.restart_window_s - 1e-9:
+            return
+        # a misfit of the parameters biases the innovations; a measurement noise larger than R does not
+        en = np.array([r[1] for r in self._innov])
+        if len(en) < 3:
+            return
+        tstat = np.abs(en.mean(0)) / np.maximum(en.std(0, ddof=1), 1e-12) * np.sqrt(len(en))
+        if tstat.max() < me.restart_t:
+            return
+        zs = np.array([r[1] for r in self._recent])
+        us = np.array([r[2] for r in self._recent])
+        if not np.all(np.isfinite(zs)) or np.ptp(us, axis=0).max() > me.steady_tol:
+            return
+        u_mean = us.mean(0)
+        p = self.twist_inverse(zs.mean(0), u_mean[0], u_mean[1])
+        if p is None:
+            return
+        p = np.asarray(p, float)
+        if self.bounds is not None:
+            p = np.clip(p, self.bounds[:, 0], self.bounds[:, 1])
+        J = self.model.with_params(p).twist_jacobian(u_mean[0], u_mean[1])
+        try:
+            Jinv = np.linalg.inv(J)
+        except np.linalg.LinAlgError:
+            return
+        Pp = Jinv @ np.diag(r_tw) @ Jinv.T / len(self._recent)
+        if not np.all(np.isfinite(Pp)) or not np.all(np.isfinite(p)):
+            return
+        if self.param_var_max is not None:  # no more uncertain than a fresh start
+            sd = np.sqrt(np.diag(Pp))
+            f = np.minimum(1.0, np.sqrt(self.param_var_max) / np.where(sd > 0, sd, 1.0))
+            Pp = Pp * np.outer(f, f)
+
+        def restart(s, P):
+            s, P = s.copy(), P.copy()
+            s[3:] = p
+            P[3:, :] = 0.0
+            P[:, 3:] = 0.0
+            P[3:, 3:] = 0.5 * (Pp + Pp.T)
+            return s, P
+
+        if self.imm is None:
+            self.s, self.P = restart(self.s, self.P)
+        else:
+            for j in range(len(self.xs)):
+                self.xs[j], self.Ps[j] = restart(self.xs[j], self.Ps[j])
+            self.s, self.P = combine(self.xs, self.Ps, self.mu)
+        self._me.reset()
+        self._recent = []
+        self._innov = []
+        self.restarts += 1
+
+    @property
+    def param_cov_factor(self) -> float | None:
+        """λ of the model-error term for the next step (None without one)."""
+        return None if self._me is None else self._me.factor()
+
+    def _step(self, dt, u_pred, u_meas, z, R, pose, twist, mask, ang):
         if self.imm is None:
             s_pr, P_pr, h, self.s, self.P, upd = self._one(self.s, self.P, self.q2, dt, u_pred, u_meas, z, R, pose,
                                                           twist, mask, ang)
@@ -182,6 +294,7 @@ class PoseParamFilter:
         pi = self.imm.transition_matrix(dt, du)
         x0, P0, cbar = mix(self.xs, self.Ps, self.mu, pi)
         Rs = (R, R * self.imm.fast_meas_factor**2)
+        self._noise_mix = float(cbar[0] + cbar[1] * self.imm.fast_meas_factor**2)  # noise part of the mixed S
         outs = [self._one(x0[j], P0[j], self._q2(j), dt, u_pred, u_meas, z, Rs[j], pose, twist, mask, ang)
                 for j in range(2)]
         s_pr, P_pr = combine([o[0] for o in outs], [o[1] for o in outs], cbar)
@@ -222,6 +335,8 @@ def run_pose_param_ekf(
     name: str = "pose_param_ekf",
     adaptive=None,
     param_cov0=None,
+    model_error=None,
+    twist_inverse=None,
 ) -> FilterResult:
     """Run the pose-augmented EKF over a drive (see module docstring).
 
@@ -244,6 +359,14 @@ def run_pose_param_ekf(
             holds P(fast) per step.
         param_cov0: optional (P, P) initial parameter covariance (overrides ``param_std0``; used to
             carry a filter's estimate from one window of a log to the next).
+        model_error: None, True/"matching" or a
+            :class:`~mjtrack.estimation.model_error.ModelErrorSettings`: the parameter covariance
+            is scaled by the covariance-matching factor λ ≥ 1 of
+            :mod:`mjtrack.estimation.model_error` whenever the twist innovations are larger than
+            S says; ``info["model_error"]["inflated_steps"]`` counts the steps with λ > 1,
+            ``["restarts"]`` the restarts (``twist_inverse``, below).
+        twist_inverse: optional ``f(twist, v_left, v_right) -> params or None`` (the model's
+            inverse) for the restart of :mod:`mjtrack.estimation.model_error`.
     Returns:
         :class:`FilterResult` of N−1 steps (t[1:]); states (x, y, theta, *model.param_names);
         measurements: pose and/or twist components.
@@ -281,8 +404,12 @@ def run_pose_param_ekf(
         bounds = np.asarray(param_bounds, dtype=float)
         if bounds.shape != (P_, 2) or np.any(bounds[:, 0] >= bounds[:, 1]):
             raise InputError(f"{name}: param_bounds must be {P_} (low, high) pairs with low < high")
-    filt = PoseParamFilter(model, s, P, q2, step=step, adaptive=adaptive, param_bounds=bounds)
+    filt = PoseParamFilter(model, s, P, q2, step=step, adaptive=adaptive, param_bounds=bounds, model_error=model_error,
+                           twist_inverse=twist_inverse, param_var_max=np.asarray(param_std0, float) ** 2)
+    lam_n = 0
     for k in range(1, t.size):
+        if filt.model_error is not None:
+            lam_n += int(filt.param_cov_factor > 1.0)
         s_pr, P_pr, h, mask, upd = filt.step(t[k] - t[k - 1], (vl[k - 1], vr[k - 1]), (vl[k], vr[k]), Z[k], R_full,
                                              pose=pm is not None, twist=tm is not None, meas_angles=meas_angles)
         mode = None if filt.imm is None else filt.mu[1]
@@ -293,5 +420,7 @@ def run_pose_param_ekf(
     info = {"model": model.name, "projected_steps": filt.projected}
     if filt.imm is not None:
         info["adaptive"] = {"kind": "imm", **filt.imm.to_dict()}
+    if filt.model_error is not None:
+        info["model_error"] = {**filt.model_error.to_dict(), "inflated_steps": lam_n, "restarts": filt.restarts}
     return hist.result(name, POSE_NAMES + tuple(model.param_names), meas_names, state_angles=(2,),
                        meas_angles=meas_angles, info=info)
