@@ -232,22 +232,17 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
         elif not passed and sg.relative >= min_gain and sg.lower <= 0.0:
             below = _too_few_blocks(speed_base[ok], speed_res[ok], sblock[ok], min_gain)
             if below is not None:
-                k, n_blocks, need = below
-                below_floor = (f"{eff.name} = {', '.join(f'{v:.4g}' for v in full)} is suggested by the measured track "
-                               f"speeds (held-out track-speed RMSE {sb:.3g} -> {sa:.3g} m/s, {100 * sg.relative:.0f} %; "
-                               f"position {100 * gt.relative:.1f} %) but only {k} of the log's {n_blocks} blocks show it, "
-                               f"and a blocked bootstrap cannot establish an effect from fewer than {need}: not reported "
-                               f"as a cause. A log with more of the commands it acts on would settle it")
+                below_floor = _below_floor_note(
+                    eff, full, f"the measured track speeds (held-out track-speed RMSE {sb:.3g} -> {sa:.3g} m/s, "
+                    f"{100 * sg.relative:.0f} %; position {100 * gt.relative:.1f} %)", below,
+                    "A log with more of the commands it acts on would settle it")
     if below_floor is None and not passed and not speeds and gt.relative >= min_gain and gt.lower <= 0.0:
         # no measured speeds to speak for it (or a ground effect): the pose's own blocks
         below = _too_few_blocks(sq_b, sq_a, wblock, min_gain)
         if below is not None:
-            k, n_blocks, need = below
-            below_floor = (f"{eff.name} = {', '.join(f'{v:.4g}' for v in full)} is suggested by the pose (held-out "
-                           f"position RMSE {before:.3g} -> {after:.3g} m, {100 * gt.relative:.0f} %) but only {k} of "
-                           f"the log's {n_blocks} blocks show it, and a blocked bootstrap cannot establish an effect "
-                           f"from fewer than {need}: not reported as a cause. A longer log, or one with more of the "
-                           f"manoeuvres it acts on, would settle it")
+            below_floor = _below_floor_note(
+                eff, full, f"the pose (held-out position RMSE {before:.3g} -> {after:.3g} m, {100 * gt.relative:.0f} %)",
+                below, "A longer log, or one with more of the manoeuvres it acts on, would settle it")
     return CandidateResult(eff, full, ests, ivl, fold_before, fold_after, before, after,
                            paired_t(fold_before, fold_after), sb, sa, stt, passed, why, after_err, gain=gt,
                            speed_gain=sg, on_top_of=tuple(e.name for e, _ in problem.base), se=se,
@@ -263,6 +258,15 @@ def min_active_blocks(n_blocks: int, level: float = 0.95) -> int:
         if (1.0 - k / n_blocks) ** n_blocks < 1.0 - level:
             return k
     return n_blocks
+
+
+def _below_floor_note(eff, full, evidence: str, below: tuple[int, int, int], remedy: str) -> str:
+    """The verdict's sentence for an effect that ``evidence`` suggests in too few blocks
+    (``below`` = (blocks showing it, blocks, blocks needed), :func:`_too_few_blocks`)."""
+    k, n_blocks, need = below
+    return (f"{eff.name} = {', '.join(f'{v:.4g}' for v in full)} is suggested by {evidence} but only {k} of the "
+            f"log's {n_blocks} blocks show it, and a blocked bootstrap cannot establish an effect from fewer than "
+            f"{need}: not reported as a cause. {remedy}")
 
 
 def _too_few_blocks(before_sq: np.ndarray, after_sq: np.ndarray, block: np.ndarray,
