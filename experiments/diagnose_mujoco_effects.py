@@ -128,7 +128,11 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=180.0, help="seconds of driving per log")
     ap.add_argument("--seed", type=int, default=11)
-    ap.add_argument("--effects", default=",".join(["clean", *HIDDEN]), help="comma-separated; 'clean' = no effect")
+    # the surrogate's vocabulary: the MuJoCo-only grounds (kind "model") are diagnosed with
+    # --baseline mujoco (experiments/diagnose_mujoco_baseline.py)
+    surrogate_effects = [name for name, h in HIDDEN.items() if h.kind != "model"]
+    ap.add_argument("--effects", default=",".join(["clean", *surrogate_effects]),
+                    help="comma-separated; 'clean' = no effect (default: every effect the surrogate diagnosis knows)")
     ap.add_argument("--variants", default="pose,speeds")
     ap.add_argument("--default-drives", action="store_true",
                     help="simulate with SimConfig() (60 N m drives: ramps of ~4.8 m/s^2) instead of the ideal drives")
