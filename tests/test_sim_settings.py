@@ -25,6 +25,10 @@ def test_solver_and_drive_settings_are_validated():
         SimConfig(solver="Jacobi")
     with pytest.raises(InputError, match="drive_reference_mass"):
         SimConfig(drive_reference_mass=0.0)
+    with pytest.raises(InputError, match="rest_margin"):
+        SimConfig(rest_margin="yes")
+    with pytest.raises(InputError, match="level_chassis"):
+        SimConfig(level_chassis=1)
     cfg = SimConfig().for_robot_mass(80.0)
     base = SimConfig()
     assert (cfg.kv, cfg.track_mass, cfg.torque_limit) == (4 * base.kv, 4 * base.track_mass, 4 * base.torque_limit)

@@ -212,7 +212,10 @@ class PoseParamFilter:
             self._me.observe(dt, e[sel], S[np.ix_(sel, sel)], np.diag(np.asarray(R, float))[mask][sel], noise)
             if self.model_error.restart_after_s is not None and self.twist_inverse is not None:
                 en = e[sel] / np.sqrt(np.diag(S)[sel])
-                self._innov = self._innov + [(dt, en)] if self._me.gate_open and en.size == 3 else []
+                if self._me.gate_open and en.size == 3:
+                    self._innov.append((dt, en))
+                else:
+                    self._innov = []
                 self._maybe_restart(dt, z[z.size - 3:], u_meas, np.diag(np.asarray(R, float))[z.size - 3:])
         return out
 

@@ -165,8 +165,8 @@ REST_SETTLE_S = 0.5  # [s] at rest before the penetrations are read (as rollout.
 
 def apply_rest_margins(model: mujoco.MjModel) -> np.ndarray:
     """Move each roller's contact point to the roller radius at rest (in place): every contact
-    pair of roller ``roller_<side>_<i>`` gets its rest penetration added to its margin; returns
-    the penetrations [m], one per pair (0 for pairs of other elements, e.g. idlers).
+    pair of roller ``roller_<side>_<i>`` gets its rest penetration as its margin; returns the
+    penetrations [m], one per pair (0 for pairs of other elements, e.g. idlers, left unchanged).
 
     Why: MuJoCo puts a sphere-plane (and capsule-plane) contact point half-way into the
     penetration d, at r - d/2 from the roller's axis, so a roller turning at V/r moves its

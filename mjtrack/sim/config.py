@@ -93,7 +93,7 @@ class SimConfig:
         noslip_tolerance: early-termination tolerance of the noslip pass (MuJoCo's default
             1e-6). 1e-4 is 7 % faster at 10 rollers and moves issue-3 grid ICRs by <= 0.0012 T/2,
             but the most ill-conditioned gentle turns (5 kg, R 10 m) by 0.07 T/2: kept at 1e-6.
-        rest_margin: roller chain only: add each roller's rest penetration to its contact margin
+        rest_margin: roller chain only: make each roller's rest penetration its contact margin
             (:func:`mjtrack.sim.builder.apply_rest_margins`), so that the contact point lies at the
             roller radius and the ground sees the measured track speed (MuJoCo puts a
             sphere-plane contact half-way into the penetration).
@@ -151,6 +151,9 @@ class SimConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise InputError(f"sim config: '{name}' must be a number >= 0, got {value!r}")
+        for name in ("rest_margin", "level_chassis"):
+            if not isinstance(getattr(self, name), bool):
+                raise InputError(f"sim config: '{name}' must be true or false, got {getattr(self, name)!r}")
         if self.drive_reference_mass is not None and not (
                 isinstance(self.drive_reference_mass, (int, float)) and math.isfinite(self.drive_reference_mass)
                 and self.drive_reference_mass > 0):

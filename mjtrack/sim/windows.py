@@ -277,12 +277,12 @@ class WindowSim:
             shift = robot.mass * (cg - np.array([robot.cg_x, robot.cg_y])) / self.chassis_mass
             m.body_ipos[self.chassis_id, :2] = self.chassis_ipos0[:2] + shift
             m.site_pos[self.cg_site, :2] = cg
-            # quantities the compiler derives from the mass distribution (constraint scaling
-            # through body_invweight0 / dof_invweight0): recomputed as a rebuild would
             if robot.ground.model != "road_wheels":  # (road wheels keep their own springs)
                 set_rest_springs(m, robot.replace(cg_x=float(cg[0]), cg_y=float(cg[1])), self.config)
+            # quantities the compiler derives from the mass distribution (constraint scaling
+            # through body_invweight0 / dof_invweight0): recomputed as a rebuild would
             mujoco.mj_setConst(m, mujoco.MjData(m))
-            if self.config.track_model == "rollers" and self.config.rest_margin:
+            if self.config.rest_margin:  # (WindowSim runs the roller chain only)
                 apply_rest_margins(m)  # the rest penetrations follow the loads, as a rebuild's
         lag = params.get("drive_lag")
         if lag is not None:
