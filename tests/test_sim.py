@@ -27,12 +27,12 @@ def test_builder_names_every_element():
     n = cfg.n_rollers
     assert m.nu == 2 * n and m.nv == 6 + 4 * n
     for kind, names in (
-        (mujoco.mjtObj.mjOBJ_BODY, ["chassis"] + [f"roller_{s}_{i}" for s in ("left", "right") for i in range(n)]),
+        (mujoco.mjtObj.mjOBJ_BODY, ["chassis", "left_track", "right_track"] + [f"roller_{s}_{i}" for s in ("left", "right") for i in range(n)]),
         (mujoco.mjtObj.mjOBJ_JOINT, ["root"] + [f"{j}_{s}_{i}" for j in ("susp", "roll")
                                                for s in ("left", "right") for i in range(n)]),
         (mujoco.mjtObj.mjOBJ_ACTUATOR, [f"drive_{s}_{i}" for s in ("left", "right") for i in range(n)]),
         (mujoco.mjtObj.mjOBJ_SENSOR, ["body_linvel", "body_angvel", "body_pos", "body_quat",
-                                      "track_speed_left", "track_speed_right", "ground_left_0"]),
+                                      "track_speed_left", "track_speed_right", "ground_left", "ground_right"]),
         (mujoco.mjtObj.mjOBJ_SITE, ["centre", "cg"]),
         (mujoco.mjtObj.mjOBJ_TENDON, ["track_left", "track_right"]),
     ):

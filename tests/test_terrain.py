@@ -22,6 +22,7 @@ from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig, sim_config
 from mjtrack.sim.rollout import simulate
 from mjtrack.sim.steady import steady_state
+from mjtrack.sim.surfacevel import set_track_speeds
 from mjtrack.sim.terrain import parse_terrain, timestep_for
 
 MODELS = ["rollers", "surfacevel"]
@@ -261,3 +262,36 @@ def test_terrain_scenarios_carry_their_terrain(tmp_path):
     assert run_cli(["simulate", "--scenario", "hill_climb", "--duration", "1", "--terrain", "flat", "--quiet",
                     "--out", tmp_path / "flat.csv"]).rc == 0
     assert "terrain" not in json.loads((tmp_path / "flat.json").read_text())
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_contact_sensors_count_each_tracks_element_contacts(model):
+    """``ground_<side>`` equals the contacts of that track's elements in MuJoCo's contact list at
+    every step of a step climb (idlers, which touch the step, are not counted), and falls below N
+    while elements are in the air."""
+    config = sim_config(model)
+    terrain = parse_terrain("step:0.04:0.6")
+    config = config.replace(timestep=timestep_for(config.timestep, terrain))
+    m = build_model(Robot(), config, terrain)
+    d = mujoco.MjData(m)
+    side_of = {}
+    for g in range(m.ngeom):
+        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or ""
+        if name.startswith(("roller_", "track_")):
+            side_of[g] = name.split("_")[1]
+    assert any((mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or "").startswith("idler_") for g in range(m.ngeom))
+    n = len(side_of) // 2
+    if model == "surfacevel":
+        set_track_speeds(m, 0.5, 0.5)
+    else:
+        d.ctrl[:] = control_matrix(m) @ np.array([0.5, 0.5])
+    mujoco.mj_forward(m, d)
+    fewest = n
+    for _ in range(int(round(3.0 / config.timestep))):
+        mujoco.mj_step(m, d)
+        geoms = d.contact.geom[:d.ncon]
+        for side in ("left", "right"):
+            count = sum(1 for g1, g2 in geoms for g in (g1, g2) if side_of.get(g) == side)
+            assert d.sensor(f"ground_{side}").data[0] == count
+            fewest = min(fewest, count)
+    assert fewest < n

@@ -58,7 +58,7 @@ import numpy as np
 
 from mjtrack.errors import InputError
 from mjtrack.io.robot import Robot
-from mjtrack.sim.chassis import Suspension, TrackModel, add_contact_sensor, build_robot_model, build_robot_spec, element_positions
+from mjtrack.sim.chassis import Suspension, TrackModel, build_robot_model, build_robot_spec, element_positions
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_of
 from mjtrack.sim.ground import apply_ground, require_supported
@@ -110,8 +110,9 @@ class RollerChain(TrackModel):
         equality = config.coupling == "equality"
         if equality:
             _add_sprocket(chassis, side, robot, config, y)
+        track = chassis.add_body(name=f"{side}_track", pos=[0, y, 0])  # no joint: the rollers' frame
         for i, x in enumerate(element_positions(robot, n)):
-            roller = chassis.add_body(name=f"roller_{side}_{i}", pos=[x, y, r])
+            roller = track.add_body(name=f"roller_{side}_{i}", pos=[x, 0, r])
             roller.explicitinertial = True
             roller.mass = mr
             roller.ipos = [0, 0, 0]  # MjSpec leaves ipos unset otherwise (not on the spin axis)
@@ -126,7 +127,6 @@ class RollerChain(TrackModel):
                 friction=[mu, 0.0, 0.0], condim=3, contype=0, conaffinity=0, density=0,
                 rgba=[0.1, 0.1, 0.1, 1],
             )
-            add_contact_sensor(spec, side, i, f"roller_{side}_{i}")  # contact persistence
             if equality:
                 spec.add_equality(
                     name=f"couple_{side}_{i}", type=mujoco.mjtEq.mjEQ_JOINT, name1=f"roll_{side}_{i}",

@@ -24,7 +24,7 @@ Derivation of the shared part (``assets/README.md`` gives the measurements):
   for the element's share of the sprung mass (:class:`Suspension`): the loads are k times the
   chassis' (linear) deflection at each element, Wong's linear load distribution from the cg offset.
 * **Idlers** on terrain they can touch (:func:`mjtrack.sim.scene.add_idlers`).
-* **Sensors**: ``ground_<side>_<i>`` (element in contact, 0/1), added with the elements; the body
+* **Sensors**: ``ground_<side>`` (number of the track's elements in ground contact); the body
   twist of ``centre`` in its own frame (``body_linvel`` velocimeter, ``body_angvel`` gyro) and its
   pose (``body_pos``, ``body_quat``).
 * **Options**: the solver settings of ``config`` (:func:`mjtrack.sim.scene.apply_solver_options`),
@@ -171,10 +171,16 @@ class TrackModel:
         return model
 
 
-def add_contact_sensor(spec: mujoco.MjSpec, side: str, i: int, geom: str) -> None:
-    """Sensor ``ground_<side>_<i>``: number of ground contacts of element geom ``geom`` (0 or 1)."""
-    spec.add_sensor(name=f"ground_{side}_{i}", type=mujoco.mjtSensor.mjSENS_CONTACT,
-                    objtype=mujoco.mjtObj.mjOBJ_GEOM, objname=geom, intprm=[1, 0, 1])
+def add_contact_sensor(spec: mujoco.MjSpec, side: str) -> None:
+    """Sensor ``ground_<side>``: number of ground contacts of the track's elements (the geoms in the
+    subtree of body ``<side>_track``; idlers, on the chassis, are not counted).
+
+    One sensor per track, not one per element: a contact sensor scans the whole contact list, so
+    N per-element sensors cost N x ncon per step (3 % of the default robot's step, 5 % at 40
+    rollers per track; experiments/bench_sim.py). The per-element mean in contact is the count / N.
+    """
+    spec.add_sensor(name=f"ground_{side}", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                    objtype=mujoco.mjtObj.mjOBJ_XBODY, objname=f"{side}_track", intprm=[1, 0, 1])
 
 
 def set_options(spec: mujoco.MjSpec, config: SimConfig, tracks: TrackModel) -> None:
@@ -226,6 +232,7 @@ def build_robot_spec(robot: Robot, config: SimConfig | None, tracks: TrackModel,
     tracks.check(config, suspension, m_el)
     for side, y, mu in (("left", T / 2, robot.friction_left), ("right", -T / 2, robot.friction_right)):
         tracks.add_track(spec, chassis, robot, config, side=side, y=y, mu=mu, suspension=suspension)
+        add_contact_sensor(spec, side)  # contact persistence
     if idlers:
         add_idlers(chassis, robot, config)
     # velocimeter / gyro: velocity of the site expressed in the site's (= chassis) frame

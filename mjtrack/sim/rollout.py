@@ -52,8 +52,9 @@ class SensorMap:
     pos: slice
     quat: slice
     track_speed: tuple[int, int]
-    ground_left: np.ndarray
-    ground_right: np.ndarray
+    ground_left: int  # column: number of left-track elements in ground contact
+    ground_right: int
+    elements: int  # contact elements per track
 
     @classmethod
     def of(cls, model: mujoco.MjModel) -> "SensorMap":
@@ -61,14 +62,12 @@ class SensorMap:
             s = model.sensor(name)
             return slice(int(s.adr[0]), int(s.adr[0] + s.dim[0]))
 
-        def ground(side: str) -> np.ndarray:
-            return np.array([int(model.sensor(i).adr[0]) for i in range(model.nsensor)
-                             if model.sensor(i).name.startswith(f"ground_{side}_")], dtype=int)
-
         return cls(
             linvel=sl("body_linvel"), angvel=sl("body_angvel"), pos=sl("body_pos"), quat=sl("body_quat"),
             track_speed=(int(model.sensor("track_speed_left").adr[0]), int(model.sensor("track_speed_right").adr[0])),
-            ground_left=ground("left"), ground_right=ground("right"),
+            ground_left=int(model.sensor("ground_left").adr[0]), ground_right=int(model.sensor("ground_right").adr[0]),
+            elements=sum(1 for g in range(model.ngeom)
+                         if model.geom(g).name.startswith(("roller_left_", "track_left_"))),
         )
 
 

@@ -135,8 +135,8 @@ def _stats(sd: np.ndarray, cmd: np.ndarray, smap: SensorMap, n_settle: int, half
         vx=float(vx), vy=float(vy), wz=float(wz),
         vx_std=float(lin[:, 0].std()), vy_std=float(lin[:, 1].std()), wz_std=float(ang[:, 2].std()),
         y_l=y_l, y_r=y_r, x_c=x_c,
-        contact_left=float((gl.sum(axis=1) > 0).mean()), contact_right=float((gr.sum(axis=1) > 0).mean()),
-        roller_contact=float(np.concatenate([gl[n_settle:], gr[n_settle:]], axis=1).mean()),
+        contact_left=float((gl > 0).mean()), contact_right=float((gr > 0).mean()),
+        roller_contact=float((gl[n_settle:] + gr[n_settle:]).mean() / (2 * smap.elements)),
         icr_undefined=reason,
     )
 

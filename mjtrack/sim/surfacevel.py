@@ -30,7 +30,7 @@ Derivation of the model.
   spring k = m g / (2 N d), preloaded so q = 0 under the nominal share: the loads are set by
   the springs (Wong's linear distribution from the cg offset) and are determinate.
 * Sensors: ``body_linvel``, ``body_angvel`` (twist of ``centre`` in the chassis frame),
-  ``body_pos``, ``body_quat``, ``ground_<side>_<i>`` (element in contact, 0/1), the chassis';
+  ``body_pos``, ``body_quat``, ``ground_<side>`` (elements in contact), the chassis';
   no ``track_speed_<side>``: the track speed is the value last set (:class:`TrackDrive`).
 * Friction: explicit contact pairs ``contact_<side>_<i>`` (floor, element), condim 3, the
   track's mu, elliptic cone, impratio, solref/solimp and ``solreffriction`` from SimConfig.
@@ -88,7 +88,7 @@ import numpy as np
 
 from mjtrack.errors import InputError
 from mjtrack.io.robot import Robot
-from mjtrack.sim.chassis import (Suspension, TrackModel, add_contact_sensor, build_robot_model, build_robot_scene,
+from mjtrack.sim.chassis import (Suspension, TrackModel, build_robot_model, build_robot_scene,
                                  build_robot_spec, element_positions)
 from mjtrack.sim.config import SURFACEVEL_SETTINGS, SimConfig, surfacevel_config  # noqa: F401 (this module's API)
 from mjtrack.sim.drivetrain import drive_of
@@ -156,7 +156,6 @@ class SurfacevelTracks(TrackModel):
                 suspension.add_slide(host, side, i, config)
                 gx = 0.0
             _add_element(host, self.element, name=f"track_{side}_{i}", x=gx, r=r, cell=robot.track_length / n, width=w)
-            add_contact_sensor(spec, side, i, f"track_{side}_{i}")  # as the roller chain's rollers
 
     def friction_solref(self, config: SimConfig) -> list[float]:
         # friction_timeconst 0: the friction rows use the contact solref (MuJoCo's [0, 0] default)
