@@ -3,7 +3,7 @@
     python experiments/fidelity.py [--out experiments/results/fidelity] [--quick]
                                    [--track-model rollers|surfacevel|both]
     python experiments/fidelity.py --wide [--quick] [--track-model ...] [--timestep DT]
-                                   [--previous-defaults]
+                                   [--previous-defaults] [--fixed-step]
 
 Both track models (``--track-model both``, the default), each with its measured settings
 ``mjtrack.sim.config.sim_config(track_model)``: the roller chain (``mjtrack.sim.builder``) and
@@ -39,6 +39,10 @@ right, forward and reverse, cg_x +-0.1 L: 928 turns (``--quick``: 4 robots, 4 ra
 0.05 T/2, |dx_c| <= 0.02 L, contact >= 99 % and, for the roller chain, halving dt moves y by
 < 0.02 T/2, in every case. Prints every case, the worst case of each error with its case,
 the medians and the pass counts per (radius, speed); writes fidelity_wide[_quick][_model].json.
+Each roller-chain case runs at the step ``SimConfig.step_for_speed`` picks for it (5 ms unless
+its largest track speed v gives v dt > 0.01 L; ``timestep`` in its row), and the dt-halving
+check halves that step; ``--fixed-step``: every case at 5 ms (as before session 5), written to
+..._fixed_step.json; ``--timestep DT``: every case at DT.
 About 10 min (rollers, with the dt-halved rerun) on a loaded 2-core machine.
 """
 
@@ -127,7 +131,7 @@ def convergence(config: SimConfig) -> dict:
                 robots.append(robot)
                 cmds.append(commands_for(robot, radius, 0.8, 1))
     cmds = np.array(cmds)
-    variants = {"base": config, "half_dt": config.replace(timestep=config.timestep / 2),
+    variants = {"base": config, "half_dt": halved(config),
                 "double_rollers": config.replace(n_rollers=2 * config.n_rollers)}
     res = {k: steady_batch(robots, cmds, config=c) for k, c in variants.items()}
     out = {}
@@ -137,6 +141,13 @@ def convergence(config: SimConfig) -> dict:
         dx = max(abs(a.x_c - b.x_c) / base.track_length for a, b in zip(res["base"], res[k]))
         out[k] = {"cases": len(robots), "max_dy_over_half_gauge": dy, "max_dx_over_length": dx}
     return out
+
+
+def halved(config: SimConfig) -> SimConfig:
+    """The config whose step is half the one ``config`` runs each case at: halving the time step
+    and the lag budget together halves the step :meth:`SimConfig.step_for_speed` picks."""
+    return config.replace(timestep=config.timestep / 2,
+                          lag_budget=None if config.lag_budget is None else config.lag_budget / 2)
 
 
 def straight(config: SimConfig) -> list[dict]:
@@ -213,15 +224,17 @@ def _by_robot(cases: list) -> dict[str, list]:
 
 def run_wide(quick: bool, config: SimConfig, *, half_dt: bool) -> list[dict]:
     """Every wide case against the Coulomb reference (with load transfer); with ``half_dt`` also
-    the ICR change when the time step is halved."""
+    the ICR change when each case's time step is halved (:func:`halved`). Each case runs at the
+    step ``config.step_for_speed`` picks for it (``timestep`` in its row)."""
     rows = []
     for name, cases in _by_robot(list(wide_cases(quick))).items():
         robots, cmds = [c[1] for c in cases], np.array([c[2] for c in cases])
         results = steady_batch(robots, cmds, config=config)
-        fine = steady_batch(robots, cmds, config=config.replace(timestep=config.timestep / 2)) if half_dt else None
-        for k, ((meta, robot, _), res) in enumerate(zip(cases, results)):
+        fine = steady_batch(robots, cmds, config=halved(config)) if half_dt else None
+        for k, ((meta, robot, cmd), res) in enumerate(zip(cases, results)):
             half, L = robot.track_gauge / 2, robot.track_length
-            row = dict(meta, **res.to_dict())
+            dt = config.step_for_speed(L, max(abs(cmd[0]), abs(cmd[1])) * robot.track_speed_scale).timestep
+            row = dict(meta, **res.to_dict(), timestep=dt)
             try:
                 ref = coulomb_steady(robot, res.v_left, res.v_right)
                 row.update(ref_y_l=ref.y_l, ref_y_r=ref.y_r, ref_x_c=ref.x_c,
@@ -287,7 +300,7 @@ def print_wide(track_model: str, rows: list[dict], summary: dict) -> None:
 
 
 def run_wide_study(quick: bool, out: Path, command: str, models, timestep: float | None = None,
-                   previous: bool = False) -> bool:
+                   previous: bool = False, fixed_step: bool = False) -> bool:
     """The wide grid for each track model (dt halving for the roller chain); writes fidelity_wide.json
     (``timestep``: another time step than the model's default, named in the file)."""
     doc = {"command": command, "seed": WIDE_SEED, "robots": {k: r.to_dict() for k, r in wide_robots().items()},
@@ -298,6 +311,8 @@ def run_wide_study(quick: bool, out: Path, command: str, models, timestep: float
         config = sim_config(m, timestep=timestep)
         if previous and m == "rollers":
             config = previous_defaults().replace(timestep=config.timestep)
+        if fixed_step:
+            config = config.replace(lag_budget=None)
         rows = run_wide(quick, config, half_dt=(m == "rollers"))
         summary = wide_summary(rows)
         summary["elapsed_s"] = time.perf_counter() - t0
@@ -305,7 +320,8 @@ def run_wide_study(quick: bool, out: Path, command: str, models, timestep: float
         doc[m] = {"config": config.to_dict(), "summary": summary, "cases": rows}
         ok = ok and (m != "rollers" or summary["passed"] == summary["cases"])
     path = out / ("fidelity_wide" + ("_quick" if quick else "") + ("" if len(models) > 1 else f"_{models[0]}")
-                  + (f"_dt{timestep:g}" if timestep else "") + ("_previous" if previous else "") + ".json")
+                  + (f"_dt{timestep:g}" if timestep else "") + ("_previous" if previous else "")
+                  + ("_fixed_step" if fixed_step else "") + ".json")
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(doc, indent=1, default=_json_default) + "\n")
     tmp.replace(path)
@@ -448,18 +464,25 @@ def main(argv: list[str] | None = None) -> int:
                    help="--wide only: the roller chain with its settings before the speed study")
     p.add_argument("--timestep", type=float, default=None,
                    help="--wide only: run at this time step [s] instead of each model's default")
+    p.add_argument("--fixed-step", action="store_true",
+                   help="--wide only: every case at the model's time step (no lag budget: before session 5, "
+                        "fast cases of short robots then have x_c v dt off Coulomb; gentle_turns.py)")
     p.add_argument("--track-model", choices=(*TRACK_MODELS, "both"), default="both",
                    help="which MuJoCo track model(s) to measure (default both)")
     args = p.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     if args.timestep is not None and not (args.wide and args.timestep > 0):
         p.error("--timestep needs --wide and a positive value")
+    if args.fixed_step and not args.wide:
+        p.error("--fixed-step needs --wide")
     command = "python experiments/fidelity.py" + (" --wide" if args.wide else "") + (" --quick" if args.quick else "") + (
-        f" --timestep {args.timestep:g}" if args.timestep else "") + (" --previous-defaults" if args.previous_defaults else "") + (
+        f" --timestep {args.timestep:g}" if args.timestep else "") + (
+        " --fixed-step" if args.fixed_step else "") + (" --previous-defaults" if args.previous_defaults else "") + (
         f" --track-model {args.track_model}" if args.track_model != "both" else "")
     models = TRACK_MODELS if args.track_model == "both" else (args.track_model,)
     if args.wide:
-        return 0 if run_wide_study(args.quick, args.out, command, models, args.timestep, args.previous_defaults) else 1
+        return 0 if run_wide_study(args.quick, args.out, command, models, args.timestep, args.previous_defaults,
+                                   args.fixed_step) else 1
     docs = {m: run_model(m, args.quick, args.out, command) for m in models}
     table = combined_table(docs)
     print_combined(table)

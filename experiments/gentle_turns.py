@@ -66,6 +66,14 @@ from mjtrack.sim.config import SimConfig  # noqa: E402
 from mjtrack.sim.rollout import STATE_SPEC, drive_log, settled_state  # noqa: E402
 from mjtrack.sim.steady import steady_batch  # noqa: E402
 
+
+
+def FixedStep(**changes) -> SimConfig:  # noqa: N802 -- a SimConfig, named for what it pins
+    """SimConfig at the stated fixed step: every run here is about a mechanism at a given dt, so
+    the lag budget (SimConfig.lag_budget, added after this study) must not change the step."""
+    return SimConfig(lag_budget=None, **changes)
+
+
 ROBOTS = ("5kg_long", "80kg_issue11")
 TURNS = ((5.0, 0.2), (10.0, 0.2), (10.0, 2.0))  # (R [m], v [m/s])
 
@@ -106,7 +114,7 @@ def _roller_of(model, c) -> str:
 
 def contact_friction(name: str, R: float = 10.0, v: float = 0.2) -> dict:
     """Section 1: per-contact saturation and alignment with the slip, after the settle."""
-    robot, model, data = _turning(name, SimConfig(), R, v)
+    robot, model, data = _turning(name, FixedStep(), R, v)
     mujoco.mj_step(model, data)
     sat, cosines, slips = [], [], []
     f6, vel = np.zeros(6), np.zeros(6)
@@ -157,9 +165,9 @@ def x_c_study() -> dict:
     """Section 5 (80 kg issue-11 robot)."""
     base = wide_robots()["80kg_issue11"]
     out: dict = {"drive": [], "time_step": []}
-    drives = {"default drive (servo per roller)": SimConfig(),
-              "10x stiffer drive": SimConfig(kv=10 * SimConfig().kv, track_mass=10 * SimConfig().track_mass),
-              "equality-coupled chain": SimConfig(coupling="equality")}
+    drives = {"default drive (servo per roller)": FixedStep(),
+              "10x stiffer drive": FixedStep(kv=10 * FixedStep().kv, track_mass=10 * FixedStep().track_mass),
+              "equality-coupled chain": FixedStep(coupling="equality")}
     robots = [base.replace(cg_x=c * base.track_length) for c in (-0.1, 0.1)]
     cmds = np.array([commands_for(r, 10.0, 0.2, 1, 1) for r in robots])
     for label, cfg in drives.items():
@@ -168,10 +176,10 @@ def x_c_study() -> dict:
             out["drive"].append({"drive": label, "cg_frac": cgf, "x_c_mm": 1000 * s.x_c, "ref_x_c_mm": 1000 * ref.x_c,
                                  "err_x": abs(s.x_c - ref.x_c) / r.track_length})
     cmd = np.array([commands_for(base, 10.0, 2.0, 1, 1)])
-    for label, cfg in (("dt 5 ms", SimConfig()), ("dt 5 ms, RK4", SimConfig(integrator="RK4")),
-                       ("dt 5 ms, friction tc 20 ms", SimConfig(friction_timeconst=0.02)),
-                       ("dt 2.5 ms", SimConfig(timestep=0.0025)),
-                       ("dt 2.5 ms, friction tc 10 ms", SimConfig(timestep=0.0025, friction_timeconst=0.01))):
+    for label, cfg in (("dt 5 ms", FixedStep()), ("dt 5 ms, RK4", FixedStep(integrator="RK4")),
+                       ("dt 5 ms, friction tc 20 ms", FixedStep(friction_timeconst=0.02)),
+                       ("dt 2.5 ms", FixedStep(timestep=0.0025)),
+                       ("dt 2.5 ms, friction tc 10 ms", FixedStep(timestep=0.0025, friction_timeconst=0.01))):
         s = steady_batch([base], cmd, config=cfg)[0]
         ref = coulomb(base, s.v_left, s.v_right)
         tc = cfg.friction_timeconst or 2 * cfg.timestep
@@ -187,13 +195,13 @@ def twist_against_poses(v: float = 2.0, w: float = 0.2) -> dict:
     robot = Robot()
     half = robot.track_gauge / 2
     log = drive_log(robot, (np.array([0.0]), np.array([v - w * half]), np.array([v + w * half])),
-                    duration=8.0, log_rate=200.0)
+                    duration=8.0, log_rate=200.0, config=FixedStep())
     k = log.t >= 3.0
     t, x, y, yaw = log.t[k], log.x[k], log.y[k], np.unwrap(log.yaw[k])
     dt = np.diff(t)
     mid = (yaw[1:] + yaw[:-1]) / 2
     vy_pose = -np.sin(mid) * np.diff(x) / dt + np.cos(mid) * np.diff(y) / dt
-    dt_sim = SimConfig().timestep
+    dt_sim = FixedStep().timestep
     return {"vy_twist": float(np.mean(log.vy[k])), "vy_poses": float(np.mean(vy_pose)),
             "half_w_dt_v": float(0.5 * np.mean(log.wz[k]) * dt_sim * np.mean(log.vx[k]))}
 
@@ -221,18 +229,18 @@ def main(argv: list[str] | None = None) -> int:
 
     print("\n2.-4. ICR error |dy|/(T/2) per turn (R m, v m/s) -- time step, contact softness, rest margins, level chassis")
     variants = {
-        "dt 5 ms, no margins": SimConfig(rest_margin=False, level_chassis=False),
-        "dt 2.5 ms, no margins": SimConfig(rest_margin=False, level_chassis=False, timestep=0.0025),
-        "dt 1.25 ms, no margins": SimConfig(rest_margin=False, level_chassis=False, timestep=0.00125),
-        "dt 2.5 ms, contact+friction tc 10 ms, no margins": SimConfig(rest_margin=False, level_chassis=False, timestep=0.0025,
+        "dt 5 ms, no margins": FixedStep(rest_margin=False, level_chassis=False),
+        "dt 2.5 ms, no margins": FixedStep(rest_margin=False, level_chassis=False, timestep=0.0025),
+        "dt 1.25 ms, no margins": FixedStep(rest_margin=False, level_chassis=False, timestep=0.00125),
+        "dt 2.5 ms, contact+friction tc 10 ms, no margins": FixedStep(rest_margin=False, level_chassis=False, timestep=0.0025,
                                                                      contact_timeconst=0.01, friction_timeconst=0.01),
-        "dt 2.5 ms, contact tc 10 ms, no margins": SimConfig(rest_margin=False, level_chassis=False, timestep=0.0025,
+        "dt 2.5 ms, contact tc 10 ms, no margins": FixedStep(rest_margin=False, level_chassis=False, timestep=0.0025,
                                                              contact_timeconst=0.01),
-        "dt 5 ms, margins, pitched chassis": SimConfig(level_chassis=False),
-        "dt 2.5 ms, margins, pitched chassis": SimConfig(level_chassis=False, timestep=0.0025),
-        "dt 1.25 ms, margins, pitched chassis": SimConfig(level_chassis=False, timestep=0.00125),
-        "dt 5 ms, margins, level chassis (default)": SimConfig(),
-        "dt 2.5 ms, margins, level chassis": SimConfig(timestep=0.0025),
+        "dt 5 ms, margins, pitched chassis": FixedStep(level_chassis=False),
+        "dt 2.5 ms, margins, pitched chassis": FixedStep(level_chassis=False, timestep=0.0025),
+        "dt 1.25 ms, margins, pitched chassis": FixedStep(level_chassis=False, timestep=0.00125),
+        "dt 5 ms, margins, level chassis (default)": FixedStep(),
+        "dt 2.5 ms, margins, level chassis": FixedStep(timestep=0.0025),
     }
     doc["icr_errors"] = {}
     for name in ROBOTS:
@@ -244,18 +252,18 @@ def main(argv: list[str] | None = None) -> int:
     print("\n3./4. belt speed the ground sees minus the track-speed sensor, R 10 m at 0.2 m/s [mm/s]")
     doc["belt_offsets"] = {}
     for name in ROBOTS:
-        for label, cfg in (("no margins, dt 5 ms", SimConfig(rest_margin=False, level_chassis=False)),
-                           ("no margins, dt 2.5 ms", SimConfig(rest_margin=False, level_chassis=False, timestep=0.0025)),
-                           ("margins, pitched, dt 5 ms", SimConfig(level_chassis=False)),
-                           ("margins, level, dt 5 ms", SimConfig())):
+        for label, cfg in (("no margins, dt 5 ms", FixedStep(rest_margin=False, level_chassis=False)),
+                           ("no margins, dt 2.5 ms", FixedStep(rest_margin=False, level_chassis=False, timestep=0.0025)),
+                           ("margins, pitched, dt 5 ms", FixedStep(level_chassis=False)),
+                           ("margins, level, dt 5 ms", FixedStep())):
             b = belt_offsets(name, cfg)
             doc["belt_offsets"][f"{name} | {label}"] = b
             print(f"   {name:13s} {label:22s} left {b['left']['belt_offset_mm_s']:+.3f}  right "
                   f"{b['right']['belt_offset_mm_s']:+.3f}; penetration (dist) left {b['left']['dist_um_min']:.1f}.."
                   f"{b['left']['dist_um_max']:.1f} um, right {b['right']['dist_um_min']:.1f}..{b['right']['dist_um_max']:.1f} um; "
                   f"roller speed spread {b['left']['roller_speed_spread_mm_s']:.2f} / {b['right']['roller_speed_spread_mm_s']:.2f} mm/s")
-    doc["straight_speed_error"] = {"no margins": straight_speed_error(SimConfig(rest_margin=False, level_chassis=False)),
-                                   "margins": straight_speed_error(SimConfig())}
+    doc["straight_speed_error"] = {"no margins": straight_speed_error(FixedStep(rest_margin=False, level_chassis=False)),
+                                   "margins": straight_speed_error(FixedStep())}
     print(f"\n   straight line at 0.8 m/s, |v_x - V|/V: no margins {doc['straight_speed_error']['no margins']:.2e}, "
           f"margins {doc['straight_speed_error']['margins']:.2e}")
     print("\n5. x_c against Coulomb [mm] (80 kg, T 0.5 / L 1.0 m)")

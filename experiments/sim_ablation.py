@@ -62,7 +62,7 @@ def run() -> dict:
     out = {}
     for name, changes in VARIANTS.items():
         try:
-            results = steady_batch(robots, np.array(cmds), config=SimConfig(**changes), settle_s=3.0, window_s=2.0)
+            results = steady_batch(robots, np.array(cmds), config=SimConfig(**{"lag_budget": None, **changes}), settle_s=3.0, window_s=2.0)
         except Exception as exc:  # a variant that diverges is a result too
             out[name] = {"error": str(exc)}
             continue
@@ -83,7 +83,7 @@ def contact_forces(changes: dict, seconds: float = 3.0) -> dict:
     from mjtrack.io.robot import Robot
     from mjtrack.sim.builder import build_model, control_matrix
 
-    cfg = SimConfig(**changes)
+    cfg = SimConfig(**{"lag_budget": None, **changes})
     m = build_model(Robot(), cfg)
     d = mujoco.MjData(m)
     d.ctrl[:] = control_matrix(m) @ [-0.5, 0.5]

@@ -168,6 +168,21 @@ def test_resume_refuses_other_settings(swept, capsys):
     assert (out / "sweep.csv").read_bytes() == before
 
 
+def test_resume_refuses_a_sweep_from_before_the_time_step_rule(swept, capsys):
+    """A roller-chain sweep started before SimConfig.lag_budget ran every case at 5 ms: its rows
+    must not be mixed with rows at the steps the rule picks now."""
+    out = swept / "old_rule"
+    out.mkdir()
+    doc = json.loads((swept / "a" / "sweep.json").read_text())
+    assert doc.pop("lag_budget") == 0.01
+    (out / "sweep.json").write_text(json.dumps(doc))
+    (out / "sweep.csv").write_text((swept / "a" / "sweep.csv").read_text())
+    before = (out / "sweep.csv").read_bytes()
+    assert main(["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--workers", "1", *SHORT]) == 2
+    assert "other settings (lag_budget)" in capsys.readouterr().err
+    assert (out / "sweep.csv").read_bytes() == before
+
+
 def test_sweep_on_terrain_is_steady_on_terrain(tmp_path, cluster, capsys):
     (tmp_path / "g.json").write_text(json.dumps({"v_left_cmd": [0.3], "v_right_cmd": [0.5, 0.6]}))
     terrain = ["--terrain", "incline:0.1:1.0"]
@@ -223,3 +238,15 @@ def test_auto_chunk_size_gives_every_thread_two_tasks_and_caps_the_chunk():
     for n, slots in [(1, 1), (7, 3), (50, 4), (1000, 16)]:  # every case in a chunk, no chunk above the cap
         size = auto_chunk_size(n, slots)
         assert 1 <= size <= MAX_CHUNK and size * 2 * slots >= n or size == MAX_CHUNK
+
+
+def test_chunks_deal_the_cases_out_in_turn():
+    """Every case in exactly one chunk, none above the size, and each chunk spans the grid (the
+    fast, costly cases are not all in the last chunks)."""
+    from mjtrack.sweep.run import _chunks
+
+    for n, size in [(0, 3), (1, 4), (10, 4), (24, 6), (1000, 16)]:
+        chunks = list(_chunks(list(range(n)), size))
+        assert sorted(i for c in chunks for i in c) == list(range(n))
+        assert all(1 <= len(c) <= size for c in chunks) and len(chunks) == -(-n // size)
+    assert list(_chunks(list(range(10)), 4)) == [[0, 3, 6, 9], [1, 4, 7], [2, 5, 8]]

@@ -7,6 +7,10 @@ yaw [rad], v_left, v_right, vx, vy [m/s], wz [rad/s]; z [m], roll, pitch [rad] o
 than flat) and LOG.json (the robot used, and the terrain under key "terrain" when it is not
 flat). The same arguments and
 seed give a byte-identical log.
+
+Time step of the roller chain (without --timestep): 5 ms, divided by the smallest integer k that
+keeps v_max dt <= 0.01 L, v_max the largest commanded track speed (the noslip friction's one-step
+lag puts a turn's x_c v dt behind Coulomb; SimConfig.lag_budget); smaller on terrain edges.
 """
 
 from __future__ import annotations
@@ -32,7 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--log-rate", metavar="HZ", type=finite_float, default=50.0,
                         help="log sample rate [Hz], a divisor of the simulation rate (default 50)")
     parser.add_argument("--timestep", metavar="S", type=finite_float, default=None,
-                        help="simulation time step [s] (default: SimConfig's)")
+                        help="simulation time step [s], used as given (default: 5 ms, divided for fast commands "
+                             "so that v_max dt <= 0.01 L; see above)")
     parser.add_argument("--track-model", choices=["rollers", "surfacevel"], default="rollers",
                         help="MuJoCo track model: sprung roller chain (default) or surfacevel row")
     parser.add_argument("--out", metavar="LOG.csv", type=Path, required=True, help="output drive log")

@@ -104,6 +104,17 @@ class SimConfig:
             the rollers along them (an acceleration the main solve never saw): inner rollers sank
             and outer ones rose by up to 48 um in a turn, moving the contact points
             (experiments/gentle_turns.py). Off (or |c_x| beyond ~L/6): equal preloads.
+        lag_budget: roller chain: largest x_c offset v dt allowed, as a fraction of the track
+            length [-]. The noslip friction opposes the slip predicted one step ahead, which the
+            turn has rotated by w dt, so a steady turn's x_c sits v dt off Coulomb
+            (experiments/gentle_turns.py, section 5): 1 cm = 0.056 L for a 0.18 m track at 2 m/s
+            and 5 ms. Where the commands are known before a run (``steady_batch``, so ``steady``
+            and ``sweep``; ``drive_log``, so ``simulate``) the step is ``timestep / k``, k the
+            smallest integer with v_max dt <= lag_budget L (v_max: the largest |track speed|
+            commanded; :meth:`step_for_speed`). 0.01 keeps the default robot at 5 ms up to
+            1 m/s. None: the step is ``timestep`` always. Not applied in calibration windows
+            (a step that jumped with the fitted track length would make the objective
+            discontinuous) nor in the closed-loop plant (commands not known ahead).
     """
 
     timestep: float = 0.005
@@ -130,6 +141,7 @@ class SimConfig:
     noslip_tolerance: float = 1e-6
     rest_margin: bool = True
     level_chassis: bool = True
+    lag_budget: float | None = 0.01
     solver: str = "PGS"
     iterations: int = 50
     tolerance: float = 1e-6
@@ -154,6 +166,9 @@ class SimConfig:
         for name in ("rest_margin", "level_chassis"):
             if not isinstance(getattr(self, name), bool):
                 raise InputError(f"sim config: '{name}' must be true or false, got {getattr(self, name)!r}")
+        if self.lag_budget is not None and not (
+                isinstance(self.lag_budget, (int, float)) and math.isfinite(self.lag_budget) and self.lag_budget > 0):
+            raise InputError(f"sim config: 'lag_budget' must be a positive number or None, got {self.lag_budget!r}")
         if self.drive_reference_mass is not None and not (
                 isinstance(self.drive_reference_mass, (int, float)) and math.isfinite(self.drive_reference_mass)
                 and self.drive_reference_mass > 0):
@@ -206,6 +221,17 @@ class SimConfig:
         return self.replace(track_mass=self.track_mass * s, kv=self.kv * s, torque_limit=self.torque_limit * s,
                             drive_reference_mass=None)
 
+    def step_for_speed(self, track_length: float, v_max: float) -> "SimConfig":
+        """This config with the roller chain's time step for track speeds up to ``v_max`` [m/s] on a
+        track of ``track_length`` [m]: ``timestep / k``, k the smallest integer with
+        v_max dt <= lag_budget track_length (see ``lag_budget``). Unchanged for the surfacevel
+        model, without a budget, or when k is 1; so applying it twice changes nothing, and halving
+        both ``timestep`` and ``lag_budget`` halves the step it gives."""
+        if self.lag_budget is None or self.track_model != "rollers" or not v_max > 0:
+            return self
+        k = max(1, math.ceil(v_max * self.timestep / (self.lag_budget * track_length) * (1 - 1e-12)))
+        return self if k == 1 else self.replace(timestep=self.timestep / k)
+
     def replace(self, **changes: Any) -> "SimConfig":
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)
@@ -221,7 +247,7 @@ class SimConfig:
 # robot mass. Kept so that old and new settings are timed and checked in the same run (ratios
 # survive a loaded machine better than absolute numbers).
 PREVIOUS_ROLLER_DEFAULTS = dict(solver="Newton", noslip_iterations=20, drive_reference_mass=None, rest_margin=False,
-                                level_chassis=False)
+                                level_chassis=False, lag_budget=None)
 
 
 def previous_defaults() -> SimConfig:
@@ -252,6 +278,7 @@ SURFACEVEL_SETTINGS = dict(
     iterations=50,
     tolerance=1e-8,
     integrator="implicitfast",
+    lag_budget=None,  # a roller-chain rule (its noslip friction lag); not measured here
 )
 
 
@@ -265,11 +292,12 @@ def surfacevel_config(**changes) -> SimConfig:
 
 
 def sim_config(track_model: str = "rollers", *, timestep: float | None = None) -> SimConfig:
-    """The measured default settings of a track model (the surfacevel model has its own)."""
+    """The measured default settings of a track model (the surfacevel model has its own); with
+    ``timestep``, that fixed step (no ``lag_budget``: an explicit step is used as given)."""
     if track_model == "surfacevel":
         config = surfacevel_config(track_model="surfacevel")
     elif track_model == "rollers":
         config = SimConfig()
     else:
         raise InputError(f"unknown track model {track_model!r}; choose rollers or surfacevel")
-    return config if timestep is None else config.replace(timestep=timestep)
+    return config if timestep is None else config.replace(timestep=timestep, lag_budget=None)

@@ -87,13 +87,30 @@ def steady_batch(
     """Steady states of robots[i] under commands[i] = (V_L, V_R) [m/s]; (nbatch, 2) commands.
 
     All robots must give models of the same size (same ``config``), e.g. differ in cg,
-    friction, mass or geometry.
+    friction, mass or geometry. Each case runs at the step :meth:`SimConfig.step_for_speed` gives
+    for its own robot and command (cases that share a step share a rollout), so that a case's
+    result does not depend on the batch it is in.
     """
     config = config or SimConfig()
     config = config.replace(timestep=timestep_for(config.timestep, terrain))  # smaller on edges
     commands = np.atleast_2d(np.asarray(commands, dtype=float))
     if config.track_model == "surfacevel":
         return [_surfacevel(r, c, config, settle_s, window_s, terrain) for r, c in zip(robots, commands)]
+    groups: dict[float, list[int]] = {}
+    for i, (r, c) in enumerate(zip(robots, commands)):
+        step = config.step_for_speed(r.track_length, float(np.max(np.abs(c))) * r.track_speed_scale).timestep
+        groups.setdefault(step, []).append(i)
+    out: list[SteadyResult] = [None] * len(robots)  # type: ignore[list-item]
+    for step, idx in groups.items():
+        for i, res in zip(idx, _steady_rollout([robots[i] for i in idx], commands[idx], config.replace(timestep=step),
+                                               settle_s, window_s, nthread, terrain)):
+            out[i] = res
+    return out
+
+
+def _steady_rollout(robots: Sequence[Robot], commands: np.ndarray, config: SimConfig, settle_s: float,
+                    window_s: float, nthread: int, terrain: Terrain | None) -> list[SteadyResult]:
+    """The roller chain's steady states of one batch at ``config.timestep``."""
     models = [build_model(r, config, terrain) for r in robots]
     dt = models[0].opt.timestep
     n_settle, n_window = int(round(settle_s / dt)), int(round(window_s / dt))

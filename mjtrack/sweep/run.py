@@ -137,8 +137,12 @@ def auto_chunk_size(n_cases: int, slots: int) -> int:
 
 
 def _chunks(cases: Sequence[Case], size: int) -> Iterator[list[Case]]:
-    for i in range(0, len(cases), size):
-        yield list(cases[i:i + size])
+    """ceil(n / size) chunks of at most ``size`` cases, dealt out in turn (case i to chunk
+    i mod n_chunks): neighbours in a grid share a speed, and fast cases cost more steps on the
+    roller chain (SimConfig.lag_budget), so consecutive chunks would differ in cost."""
+    n = math.ceil(len(cases) / size) if cases else 0
+    for j in range(n):
+        yield list(cases[j::n])
 
 
 @contextlib.contextmanager
@@ -196,6 +200,9 @@ def run_sweep(
                 "base_robot": _base_robot(grid)}
     if terrain is not None and not terrain.is_flat:  # absent when flat: sweeps started before --terrain resume
         settings["terrain"] = terrain.to_dict()
+    # the time-step rule (SimConfig.lag_budget); absent (None) in sweeps started before it, so a
+    # roller-chain sweep from then is refused instead of mixing steps in one file
+    settings["lag_budget"] = sim_config(track_model).lag_budget
     _check_same_settings(out / JSON_NAME, csv_path, settings)
     done = _read_done(csv_path, grid, cols)
     todo = [c for c in grid.cases if c.index not in done]
