@@ -38,6 +38,16 @@ load transfer at those speeds):
    contact frame, so the steady state sits v tc/2 off the Coulomb one along x. RK4 does not
    change it (the contact solve, not the integrator); a longer friction time constant does.
 
+7. **How much of the commanded speed difference the drive delivers, and a PI drive.** Each
+   roller's servo is proportional (force kv/N (u - v)): under the turn's longitudinal friction
+   the tracks run F/kv off their commands. Printed for the three robots at R 10 m and 0.2 m/s
+   (cg +-0.1 L): the measured V_R - V_L over the commanded one and the x_c error, with the
+   default drive and with a probe PI drive (this script only: a second actuator per roller,
+   force kv/(N Ti) (integral of u - r q), Ti 0.05 s, each limited as the servo is and both
+   under one joint-level force limit ``actfrcrange``); and the PI drive's windup: the default robot's speed 3 s after a 0 -> 1 m/s
+   step (MuJoCo actuators have one activation, so the integral cannot be clamped relative to the
+   roller's position: it winds up while the drive saturates and then holds the speed F/kv high).
+
 6. **A log's twist against its poses.** Semi-implicit Euler moves the pose with the step's new
    velocity while the sensors report the step-start one, so the twist in a log and the body
    velocity of its poses (central differences in the mid-sample frame, logged at 200 Hz) differ
@@ -206,6 +216,65 @@ def twist_against_poses(v: float = 2.0, w: float = 0.2) -> dict:
             "half_w_dt_v": float(0.5 * np.mean(log.wz[k]) * dt_sim * np.mean(log.vx[k]))}
 
 
+PI_TI = 0.05  # [s] integral time of the probe PI drive (section 7)
+
+
+def _pi_model(robot, config: SimConfig, terrain=None):
+    """Section 7: the roller chain with a PI drive (probe; not in the library)."""
+    from mjtrack.sim.builder import ROLLER_CHAIN
+    from mjtrack.sim.chassis import build_robot_scene
+
+    config = ROLLER_CHAIN.configure(robot, config)
+    spec = build_robot_scene(robot, config, ROLLER_CHAIN, terrain)
+    for act in list(spec.actuators):
+        if not act.name.startswith("drive_"):
+            continue
+        ki, fmax = act.gainprm[0] / PI_TI, act.forcerange[1]
+        a = spec.add_actuator(name=act.name + "_int", target=act.target, trntype=act.trntype)
+        a.gear[0] = act.gear[0]
+        a.dyntype = mujoco.mjtDyn.mjDYN_INTEGRATOR  # activation = integral of the command [m]
+        a.gaintype, a.gainprm[0] = mujoco.mjtGain.mjGAIN_FIXED, ki
+        a.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+        a.biasprm[:3] = [0.0, -ki, 0.0]  # - ki x (roller surface position r q)
+        # its own limit too: without it the wound-up integral overpowers the proportional part
+        # under the joint limit and the speed cycles between 0.2 and 1.9 m/s (measured)
+        a.forcelimited, a.forcerange = mujoco.mjtLimited.mjLIMITED_TRUE, [-fmax, fmax]
+        joint = spec.joint(act.target)  # one limit on the sum of both actuators' forces
+        joint.actfrclimited, joint.actfrcrange = mujoco.mjtLimited.mjLIMITED_TRUE, [-fmax * act.gear[0], fmax * act.gear[0]]
+    return ROLLER_CHAIN.finish_model(spec.compile(), config)
+
+
+def drive_study() -> dict:
+    """Section 7: share of the commanded speed difference delivered, and x_c, P against PI drive."""
+    import mjtrack.sim.rollout as rollout_module
+    import mjtrack.sim.steady as steady_module
+    from mjtrack.io.robot import Robot
+
+    out: dict = {"turns": [], "step": {}}
+    for label in ("P (default)", "PI probe"):
+        patched = {m: m.build_model for m in (steady_module, rollout_module)}
+        if label.startswith("PI"):
+            for m in patched:
+                m.build_model = _pi_model
+        try:
+            for name in ("80kg_issue11", "150kg_long", "5kg_long"):
+                base = wide_robots()[name]
+                robots = [base.replace(cg_x=c * base.track_length) for c in (-0.1, 0.1)]
+                cmds = np.array([commands_for(r, 10.0, 0.2, 1, 1) for r in robots])
+                for cgf, r, c, s in zip((-0.1, 0.1), robots, cmds, steady_batch(robots, cmds, config=FixedStep())):
+                    ref = coulomb(r, s.v_left, s.v_right)
+                    out["turns"].append({"drive": label, "robot": name, "cg_frac": cgf,
+                                         "delivered": (s.v_right - s.v_left) / (c[1] - c[0]),
+                                         "err_x": abs(s.x_c - ref.x_c) / r.track_length})
+            log = drive_log(Robot(), (np.array([0.0, 2.0]), np.array([0.0, 1.0]), np.array([0.0, 1.0])), duration=5.0,
+                            config=FixedStep(), log_rate=100.0)
+            out["step"][label] = float((log.v_left[-1] + log.v_right[-1]) / 2)
+        finally:
+            for m, fn in patched.items():
+                m.build_model = fn
+    return out
+
+
 def straight_speed_error(config: SimConfig, v: float = 0.8) -> float:
     from mjtrack.io.robot import Robot
 
@@ -278,6 +347,12 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\n6. steady turn at 2 m/s: lateral velocity of the log's twist {1000 * tp['vy_twist']:+.3f} mm/s, of its "
           f"poses {1000 * tp['vy_poses']:+.3f} mm/s (difference {1000 * (tp['vy_poses'] - tp['vy_twist']):+.3f}; "
           f"w dt v / 2 = {1000 * tp['half_w_dt_v']:.3f} mm/s)")
+    print("\n7. drive: share of the commanded V_R - V_L delivered and x_c error, R 10 m at 0.2 m/s")
+    doc["drive"] = dr = drive_study()
+    for row in dr["turns"]:
+        print(f"   {row['drive']:12s} {row['robot']:13s} cg {row['cg_frac']:+.1f} L: delivered {row['delivered']:.3f}, "
+              f"x_c error {row['err_x']:.4f} L")
+    print("   speed 3 s after a 0 -> 1 m/s step (default robot): " + ", ".join(f"{k} {v:.4f} m/s" for k, v in dr["step"].items()))
     print(f"\nload average after: {os.getloadavg()}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(doc, indent=1) + "\n")
