@@ -93,7 +93,15 @@ def test_two_effects_are_both_found(pair, speeds):
             assert r.estimate[0] == pytest.approx(truth, rel=0.25)
     js = d.to_json()
     second = js["findings"][1]
-    assert second["on_top_of"] == [js["cause"]] and js["steps"][1]["on_top_of"] == [js["cause"]]
+    assert second["on_top_of"] == [js["cause"]]
+    # the steps record the path taken: each on top of the one before plus what that one chose. The
+    # path may pass through a stand-in that backward elimination drops later (lag + speed limit
+    # with speeds, seed 10: track_speed_scale first, the speed limit then refuted by the speeds
+    # until the lag is modelled; findings actuator_lag 0.30, speed_limit 0.60)
+    tops = [s["on_top_of"] for s in js["steps"]]
+    assert tops[0] == [] and all(b[:-1] == a for a, b in zip(tops, tops[1:]))
+    assert js["cause"] in tops[-1]
+    assert not (set(tops[-1]) - set(named)) & set(pair)  # only stand-ins were dropped
     assert "cannot be told apart" not in js["findings"][0]["evidence"]
 
 

@@ -146,12 +146,16 @@ def _multistart(obj: Objective, z0: np.ndarray) -> tuple[np.ndarray, list[tuple[
             z = z0.copy()
             z[i] = v / obj.specs[n].scale
             cands.append(z)
-    if "drive_lag" in names:  # each turning start also with a drive lag of 0.3 s
-        i = names.index("drive_lag")
-        for z in list(cands):
-            zz = z.copy()
-            zz[i] = 0.3 / obj.specs["drive_lag"].scale
-            cands.append(zz)
+    # each start also with a drive lag of 0.3 s and with a dead time of 0.2 s: the cost is not convex
+    # in either (a 0.15 s dead time was fitted as 0.03 s from a start at 0 with the track length
+    # from 0.6 m, and as 0.150 s from 0.1 s; tests/test_calibrate.py)
+    for name, value in (("drive_lag", 0.3), ("drive_delay", 0.2)):
+        if name in names:
+            i = names.index(name)
+            for z in list(cands):
+                zz = z.copy()
+                zz[i] = value / obj.specs[name].scale
+                cands.append(zz)
     Z = np.stack(cands, -1)
     lo = np.array([obj.specs[n].lo for n in names]) / obj.scales
     hi = np.array([obj.specs[n].hi for n in names]) / obj.scales

@@ -8,9 +8,10 @@ than flat) and LOG.json (the robot used, and the terrain under key "terrain" whe
 flat). The same arguments and
 seed give a byte-identical log.
 
-Time step of the roller chain (without --timestep): 5 ms, divided by the smallest integer k that
-keeps v_max dt <= 0.01 L, v_max the largest commanded track speed (the noslip friction's one-step
-lag puts a turn's x_c v dt behind Coulomb; SimConfig.lag_budget); smaller on terrain edges.
+Time step of the roller chain (without --timestep): 5 ms (smaller on terrain edges), the step at
+which calibrate and diagnose simulate a log's windows. At fast commands on short tracks a turn's
+x_c then sits v dt behind Coulomb (the noslip friction's one-step lag; `steady` divides its step
+for that, SimConfig.lag_budget): --timestep S with v_max S <= 0.01 L removes it.
 """
 
 from __future__ import annotations
@@ -36,8 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--log-rate", metavar="HZ", type=finite_float, default=50.0,
                         help="log sample rate [Hz], a divisor of the simulation rate (default 50)")
     parser.add_argument("--timestep", metavar="S", type=finite_float, default=None,
-                        help="simulation time step [s], used as given (default: 5 ms, divided for fast commands "
-                             "so that v_max dt <= 0.01 L; see above)")
+                        help="simulation time step [s] (default 5 ms; see above for fast commands on short tracks)")
     parser.add_argument("--track-model", choices=["rollers", "surfacevel"], default="rollers",
                         help="MuJoCo track model: sprung roller chain (default) or surfacevel row")
     parser.add_argument("--out", metavar="LOG.csv", type=Path, required=True, help="output drive log")

@@ -108,13 +108,13 @@ class SimConfig:
             length [-]. The noslip friction opposes the slip predicted one step ahead, which the
             turn has rotated by w dt, so a steady turn's x_c sits v dt off Coulomb
             (experiments/gentle_turns.py, section 5): 1 cm = 0.056 L for a 0.18 m track at 2 m/s
-            and 5 ms. Where the commands are known before a run (``steady_batch``, so ``steady``
-            and ``sweep``; ``drive_log``, so ``simulate``) the step is ``timestep / k``, k the
-            smallest integer with v_max dt <= lag_budget L (v_max: the largest |track speed|
-            commanded; :meth:`step_for_speed`). 0.01 keeps the default robot at 5 ms up to
-            1 m/s. None: the step is ``timestep`` always. Not applied in calibration windows
-            (a step that jumped with the fitted track length would make the objective
-            discontinuous) nor in the closed-loop plant (commands not known ahead).
+            and 5 ms. In steady states (``steady_batch``, so ``steady`` and ``sweep``) each case
+            runs at ``timestep / k``, k the smallest integer with v_max dt <= lag_budget L (v_max:
+            the larger |track speed| commanded; :meth:`step_for_speed`). 0.01 keeps the default
+            robot at 5 ms up to 1 m/s. None: ``timestep`` always. Logs (``drive_log``, so
+            ``simulate``), calibration and diagnosis windows and the closed-loop plant run at
+            ``timestep``: a log is then simulated at the step its windows are, and a window step
+            that followed the fitted track length would make the objective discontinuous.
     """
 
     timestep: float = 0.005

@@ -337,14 +337,13 @@ def drive_log(robot: Robot, table: tuple[np.ndarray, np.ndarray, np.ndarray], *,
               config: SimConfig | None = None, log_rate: float = 50.0, terrain: Terrain | None = None):
     """Roll out a command table (t, v_left, v_right) held for ``duration`` [s]: a DriveLog.
 
-    The roller chain runs at the step :meth:`SimConfig.step_for_speed` gives for the table's
-    largest track speed (``config.lag_budget``)."""
+    At ``config.timestep`` (smaller on terrain edges), not at the step of ``config.lag_budget``:
+    calibration and MuJoCo-baseline diagnosis simulate a log's windows at the fixed step, so a log
+    made here is simulated as they simulate it."""
     from mjtrack.io.logs import DriveLog
 
     config = config or SimConfig()
     config = config.replace(timestep=timestep_for(config.timestep, terrain))  # smaller on edges
-    v_max = max((float(np.max(np.abs(v))) for v in table[1:] if np.size(v)), default=0.0)
-    config = config.step_for_speed(robot.track_length, v_max * robot.track_speed_scale)
     commands = hold_commands(*table, timestep=config.timestep, duration=duration)
     return DriveLog.from_columns(simulate(robot, commands, config=config, log_rate=log_rate, terrain=terrain))
 
