@@ -60,7 +60,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.models.coulomb import steady_state as coulomb_steady
 from mjtrack.sim.config import TRACK_MODELS, SimConfig, previous_defaults, sim_config
 from mjtrack.sim.rollout import drive_log
-from mjtrack.sim.steady import steady_batch
+from mjtrack.sim.steady import case_timestep, steady_batch
 
 RADII = ("pivot", 0.25, 0.5, 1.0, 2.0)
 SPEEDS = (0.3, 0.8)
@@ -225,7 +225,7 @@ def _by_robot(cases: list) -> dict[str, list]:
 def run_wide(quick: bool, config: SimConfig, *, half_dt: bool) -> list[dict]:
     """Every wide case against the Coulomb reference (with load transfer); with ``half_dt`` also
     the ICR change when each case's time step is halved (:func:`halved`). Each case runs at the
-    step ``config.step_for_speed`` picks for it (``timestep`` in its row)."""
+    step :func:`mjtrack.sim.steady.case_timestep` gives it (``timestep`` in its row)."""
     rows = []
     for name, cases in _by_robot(list(wide_cases(quick))).items():
         robots, cmds = [c[1] for c in cases], np.array([c[2] for c in cases])
@@ -233,8 +233,7 @@ def run_wide(quick: bool, config: SimConfig, *, half_dt: bool) -> list[dict]:
         fine = steady_batch(robots, cmds, config=halved(config)) if half_dt else None
         for k, ((meta, robot, cmd), res) in enumerate(zip(cases, results)):
             half, L = robot.track_gauge / 2, robot.track_length
-            dt = config.step_for_speed(L, max(abs(cmd[0]), abs(cmd[1])) * robot.track_speed_scale).timestep
-            row = dict(meta, **res.to_dict(), timestep=dt)
+            row = dict(meta, **res.to_dict(), timestep=case_timestep(config, robot, cmd))
             try:
                 ref = coulomb_steady(robot, res.v_left, res.v_right)
                 row.update(ref_y_l=ref.y_l, ref_y_r=ref.y_r, ref_x_c=ref.x_c,

@@ -15,7 +15,7 @@ from mjtrack.errors import InputError
 from mjtrack.io.robot import Robot
 from mjtrack.models.coulomb import steady_state as coulomb
 from mjtrack.sim.config import SimConfig, previous_defaults
-from mjtrack.sim.steady import steady_batch
+from mjtrack.sim.steady import case_timestep, steady_batch
 
 EXPERIMENTS = Path(__file__).resolve().parents[1] / "experiments"
 
@@ -216,7 +216,7 @@ def test_lag_budget_removes_the_friction_lag_offset_of_x_c():
     for config in (SimConfig(lag_budget=None), SimConfig()):
         s = steady_batch([robot], [cmd], config=config)[0]
         ref = coulomb(robot, s.v_left, s.v_right)
-        dt = config.step_for_speed(robot.track_length, max(map(abs, cmd))).timestep
+        dt = case_timestep(config, robot, cmd)
         assert 0.9 < (s.x_c - ref.x_c) / (v * dt) < 1.2  # the offset is v dt at either step
         assert max(abs(s.y_l - ref.y_l), abs(s.y_r - ref.y_r)) < 0.01 * robot.track_gauge / 2
     assert abs(s.x_c - ref.x_c) < 0.02 * robot.track_length  # within the wide grid's tolerance with the budget

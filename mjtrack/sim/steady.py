@@ -98,14 +98,20 @@ def steady_batch(
         return [_surfacevel(r, c, config, settle_s, window_s, terrain) for r, c in zip(robots, commands)]
     groups: dict[float, list[int]] = {}
     for i, (r, c) in enumerate(zip(robots, commands)):
-        step = config.step_for_speed(r.track_length, float(np.max(np.abs(c))) * r.track_speed_scale).timestep
-        groups.setdefault(step, []).append(i)
+        groups.setdefault(case_timestep(config, r, c), []).append(i)
     out: list[SteadyResult] = [None] * len(robots)  # type: ignore[list-item]
     for step, idx in groups.items():
         for i, res in zip(idx, _steady_rollout([robots[i] for i in idx], commands[idx], config.replace(timestep=step),
                                                settle_s, window_s, nthread, terrain)):
             out[i] = res
     return out
+
+
+def case_timestep(config: SimConfig, robot: Robot, command) -> float:
+    """The step [s] a steady case runs at (flat ground): ``config.step_for_speed`` for the robot's
+    track length and the larger commanded track speed, after the robot's speed scale."""
+    v_max = float(np.max(np.abs(np.asarray(command, dtype=float)))) * robot.track_speed_scale
+    return config.step_for_speed(robot.track_length, v_max).timestep
 
 
 def _steady_rollout(robots: Sequence[Robot], commands: np.ndarray, config: SimConfig, settle_s: float,
