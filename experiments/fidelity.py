@@ -144,10 +144,11 @@ def convergence(config: SimConfig) -> dict:
 
 
 def halved(config: SimConfig) -> SimConfig:
-    """The config whose step is half the one ``config`` runs each case at: halving the time step
-    and the lag budget together halves the step :meth:`SimConfig.step_for_speed` picks."""
+    """The config whose step is half the one ``config`` runs each case at: halving the time step,
+    the lag budget and the slip budget together halves the step :meth:`SimConfig.step_for` picks."""
     return config.replace(timestep=config.timestep / 2,
-                          lag_budget=None if config.lag_budget is None else config.lag_budget / 2)
+                          lag_budget=None if config.lag_budget is None else config.lag_budget / 2,
+                          slip_budget=None if config.slip_budget is None else config.slip_budget / 2)
 
 
 def straight(config: SimConfig) -> list[dict]:
@@ -174,6 +175,12 @@ WIDE_SPEEDS = (0.2, 0.7, 2.0)
 WIDE_CG = (-0.1, 0.1)  # cg_x / L
 WIDE_CG_Y = 0.05  # cg_y / T on every second robot: a lateral offset makes left and right differ
 TOL_WIDE_Y, TOL_WIDE_X, TOL_WIDE_DT = 0.05, 0.02, 0.02  # issue 11: T/2, L, T/2 (dt halving)
+# --holdout: robots and turns that no setting was tuned on (session 6 tuned the belt and the slip
+# budget on the wide grid): drawn robots, other radii, speeds and cg offsets, same tolerances
+HOLDOUT_SEED = 2026
+HOLDOUT_RADII = ("pivot", 0.7, 3.0, 7.0)
+HOLDOUT_SPEEDS = (0.35, 1.2)
+HOLDOUT_CG = (-0.07, 0.05)
 MAX_LATERAL_ACCEL = 0.5  # [g mu] nominal v^2/R above this: the robot slides out, no steady turn
 
 
@@ -195,11 +202,28 @@ def wide_robots() -> dict[str, Robot]:
     return robots
 
 
-def wide_cases(quick: bool):
-    robots = wide_robots()
+def holdout_robots() -> dict[str, Robot]:
+    """Two light robots written out (the draws happen to be 31-136 kg, and gentle turns of light
+    robots were the hard cases) and six drawn with HOLDOUT_SEED: 5-150 kg, T 0.2-0.8 m, L/T 0.6-2,
+    mu 0.4-1, cg_z 0.15-0.35 min(T, L), cg_y within +-0.05 T."""
+    rng = np.random.default_rng(HOLDOUT_SEED)
+    robots = {"8kg_long": Robot(mass=8.0, track_gauge=0.25, track_length=0.4, cg_z=0.06, mu=0.7, cg_y=0.005),
+              "12kg_square": Robot(mass=12.0, track_gauge=0.35, track_length=0.3, cg_z=0.08, mu=0.9, cg_y=-0.007)}
+    for i in range(6):
+        m, T, ratio = float(rng.uniform(5, 150)), float(rng.uniform(0.2, 0.8)), float(rng.uniform(0.6, 2.0))
+        mu, hz, cy = float(rng.uniform(0.4, 1.0)), float(rng.uniform(0.15, 0.35)), float(rng.uniform(-0.05, 0.05))
+        L = round(ratio * T, 3)
+        robots[f"holdout{i}"] = Robot(mass=round(m, 1), track_gauge=round(T, 3), track_length=L,
+                                      cg_z=round(hz * min(T, L), 3), mu=round(mu, 2), cg_y=round(cy * T, 4))
+    return robots
+
+
+def wide_cases(quick: bool, holdout: bool = False):
+    robots = holdout_robots() if holdout else wide_robots()
     names = list(robots)[:3] + list(robots)[-1:] if quick else list(robots)
-    radii = ("pivot", 1.0, 5.0, 10.0) if quick else WIDE_RADII
-    speeds = (0.2, 2.0) if quick else WIDE_SPEEDS
+    radii = HOLDOUT_RADII if holdout else ("pivot", 1.0, 5.0, 10.0) if quick else WIDE_RADII
+    speeds = HOLDOUT_SPEEDS if holdout else (0.2, 2.0) if quick else WIDE_SPEEDS
+    cgs = HOLDOUT_CG if holdout else WIDE_CG
     for name in names:
         base = robots[name]
         for radius in radii:
@@ -208,7 +232,7 @@ def wide_cases(quick: bool):
                     continue
                 for direction in DIRECTIONS:
                     for travel in (TRAVEL if radius != "pivot" and not quick else (1,)):
-                        for cgf in WIDE_CG:
+                        for cgf in cgs:
                             robot = base.replace(cg_x=cgf * base.track_length)
                             yield (dict(geometry=name, radius=radius, v=v, direction=direction, travel=travel,
                                         cg_frac=cgf, mu=robot.mu, mass=robot.mass, T=robot.track_gauge,
@@ -222,12 +246,12 @@ def _by_robot(cases: list) -> dict[str, list]:
     return groups
 
 
-def run_wide(quick: bool, config: SimConfig, *, half_dt: bool) -> list[dict]:
+def run_wide(quick: bool, config: SimConfig, *, half_dt: bool, holdout: bool = False) -> list[dict]:
     """Every wide case against the Coulomb reference (with load transfer); with ``half_dt`` also
     the ICR change when each case's time step is halved (:func:`halved`). Each case runs at the
     step :func:`mjtrack.sim.steady.case_timestep` gives it (``timestep`` in its row)."""
     rows = []
-    for name, cases in _by_robot(list(wide_cases(quick))).items():
+    for name, cases in _by_robot(list(wide_cases(quick, holdout))).items():
         robots, cmds = [c[1] for c in cases], np.array([c[2] for c in cases])
         results = steady_batch(robots, cmds, config=config)
         fine = steady_batch(robots, cmds, config=halved(config)) if half_dt else None
@@ -299,10 +323,12 @@ def print_wide(track_model: str, rows: list[dict], summary: dict) -> None:
 
 
 def run_wide_study(quick: bool, out: Path, command: str, models, timestep: float | None = None,
-                   previous: bool = False, fixed_step: bool = False) -> bool:
+                   previous: bool = False, fixed_step: bool = False, holdout: bool = False) -> bool:
     """The wide grid for each track model (dt halving for the roller chain); writes fidelity_wide.json
     (``timestep``: another time step than the model's default, named in the file)."""
-    doc = {"command": command, "seed": WIDE_SEED, "robots": {k: r.to_dict() for k, r in wide_robots().items()},
+    robots = holdout_robots() if holdout else wide_robots()
+    doc = {"command": command, "seed": HOLDOUT_SEED if holdout else WIDE_SEED,
+           "robots": {k: r.to_dict() for k, r in robots.items()},
            "tolerances": {"y": TOL_WIDE_Y, "x": TOL_WIDE_X, "dt_halving_y": TOL_WIDE_DT, "contact": TOL_CONTACT}}
     ok = True
     for m in models:
@@ -311,14 +337,14 @@ def run_wide_study(quick: bool, out: Path, command: str, models, timestep: float
         if previous and m == "rollers":
             config = previous_defaults().replace(timestep=config.timestep)
         if fixed_step:
-            config = config.replace(lag_budget=None)
-        rows = run_wide(quick, config, half_dt=(m == "rollers"))
+            config = config.replace(lag_budget=None, slip_budget=None)
+        rows = run_wide(quick, config, half_dt=(m == "rollers"), holdout=holdout)
         summary = wide_summary(rows)
         summary["elapsed_s"] = time.perf_counter() - t0
         print_wide(m, rows, summary)
         doc[m] = {"config": config.to_dict(), "summary": summary, "cases": rows}
         ok = ok and (m != "rollers" or summary["passed"] == summary["cases"])
-    path = out / ("fidelity_wide" + ("_quick" if quick else "") + ("" if len(models) > 1 else f"_{models[0]}")
+    path = out / ("fidelity_wide" + ("_holdout" if holdout else "") + ("_quick" if quick else "") + ("" if len(models) > 1 else f"_{models[0]}")
                   + (f"_dt{timestep:g}" if timestep else "") + ("_previous" if previous else "")
                   + ("_fixed_step" if fixed_step else "") + ".json")
     tmp = path.with_suffix(".tmp")
@@ -466,6 +492,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--fixed-step", action="store_true",
                    help="--wide only: every case at the model's time step (no lag budget: before session 5, "
                         "fast cases of short robots then have x_c v dt off Coulomb; gentle_turns.py)")
+    p.add_argument("--holdout", action="store_true",
+                   help="--wide only: two light robots and six drawn with another seed, radii 0.7/3/7 m and pivots, 0.35 and "
+                        "1.2 m/s, cg_x -0.07/+0.05 L (nothing was tuned on them); writes fidelity_wide_holdout_*.json")
     p.add_argument("--track-model", choices=(*TRACK_MODELS, "both"), default="both",
                    help="which MuJoCo track model(s) to measure (default both)")
     args = p.parse_args(argv)
@@ -474,14 +503,17 @@ def main(argv: list[str] | None = None) -> int:
         p.error("--timestep needs --wide and a positive value")
     if args.fixed_step and not args.wide:
         p.error("--fixed-step needs --wide")
+    if args.holdout and (not args.wide or args.quick):
+        p.error("--holdout needs --wide (and no --quick)")
     command = "python experiments/fidelity.py" + (" --wide" if args.wide else "") + (" --quick" if args.quick else "") + (
         f" --timestep {args.timestep:g}" if args.timestep else "") + (
         " --fixed-step" if args.fixed_step else "") + (" --previous-defaults" if args.previous_defaults else "") + (
+        " --holdout" if args.holdout else "") + (
         f" --track-model {args.track_model}" if args.track_model != "both" else "")
     models = TRACK_MODELS if args.track_model == "both" else (args.track_model,)
     if args.wide:
         return 0 if run_wide_study(args.quick, args.out, command, models, args.timestep, args.previous_defaults,
-                                   args.fixed_step) else 1
+                                   args.fixed_step, args.holdout) else 1
     docs = {m: run_model(m, args.quick, args.out, command) for m in models}
     table = combined_table(docs)
     print_combined(table)

@@ -30,8 +30,9 @@ load transfer at those speeds):
 5. **x_c: drive compliance and the time step.** The rollers' servos let their surface speeds
    spread by F_i / (kv/N) along a track; near x_c, where the slip is mostly longitudinal, this
    bends the friction directions. Printed: x_c against Coulomb for the 80 kg robot (cg +-0.1 L,
-   R 10 m at 0.2 m/s) with the default drive, a 10x stiffer one (kv and track_mass x10: the
-   same kv dt / track_mass) and the equality-coupled chain; and at 2 m/s (cg 0) the x_c offset
+   R 10 m at 0.2 m/s) with the servos alone (no belt, the default until session 6), a 10x
+   stiffer one (kv and track_mass x10: the same kv dt / track_mass), the equality-coupled chain
+   and the belt of section 8 (10 ms, default; 7 and 20 ms); and at 2 m/s (cg 0) the x_c offset
    against v tc/2, tc the friction rows' time constant (2 dt by default, the least MuJoCo
    allows): the friction rows' reference acceleration -v_slip/(tc/2) makes the friction oppose
    the slip predicted tc/2 ahead, which the turn has rotated by w tc/2 in the world-fixed
@@ -42,18 +43,40 @@ load transfer at those speeds):
    roller's servo is proportional (force kv/N (u - v)): under the turn's longitudinal friction
    the tracks run F/kv off their commands. Printed for the three robots at R 10 m and 0.2 m/s
    (cg +-0.1 L): the measured V_R - V_L over the commanded one and the x_c error, with the
-   default drive and with a probe PI drive (this script only: a second actuator per roller,
+   proportional drive without the belt (as measured in session 5), with the belt (default since
+   session 6: x_c follows Coulomb, the delivered share is the same, the ICRs use the measured
+   speeds) and with a probe PI drive (no belt; this script only: a second actuator per roller,
    force kv/(N Ti) (integral of u - r q), Ti 0.05 s, each limited as the servo is and both
-   under one joint-level force limit ``actfrcrange``); and the PI drive's windup: the default robot's speed 3 s after a 0 -> 1 m/s
-   step (MuJoCo actuators have one activation, so the integral cannot be clamped relative to the
-   roller's position: it winds up while the drive saturates and then holds the speed F/kv high).
+   under one joint-level force limit ``actfrcrange``); and each drive's speed 3 s after a
+   0 -> 1 m/s step of the default robot (MuJoCo actuators have one activation, so the PI
+   integral cannot be clamped relative to the roller's position: it winds up while the drive
+   saturates and then holds the speed F/kv high).
+
+8. **The belt, and what sets the step of a gentle turn (session 6).** Since section 5 every
+   roller is tied to its track's mean surface position by a spring (``SimConfig.belt_timeconst``,
+   10 ms): the rollers then run at one speed, as on a belt. Printed: section 5's x_c with it (and
+   at 7 and 20 ms), and, for the 5 kg wide robot (cg -0.1 L, R 10 m, 0.2 m/s), the ICR error at
+   dt 5 ... 0.625 ms and at 1.25 ms with the friction or the contact time constant held at 10 ms:
+   the error follows the friction rows' time constant (2 dt), not dt or the contact's. Then for 4
+   robots x 3 gentle turns x cg +-0.1 L at dt 5, 2.5, 1.25 ms: the worst dt-halving change per bin
+   of r = mu g dt / (|w| L/2), one step's friction velocity change over the lateral slip at the
+   track ends; ``SimConfig.slip_budget`` 5 keeps r <= 5.
+9. **Fast pivots and tight turns with the cg off-centre (session 6).** The 5 kg long robot (cg
+   +0.1 L) pivoting at 0.2-2 m/s with a plain box chassis (before) and with the chassis inertia
+   that keeps the robot's principal axes on the body axes (default): the elements at height r
+   and the chassis above them made I_xz != 0, and a spin w gave a pitch moment w^2 I_xz that the
+   Coulomb reference (a rigid body with principal axes on the body axes) does not have. And the
+   150 kg long robot (cg_y 0.05 T, cg_x -0.1 L) at R 2 m, 2 m/s reversing against the reference
+   with the rigid-plate loads (default since session 6) and with the per-track Wong loads it had
+   before (a c_x c_y x y twist term that a rigid chassis on springs cannot carry; this script
+   only), with cg_y 0.05 T and 0.
 
 6. **A log's twist against its poses.** Semi-implicit Euler moves the pose with the step's new
    velocity while the sensors report the step-start one, so the twist in a log and the body
    velocity of its poses (central differences in the mid-sample frame, logged at 200 Hz) differ
    sideways by w dt v / 2 in a steady turn (default robot, 2 m/s commanded, 0.2 rad/s nominal).
 
-About 1 min on one core.
+About 4 min on one core (sections 8 and 9: 3 min).
 """
 
 from __future__ import annotations
@@ -70,6 +93,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from fidelity import commands_for, wide_robots  # noqa: E402
 
+from mjtrack.io.robot import G  # noqa: E402
 from mjtrack.models.coulomb import steady_state as coulomb  # noqa: E402
 from mjtrack.sim.builder import build_model, control_matrix  # noqa: E402
 from mjtrack.sim.config import SimConfig  # noqa: E402
@@ -80,8 +104,9 @@ from mjtrack.sim.steady import steady_batch  # noqa: E402
 
 def FixedStep(**changes) -> SimConfig:  # noqa: N802 -- a SimConfig, named for what it pins
     """SimConfig at the stated fixed step: every run here is about a mechanism at a given dt, so
-    the lag budget (SimConfig.lag_budget, added after this study) must not change the step."""
-    return SimConfig(lag_budget=None, **changes)
+    the step rules (SimConfig.lag_budget, slip_budget, added after sections 1-7) must not change
+    the step."""
+    return SimConfig(**{"lag_budget": None, "slip_budget": None, **changes})
 
 
 ROBOTS = ("5kg_long", "80kg_issue11")
@@ -175,9 +200,13 @@ def x_c_study() -> dict:
     """Section 5 (80 kg issue-11 robot)."""
     base = wide_robots()["80kg_issue11"]
     out: dict = {"drive": [], "time_step": []}
-    drives = {"default drive (servo per roller)": FixedStep(),
-              "10x stiffer drive": FixedStep(kv=10 * FixedStep().kv, track_mass=10 * FixedStep().track_mass),
-              "equality-coupled chain": FixedStep(coupling="equality")}
+    drives = {"servos only (no belt)": FixedStep(belt_timeconst=None),
+              "10x stiffer drive, no belt": FixedStep(belt_timeconst=None, kv=10 * FixedStep().kv,
+                                                      track_mass=10 * FixedStep().track_mass),
+              "equality-coupled chain": FixedStep(coupling="equality"),
+              "belt 10 ms (default)": FixedStep(),
+              "belt 7 ms": FixedStep(belt_timeconst=0.007),
+              "belt 20 ms": FixedStep(belt_timeconst=0.02)}
     robots = [base.replace(cg_x=c * base.track_length) for c in (-0.1, 0.1)]
     cmds = np.array([commands_for(r, 10.0, 0.2, 1, 1) for r in robots])
     for label, cfg in drives.items():
@@ -251,7 +280,9 @@ def drive_study() -> dict:
     from mjtrack.io.robot import Robot
 
     out: dict = {"turns": [], "step": {}}
-    for label in ("P (default)", "PI probe"):
+    drives = {"P, no belt": FixedStep(belt_timeconst=None), "P + belt (default)": FixedStep(),
+              "PI probe, no belt": FixedStep(belt_timeconst=None)}
+    for label, cfg in drives.items():
         patched = {m: m.build_model for m in (steady_module, rollout_module)}
         if label.startswith("PI"):
             for m in patched:
@@ -261,17 +292,100 @@ def drive_study() -> dict:
                 base = wide_robots()[name]
                 robots = [base.replace(cg_x=c * base.track_length) for c in (-0.1, 0.1)]
                 cmds = np.array([commands_for(r, 10.0, 0.2, 1, 1) for r in robots])
-                for cgf, r, c, s in zip((-0.1, 0.1), robots, cmds, steady_batch(robots, cmds, config=FixedStep())):
+                for cgf, r, c, s in zip((-0.1, 0.1), robots, cmds, steady_batch(robots, cmds, config=cfg)):
                     ref = coulomb(r, s.v_left, s.v_right)
                     out["turns"].append({"drive": label, "robot": name, "cg_frac": cgf,
                                          "delivered": (s.v_right - s.v_left) / (c[1] - c[0]),
                                          "err_x": abs(s.x_c - ref.x_c) / r.track_length})
             log = drive_log(Robot(), (np.array([0.0, 2.0]), np.array([0.0, 1.0]), np.array([0.0, 1.0])), duration=5.0,
-                            config=FixedStep(), log_rate=100.0)
+                            config=cfg, log_rate=100.0)
             out["step"][label] = float((log.v_left[-1] + log.v_right[-1]) / 2)
         finally:
             for m, fn in patched.items():
                 m.build_model = fn
+    return out
+
+
+SLIP_ROBOTS = ("5kg_wide", "5kg_long", "150kg_wide", "80kg_issue11")
+SLIP_TURNS = ((10.0, 0.2), (5.0, 0.2), (10.0, 0.7))
+
+
+def _errors(robot, s, f=None) -> dict:
+    ref = coulomb(robot, s.v_left, s.v_right)
+    half = robot.track_gauge / 2
+    row = {"err_y": max(abs(s.y_l - ref.y_l), abs(s.y_r - ref.y_r)) / half,
+           "err_x": abs(s.x_c - ref.x_c) / robot.track_length}
+    if f is not None:
+        row["dt_dy"] = max(abs(s.y_l - f.y_l), abs(s.y_r - f.y_r)) / half
+    return row
+
+
+def slip_budget_study() -> dict:
+    """Section 8: what sets the time step of gentle turns (belt on)."""
+    out: dict = {"time_constants": [], "ratio": []}
+    base = wide_robots()["5kg_wide"]
+    robot = base.replace(cg_x=-0.1 * base.track_length)
+    cmd = np.array([commands_for(robot, 10.0, 0.2, 1, 1)])
+    for label, cfg in (("dt 5 ms", FixedStep()), ("dt 2.5 ms", FixedStep(timestep=0.0025)),
+                       ("dt 1.25 ms", FixedStep(timestep=0.00125)), ("dt 0.625 ms", FixedStep(timestep=0.000625)),
+                       ("dt 1.25 ms, friction tc 10 ms", FixedStep(timestep=0.00125, friction_timeconst=0.01)),
+                       ("dt 1.25 ms, contact tc 10 ms", FixedStep(timestep=0.00125, contact_timeconst=0.01)),
+                       ("dt 5 ms, no belt", FixedStep(belt_timeconst=None)),
+                       ("dt 1.25 ms, no belt", FixedStep(timestep=0.00125, belt_timeconst=None))):
+        s = steady_batch([robot], cmd, config=cfg)[0]
+        out["time_constants"].append({"case": label, **_errors(robot, s)})
+    steps = (0.005, 0.0025, 0.00125, 0.000625)
+    for name in SLIP_ROBOTS:
+        b = wide_robots()[name]
+        robots = [b.replace(cg_x=c * b.track_length) for c in (-0.1, 0.1)]
+        for R, v in SLIP_TURNS:
+            cmds = np.array([commands_for(r, R, v, 1, 1) for r in robots])
+            res = {dt: steady_batch(robots, cmds, config=FixedStep(timestep=dt)) for dt in steps}
+            for k, r in enumerate(robots):
+                w = abs(cmds[k][1] - cmds[k][0]) / r.track_gauge
+                for dt in steps[:-1]:
+                    ratio = r.mu * G * dt / (w * r.track_length / 2)
+                    out["ratio"].append({"robot": name, "R": R, "v": v, "cg_frac": r.cg_x / r.track_length, "dt": dt,
+                                         "ratio": ratio, **_errors(r, res[dt][k], res[dt / 2][k])})
+    return out
+
+
+def _wong_per_track_loads(self, ax: float, ay: float) -> np.ndarray:
+    """Section 9: the reference's loads before session 6 (script only): each track its own Wong
+    distribution with the common centroid c_x, split by the lever rule (no lift-off handling:
+    the cases here keep every point loaded)."""
+    r = self.robot
+    cx = r.cg_x - r.cg_z * ax / self.g_normal
+    cy = r.cg_y - r.cg_z * ay / self.g_normal
+    along = 1.0 + cx * self.xg / np.mean(self.xg**2)
+    side = np.where(self.left, 0.5 + cy / r.track_gauge, 0.5 - cy / r.track_gauge)
+    return r.mass * self.g_normal * side * np.tile(along / along.sum(), 2 * self.k) / self.k
+
+
+def inertia_and_loads() -> dict:
+    """Section 9: fast pivots and fast tight turns of robots with an off-centre cg."""
+    import mjtrack.models.coulomb as coulomb_module
+
+    out: dict = {"pivots": [], "loads": []}
+    base = wide_robots()["5kg_long"]
+    robot = base.replace(cg_x=0.1 * base.track_length)
+    speeds = (0.2, 0.7, 1.4, 2.0)
+    cmds = np.array([commands_for(robot, "pivot", v, 1, 1) for v in speeds])
+    for label, cfg in (("box chassis (before)", SimConfig(principal_axes=False)), ("principal axes (default)", SimConfig())):
+        for v, s in zip(speeds, steady_batch([robot] * len(speeds), cmds, config=cfg)):
+            out["pivots"].append({"chassis": label, "v": v, "wz": s.wz, **_errors(robot, s)})
+    big = wide_robots()["150kg_long"]
+    for cg_y in (big.cg_y, 0.0):
+        r = big.replace(cg_x=-0.1 * big.track_length, cg_y=cg_y)
+        s = steady_batch([r], np.array([commands_for(r, 2.0, 2.0, 1, -1)]), config=SimConfig())[0]
+        row = {"cg_y": cg_y, "plate": _errors(r, s)}
+        saved = coulomb_module._Contacts.loads
+        coulomb_module._Contacts.loads = _wong_per_track_loads
+        try:
+            row["per_track_wong"] = _errors(r, s)
+        finally:
+            coulomb_module._Contacts.loads = saved
+        out["loads"].append(row)
     return out
 
 
@@ -350,9 +464,27 @@ def main(argv: list[str] | None = None) -> int:
     print("\n7. drive: share of the commanded V_R - V_L delivered and x_c error, R 10 m at 0.2 m/s")
     doc["drive"] = dr = drive_study()
     for row in dr["turns"]:
-        print(f"   {row['drive']:12s} {row['robot']:13s} cg {row['cg_frac']:+.1f} L: delivered {row['delivered']:.3f}, "
+        print(f"   {row['drive']:18s} {row['robot']:13s} cg {row['cg_frac']:+.1f} L: delivered {row['delivered']:.3f}, "
               f"x_c error {row['err_x']:.4f} L")
     print("   speed 3 s after a 0 -> 1 m/s step (default robot): " + ", ".join(f"{k} {v:.4f} m/s" for k, v in dr["step"].items()))
+    print("\n8. what sets the step of a gentle turn (5 kg wide robot, cg -0.1 L, R 10 m, 0.2 m/s, belt on unless said)")
+    doc["slip_budget"] = sb = slip_budget_study()
+    for row in sb["time_constants"]:
+        print(f"   {row['case']:32s} |dy| {row['err_y']:.4f} T/2, |dx_c| {row['err_x']:.4f} L")
+    print("   dt-halving change |dy| against r = mu g dt / (|w| L/2) (4 robots x 3 gentle turns x cg +-0.1 L):")
+    for lo, hi in ((0, 2.5), (2.5, 5.0), (5.0, 7.5), (7.5, 12.0), (12.0, 1e9)):
+        sel = [x for x in sb["ratio"] if lo <= x["ratio"] < hi]
+        if sel:
+            print(f"     r in [{lo:g}, {hi:g}): {len(sel):2d} cases, worst dt-halving |dy| {max(x['dt_dy'] for x in sel):.4f} T/2, "
+                  f"worst |dy| {max(x['err_y'] for x in sel):.4f} T/2")
+    print("\n9. fast pivots and tight turns with the cg off-centre: chassis inertia and the reference's loads")
+    doc["inertia_and_loads"] = il = inertia_and_loads()
+    for row in il["pivots"]:
+        print(f"   5 kg long, cg +0.1 L, pivot {row['v']:.1f} m/s (w {row['wz']:5.2f} rad/s), {row['chassis']:25s}: "
+              f"|dy| {row['err_y']:.4f} T/2")
+    for row in il["loads"]:
+        print(f"   150 kg long, cg_y {row['cg_y']:.3f} m, cg_x -0.1 L, R 2 m at 2 m/s reversing: |dy| against the plate loads "
+              f"{row['plate']['err_y']:.4f} T/2, against per-track Wong loads {row['per_track_wong']['err_y']:.4f} T/2")
     print(f"\nload average after: {os.getloadavg()}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(doc, indent=1) + "\n")

@@ -158,6 +158,32 @@ def test_wong_loads_sum_and_centroid(cg, n_across):
         assert np.sum(N == 0) > 0  # Wong's shortened (triangular) contact
 
 
+@pytest.mark.parametrize("cg", [(0.05, 0.03), (0.15, 0.05), (-0.2, -0.1), (0.0, 0.15)])
+@pytest.mark.parametrize("n_across", [1, 3])
+def test_loads_are_those_of_a_rigid_plate_on_tensionless_springs(cg, n_across):
+    """A rigid chassis on equal springs deflects as a plane: N_i = max(0, a + b x_i + c y_i) (the
+    MuJoCo robot's suspension). Checked by the optimality conditions, not by the solver: a plane
+    fitted through the loaded points reproduces them, and is <= 0 where the load is 0; without
+    lift-off the closed form W/n (1 + c_x x/mean(x^2) + c_y y/mean(y^2)). Before session 6 the two
+    tracks had separate Wong distributions (a c_x c_y x y twist term a rigid chassis cannot carry)."""
+    robot = ROBOT.replace(cg_x=cg[0], cg_y=cg[1])
+    x, y, N = normal_loads(robot, n_points=50, n_across=n_across)
+    loaded = N > 0
+    A = np.stack([np.ones(loaded.sum()), x[loaded], y[loaded]], axis=1)
+    coef, *_ = np.linalg.lstsq(A, N[loaded], rcond=None)
+    np.testing.assert_allclose(A @ coef, N[loaded], rtol=0, atol=1e-9 * N.max())
+    plane = coef[0] + coef[1] * x + coef[2] * y
+    assert np.all(plane[~loaded] <= 1e-9 * N.max())
+    if loaded.all():
+        closed = robot.weight / x.size * (1 + cg[0] * x / np.mean(x**2) + cg[1] * y / np.mean(y**2))
+        np.testing.assert_allclose(N, closed, rtol=1e-12)
+    # one slope along both tracks (a rigid chassis pitches as one)
+    left = y > 0
+    if loaded.all() and n_across == 1:
+        slope = [np.polyfit(x[side], N[side], 1)[0] for side in (left, ~left)]
+        assert slope[0] == pytest.approx(slope[1], rel=1e-9)
+
+
 def test_load_transfer_moves_the_centroid():
     x, y, N = normal_loads(ROBOT, accel=(1.0, 2.0))
     h, g = ROBOT.cg_z, ROBOT.weight / ROBOT.mass

@@ -18,15 +18,19 @@ f_i = -mu N_i grad |u_i|, the wrench is minus the gradient of the convex dissipa
 D(vx, vy, wz) = sum mu_i N_i |u_i|: the quasi-static steady state (zero wrench) is the unique
 minimiser of D (used as the fallback solver).
 
-Normal loads (Wong's classical assumption). The planar rigid body on a line of supports is
-statically indeterminate; as in Wong, the pressure varies linearly along each track and the
-load is split between the tracks by the lever rule:
-    N_left = m g (1/2 + c_y/T),   N_right = m g (1/2 - c_y/T),
-and along each track the weights are w_i proportional to max(0, x_i - x0) (mirrored for a
-rearward centroid), x0 chosen so that sum w_i x_i / sum w_i = c_x exactly (discrete). While
-|c_x| <= mean(x_i^2)/max x_i (~L/6) this is the trapezoid x0 = -mean(x^2)/c_x; beyond it the
-pressure vanishes on part of the track (Wong's shortened, triangular contact). Then
-sum N = m g and the load centroid is (c_x, c_y) exactly.
+Normal loads (Wong's classical assumption, for a rigid chassis). The planar rigid body on a line
+of supports is statically indeterminate; as in Wong, the pressure varies linearly along each
+track, and, the chassis being rigid, it is one plane over both tracks (a rigid chassis on equal
+tensionless springs; the MuJoCo robot's suspension, :func:`mjtrack.sim.chassis.rest_loads`):
+    N_i = max(0, a + b x_i + c y_i),   sum N = m g, load centroid (c_x, c_y) exactly.
+While no point lifts this is N_i = (m g / n) (1 + c_x x_i / mean(x^2) + c_y y_i / mean(y^2)):
+the lever rule between the tracks, N_left = m g (1/2 + c_y/T), and the same slope along both.
+Beyond |c_x| ~ L/6 the pressure vanishes on part of the tracks (Wong's shortened, triangular
+contact), the plane then minimising the springs' energy less the weight's work (a convex
+problem, solved by semismooth Newton). Before session 6 each track had its own Wong
+distribution with centroid c_x, N_i = m g (1/2 +- c_y/T) w_i(c_x): a twist term
+proportional to c_x c_y x_i y_i that a rigid chassis cannot carry (0.06 T/2 on the ICRs of a
+150 kg robot with cg 0.05 T aside and 0.1 L ahead at R 2 m, 2 m/s; experiments/fidelity.py --wide).
 
 Load transfer (``load_transfer``, default True). The friction forces act at the ground, a
 height h = cg_z below the centre of mass; the roll and pitch moment balance about the CoM,
@@ -118,24 +122,35 @@ class _Contacts:
         self.k = k
         self.cg = np.array([robot.cg_x, robot.cg_y])
         self.tipped = False  # set when a load centroid had to be clipped to the support
+        self._basis = np.stack([np.ones_like(xs), xs, ys], axis=1)  # plate loads: a + b x + c y
+        self._gram_inv = np.linalg.inv(self._basis.T @ self._basis)
         self.g_normal = G * np.cos(slope)  # [m/s^2] gravity normal to the (inclined) ground
         self.static_loads = self.loads(0.0, 0.0)
 
-    def _along(self, cx: float) -> np.ndarray:
-        """Weights along one track (sum 1) with discrete centroid cx (Wong linear pressure)."""
-        xg = self.xg
-        if cx == 0.0:
-            return np.full(xg.size, 1.0 / xg.size)
-        s, c = np.sign(cx), abs(cx)
-        xs = s * xg
-        x0 = -np.mean(xs**2) / c
-        if x0 > xs.min():  # pressure vanishes on part of the track: solve for the zero point
-            def centroid_gap(z: float) -> float:
-                w = np.maximum(xs - z, 0.0)
-                return float(w @ xs / w.sum() - c)
-
-            x0 = optimize.brentq(centroid_gap, xs.min(), xs.max() - 1e-12 * xs.max(), xtol=1e-15)
-        w = np.maximum(xs - x0, 0.0)
+    def _plate(self, cx: float, cy: float) -> np.ndarray:
+        """Loads per unit weight (sum 1) of a rigid plate on equal tensionless springs at the
+        points with load centroid (cx, cy): max(0, a + b x + c y) (module docstring)."""
+        P = self._basis
+        target = np.array([1.0, cx, cy])
+        theta = self._gram_inv @ target
+        w = P @ theta
+        if w.min() >= 0.0:
+            return w
+        # semismooth Newton on the convex energy E = sum max(0, P theta)^2 / 2 - theta . target
+        def energy(t):
+            return 0.5 * float(np.sum(np.maximum(P @ t, 0.0) ** 2)) - float(t @ target)
+        for _ in range(100):
+            w = P @ theta
+            active = w > 0.0
+            grad = P[active].T @ w[active] - target
+            if np.max(np.abs(grad)) <= 1e-14:
+                break
+            step = np.linalg.lstsq(P[active].T @ P[active], grad, rcond=None)[0]
+            e0, t = energy(theta), 1.0
+            while energy(theta - t * step) > e0 - 0.5 * t * float(grad @ step) and t > 1e-12:
+                t *= 0.5
+            theta = theta - t * step
+        w = np.maximum(P @ theta, 0.0)
         return w / w.sum()
 
     def loads(self, ax: float, ay: float) -> np.ndarray:
@@ -149,9 +164,7 @@ class _Contacts:
             log.debug("coulomb: load centroid (%.3g, %.3g) outside the support: clipped", cx, cy)
             self.tipped = True
             cx, cy = float(np.clip(cx, -xmax, xmax)), float(np.clip(cy, -ymax, ymax))
-        along = self._along(cx)
-        side = np.where(self.left, 0.5 + cy / r.track_gauge, 0.5 - cy / r.track_gauge)
-        return r.mass * self.g_normal * side * np.tile(along, 2 * self.k) / self.k
+        return r.mass * self.g_normal * self._plate(cx, cy)
 
     def wrench(self, twist, v_left: float, v_right: float, N: np.ndarray, eps: float) -> np.ndarray:
         """Friction wrench (Fx, Fy, Mz about the geometric centre) [N, N, N m]."""

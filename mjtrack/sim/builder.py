@@ -44,6 +44,10 @@ measurements):
   Semi-implicit Euler with MuJoCo's implicit joint damping switched off keeps every damper an
   explicit, known force; stability then needs kv dt / track_mass and c dt / m_roller below
   1.5 (checked, InputError otherwise).
+* **Belt** (session 6): the servos alone let a track's rollers differ by F_i / (kv/N), mm/s, which
+  at R 10 m and 0.2 m/s moved x_c 0.03 L off Coulomb; a spring from each roller's surface to the
+  mean of its track's (tendons ``belt_<side>_<i>``, ``SimConfig.belt_timeconst``) makes them run
+  at one speed in a steady state, as the contact points of a belt do (x_c within 0.0017 L there).
 * **Sensors**: the chassis' (:mod:`mjtrack.sim.chassis`) and the track speeds
   (``track_speed_<side>``, m/s).
 """
@@ -95,6 +99,11 @@ class RollerChain(TrackModel):
                 f"sim config: suspension damping {suspension.c:.3g} N s/m is unstable with explicit Euler at "
                 f"dt = {dt} s and roller mass {element_mass:.3g} kg (needs c dt / m < 1.5)"
             )
+        if config.coupling == "servo" and config.belt_timeconst is not None and dt >= config.belt_timeconst:
+            raise InputError(
+                f"sim config: belt_timeconst {config.belt_timeconst} s is unstable with explicit Euler at dt = {dt} s "
+                f"(needs dt < belt_timeconst)"
+            )
         if config.coupling == "servo" and config.kv * dt / config.track_mass >= 1.5:
             raise InputError(
                 f"sim config: servo gain kv = {config.kv} is unstable with explicit Euler at dt = {dt} s "
@@ -144,6 +153,8 @@ class RollerChain(TrackModel):
         else:  # mean surface speed of the rollers
             for i in range(n):
                 tendon.wrap_joint(f"roll_{side}_{i}", r / n)
+            if config.belt_timeconst is not None:
+                _add_belt(spec, side, n, r, (config.track_mass / n) / config.belt_timeconst**2)
         spec.add_sensor(name=f"track_speed_{side}", type=mujoco.mjtSensor.mjSENS_TENDONVEL,
                         objtype=mujoco.mjtObj.mjOBJ_TENDON, objname=f"track_{side}")
 
@@ -234,6 +245,18 @@ def _add_sprocket(chassis, side: str, robot: Robot, config: SimConfig, y: float)
         quat=[math.sqrt(0.5), math.sqrt(0.5), 0, 0], contype=0, conaffinity=0, density=0,
         rgba=[0.2, 0.2, 0.2, 1],
     )
+
+
+def _add_belt(spec: mujoco.MjSpec, side: str, n: int, r: float, stiffness: float) -> None:
+    """Belt tendons ``belt_<side>_<i>``: roller i's surface position less the mean of its track's,
+    r (q_i - mean q) [m], each a spring of ``stiffness`` [N/m] at zero length (SimConfig.belt_timeconst).
+    Internal forces: they sum to zero over the track, so the drive's common mode is untouched."""
+    for i in range(n):
+        belt = spec.add_tendon(name=f"belt_{side}_{i}")
+        for j in range(n):
+            belt.wrap_joint(f"roll_{side}_{j}", r * ((1.0 if i == j else 0.0) - 1.0 / n))
+        belt.stiffness = [stiffness, 0.0, 0.0]
+        belt.springlength = [0.0, 0.0]
 
 
 def _add_servo(spec: mujoco.MjSpec, name: str, target: str, trntype, *, gear: float, kv: float,

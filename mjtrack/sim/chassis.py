@@ -13,7 +13,15 @@ Derivation of the shared part (``assets/README.md`` gives the measurements):
   two contact patches on the ground (site ``centre``), x forward, y left, z up. The chassis mass is
   ``robot.mass`` minus the 2N contact elements' (unsprung) mass, whose centres sit at height r; it
   sits where it puts the total centre of mass at (cg_x, cg_y, cg_z) (site ``cg``); its inertia is
-  a uniform box L x (T + width) x ``CHASSIS_HEIGHT``. A visual hull (no contact, no mass).
+  a uniform box L x (T + width) x ``CHASSIS_HEIGHT`` plus the products of inertia that cancel those
+  of the elements and of the chassis' own offset (:func:`chassis_mass_properties`), so that the
+  whole robot's inertia about its centre of mass has the body axes as principal axes, as the
+  robot description (no products of inertia) and the Coulomb reference assume. Without that, the
+  unsprung elements (at height r, centred on the patch) and the chassis (above, offset the other
+  way) made I_xz = m_el,total cg_x (cg_z - r) M / m_chassis, and a spinning robot felt a
+  centrifugal pitch moment w^2 I_xz that no description of it has: 0.05 T/2 on the ICRs of a
+  2 m/s pivot of a 5 kg robot with cg 0.1 L forward (experiments/gentle_turns.py, section 9).
+  A visual hull (no contact, no mass).
 * **Tracks**: each track (``left`` at y = T/2, ``right`` at y = -T/2, its μ) is N contact
   elements at the midpoints x_i = -L/2 + (i + 1/2) L/N (:func:`element_positions`: the N point
   loads integrate a linear load over [-L/2, L/2] exactly), added by the track model.
@@ -56,6 +64,57 @@ CHASSIS_HEIGHT = 0.15  # [m] height of the box whose inertia the chassis is give
 def element_positions(robot: Robot, n: int) -> np.ndarray:
     """x of the contact elements along a track, (n,) [m]: midpoints of n equal cells of L."""
     return -robot.track_length / 2 + (np.arange(n) + 0.5) * robot.track_length / n
+
+
+def chassis_mass_properties(robot: Robot, config: SimConfig, tracks: "TrackModel") -> tuple[float, np.ndarray, np.ndarray]:
+    """(mass [kg], centre of mass (3,) [m], full inertia (ixx, iyy, izz, ixy, ixz, iyz) [kg m^2])
+    of the chassis body: the robot less its 2N elements (point masses at (x_i, +-T/2, r)), placed
+    so that the total centre of mass is the robot's, with the box inertia of the module docstring
+    plus the products of inertia that make the whole robot's products about its centre of mass
+    zero (the elements' own inertias are diagonal in the body axes); where that tensor would not be
+    physical (A + B < C: a flat, wide chassis with the cg far off-centre), every principal moment
+    gets the same addition, C - A - B + 1 % of C. InputError when the elements are too heavy."""
+    n, r = tracks.elements(config), config.roller_radius
+    m_el = tracks.element_mass(robot, config)
+    m_unsprung = 2 * n * m_el
+    m_chassis = robot.mass - m_unsprung
+    if m_chassis <= 0.2 * robot.mass:
+        raise InputError(f"{tracks.name}: elements weigh {m_unsprung:.3g} kg of {robot.mass:.3g} kg; "
+                         "reduce the unsprung mass")
+    T, L, w = robot.track_gauge, robot.track_length, robot.track_width
+    cg = np.array([robot.cg_x, robot.cg_y, robot.cg_z])
+    ipos = (robot.mass * cg - m_unsprung * np.array([0.0, 0.0, r])) / m_chassis
+    xs = element_positions(robot, n)
+    points = np.array([[x, y, r] for y in (T / 2, -T / 2) for x in xs]) - cg
+    second = m_el * points.T @ points + m_chassis * np.outer(ipos - cg, ipos - cg)  # sum m d d^T
+    ly, lz = T + w, CHASSIS_HEIGHT
+    box = m_chassis / 12 * np.array([ly**2 + lz**2, L**2 + lz**2, L**2 + ly**2])
+    if not config.principal_axes:  # a plain box (before session 6)
+        return m_chassis, ipos, np.array([*box, 0.0, 0.0, 0.0])
+    # products of inertia are -sum m d_a d_b; the chassis takes +sum m d_a d_b to cancel them
+    full = np.array([*box, second[0, 1], second[0, 2], second[1, 2]])
+    tensor = np.diag(box) + (second - np.diag(np.diag(second)))
+    a, b, c = np.linalg.eigvalsh(tensor)
+    # a flat, wide box is near the triangle limit (A + B = C for a plate): where the products
+    # rotate it past that, every moment gets the same delta (products unchanged)
+    delta = max(0.0, c - a - b, -a)
+    if delta > 0.0:
+        delta += 0.01 * c
+        full[:3] += delta
+    return m_chassis, ipos, full
+
+
+def set_body_inertia(model: mujoco.MjModel, body: int, full: np.ndarray) -> None:
+    """A compiled body's inertia from its full tensor (ixx, iyy, izz, ixy, ixz, iyz), in place, as
+    the compiler stores it: principal moments ``body_inertia`` and their frame ``body_iquat``."""
+    ixx, iyy, izz, ixy, ixz, iyz = (float(v) for v in full)
+    moments, axes = np.linalg.eigh(np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]))
+    if np.linalg.det(axes) < 0:
+        axes[:, 2] = -axes[:, 2]
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, axes.flatten())
+    model.body_inertia[body] = moments
+    model.body_iquat[body] = quat
 
 
 def suspension_stiffness(robot: Robot, config: SimConfig, n: int) -> float:
@@ -204,20 +263,15 @@ def build_robot_spec(robot: Robot, config: SimConfig | None, tracks: TrackModel,
     n, r = tracks.elements(config), config.roller_radius
     m_el = tracks.element_mass(robot, config)
     T, L, w = robot.track_gauge, robot.track_length, robot.track_width
-    m_unsprung = 2 * n * m_el
-    m_chassis = robot.mass - m_unsprung
-    if m_chassis <= 0.2 * robot.mass:
-        raise InputError(f"{tracks.name}: elements weigh {m_unsprung:.3g} kg of {robot.mass:.3g} kg; "
-                         "reduce the unsprung mass")
+    m_chassis, ipos, full = chassis_mass_properties(robot, config, tracks)
     cg = np.array([robot.cg_x, robot.cg_y, robot.cg_z])
-    ly, lz = T + w, CHASSIS_HEIGHT
 
     chassis = spec.worldbody.add_body(name="chassis", pos=[0, 0, 0])
     chassis.add_freejoint(name="root")
     chassis.explicitinertial = True
     chassis.mass = m_chassis
-    chassis.ipos = (robot.mass * cg - m_unsprung * np.array([0.0, 0.0, r])) / m_chassis
-    chassis.inertia = m_chassis / 12 * np.array([ly**2 + lz**2, L**2 + lz**2, L**2 + ly**2])
+    chassis.ipos = ipos
+    chassis.fullinertia = full
     chassis.add_site(name="centre", pos=[0, 0, 0], size=[0.01, 0.01, 0.01])
     chassis.add_site(name="cg", pos=cg, size=[0.015, 0.015, 0.015], rgba=[1, 0, 0, 1])
     chassis.add_geom(

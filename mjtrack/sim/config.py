@@ -15,9 +15,13 @@ from dataclasses import dataclass
 from typing import Any
 
 from mjtrack.errors import InputError
+from mjtrack.io.robot import G
 
 TRACK_MODELS = ("rollers", "surfacevel")
 SOLVERS = ("Newton", "PGS", "CG")
+# most divisions of the step the slip budget asks for (5 ms / 8 = 0.625 ms): gentler turns of
+# light robots than a 5 kg robot at R 10 m, 0.2 m/s (k = 5) run at 0.625 ms, unconverged in dt
+MAX_STEP_DIVISIONS = 8
 
 
 @dataclass(frozen=True)
@@ -70,6 +74,31 @@ class SimConfig:
             torque_limit / (R_s N), armature track_mass r^2 / N: no constraint rows) or
             ``"equality"`` (roller hinges tied to one sprocket by joint equalities, one
             servo on the sprocket: an exact chain, but N more constraint rows).
+        belt_timeconst: the track belt (``coupling="servo"``): each roller's surface is tied to the
+            mean surface position of its track's rollers by a spring of stiffness
+            k = (track_mass / N) / belt_timeconst^2 (fixed tendons ``belt_<side>_<i>`` =
+            r (q_i - mean q)), so that in a steady state every roller of a track runs at the same
+            speed, as the contact points of a belt do, whatever its load [s]. Without it (``None``,
+            before session 6) only the servos tie the rollers together and their surface speeds
+            spread by F_i / (kv/N): mm/s, the size of the slips of a gentle turn, which moved x_c
+            by up to 0.03 L at R 10 m, 0.2 m/s (experiments/gentle_turns.py, sections 5, 7, 8).
+            Internal forces: the drive's common mode is untouched. Every relative mode relaxes in
+            (kv / track_mass) belt_timeconst^2 = 15 ms (servo damping; damping ratio 0.75).
+            Cost: N^2 tendon entries per track, 4.6 % of a step at N = 10, 20 % at 40. A chain of
+            springs between neighbours (N - 1 two-joint tendons, 1.3 and 2 %) was rejected: its
+            end-to-end mode relaxes in 0.15 s (N = 10) to 2.4 s (40), and the strain it stores at
+            a start made straight driving creep 3.5e-4 of the speed, unsteadily (this coupling:
+            4.9e-5, steady; none: 5e-8). Explicit Euler needs dt < belt_timeconst.
+        slip_budget: largest ratio mu g dt / (|w| L/2) of the friction's velocity change per step
+            to the lateral slip at the track ends that a steady case may run at
+            (:meth:`step_for`) [-]: the noslip friction opposes the slip expected one step
+            ahead, and where one step of friction moves a contact by many times its slip the
+            friction direction is off (errors follow the friction time constant 2 dt, not the
+            contact's: gentle_turns.py section 8). ``None``: no such rule.
+        principal_axes: the chassis takes the products of inertia that keep the whole robot's
+            principal axes on the body axes (:func:`mjtrack.sim.chassis.chassis_mass_properties`);
+            False: a plain box (before session 6: the elements then tilt the principal axes and
+            a spinning robot with its cg off-centre feels a pitch moment no description of it has).
         cone: ``"elliptic"`` (isotropic Coulomb cone) or ``"pyramidal"``.
         impratio: friction-to-normal impedance ratio (elliptic cones) [-]; 1e-4 keeps the
             friction rows of the main solve far inside the cone (no sliding lift-off); the
@@ -135,6 +164,9 @@ class SimConfig:
     contact_margin: float = 0.0
     coupling_timeconst: float = 0.0
     coupling: str = "servo"
+    belt_timeconst: float | None = 0.01
+    slip_budget: float | None = 5.0
+    principal_axes: bool = True
     cone: str = "elliptic"
     impratio: float = 1e-4
     noslip_iterations: int = 20
@@ -163,12 +195,13 @@ class SimConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise InputError(f"sim config: '{name}' must be a number >= 0, got {value!r}")
-        for name in ("rest_margin", "level_chassis"):
+        for name in ("rest_margin", "level_chassis", "principal_axes"):
             if not isinstance(getattr(self, name), bool):
                 raise InputError(f"sim config: '{name}' must be true or false, got {getattr(self, name)!r}")
-        if self.lag_budget is not None and not (
-                isinstance(self.lag_budget, (int, float)) and math.isfinite(self.lag_budget) and self.lag_budget > 0):
-            raise InputError(f"sim config: 'lag_budget' must be a positive number or None, got {self.lag_budget!r}")
+        for name in ("lag_budget", "belt_timeconst", "slip_budget"):
+            value = getattr(self, name)
+            if value is not None and not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise InputError(f"sim config: '{name}' must be a positive number or None, got {value!r}")
         if self.drive_reference_mass is not None and not (
                 isinstance(self.drive_reference_mass, (int, float)) and math.isfinite(self.drive_reference_mass)
                 and self.drive_reference_mass > 0):
@@ -221,16 +254,32 @@ class SimConfig:
         return self.replace(track_mass=self.track_mass * s, kv=self.kv * s, torque_limit=self.torque_limit * s,
                             drive_reference_mass=None)
 
-    def step_for_speed(self, track_length: float, v_max: float) -> "SimConfig":
-        """This config with the roller chain's time step for track speeds up to ``v_max`` [m/s] on a
-        track of ``track_length`` [m]: ``timestep / k``, k the smallest integer with
-        v_max dt <= lag_budget track_length (see ``lag_budget``). Unchanged for the surfacevel
-        model, without a budget, or when k is 1; so applying it twice changes nothing, and halving
-        both ``timestep`` and ``lag_budget`` halves the step it gives."""
-        if self.lag_budget is None or self.track_model != "rollers" or not v_max > 0:
+    def step_for(self, track_length: float, v_max: float, turn_rate: float = 0.0, mu: float = 0.0) -> "SimConfig":
+        """This config with the roller chain's time step for a steady case: ``timestep / k``, k the
+        smallest integer with
+
+        * v_max dt <= lag_budget L (track speeds up to ``v_max`` [m/s], ``lag_budget``) and
+        * mu g dt <= slip_budget |w| L / 2 (turn rate ``turn_rate`` [rad/s], friction ``mu``,
+          ``slip_budget``; no rule when the robot does not turn), k at most
+          :data:`MAX_STEP_DIVISIONS` for this rule,
+
+        L = ``track_length`` [m]. Unchanged for the surfacevel model, without budgets, or when k
+        is 1; so applying it twice changes nothing, and halving ``timestep``, ``lag_budget`` and
+        ``slip_budget`` together halves the step it gives."""
+        if self.track_model != "rollers":
             return self
-        k = max(1, math.ceil(v_max * self.timestep / (self.lag_budget * track_length) * (1 - 1e-12)))
+        k = 1
+        if self.lag_budget is not None and v_max > 0:
+            k = max(k, math.ceil(v_max * self.timestep / (self.lag_budget * track_length) * (1 - 1e-12)))
+        end_slip = abs(turn_rate) * track_length / 2
+        if self.slip_budget is not None and end_slip > 0 and mu > 0:
+            k_slip = math.ceil(mu * G * self.timestep / (self.slip_budget * end_slip) * (1 - 1e-12))
+            k = max(k, min(k_slip, MAX_STEP_DIVISIONS))
         return self if k == 1 else self.replace(timestep=self.timestep / k)
+
+    def step_for_speed(self, track_length: float, v_max: float) -> "SimConfig":
+        """:meth:`step_for` without a turn (the lag budget alone)."""
+        return self.step_for(track_length, v_max)
 
     def replace(self, **changes: Any) -> "SimConfig":
         """A copy with some fields changed (validated again)."""
@@ -247,7 +296,8 @@ class SimConfig:
 # robot mass. Kept so that old and new settings are timed and checked in the same run (ratios
 # survive a loaded machine better than absolute numbers).
 PREVIOUS_ROLLER_DEFAULTS = dict(solver="Newton", noslip_iterations=20, drive_reference_mass=None, rest_margin=False,
-                                level_chassis=False, lag_budget=None)
+                                level_chassis=False, lag_budget=None, belt_timeconst=None, slip_budget=None,
+                                principal_axes=False)
 
 
 def previous_defaults() -> SimConfig:
@@ -279,6 +329,8 @@ SURFACEVEL_SETTINGS = dict(
     tolerance=1e-8,
     integrator="implicitfast",
     lag_budget=None,  # a roller-chain rule (its noslip friction lag); not measured here
+    slip_budget=None,  # likewise
+    belt_timeconst=None,  # the roller chain's belt tendons
 )
 
 
@@ -293,11 +345,12 @@ def surfacevel_config(**changes) -> SimConfig:
 
 def sim_config(track_model: str = "rollers", *, timestep: float | None = None) -> SimConfig:
     """The measured default settings of a track model (the surfacevel model has its own); with
-    ``timestep``, that fixed step (no ``lag_budget``: an explicit step is used as given)."""
+    ``timestep``, that fixed step (no ``lag_budget`` nor ``slip_budget``: an explicit step is
+    used as given)."""
     if track_model == "surfacevel":
         config = surfacevel_config(track_model="surfacevel")
     elif track_model == "rollers":
         config = SimConfig()
     else:
         raise InputError(f"unknown track model {track_model!r}; choose rollers or surfacevel")
-    return config if timestep is None else config.replace(timestep=timestep, lag_budget=None)
+    return config if timestep is None else config.replace(timestep=timestep, lag_budget=None, slip_budget=None)

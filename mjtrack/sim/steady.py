@@ -87,7 +87,7 @@ def steady_batch(
     """Steady states of robots[i] under commands[i] = (V_L, V_R) [m/s]; (nbatch, 2) commands.
 
     All robots must give models of the same size (same ``config``), e.g. differ in cg,
-    friction, mass or geometry. Each case runs at the step :meth:`SimConfig.step_for_speed` gives
+    friction, mass or geometry. Each case runs at the step :meth:`SimConfig.step_for` gives
     for its own robot and command (cases that share a step share a rollout), so that a case's
     result does not depend on the batch it is in.
     """
@@ -108,10 +108,13 @@ def steady_batch(
 
 
 def case_timestep(config: SimConfig, robot: Robot, command) -> float:
-    """The step [s] a steady case runs at (flat ground): ``config.step_for_speed`` for the robot's
-    track length and the larger commanded track speed, after the robot's speed scale."""
-    v_max = float(np.max(np.abs(np.asarray(command, dtype=float)))) * robot.track_speed_scale
-    return config.step_for_speed(robot.track_length, v_max).timestep
+    """The step [s] a steady case runs at (flat ground): ``config.step_for`` for the robot's track
+    length, the larger commanded track speed, the nominal turn rate (V_R - V_L) / T and the larger
+    track friction, after the robot's speed scale."""
+    v = np.asarray(command, dtype=float) * robot.track_speed_scale
+    turn_rate = float(v[1] - v[0]) / robot.track_gauge
+    mu = max(robot.friction_left, robot.friction_right)
+    return config.step_for(robot.track_length, float(np.max(np.abs(v))), turn_rate, mu).timestep
 
 
 def _steady_rollout(robots: Sequence[Robot], commands: np.ndarray, config: SimConfig, settle_s: float,

@@ -43,12 +43,12 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
-from mjtrack.errors import InputError
+from mjtrack.errors import InputError, MjtrackError
 from mjtrack.geometry import relative_pose, wrap_angle, world_to_body_velocity
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
-from mjtrack.sim.builder import apply_rest_margins, build_model, control_matrix
-from mjtrack.sim.chassis import set_rest_springs
+from mjtrack.sim.builder import ROLLER_CHAIN, apply_rest_margins, build_model, control_matrix
+from mjtrack.sim.chassis import chassis_mass_properties, set_body_inertia, set_rest_springs
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.rollout import STATE_SPEC, SensorMap, collected_mujoco_warnings, settled_state, yaw_of
 
@@ -225,8 +225,6 @@ class WindowSim:
         self.roller_radius = config.roller_radius
         chassis = m.body("chassis")
         self.chassis_id = int(chassis.id)
-        self.chassis_mass = float(chassis.mass[0])
-        self.chassis_ipos0 = np.array(chassis.ipos, float)
         self.cg_site = int(m.site("cg").id)
         self.pair_side = np.array([0 if m.pair(i).name.startswith("contact_left") else 1 for i in range(m.npair)])
         self._settled: dict[tuple, np.ndarray] = {}
@@ -274,11 +272,13 @@ class WindowSim:
                            params.get("cg_y", robot.cg_y) if params.get("cg_y") is not None else robot.cg_y])
             if abs(cg[0]) >= robot.track_length / 2 or abs(cg[1]) >= robot.track_gauge / 2:
                 raise InputError(f"windows: centre of mass {cg.tolist()} lies outside the tracks")
-            shift = robot.mass * (cg - np.array([robot.cg_x, robot.cg_y])) / self.chassis_mass
-            m.body_ipos[self.chassis_id, :2] = self.chassis_ipos0[:2] + shift
+            moved = robot.replace(cg_x=float(cg[0]), cg_y=float(cg[1]))
+            _, ipos, full = chassis_mass_properties(moved, self.config, ROLLER_CHAIN)
+            m.body_ipos[self.chassis_id] = ipos
+            set_body_inertia(m, self.chassis_id, full)  # products of inertia follow the cg
             m.site_pos[self.cg_site, :2] = cg
             if robot.ground.model != "road_wheels":  # (road wheels keep their own springs)
-                set_rest_springs(m, robot.replace(cg_x=float(cg[0]), cg_y=float(cg[1])), self.config)
+                set_rest_springs(m, moved, self.config)
             # quantities the compiler derives from the mass distribution (constraint scaling
             # through body_invweight0 / dof_invweight0): recomputed as a rebuild would
             mujoco.mj_setConst(m, mujoco.MjData(m))
@@ -438,7 +438,14 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
             vsim = sim.for_params(params)
             model = vsim.variant_model(params)
             key = (params.get("cg_x"), params.get("cg_y"))
-            rest = vsim.settled(model, key)
+            try:
+                rest = vsim.settled(model, key)
+            except MjtrackError:  # a variant that cannot even stand (cg at the edge of the support)
+                diverged[p] = True  # diverges in every window: scored so, its poses stay NaN
+                done += M
+                if progress is not None:
+                    progress(done, total)
+                continue
             state0 = vsim.initial_states(model, rest, poses0, twists, speeds0)
             scale = 1.0 if params.get("track_speed_scale") is None else float(params["track_speed_scale"])
             delay = float(params.get("drive_delay") or 0.0)
