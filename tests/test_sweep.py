@@ -168,18 +168,20 @@ def test_resume_refuses_other_settings(swept, capsys):
     assert (out / "sweep.csv").read_bytes() == before
 
 
-def test_resume_refuses_a_sweep_from_before_the_time_step_rule(swept, capsys):
-    """A roller-chain sweep started before SimConfig.lag_budget ran every case at 5 ms: its rows
-    must not be mixed with rows at the steps the rule picks now."""
+def test_resume_refuses_a_sweep_from_other_simulator_settings(swept, capsys):
+    """A roller-chain sweep started under other settings (session 5 kept only lag_budget, and ran
+    without the belt and the principal axes) must not be mixed with rows of the current model."""
     out = swept / "old_rule"
     out.mkdir()
     doc = json.loads((swept / "a" / "sweep.json").read_text())
-    assert doc.pop("lag_budget") == 0.01
+    config = doc.pop("sim_config")
+    assert config["lag_budget"] == 0.01 and config["belt_timeconst"] == 0.01 and config["principal_axes"] is True
+    doc["lag_budget"] = 0.01  # what a session-5 sweep recorded
     (out / "sweep.json").write_text(json.dumps(doc))
     (out / "sweep.csv").write_text((swept / "a" / "sweep.csv").read_text())
     before = (out / "sweep.csv").read_bytes()
     assert main(["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--workers", "1", *SHORT]) == 2
-    assert "other settings (lag_budget)" in capsys.readouterr().err
+    assert "other settings (sim_config)" in capsys.readouterr().err
     assert (out / "sweep.csv").read_bytes() == before
 
 

@@ -106,7 +106,10 @@ class SimConfig:
         noslip_iterations: most post-solve iterations of the un-regularised friction solver
             (it stops at its tolerance: 5 iterations in turns). Fewer cost accuracy where it
             needs more: 4 moves turn ICRs by <= 0.004 T/2 but straight driving drifts 2 mm/m
-            at 2 m/s (20: 0.09 mm/m); assets/README.md "Speed".
+            at 2 m/s (20: 0.09 mm/m); assets/README.md "Speed". 40 since session 6: with the
+            belt, straight driving keeps tangential preloads from the start and 20 iterations
+            left 0.49 mm/m at 0.8 m/s (30: 0.035, 40: 0.008), at no measurable cost on random
+            steps (88x real time either way: the tolerance stops it first elsewhere).
         solver: main constraint solver, ``"Newton"``, ``"PGS"`` or ``"CG"``. PGS: with
             impratio 1e-4 the main solve carries only the normal rows and PGS reaches
             Newton's forces (ICRs equal to 1e-7) without Newton's nv x nv factorisation, on the
@@ -169,7 +172,7 @@ class SimConfig:
     principal_axes: bool = True
     cone: str = "elliptic"
     impratio: float = 1e-4
-    noslip_iterations: int = 20
+    noslip_iterations: int = 40
     noslip_tolerance: float = 1e-6
     rest_margin: bool = True
     level_chassis: bool = True

@@ -200,9 +200,10 @@ def run_sweep(
                 "base_robot": _base_robot(grid)}
     if terrain is not None and not terrain.is_flat:  # absent when flat: sweeps started before --terrain resume
         settings["terrain"] = terrain.to_dict()
-    # the time-step rule (SimConfig.lag_budget); absent (None) in sweeps started before it, so a
-    # roller-chain sweep from then is refused instead of mixing steps in one file
-    settings["lag_budget"] = sim_config(track_model).lag_budget
+    # every simulator setting (time-step rules, belt, principal axes, ...): a sweep started under
+    # other settings (before session 6 only ``lag_budget`` was kept, before session 5 nothing) is
+    # refused instead of mixing two models' rows in one file
+    settings["sim_config"] = sim_config(track_model).to_dict()
     _check_same_settings(out / JSON_NAME, csv_path, settings)
     done = _read_done(csv_path, grid, cols)
     todo = [c for c in grid.cases if c.index not in done]
