@@ -32,7 +32,7 @@ load transfer at those speeds):
    bends the friction directions. Printed: x_c against Coulomb for the 80 kg robot (cg +-0.1 L,
    R 10 m at 0.2 m/s) with the servos alone (no belt, the default until session 6), a 10x
    stiffer one (kv and track_mass x10: the same kv dt / track_mass), the equality-coupled chain
-   and the belt of section 8 (10 ms, default; 7 and 20 ms); and at 2 m/s (cg 0) the x_c offset
+   and the belt of section 8 (10 ms, default; 8 and 20 ms); and at 2 m/s (cg 0) the x_c offset
    against v tc/2, tc the friction rows' time constant (2 dt by default, the least MuJoCo
    allows): the friction rows' reference acceleration -v_slip/(tc/2) makes the friction oppose
    the slip predicted tc/2 ahead, which the turn has rotated by w tc/2 in the world-fixed
@@ -53,9 +53,9 @@ load transfer at those speeds):
    saturates and then holds the speed F/kv high).
 
 8. **The belt, and what sets the step of a gentle turn (session 6).** Since section 5 every
-   roller is tied to its track's mean surface position by a spring (``SimConfig.belt_timeconst``,
+   roller's surface is tied by a spring to a belt joint of its track (``SimConfig.belt_timeconst``,
    10 ms): the rollers then run at one speed, as on a belt. Printed: section 5's x_c with it (and
-   at 7 and 20 ms), and, for the 5 kg wide robot (cg -0.1 L, R 10 m, 0.2 m/s), the ICR error at
+   at 8 and 20 ms), and, for the 5 kg wide robot (cg -0.1 L, R 10 m, 0.2 m/s), the ICR error at
    dt 5 ... 0.625 ms and at 1.25 ms with the friction or the contact time constant held at 10 ms:
    the error follows the friction rows' time constant (2 dt), not dt or the contact's. Then for 4
    robots x 3 gentle turns x cg +-0.1 L at dt 5, 2.5, 1.25 ms: the worst dt-halving change per bin
@@ -205,7 +205,7 @@ def x_c_study() -> dict:
                                                       track_mass=10 * FixedStep().track_mass),
               "equality-coupled chain": FixedStep(coupling="equality"),
               "belt 10 ms (default)": FixedStep(),
-              "belt 7 ms": FixedStep(belt_timeconst=0.007),
+              "belt 8 ms": FixedStep(belt_timeconst=0.008),
               "belt 20 ms": FixedStep(belt_timeconst=0.02)}
     robots = [base.replace(cg_x=c * base.track_length) for c in (-0.1, 0.1)]
     cmds = np.array([commands_for(r, 10.0, 0.2, 1, 1) for r in robots])

@@ -80,7 +80,7 @@ def test_the_robot_has_the_body_axes_as_principal_axes(make):
     m_el = SimConfig().unsprung_fraction * ROBOT.mass
     r = SimConfig().roller_radius
     expected = -m_el * ROBOT.cg_x * (ROBOT.cg_z - r) * ROBOT.mass / (ROBOT.mass - m_el)  # I_xz = -sum m x z
-    assert off_box[0, 2] == pytest.approx(expected, rel=1e-9)
+    assert off_box[0, 2] == pytest.approx(expected, rel=1e-6)  # (the belt joints' 2 mg bodies aside)
 
 
 def test_windows_move_the_products_of_inertia_with_the_cg():

@@ -25,16 +25,18 @@ def test_builder_names_every_element():
     cfg = SimConfig()
     m = build_model(Robot(), cfg)
     n = cfg.n_rollers
-    assert m.nu == 2 * n and m.nv == 6 + 4 * n
+    assert m.nu == 2 * n and m.nv == 6 + 4 * n + 2  # + the two belt joints
     for kind, names in (
-        (mujoco.mjtObj.mjOBJ_BODY, ["chassis", "left_track", "right_track"] + [f"roller_{s}_{i}" for s in ("left", "right") for i in range(n)]),
-        (mujoco.mjtObj.mjOBJ_JOINT, ["root"] + [f"{j}_{s}_{i}" for j in ("susp", "roll")
-                                               for s in ("left", "right") for i in range(n)]),
+        (mujoco.mjtObj.mjOBJ_BODY, ["chassis", "left_track", "right_track", "belt_left", "belt_right"]
+         + [f"roller_{s}_{i}" for s in ("left", "right") for i in range(n)]),
+        (mujoco.mjtObj.mjOBJ_JOINT, ["root", "belt_left", "belt_right"] + [f"{j}_{s}_{i}" for j in ("susp", "roll")
+                                                                           for s in ("left", "right") for i in range(n)]),
         (mujoco.mjtObj.mjOBJ_ACTUATOR, [f"drive_{s}_{i}" for s in ("left", "right") for i in range(n)]),
         (mujoco.mjtObj.mjOBJ_SENSOR, ["body_linvel", "body_angvel", "body_pos", "body_quat",
                                       "track_speed_left", "track_speed_right", "ground_left", "ground_right"]),
         (mujoco.mjtObj.mjOBJ_SITE, ["centre", "cg"]),
-        (mujoco.mjtObj.mjOBJ_TENDON, ["track_left", "track_right"]),
+        (mujoco.mjtObj.mjOBJ_TENDON, ["track_left", "track_right"] + [f"belt_{s}_{i}" for s in ("left", "right")
+                                                                      for i in range(n)]),
     ):
         for name in names:
             assert mujoco.mj_name2id(m, kind, name) >= 0, name

@@ -106,9 +106,9 @@ def test_rest_margins_put_the_rollers_on_the_ground_and_are_idempotent():
         apply_rest_margins(model)
         # The rest depth keeps a trace of how the robot landed (static friction holds the
         # tangential state of the landing), so reapplying is a contraction, not a no-op: for the
-        # 150 kg robot with the belt the margins move by 1.06e-3, then 1.4e-5, then 1.7e-7
-        # (2.2e-4 without the belt, which stiffens the rollers' tangential coupling).
-        np.testing.assert_allclose(model.pair_margin, margins, rtol=2e-3)
+        # 150 kg robot the margins move by 4.8e-4, then 4.6e-6, then 5.7e-8 (2.2e-4 without the
+        # belt of session 6, which couples the rollers' tangential states).
+        np.testing.assert_allclose(model.pair_margin, margins, rtol=1e-3)
 
 
 def test_heavy_robot_keeps_the_commanded_speed_difference():

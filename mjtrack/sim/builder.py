@@ -45,9 +45,11 @@ measurements):
   explicit, known force; stability then needs kv dt / track_mass and c dt / m_roller below
   1.5 (checked, InputError otherwise).
 * **Belt** (session 6): the servos alone let a track's rollers differ by F_i / (kv/N), mm/s, which
-  at R 10 m and 0.2 m/s moved x_c 0.03 L off Coulomb; a spring from each roller's surface to the
-  mean of its track's (tendons ``belt_<side>_<i>``, ``SimConfig.belt_timeconst``) makes them run
-  at one speed in a steady state, as the contact points of a belt do (x_c within 0.0017 L there).
+  at R 10 m and 0.2 m/s moved x_c 0.03 L off Coulomb. Each track has a belt joint ``belt_<side>``
+  (a hinge of surface radius r carrying ``BELT_MASS_SHARE`` of the reflected inertia; the rollers
+  keep the rest) and each roller's surface is tied to it by a spring (tendons
+  ``belt_<side>_<i>``, ``SimConfig.belt_timeconst``): in a steady state every roller runs at the
+  belt's speed, as the contact points of a belt do (x_c within 0.0017 L there).
 * **Sensors**: the chassis' (:mod:`mjtrack.sim.chassis`) and the track speeds
   (``track_speed_<side>``, m/s).
 """
@@ -81,6 +83,12 @@ class RollerChain(TrackModel):
     def configure(self, robot: Robot, config: SimConfig) -> SimConfig:
         return config.for_robot_mass(robot.mass)  # drive scaled to the robot
 
+    def frame_masses(self, robot: Robot, config: SimConfig) -> list[tuple[float, tuple[float, float, float]]]:
+        """The belt joints' bodies, at the track frames (0, +-T/2, 0)."""
+        if config.coupling != "servo" or config.belt_timeconst is None:
+            return []
+        return [(BELT_BODY_MASS, (0.0, side * robot.track_gauge / 2, 0.0)) for side in (1.0, -1.0)]
+
     def set_options(self, opt: mujoco.MjOption, config: SimConfig) -> None:
         # Constraint forces are computed with M alone; damping that an implicit step adds later
         # (joint dampers, servo kv) is invisible to the friction solve and bends the friction
@@ -99,11 +107,14 @@ class RollerChain(TrackModel):
                 f"sim config: suspension damping {suspension.c:.3g} N s/m is unstable with explicit Euler at "
                 f"dt = {dt} s and roller mass {element_mass:.3g} kg (needs c dt / m < 1.5)"
             )
-        if config.coupling == "servo" and config.belt_timeconst is not None and dt >= config.belt_timeconst:
-            raise InputError(
-                f"sim config: belt_timeconst {config.belt_timeconst} s is unstable with explicit Euler at dt = {dt} s "
-                f"(needs dt < belt_timeconst)"
-            )
+        if config.coupling == "servo" and config.belt_timeconst is not None:
+            # fastest belt mode: the belt joint against its rollers, w^2 = (1/(1-s) + 1/s) / tau^2
+            # (s = BELT_MASS_SHARE); symplectic Euler needs w dt < 2, kept below 1.5
+            w_dt = dt * math.sqrt(1 / (1 - BELT_MASS_SHARE) + 1 / BELT_MASS_SHARE) / config.belt_timeconst
+            if w_dt >= 1.5:
+                raise InputError(
+                    f"sim config: belt_timeconst {config.belt_timeconst} s is unstable with explicit Euler at "
+                    f"dt = {dt} s (needs dt < {1.5 / (w_dt / dt):.4g} s)")
         if config.coupling == "servo" and config.kv * dt / config.track_mass >= 1.5:
             raise InputError(
                 f"sim config: servo gain kv = {config.kv} is unstable with explicit Euler at dt = {dt} s "
@@ -120,6 +131,8 @@ class RollerChain(TrackModel):
         if equality:
             _add_sprocket(chassis, side, robot, config, y)
         track = chassis.add_body(name=f"{side}_track", pos=[0, y, 0])  # no joint: the rollers' frame
+        belted = not equality and config.belt_timeconst is not None
+        m_belt = BELT_MASS_SHARE * config.track_mass if belted else 0.0  # of the reflected inertia
         for i, x in enumerate(element_positions(robot, n)):
             roller = track.add_body(name=f"roller_{side}_{i}", pos=[x, 0, r])
             roller.explicitinertial = True
@@ -129,7 +142,7 @@ class RollerChain(TrackModel):
             suspension.add_slide(roller, side, i, config)
             roller.add_joint(
                 name=f"roll_{side}_{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0],
-                armature=0.0 if equality else config.track_mass * r**2 / n,
+                armature=0.0 if equality else (config.track_mass - m_belt) * r**2 / n,
             )
             roller.add_geom(
                 name=f"roller_{side}_{i}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0],
@@ -153,8 +166,8 @@ class RollerChain(TrackModel):
         else:  # mean surface speed of the rollers
             for i in range(n):
                 tendon.wrap_joint(f"roll_{side}_{i}", r / n)
-            if config.belt_timeconst is not None:
-                _add_belt(spec, side, n, r, (config.track_mass / n) / config.belt_timeconst**2)
+            if belted:
+                _add_belt(spec, track, side, n, r, m_belt, (config.track_mass / n) / config.belt_timeconst**2)
         spec.add_sensor(name=f"track_speed_{side}", type=mujoco.mjtSensor.mjSENS_TENDONVEL,
                         objtype=mujoco.mjtObj.mjOBJ_TENDON, objname=f"track_{side}")
 
@@ -247,14 +260,25 @@ def _add_sprocket(chassis, side: str, robot: Robot, config: SimConfig, y: float)
     )
 
 
-def _add_belt(spec: mujoco.MjSpec, side: str, n: int, r: float, stiffness: float) -> None:
-    """Belt tendons ``belt_<side>_<i>``: roller i's surface position less the mean of its track's,
-    r (q_i - mean q) [m], each a spring of ``stiffness`` [N/m] at zero length (SimConfig.belt_timeconst).
-    Internal forces: they sum to zero over the track, so the drive's common mode is untouched."""
+BELT_MASS_SHARE = 0.25  # share of a track's reflected inertia carried by its belt joint
+BELT_BODY_MASS = 1e-6  # [kg] the belt joint's body (MuJoCo needs a mass; taken from the chassis)
+
+
+def _add_belt(spec: mujoco.MjSpec, track, side: str, n: int, r: float, mass: float, stiffness: float) -> None:
+    """The belt of a track: a hinge ``belt_<side>`` (on a massless body of the track frame, axis +y,
+    surface radius r: its armature ``mass`` r^2 is the belt's share of the reflected inertia) and
+    tendons ``belt_<side>_<i>`` = r (q_roll_i - q_belt), each a spring of ``stiffness`` [N/m] at
+    zero length (SimConfig.belt_timeconst): every roller's surface is tied to the belt."""
+    body = track.add_body(name=f"belt_{side}", pos=[0, 0, 0])
+    body.explicitinertial = True
+    body.mass = BELT_BODY_MASS  # a frame for the joint; the belt's inertia is the joint's armature
+    body.ipos = [0, 0, 0]
+    body.inertia = [1e-12] * 3
+    body.add_joint(name=f"belt_{side}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0], armature=mass * r**2)
     for i in range(n):
         belt = spec.add_tendon(name=f"belt_{side}_{i}")
-        for j in range(n):
-            belt.wrap_joint(f"roll_{side}_{j}", r * ((1.0 if i == j else 0.0) - 1.0 / n))
+        belt.wrap_joint(f"roll_{side}_{i}", r)
+        belt.wrap_joint(f"belt_{side}", -r)
         belt.stiffness = [stiffness, 0.0, 0.0]
         belt.springlength = [0.0, 0.0]
 

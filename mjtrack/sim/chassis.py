@@ -77,16 +77,21 @@ def chassis_mass_properties(robot: Robot, config: SimConfig, tracks: "TrackModel
     n, r = tracks.elements(config), config.roller_radius
     m_el = tracks.element_mass(robot, config)
     m_unsprung = 2 * n * m_el
-    m_chassis = robot.mass - m_unsprung
+    extra = tracks.frame_masses(robot, config)
+    m_chassis = robot.mass - m_unsprung - sum(m for m, _ in extra)
     if m_chassis <= 0.2 * robot.mass:
         raise InputError(f"{tracks.name}: elements weigh {m_unsprung:.3g} kg of {robot.mass:.3g} kg; "
                          "reduce the unsprung mass")
     T, L, w = robot.track_gauge, robot.track_length, robot.track_width
     cg = np.array([robot.cg_x, robot.cg_y, robot.cg_z])
-    ipos = (robot.mass * cg - m_unsprung * np.array([0.0, 0.0, r])) / m_chassis
+    ipos = (robot.mass * cg - m_unsprung * np.array([0.0, 0.0, r])
+            - sum((m * np.asarray(p, float) for m, p in extra), np.zeros(3))) / m_chassis
     xs = element_positions(robot, n)
     points = np.array([[x, y, r] for y in (T / 2, -T / 2) for x in xs]) - cg
     second = m_el * points.T @ points + m_chassis * np.outer(ipos - cg, ipos - cg)  # sum m d d^T
+    for m, p in extra:
+        d = np.asarray(p, float) - cg
+        second += m * np.outer(d, d)
     ly, lz = T + w, CHASSIS_HEIGHT
     box = m_chassis / 12 * np.array([ly**2 + lz**2, L**2 + lz**2, L**2 + ly**2])
     if not config.principal_axes:  # a plain box (before session 6)
@@ -205,6 +210,11 @@ class TrackModel:
     def element_mass(self, robot: Robot, config: SimConfig) -> float:
         """Unsprung mass of one element [kg]: ``unsprung_fraction`` of the robot over 2N."""
         return config.unsprung_fraction * robot.mass / (2 * self.elements(config))
+
+    def frame_masses(self, robot: Robot, config: SimConfig) -> list[tuple[float, tuple[float, float, float]]]:
+        """Other small masses the track model puts on the robot, (mass [kg], position (x, y, z) in
+        the chassis frame [m]), taken from the chassis so that mass and centre of mass stay exact."""
+        return []
 
     def set_options(self, opt: mujoco.MjOption, config: SimConfig) -> None:
         """Solver settings of this track model beyond the shared ones."""

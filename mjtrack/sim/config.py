@@ -74,21 +74,22 @@ class SimConfig:
             torque_limit / (R_s N), armature track_mass r^2 / N: no constraint rows) or
             ``"equality"`` (roller hinges tied to one sprocket by joint equalities, one
             servo on the sprocket: an exact chain, but N more constraint rows).
-        belt_timeconst: the track belt (``coupling="servo"``): each roller's surface is tied to the
-            mean surface position of its track's rollers by a spring of stiffness
+        belt_timeconst: the track belt (``coupling="servo"``): each track has a belt joint
+            ``belt_<side>`` carrying a quarter of its reflected inertia (``track_mass``; the rollers
+            keep the rest) and every roller's surface is tied to it by a spring of stiffness
             k = (track_mass / N) / belt_timeconst^2 (fixed tendons ``belt_<side>_<i>`` =
-            r (q_i - mean q)), so that in a steady state every roller of a track runs at the same
+            r (q_i - q_belt)), so that in a steady state every roller of a track runs at the belt's
             speed, as the contact points of a belt do, whatever its load [s]. Without it (``None``,
             before session 6) only the servos tie the rollers together and their surface speeds
             spread by F_i / (kv/N): mm/s, the size of the slips of a gentle turn, which moved x_c
             by up to 0.03 L at R 10 m, 0.2 m/s (experiments/gentle_turns.py, sections 5, 7, 8).
-            Internal forces: the drive's common mode is untouched. Every relative mode relaxes in
-            (kv / track_mass) belt_timeconst^2 = 15 ms (servo damping; damping ratio 0.75).
-            Cost: N^2 tendon entries per track, 4.6 % of a step at N = 10, 20 % at 40. A chain of
-            springs between neighbours (N - 1 two-joint tendons, 1.3 and 2 %) was rejected: its
-            end-to-end mode relaxes in 0.15 s (N = 10) to 2.4 s (40), and the strain it stores at
-            a start made straight driving creep 3.5e-4 of the speed, unsteadily (this coupling:
-            4.9e-5, steady; none: 5e-8). Explicit Euler needs dt < belt_timeconst.
+            Internal forces: the drive's common mode is untouched. Cost 2 % of a step at N = 10
+            and 40. Two forms were measured and not kept: every roller tied to its track's mean
+            position (same steady states, but N^2 tendon entries: 4.6 % at N = 10, 20 % at 40)
+            and a chain of springs between neighbours (its end-to-end mode relaxes in 0.15 s at
+            N = 10, 2.4 s at 40, and made straight driving creep 3.5e-4 of the speed).
+            Explicit Euler: the belt joint's mode against its rollers, w = 2.31 / belt_timeconst,
+            needs w dt < 1.5 (checked).
         slip_budget: largest ratio mu g dt / (|w| L/2) of the friction's velocity change per step
             to the lateral slip at the track ends that a steady case may run at
             (:meth:`step_for`) [-]: the noslip friction opposes the slip expected one step

@@ -220,8 +220,12 @@ class WindowSim:
         self.side_of_actuator = np.argmax(self.B, axis=1)
         jroot = m.joint("root")
         self.qadr, self.vadr = int(jroot.qposadr[0]), int(jroot.dofadr[0])
+        # the rollers' spin dofs of each track, with the track's belt joint where it has one (they
+        # all move at the track speed, in m/s over the roller radius)
         self.roll_dofs = [np.array([int(m.joint(f"roll_{s}_{i}").dofadr[0]) for i in range(config.n_rollers)])
                           for s in ("left", "right")]
+        self.belt_dofs = [np.array([int(m.joint(name).dofadr[0])] if (name := f"belt_{s}") in
+                                   [m.joint(j).name for j in range(m.njnt)] else [], int) for s in ("left", "right")]
         self.roller_radius = config.roller_radius
         chassis = m.body("chassis")
         self.chassis_id = int(chassis.id)
@@ -328,6 +332,7 @@ class WindowSim:
             data.qvel[self.vadr + 3:self.vadr + 6] = (0.0, 0.0, wz)  # body frame (yaw-rate about body z)
             for side in (0, 1):
                 data.qvel[self.roll_dofs[side]] = speeds[j, side] / r
+                data.qvel[self.belt_dofs[side]] = speeds[j, side] / r  # the belt joint: radius r too
             if data.act.size:
                 data.act[:] = speeds[j, self.side_of_actuator] if act0.size == self.side_of_actuator.size else act0
             data.time = 0.0
