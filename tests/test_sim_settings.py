@@ -69,9 +69,8 @@ def test_straight_driving_speed_equals_the_track_speed():
     """No slip in straight driving, so the body moves at the belt speed. Without the rest margins
     it fell 0.10 % short at every speed (MuJoCo puts the contact point half-way into the rest
     penetration, at r - d/2); with them it matches to 5e-8, and with the belt of session 6 to
-    1.4e-5 at 0.3 m/s and 4.8e-6 at 2 m/s (measured: the strain the belt keeps from the start
-    holds tangential forces at the sticking contacts, which creep by that much; 4.9e-5 with
-    20 noslip iterations instead of 40). The margin-less check runs
+    about 1e-5 at 0.3 m/s and 2e-6 at 2 m/s (experiments/fidelity.py: the strain the belt keeps
+    from the start holds tangential forces at the sticking contacts, which creep by that much). The margin-less check runs
     at the fixed 5 ms step: at 2 m/s the lag budget halves the step, and d (~ tc^2) with it falls 4x."""
     from mjtrack.sim.rollout import drive_log
 

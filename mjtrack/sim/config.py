@@ -95,7 +95,9 @@ class SimConfig:
             (:meth:`step_for`) [-]: the noslip friction opposes the slip expected one step
             ahead, and where one step of friction moves a contact by many times its slip the
             friction direction is off (errors follow the friction time constant 2 dt, not the
-            contact's: gentle_turns.py section 8). ``None``: no such rule.
+            contact's: gentle_turns.py section 8; with the belt the dt-halving change of gentle
+            turns stays <= 0.0033 T/2 up to r = 12 and reaches 0.022 at r = 21.8). ``None``: no
+            such rule.
         principal_axes: the chassis takes the products of inertia that keep the whole robot's
             principal axes on the body axes (:func:`mjtrack.sim.chassis.chassis_mass_properties`);
             False: a plain box (before session 6: the elements then tilt the principal axes and
