@@ -184,6 +184,30 @@ def test_loads_are_those_of_a_rigid_plate_on_tensionless_springs(cg, n_across):
         assert slope[0] == pytest.approx(slope[1], rel=1e-9)
 
 
+def test_plate_loads_hold_on_random_robots_and_centroids():
+    """Seeded sweep: 300 robots (gauge, length, track width, 1 or 3 points across) and load
+    centroids anywhere inside 0.95 of the support, lift-off included: the loads sum to the
+    weight, put the centroid exactly where asked and are the positive part of one plane
+    (optimality conditions of the plate on tensionless springs, checked independently)."""
+    from mjtrack.models.coulomb import _Contacts
+
+    rng = np.random.default_rng(20261125)
+    for _ in range(300):
+        robot = Robot(track_gauge=float(rng.uniform(0.2, 0.9)), track_length=float(rng.uniform(0.2, 1.5)),
+                      track_width=float(rng.uniform(0.02, 0.12)), mass=float(rng.uniform(5, 150)), cg_z=0.1)
+        c = _Contacts(robot, int(rng.integers(10, 80)), int(rng.choice([1, 3])))
+        xmax, ymax = c.xg.max(), robot.track_gauge / 2
+        cx, cy = rng.uniform(-0.95, 0.95) * xmax, rng.uniform(-0.95, 0.95) * ymax
+        w = c._plate(float(cx), float(cy))
+        assert np.all(w >= 0) and w.sum() == pytest.approx(1.0, abs=1e-12)
+        assert w @ c.x == pytest.approx(cx, abs=1e-10) and w @ c.y == pytest.approx(cy, abs=1e-10)
+        on = w > 1e-14
+        A = np.stack([np.ones(on.sum()), c.x[on], c.y[on]], axis=1)
+        coef, *_ = np.linalg.lstsq(A, w[on], rcond=None)
+        assert np.max(np.abs(A @ coef - w[on])) < 1e-9 * w.max()
+        assert np.all(coef[0] + coef[1] * c.x[~on] + coef[2] * c.y[~on] <= 1e-9 * w.max())
+
+
 def test_load_transfer_moves_the_centroid():
     x, y, N = normal_loads(ROBOT, accel=(1.0, 2.0))
     h, g = ROBOT.cg_z, ROBOT.weight / ROBOT.mass

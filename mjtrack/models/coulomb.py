@@ -146,8 +146,11 @@ class _Contacts:
             if np.max(np.abs(grad)) <= 1e-14:
                 break
             step = np.linalg.lstsq(P[active].T @ P[active], grad, rcond=None)[0]
+            # Armijo on the energy, with a round-off allowance: near the optimum the energy's
+            # decrease falls below its rounding and a strict test would stall the full step
             e0, t = energy(theta), 1.0
-            while energy(theta - t * step) > e0 - 0.5 * t * float(grad @ step) and t > 1e-12:
+            slack = 1e-13 * (1.0 + abs(e0))
+            while energy(theta - t * step) > e0 - 0.5 * t * float(grad @ step) + slack and t > 1e-12:
                 t *= 0.5
             theta = theta - t * step
         w = np.maximum(P @ theta, 0.0)
