@@ -324,3 +324,20 @@ def test_fast_pivot_with_the_cg_ahead_matches_coulomb():
         errs[label] = max(abs(s.y_l - ref.y_l), abs(s.y_r - ref.y_r)) / 0.1
     assert errs["box"] > 0.04
     assert errs["principal"] < 0.02
+
+
+def test_steady_warns_when_the_slip_budget_is_capped(caplog):
+    """A turn so gentle that the slip budget would divide the step more than MAX_STEP_DIVISIONS
+    times runs at the cap, and says so (its ICRs are not converged in dt there): 5 kg robot with a
+    0.18 m track at R 40 m and 0.2 m/s asks for 18 divisions; at R 10 m (5) nothing is said."""
+    import logging
+
+    robot = Robot(track_gauge=0.3, track_length=0.18, mass=5.0, cg_z=0.045)
+    gentle = [0.2 - 0.005 * 0.15, 0.2 + 0.005 * 0.15]
+    assert SimConfig().slip_divisions(0.18, 0.005, 0.8) == 18
+    with caplog.at_level(logging.WARNING, logger="mjtrack.sim.steady"):
+        steady_batch([robot], [[0.2 - 0.02 * 0.15, 0.2 + 0.02 * 0.15]], settle_s=0.1, window_s=0.05)
+        assert not caplog.records
+        steady_batch([robot, robot], [gentle, gentle], settle_s=0.1, window_s=0.05)
+    assert case_timestep(SimConfig(), robot, gentle) == pytest.approx(0.005 / MAX_STEP_DIVISIONS)
+    assert any("2 of 2 steady case(s)" in r.getMessage() and "slip_budget" in r.getMessage() for r in caplog.records)

@@ -9,7 +9,8 @@ Time step of the roller chain: 5 ms, divided by the smallest integer k that keep
 max|V| dt <= 0.01 L (the noslip friction's one-step lag puts x_c v dt behind Coulomb;
 SimConfig.lag_budget): a 0.5 m track runs at 5 ms up to 1 m/s, a 0.18 m one at 2 m/s at 0.83 ms;
 and that keeps mu g dt <= 5 |w| L/2, w the commanded turn rate (SimConfig.slip_budget, at most 8
-divisions): a 5 kg robot with a 0.18 m track at R 10 m and 0.2 m/s runs at 1 ms.
+divisions; a gentler turn runs at 0.625 ms with a warning): a 5 kg robot with a 0.18 m track at
+R 10 m and 0.2 m/s runs at 1 ms.
 """
 
 from __future__ import annotations

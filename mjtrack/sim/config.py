@@ -277,11 +277,16 @@ class SimConfig:
         k = 1
         if self.lag_budget is not None and v_max > 0:
             k = max(k, math.ceil(v_max * self.timestep / (self.lag_budget * track_length) * (1 - 1e-12)))
-        end_slip = abs(turn_rate) * track_length / 2
-        if self.slip_budget is not None and end_slip > 0 and mu > 0:
-            k_slip = math.ceil(mu * G * self.timestep / (self.slip_budget * end_slip) * (1 - 1e-12))
-            k = max(k, min(k_slip, MAX_STEP_DIVISIONS))
+        k = max(k, min(self.slip_divisions(track_length, turn_rate, mu), MAX_STEP_DIVISIONS))
         return self if k == 1 else self.replace(timestep=self.timestep / k)
+
+    def slip_divisions(self, track_length: float, turn_rate: float, mu: float) -> int:
+        """The divisions of ``timestep`` the slip budget asks for (uncapped; 1 without a budget,
+        a turn or friction): the smallest k with mu g timestep / k <= slip_budget |w| L / 2."""
+        end_slip = abs(turn_rate) * track_length / 2
+        if self.slip_budget is None or not end_slip > 0 or not mu > 0:
+            return 1
+        return max(1, math.ceil(mu * G * self.timestep / (self.slip_budget * end_slip) * (1 - 1e-12)))
 
     def step_for_speed(self, track_length: float, v_max: float) -> "SimConfig":
         """:meth:`step_for` without a turn (the lag budget alone)."""

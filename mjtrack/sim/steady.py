@@ -31,7 +31,7 @@ from mjtrack.errors import SingularMotionError
 from mjtrack.icr import icr_from_twist
 from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model
-from mjtrack.sim.config import SimConfig
+from mjtrack.sim.config import MAX_STEP_DIVISIONS, SimConfig
 from mjtrack.sim.drivetrain import drive_commands
 from mjtrack.sim.surfacevel import run_steady
 from mjtrack.sim.terrain import Terrain, timestep_for
@@ -99,6 +99,12 @@ def steady_batch(
     groups: dict[float, list[int]] = {}
     for i, (r, c) in enumerate(zip(robots, commands)):
         groups.setdefault(case_timestep(config, r, c), []).append(i)
+    capped = sum(_slip_divisions(config, r, c) > MAX_STEP_DIVISIONS for r, c in zip(robots, commands))
+    if capped:
+        logger.warning("%d of %d steady case(s) turn so gently that the slip budget asks for more than %d "
+                       "divisions of the %g s step; they run at %g s and their ICRs may move when dt is halved "
+                       "(SimConfig.slip_budget)", capped, len(robots), MAX_STEP_DIVISIONS, config.timestep,
+                       config.timestep / MAX_STEP_DIVISIONS)
     out: list[SteadyResult] = [None] * len(robots)  # type: ignore[list-item]
     for step, idx in groups.items():
         for i, res in zip(idx, _steady_rollout([robots[i] for i in idx], commands[idx], config.replace(timestep=step),
@@ -107,13 +113,22 @@ def steady_batch(
     return out
 
 
+def _turn(robot: Robot, command) -> tuple[np.ndarray, float, float]:
+    """(scaled track speeds, nominal turn rate (V_R - V_L) / T, larger track friction) of a case."""
+    v = np.asarray(command, dtype=float) * robot.track_speed_scale
+    return v, float(v[1] - v[0]) / robot.track_gauge, max(robot.friction_left, robot.friction_right)
+
+
+def _slip_divisions(config: SimConfig, robot: Robot, command) -> int:
+    _, turn_rate, mu = _turn(robot, command)
+    return config.slip_divisions(robot.track_length, turn_rate, mu) if config.track_model == "rollers" else 1
+
+
 def case_timestep(config: SimConfig, robot: Robot, command) -> float:
     """The step [s] a steady case runs at (flat ground): ``config.step_for`` for the robot's track
     length, the larger commanded track speed, the nominal turn rate (V_R - V_L) / T and the larger
     track friction, after the robot's speed scale."""
-    v = np.asarray(command, dtype=float) * robot.track_speed_scale
-    turn_rate = float(v[1] - v[0]) / robot.track_gauge
-    mu = max(robot.friction_left, robot.friction_right)
+    v, turn_rate, mu = _turn(robot, command)
     return config.step_for(robot.track_length, float(np.max(np.abs(v))), turn_rate, mu).timestep
 
 
