@@ -39,7 +39,7 @@ right, forward and reverse, cg_x +-0.1 L: 928 turns (``--quick``: 4 robots, 4 ra
 0.05 T/2, |dx_c| <= 0.02 L, contact >= 99 % and, for the roller chain, halving dt moves y by
 < 0.02 T/2, in every case. Prints every case, the worst case of each error with its case,
 the medians and the pass counts per (radius, speed); writes fidelity_wide[_quick][_model].json.
-Each roller-chain case runs at the step ``SimConfig.step_for_speed`` picks for it (5 ms unless
+Each roller-chain case runs at the step ``SimConfig.step_for`` picks for it (5 ms unless
 its largest track speed v gives v dt > 0.01 L; ``timestep`` in its row), and the dt-halving
 check halves that step; ``--fixed-step``: every case at 5 ms (as before session 5), written to
 ..._fixed_step.json; ``--timestep DT``: every case at DT.

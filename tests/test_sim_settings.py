@@ -190,19 +190,19 @@ def test_new_defaults_cost_less_cpu_than_the_previous():
 def test_lag_budget_step_rule():
     cfg = SimConfig()
     assert cfg.lag_budget == 0.01 and cfg.timestep == 0.005
-    assert cfg.step_for_speed(0.5, 1.0).timestep == 0.005  # default robot: 5 ms up to 1 m/s
-    assert cfg.step_for_speed(0.5, 1.01).timestep == 0.0025
-    fine = cfg.step_for_speed(0.18, 2.0)
-    assert fine.timestep == pytest.approx(0.005 / 6) and fine.step_for_speed(0.18, 2.0) == fine  # ceil(5.56); idempotent
-    halved = cfg.replace(timestep=0.0025, lag_budget=0.005).step_for_speed(0.18, 2.0)
+    assert cfg.step_for(0.5, 1.0).timestep == 0.005  # default robot: 5 ms up to 1 m/s
+    assert cfg.step_for(0.5, 1.01).timestep == 0.0025
+    fine = cfg.step_for(0.18, 2.0)
+    assert fine.timestep == pytest.approx(0.005 / 6) and fine.step_for(0.18, 2.0) == fine  # ceil(5.56); idempotent
+    halved = cfg.replace(timestep=0.0025, lag_budget=0.005).step_for(0.18, 2.0)
     assert halved.timestep == pytest.approx(fine.timestep / 2)  # how the dt-halving checks halve it
-    assert cfg.step_for_speed(0.18, 0.0) == cfg
-    assert SimConfig(lag_budget=None).step_for_speed(0.18, 2.0).timestep == 0.005
+    assert cfg.step_for(0.18, 0.0) == cfg
+    assert SimConfig(lag_budget=None).step_for(0.18, 2.0).timestep == 0.005
     assert previous_defaults().lag_budget is None
     from mjtrack.sim.config import sim_config
 
-    assert sim_config("rollers", timestep=0.004).step_for_speed(0.18, 2.0).timestep == 0.004  # explicit: as given
-    assert sim_config("surfacevel").step_for_speed(0.18, 2.0).timestep == sim_config("surfacevel").timestep
+    assert sim_config("rollers", timestep=0.004).step_for(0.18, 2.0).timestep == 0.004  # explicit: as given
+    assert sim_config("surfacevel").step_for(0.18, 2.0).timestep == sim_config("surfacevel").timestep
     for bad in (0.0, -0.01, float("nan"), "0.01"):
         with pytest.raises(InputError, match="lag_budget"):
             SimConfig(lag_budget=bad)
@@ -245,7 +245,7 @@ def test_drive_log_keeps_the_fixed_step():
     auto = drive_log(robot, table, duration=2.0, config=SimConfig())
     fixed = drive_log(robot, table, duration=2.0, config=SimConfig(lag_budget=None))
     assert np.array_equal(auto.x, fixed.x) and np.array_equal(auto.wz, fixed.wz)
-    assert SimConfig().step_for_speed(robot.track_length, 2.1).timestep < SimConfig().timestep
+    assert SimConfig().step_for(robot.track_length, 2.1).timestep < SimConfig().timestep
 
 
 def test_slip_budget_step_rule():

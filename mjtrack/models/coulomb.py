@@ -119,7 +119,6 @@ class _Contacts:
         self.x, self.y = xs, ys
         self.left = np.arange(xs.size) < n * k  # first half: left track (y = +T/2)
         self.mu = np.where(self.left, robot.friction_left, robot.friction_right)
-        self.k = k
         self.cg = np.array([robot.cg_x, robot.cg_y])
         self.tipped = False  # set when a load centroid had to be clipped to the support
         self._basis = np.stack([np.ones_like(xs), xs, ys], axis=1)  # plate loads: a + b x + c y

@@ -265,7 +265,7 @@ BELT_BODY_MASS = 1e-6  # [kg] the belt joint's body (MuJoCo needs a mass; taken 
 
 
 def _add_belt(spec: mujoco.MjSpec, track, side: str, n: int, r: float, mass: float, stiffness: float) -> None:
-    """The belt of a track: a hinge ``belt_<side>`` (on a massless body of the track frame, axis +y,
+    """The belt of a track: a hinge ``belt_<side>`` (on a 1 mg body of the track frame, axis +y,
     surface radius r: its armature ``mass`` r^2 is the belt's share of the reflected inertia) and
     tendons ``belt_<side>_<i>`` = r (q_roll_i - q_belt), each a spring of ``stiffness`` [N/m] at
     zero length (SimConfig.belt_timeconst): every roller's surface is tied to the belt."""

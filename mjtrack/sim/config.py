@@ -84,7 +84,7 @@ class SimConfig:
             spread by F_i / (kv/N): mm/s, the size of the slips of a gentle turn, which moved x_c
             by up to 0.03 L at R 10 m, 0.2 m/s (experiments/gentle_turns.py, sections 5, 7, 8).
             Internal forces: the drive's common mode is untouched. Cost 2 % of a step at N = 10
-            and 40. Two forms were measured and not kept: every roller tied to its track's mean
+            and 40. Two forms were measured (development probes) and not kept: every roller tied to its track's mean
             position (same steady states, but N^2 tendon entries: 4.6 % at N = 10, 20 % at 40)
             and a chain of springs between neighbours (its end-to-end mode relaxes in 0.15 s at
             N = 10, 2.4 s at 40, and made straight driving creep 3.5e-4 of the speed).
@@ -112,7 +112,8 @@ class SimConfig:
             at 2 m/s (20: 0.09 mm/m); assets/README.md "Speed". 40 since session 6: with the
             belt, straight driving keeps tangential preloads from the start and 20 iterations
             left 0.49 mm/m at 0.8 m/s (30: 0.035, 40: 0.008), at no measurable cost on random
-            steps (88x real time either way: the tolerance stops it first elsewhere).
+            steps (88x real time either way: the tolerance stops it first elsewhere; development
+            probes, with the mean-coupled belt of the time).
         solver: main constraint solver, ``"Newton"``, ``"PGS"`` or ``"CG"``. PGS: with
             impratio 1e-4 the main solve carries only the normal rows and PGS reaches
             Newton's forces (ICRs equal to 1e-7) without Newton's nv x nv factorisation, on the
@@ -145,7 +146,7 @@ class SimConfig:
             (experiments/gentle_turns.py, section 5): 1 cm = 0.056 L for a 0.18 m track at 2 m/s
             and 5 ms. In steady states (``steady_batch``, so ``steady`` and ``sweep``) each case
             runs at ``timestep / k``, k the smallest integer with v_max dt <= lag_budget L (v_max:
-            the larger |track speed| commanded; :meth:`step_for_speed`). 0.01 keeps the default
+            the larger |track speed| commanded; :meth:`step_for`). 0.01 keeps the default
             robot at 5 ms up to 1 m/s. None: ``timestep`` always. Logs (``drive_log``, so
             ``simulate``), calibration and diagnosis windows and the closed-loop plant run at
             ``timestep``: a log is then simulated at the step its windows are, and a window step
@@ -287,10 +288,6 @@ class SimConfig:
         if self.slip_budget is None or not end_slip > 0 or not mu > 0:
             return 1
         return max(1, math.ceil(mu * G * self.timestep / (self.slip_budget * end_slip) * (1 - 1e-12)))
-
-    def step_for_speed(self, track_length: float, v_max: float) -> "SimConfig":
-        """:meth:`step_for` without a turn (the lag budget alone)."""
-        return self.step_for(track_length, v_max)
 
     def replace(self, **changes: Any) -> "SimConfig":
         """A copy with some fields changed (validated again)."""

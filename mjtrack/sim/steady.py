@@ -97,9 +97,11 @@ def steady_batch(
     if config.track_model == "surfacevel":
         return [_surfacevel(r, c, config, settle_s, window_s, terrain) for r, c in zip(robots, commands)]
     groups: dict[float, list[int]] = {}
+    capped = 0
     for i, (r, c) in enumerate(zip(robots, commands)):
         groups.setdefault(case_timestep(config, r, c), []).append(i)
-    capped = sum(_slip_divisions(config, r, c) > MAX_STEP_DIVISIONS for r, c in zip(robots, commands))
+        _, turn_rate, mu = _turn(r, c)
+        capped += config.slip_divisions(r.track_length, turn_rate, mu) > MAX_STEP_DIVISIONS
     if capped:
         logger.warning("%d of %d steady case(s) turn so gently that the slip budget asks for more than %d "
                        "divisions of the %g s step; they run at %g s and their ICRs may move when dt is halved "
@@ -117,11 +119,6 @@ def _turn(robot: Robot, command) -> tuple[np.ndarray, float, float]:
     """(scaled track speeds, nominal turn rate (V_R - V_L) / T, larger track friction) of a case."""
     v = np.asarray(command, dtype=float) * robot.track_speed_scale
     return v, float(v[1] - v[0]) / robot.track_gauge, max(robot.friction_left, robot.friction_right)
-
-
-def _slip_divisions(config: SimConfig, robot: Robot, command) -> int:
-    _, turn_rate, mu = _turn(robot, command)
-    return config.slip_divisions(robot.track_length, turn_rate, mu) if config.track_model == "rollers" else 1
 
 
 def case_timestep(config: SimConfig, robot: Robot, command) -> float:

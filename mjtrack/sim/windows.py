@@ -224,8 +224,8 @@ class WindowSim:
         # all move at the track speed, in m/s over the roller radius)
         self.roll_dofs = [np.array([int(m.joint(f"roll_{s}_{i}").dofadr[0]) for i in range(config.n_rollers)])
                           for s in ("left", "right")]
-        self.belt_dofs = [np.array([int(m.joint(name).dofadr[0])] if (name := f"belt_{s}") in
-                                   [m.joint(j).name for j in range(m.njnt)] else [], int) for s in ("left", "right")]
+        belts = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, f"belt_{s}") for s in ("left", "right")]
+        self.belt_dofs = [np.array([m.jnt_dofadr[j]] if j >= 0 else [], int) for j in belts]
         self.roller_radius = config.roller_radius
         chassis = m.body("chassis")
         self.chassis_id = int(chassis.id)
