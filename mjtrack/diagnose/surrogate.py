@@ -125,13 +125,14 @@ class GroundResponse:
 
 def _key(robot: Robot) -> tuple:
     return (robot.track_gauge, robot.track_length, robot.mass, robot.cg_x, robot.cg_y, robot.cg_z,
-            robot.friction_left, robot.friction_right)
+            robot.friction_left, robot.friction_right, robot.ground)
 
 
 @functools.lru_cache(maxsize=16)
 def _response_cached(key: tuple) -> GroundResponse:
-    T, L, m, cx, cy, cz, mul, mur = key
-    robot = Robot(track_gauge=T, track_length=L, mass=m, cg_x=cx, cg_y=cy, cg_z=cz, mu=mur, mu_left=mul, mu_right=mur)
+    T, L, m, cx, cy, cz, mul, mur, ground = key
+    robot = Robot(track_gauge=T, track_length=L, mass=m, cg_x=cx, cg_y=cy, cg_z=cz, mu=mur, mu_left=mul, mu_right=mur,
+                  ground=ground)
     q0 = np.array(coulomb.steady_state(robot, 0.0, 1.0, inertial=False, n_points=_N_POINTS).icr)
     bt = np.zeros((2, 3, 2))
     bi = np.zeros((2, 3, 2))
@@ -170,10 +171,11 @@ def ground_response(robot: Robot) -> GroundResponse:
 
 @functools.lru_cache(maxsize=64)
 def _static_cached(key: tuple, field: str, values: tuple) -> tuple[np.ndarray, np.ndarray]:
-    T, L, m, cx, cy, cz, mul, mur = key
+    T, L, m, cx, cy, cz, mul, mur, ground = key
     kept, out = [], []
     for v in values:
-        kw = dict(track_gauge=T, track_length=L, mass=m, cg_x=cx, cg_y=cy, cg_z=cz, mu=mur, mu_left=mul, mu_right=mur)
+        kw = dict(track_gauge=T, track_length=L, mass=m, cg_x=cx, cg_y=cy, cg_z=cz, mu=mur, mu_left=mul, mu_right=mur,
+                  ground=ground)
         if field == "friction_ratio":
             kw["mu_left"] = v * mur
         else:

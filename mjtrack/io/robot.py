@@ -88,6 +88,30 @@ class Ground:
     def to_dict(self) -> dict[str, Any]:
         return {"model": self.model, **dict(self.params)}
 
+    def load_shares(self, x, track_length: float):
+        """w (n,): the point at ``x[i]`` (evenly spaced along a track, ascending) carries w_i / n of
+        the track's static load (sum w = n); all ones unless the model is ``road_wheels``: then
+        w_i = (1 - c) + c n a_i, a_i the part of the ``wheels`` equal wheel loads at
+        X_j = span (-L/2 + (j + 1/2) L / wheels) that falls on point i by linear interpolation
+        (a hat function on the grid: each wheel's load and moment are kept). The MuJoCo robot's
+        roller springs (:func:`mjtrack.sim.ground.load_shares`) and the Coulomb reference's
+        contact loads (:mod:`mjtrack.models.coulomb`) both use it."""
+        import numpy as np
+
+        xr = np.asarray(x, dtype=float)
+        n = xr.size
+        if self.model != "road_wheels":
+            return np.ones(n)
+        nw, c, span = int(self["wheels"]), self["concentration"], self["span"]
+        L = float(track_length)
+        a = np.zeros(n)
+        for X in span * (-L / 2 + (np.arange(nw) + 0.5) * L / nw):
+            f = np.clip((X - xr[0]) / (xr[1] - xr[0]), 0.0, n - 1.0)
+            i = min(int(math.floor(f)), n - 2)
+            a[i] += (i + 1 - f) / nw
+            a[i + 1] += (f - i) / nw
+        return (1.0 - c) + c * n * a
+
     @classmethod
     def from_value(cls, value: Any, *, source: str = "robot description") -> "Ground":
         """From a description's ``ground`` value: a model name or ``{"model": NAME, PARAM: value}``."""

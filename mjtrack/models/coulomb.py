@@ -122,29 +122,33 @@ class _Contacts:
         self.cg = np.array([robot.cg_x, robot.cg_y])
         self.tipped = False  # set when a load centroid had to be clipped to the support
         self._basis = np.stack([np.ones_like(xs), xs, ys], axis=1)  # plate loads: a + b x + c y
-        self._gram_inv = np.linalg.inv(self._basis.T @ self._basis)
+        # spring stiffness shares along a track (robot key ``ground``: road wheels concentrate the
+        # load; all ones for the other grounds): N_i = w_i max(0, a + b x_i + c y_i)
+        self.shares = np.tile(robot.ground.load_shares(self.xg, L), 2 * k)
+        self._gram_inv = np.linalg.inv(self._basis.T @ (self.shares[:, None] * self._basis))
         self.g_normal = G * np.cos(slope)  # [m/s^2] gravity normal to the (inclined) ground
         self.static_loads = self.loads(0.0, 0.0)
 
     def _plate(self, cx: float, cy: float) -> np.ndarray:
-        """Loads per unit weight (sum 1) of a rigid plate on equal tensionless springs at the
-        points with load centroid (cx, cy): max(0, a + b x + c y) (module docstring)."""
-        P = self._basis
+        """Loads per unit weight (sum 1) of a rigid plate on tensionless springs of stiffness
+        shares s_i at the points with load centroid (cx, cy): s_i max(0, a + b x + c y) (module
+        docstring; s = 1 but on the road_wheels ground)."""
+        P, s = self._basis, self.shares
         target = np.array([1.0, cx, cy])
         theta = self._gram_inv @ target
         w = P @ theta
-        if w.min() >= 0.0:
-            return w
-        # semismooth Newton on the convex energy E = sum max(0, P theta)^2 / 2 - theta . target
+        if w.min() >= 0.0 or np.all(s[w < 0.0] == 0.0):
+            return s * np.maximum(w, 0.0)
+        # semismooth Newton on the convex energy E = sum s max(0, P theta)^2 / 2 - theta . target
         def energy(t):
-            return 0.5 * float(np.sum(np.maximum(P @ t, 0.0) ** 2)) - float(t @ target)
+            return 0.5 * float(np.sum(s * np.maximum(P @ t, 0.0) ** 2)) - float(t @ target)
         for _ in range(100):
             w = P @ theta
             active = w > 0.0
-            grad = P[active].T @ w[active] - target
+            grad = P[active].T @ (s[active] * w[active]) - target
             if np.max(np.abs(grad)) <= 1e-14:
                 break
-            step = np.linalg.lstsq(P[active].T @ P[active], grad, rcond=None)[0]
+            step = np.linalg.lstsq(P[active].T @ (s[active, None] * P[active]), grad, rcond=None)[0]
             # Armijo on the energy, with a round-off allowance: near the optimum the energy's
             # decrease falls below its rounding and a strict test would stall the full step
             e0, t = energy(theta), 1.0
@@ -152,7 +156,7 @@ class _Contacts:
             while energy(theta - t * step) > e0 - 0.5 * t * float(grad @ step) + slack and t > 1e-12:
                 t *= 0.5
             theta = theta - t * step
-        w = np.maximum(P @ theta, 0.0)
+        w = s * np.maximum(P @ theta, 0.0)
         return w / w.sum()
 
     def loads(self, ax: float, ay: float) -> np.ndarray:

@@ -46,22 +46,7 @@ CAPSULE_HALF = 0.001  # [m] half-length of an anisotropic roller's capsule (acro
 def load_shares(robot: Robot, roller_x: np.ndarray) -> np.ndarray:
     """w (n,): roller i (at ``roller_x[i]`` [m] along the track, evenly spaced) carries w_i / n of
     a track's static load; all ones unless the ground is ``road_wheels`` (module docstring)."""
-    xr = np.asarray(roller_x, dtype=float)
-    n = xr.size
-    if robot.ground.model != "road_wheels":
-        return np.ones(n)
-    g = robot.ground
-    nw, c, span = int(g["wheels"]), g["concentration"], g["span"]
-    L = robot.track_length
-    wheels = span * (-L / 2 + (np.arange(nw) + 0.5) * L / nw)
-    a = np.zeros(n)
-    for X in wheels:
-        # hat-function weights of the point load at X on the roller grid (clipped at the ends)
-        f = np.clip((X - xr[0]) / (xr[1] - xr[0]), 0.0, n - 1.0)
-        i = min(int(math.floor(f)), n - 2)
-        a[i] += (i + 1 - f) / nw
-        a[i + 1] += (f - i) / nw
-    return (1.0 - c) + c * n * a
+    return robot.ground.load_shares(roller_x, robot.track_length)
 
 
 def require_supported(robot: Robot, config: SimConfig) -> None:
