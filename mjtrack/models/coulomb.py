@@ -32,6 +32,16 @@ distribution with centroid c_x, N_i = m g (1/2 +- c_y/T) w_i(c_x): a twist term
 proportional to c_x c_y x_i y_i that a rigid chassis cannot carry (0.06 T/2 on the ICRs of a
 150 kg robot with cg 0.05 T aside and 0.1 L ahead at R 2 m, 2 m/s; experiments/fidelity.py --wide).
 
+Grounds (robot key ``ground``, :data:`mjtrack.io.robot.GROUND_MODELS`). ``road_wheels``: the
+springs under the plate have the stiffness shares s_i of :meth:`mjtrack.io.robot.Ground.load_shares`
+(the law the MuJoCo robot's roller springs realise), N_i = s_i max(0, a + b x_i + c y_i), the
+plane again found by minimising the springs' energy. ``anisotropic``: friction rho mu across the
+track, the maximum-dissipation force on the ellipse (f_x/mu)^2 + (f_y/(rho mu))^2 <= N^2,
+f_i = -mu N_i (u_x, rho^2 u_y)/|(u_x, rho u_y)|, with the convex dissipation
+D = sum mu_i N_i |(u_x, rho u_y)|. Both checked against an independent quadrature
+(tests/ground_balance.py, tests/test_ground.py). Before session 7 both grounds were silently
+read as plain Coulomb here and in the diagnosis surrogate built on this module.
+
 Load transfer (``load_transfer``, default True). The friction forces act at the ground, a
 height h = cg_z below the centre of mass; the roll and pitch moment balance about the CoM,
 sum (r_i - c) x (f_i + N_i e_z) = 0, gives the load centroid
@@ -119,6 +129,8 @@ class _Contacts:
         self.x, self.y = xs, ys
         self.left = np.arange(xs.size) < n * k  # first half: left track (y = +T/2)
         self.mu = np.where(self.left, robot.friction_left, robot.friction_right)
+        # anisotropic ground: friction rho mu across the track (rho = 1 otherwise), module docstring
+        self.rho = robot.ground["lateral_ratio"] if robot.ground.model == "anisotropic" else 1.0
         self.cg = np.array([robot.cg_x, robot.cg_y])
         self.tipped = False  # set when a load centroid had to be clipped to the support
         self._basis = np.stack([np.ones_like(xs), xs, ys], axis=1)  # plate loads: a + b x + c y
@@ -177,21 +189,25 @@ class _Contacts:
         vx, vy, wz = twist
         ux = vx - wz * self.y - np.where(self.left, v_left, v_right)
         uy = vy + wz * self.x
-        nrm = np.sqrt(ux * ux + uy * uy + eps * eps)
-        safe = np.where(nrm > 0.0, nrm, 1.0)
-        k = np.where(nrm > 0.0, self.mu * N / safe, 0.0)
-        fx, fy = -k * ux, -k * uy
+        return self._forces(ux, uy, N, eps)
+
+    def _forces(self, ux, uy, N: np.ndarray, eps: float = 0.0) -> np.ndarray:
+        """Wrench of the sliding velocities (ux, uy): f_i = -mu_i N_i (ux, rho² uy)/|(ux, rho uy)|,
+        the maximum-dissipation force on the friction ellipse (isotropic Coulomb at rho = 1)."""
+        r2 = self.rho * self.rho
+        nrm = np.sqrt(ux * ux + r2 * uy * uy + eps * eps)
+        k = np.where(nrm > 0.0, self.mu * N / np.where(nrm > 0.0, nrm, 1.0), 0.0)
+        fx, fy = -k * ux, -k * r2 * uy
         return np.array([fx.sum(), fy.sum(), np.sum(self.x * fy - self.y * fx)])
+
+    def dissipation(self, ux, uy, weights) -> float:
+        """D = sum weights_i |(ux, rho uy)|: convex, minus its gradient is the wrench."""
+        return float(weights @ np.hypot(ux, self.rho * uy))
 
     def wrench_icr(self, wz: float, y_l: float, y_r: float, x_c: float, N: np.ndarray) -> np.ndarray:
         """Exact Coulomb wrench written with the ICRs, u_i = wz (y_side - y_i, x_i - x_c) (eq. 1
         with 2.13): free of the cancellation vx - V_side when the tracks run at nearly equal speeds."""
-        ux = wz * (np.where(self.left, y_l, y_r) - self.y)
-        uy = wz * (self.x - x_c)
-        nrm = np.hypot(ux, uy)
-        k = np.where(nrm > 0.0, self.mu * N / np.where(nrm > 0.0, nrm, 1.0), 0.0)
-        fx, fy = -k * ux, -k * uy
-        return np.array([fx.sum(), fy.sum(), np.sum(self.x * fy - self.y * fx)])
+        return self._forces(wz * (np.where(self.left, y_l, y_r) - self.y), wz * (self.x - x_c), N)
 
     def kinematic_accel(self, twist) -> np.ndarray:
         """Centripetal CoM acceleration of a constant twist, body frame [m/s^2]."""
@@ -361,7 +377,7 @@ def steady_state(
 
         def dissipation(p: np.ndarray) -> float:
             vx, vy, wz = p * np.array([scale, scale, scale / T])
-            return float(weights @ np.hypot(vx - wz * c.y - vside, vy + wz * c.x)) / scale
+            return c.dissipation(vx - wz * c.y - vside, vy + wz * c.x, weights) / scale
 
         p0 = np.array([(vl + vr) / 2 / scale, 0.0, 0.7 * (vr - vl) / scale])
         p = optimize.minimize(dissipation, p0, method="Nelder-Mead",
