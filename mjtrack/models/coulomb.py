@@ -79,8 +79,16 @@ Time domain. Newton-Euler of the planar body about the CoM with yaw inertia I (d
 uniform L x T box, m (L^2 + T^2)/12):
     wz' = (Mz - c x F)/I,  vx' = F_x/m + wz' c_y + wz v_cy,  vy' = F_y/m - wz' c_x - wz v_cx,
 with u/|u| regularised as u/sqrt(|u|^2 + eps^2) (``eps`` [m/s], default 1e-4, documented
-error O(eps^2/|u|^2)). The load-transfer acceleration is found by ``load_iterations`` fixed-point
-steps of (2) started from the kinematic (centripetal) acceleration, exact in steady state.
+error O(eps^2/|u|^2)). The load transfer (2) is implicit: the loads depend on the friction
+force per mass f = F(N(f))/m they produce. It is solved at every evaluation of the right-hand
+side by Newton's method on the 2-vector f (finite-difference Jacobian; F is affine in f while
+no point lifts, so one step is usually exact), started from the kinematic (centripetal)
+acceleration, to |residual| <= 1e-9 g. Until session 7 it took one fixed-point step: exact in
+steady state only; after a turn entry from straight driving one step put the lateral
+transfer on the wrong side (-0.12 m/s^2 where 0.29 is right) and made the yaw dead time 8 %
+too long on a 50 kg wheeled body (against the independent generator tests/diagnose_physics.py
+with a 5e-5 s step: tests/test_coulomb_transient.py). ``load_iterations`` = k keeps k
+fixed-point steps (ablation).
 
 Pivot turn in closed form (uniform load, V_L = -V, V_R = V, no inertia): by symmetry
 vx = vy = 0; with a = wz T/2 - V both tracks give the same moment integrand and Mz = 0 reads
@@ -525,6 +533,31 @@ def integrate_held_inputs(rhs, t, inputs, s0, *, what: str = "rollout", **solve_
     return out
 
 
+_TRANSFER_TOL = 1e-9 * G  # [m/s^2] residual of the load-transfer fixed point (rollout)
+
+
+def _settle_transfer(fmap, f0: np.ndarray, unsettled: list, max_steps: int = 12) -> np.ndarray:
+    """f with f = fmap(f) (the friction force per mass that the loads it causes produce), by
+    Newton's method with a forward-difference Jacobian; counts a failure in ``unsettled``."""
+    f = np.asarray(f0, float)
+    for _ in range(max_steps):
+        r = fmap(f) - f
+        if np.max(np.abs(r)) <= _TRANSFER_TOL:
+            return f
+        h = 1e-6 * (1.0 + np.abs(f))
+        J = np.empty((2, 2))
+        for k in range(2):
+            e = np.zeros(2)
+            e[k] = h[k]
+            J[:, k] = (fmap(f + e) - (f + e) - r) / h[k]
+        try:
+            f = f - np.linalg.solve(J, r)
+        except np.linalg.LinAlgError:
+            f = f + r  # a fixed-point step
+    unsettled[0] += 1
+    return f
+
+
 def rollout(
     robot: Robot,
     t,
@@ -540,7 +573,7 @@ def rollout(
     eps: float = DEFAULT_EPS,
     inertia: float | None = None,
     load_transfer: bool = True,
-    load_iterations: int = 1,
+    load_iterations: int | None = None,
     method: str = "LSODA",
     slope: float = 0.0,
     slope_direction: float = 0.0,
@@ -566,6 +599,7 @@ def rollout(
     if not I > 0:
         raise InputError(f"rollout: inertia must be > 0, got {inertia!r}")
     cx, cy = c.cg
+    unsettled = [0]  # evaluations whose load transfer did not settle
 
     def rhs(_t: float, s: np.ndarray, vl: float, vr: float) -> np.ndarray:
         _, _, yaw, vx, vy, wz = s
@@ -574,8 +608,11 @@ def rollout(
         gx, gy = -(co * g_up[0] + si * g_up[1]), -(-si * g_up[0] + co * g_up[1])  # g_t, body frame
         if load_transfer:
             acc = c.kinematic_accel(tw) - np.array([gx, gy])  # friction per mass, kinematic guess
-            for _ in range(load_iterations):
-                acc = c.wrench(tw, vl, vr, c.loads(*acc), eps)[:2] / m
+            if load_iterations is None:
+                acc = _settle_transfer(lambda f: c.wrench(tw, vl, vr, c.loads(*f), eps)[:2] / m, acc, unsettled)
+            else:
+                for _ in range(load_iterations):
+                    acc = c.wrench(tw, vl, vr, c.loads(*acc), eps)[:2] / m
             N = c.loads(*acc)
         else:
             N = c.static_loads
@@ -594,4 +631,7 @@ def rollout(
                                 method=method, rtol=rtol, atol=atol)
     if c.tipped:
         log.warning("rollout: the load centroid left the support (tip-over); loads were clipped")
+    if unsettled[0]:
+        log.warning("rollout: the load transfer did not settle in %d evaluations (residual above %.1g m/s^2)",
+                    unsettled[0], _TRANSFER_TOL)
     return CoulombRollout(t=t.copy(), pose=out[:, :3].copy(), twist=out[:, 3:].copy())
