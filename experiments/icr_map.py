@@ -44,18 +44,26 @@ def main() -> int:
     load1 = os.getloadavg()
     with open(args.out / "sweep.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
+    # a case whose robot hardly turns has no ICRs (column icr_undefined says why): left out
+    undefined = [r for r in rows if r["y_l"] == ""]
+    rows = [r for r in rows if r["y_l"] != ""]
     y_l = np.array([float(r["y_l"]) for r in rows])
     y_r = np.array([float(r["y_r"]) for r in rows])
     x_c = np.array([float(r["x_c"]) for r in rows])
     summary = {"cases": s.cases, "ran": s.ran, "resumed": s.resumed, "workers": s.workers, "wall_seconds": wall,
                "sweep_seconds": s.run_seconds, "loadavg_before": load0, "loadavg_after": load1,
                "cpu_count": os.cpu_count(), "y_l_range": [y_l.min(), y_l.max()], "y_r_range": [y_r.min(), y_r.max()],
-               "x_c_range": [x_c.min(), x_c.max()], "grid": GRID}
+               "x_c_range": [x_c.min(), x_c.max()], "grid": GRID,
+               "icr_undefined": [{k: r[k] for k in ("case", "speed", "turn_radius", "mu", "icr_undefined")}
+                                 for r in undefined]}
     (args.out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
     print(f"load average (1, 5, 15 min): before {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}, "
           f"after {load1[0]:.2f} {load1[1]:.2f} {load1[2]:.2f} on {os.cpu_count()} cores")
     print(f"{s.cases} cases ({s.ran} run now, {s.resumed} resumed) on {s.workers} workers: {wall:.1f} s wall "
           f"({s.run_seconds:.1f} s running cases)")
+    for r in undefined:
+        print(f"case {r['case']} (speed {r['speed']} m/s, R {r['turn_radius']} m, mu {r['mu']}): no ICRs, "
+              f"{r['icr_undefined']}")
     print(f"y_l {y_l.min():.4f} .. {y_l.max():.4f} m, y_r {y_r.min():.4f} .. {y_r.max():.4f} m, "
           f"x_c {x_c.min():.4f} .. {x_c.max():.4f} m (default robot: T/2 = 0.2 m)")
     slow = np.array([float(r["speed"]) <= 0.4 and float(r["turn_radius"]) <= 5 for r in rows])
