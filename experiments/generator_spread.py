@@ -12,6 +12,13 @@ y_l - y_r is what the
 diagnosis effect `icr_spread` scales: a generator that turns with wider ICRs looks like an
 icr_spread above 1 on a clean log once the surrogate's transient is right (branch
 slip-resistance, session 7).
+
+Second table: what the generator's numerics do to its transients. On the four-contact body of
+the wheeled geometry (the rollout with a 1.0 m line of two midpoints per side and the
+generator's yaw inertia, as in tests/test_coulomb_transient.py), the yaw dead time
+int (w_end - w)/(w_end - w_0) dt over 1 s after a turn entry (0.5, 0.5) -> (0.5, 0) and a spin
+start (0, 0) -> (-0.5, 0.5) m/s: the generator at its settings, with its step or its
+regularisation made small alone, and both small, beside the converged Coulomb rollout.
 """
 
 from __future__ import annotations
@@ -28,6 +35,43 @@ from mjtrack.diagnose import surrogate as sg  # noqa: E402
 from mjtrack.models import coulomb  # noqa: E402
 
 COMMANDS = ((0.3, 0.5), (0.1, 0.3), (-0.3, 0.3))
+STEPS = (((0.5, 0.5), (0.5, 0.0)), ((0.0, 0.0), (-0.5, 0.5)))
+
+
+def spread(q) -> float:
+    """y_l - y_r [m]."""
+    return float(q[0] - q[1])
+
+
+def _dead(t, w) -> float:
+    d = (w[-1] - w) / (w[-1] - w[0])
+    return float(np.sum(0.5 * (d[1:] + d[:-1]) * np.diff(t)))
+
+
+def generator_dead_time(u0, u1, *, h, eps, duration=1.0) -> float:
+    """Yaw dead time [s] of the generator (wheeled geometry) after the step u0 -> u1 [m/s]."""
+    robot, kind = phys.GEOMETRIES["wheeled"]
+    saved = phys.H, phys.EPS
+    phys.H, phys.EPS = h, eps
+    try:
+        pre, n = int(round(0.5 / h)), int(round(duration / h))
+        u = np.r_[np.tile(u0, (pre, 1)), np.tile(u1, (n, 1))]
+        _, tw = phys.simulate(robot, kind, np.arange(u.shape[0]) * h, u, mu=(robot.mu, robot.mu))
+    finally:
+        phys.H, phys.EPS = saved
+    w = np.r_[tw[pre - 1, 2], tw[pre:, 2]]  # tw[k]: after step k; the new command acts in step pre
+    return _dead(np.arange(w.size) * h, w)
+
+
+def rollout_dead_time(u0, u1, duration=1.0) -> float:
+    """The same for the converged Coulomb rollout of the same four-contact body."""
+    robot, _ = phys.GEOMETRIES["wheeled"]
+    body = robot.replace(track_length=2 * phys.WHEELBASE)
+    inertia = robot.mass * (robot.track_length**2 + robot.track_gauge**2) / 12
+    tw0 = (u0[0], 0.0, 0.0) if u0[0] == u0[1] else tuple(coulomb.steady_state(body, *u0, n_points=2).twist)
+    t = np.arange(0.0, duration + 5e-4, 1e-3)
+    w = coulomb.rollout(body, t, u1[0], u1[1], twist0=tw0, n_points=2, inertia=inertia).twist[:, 2]
+    return _dead(t, w)
 
 
 def generator_icr(robot, kind, vl, vr, *, h=None, eps=None, duration=6.0):
@@ -53,11 +97,18 @@ def main() -> int:
             wide = np.array(coulomb.steady_state(robot, vl, vr, n_across=2).icr)
             gen = generator_icr(robot, kind, vl, vr)
             fine = generator_icr(robot, kind, vl, vr, h=1e-3, eps=1e-3, duration=4.0)
-            spread = lambda q: q[0] - q[1]  # noqa: E731
             print(f"{name:8s} ({vl:+.1f}, {vr:+.1f})  {spread(q0):7.4f} {spread(ref):8.4f} {spread(wide):7.4f} "
                   f"{spread(gen):8.4f} ({100 * (spread(gen) / spread(ref) - 1):+5.1f} %) "
                   f"{spread(fine):8.4f} ({100 * (spread(fine) / spread(ref) - 1):+5.1f} %)  "
                   f"{ref[2]:+.4f} / {gen[2]:+.4f}")
+    print("\nyaw dead time [s], wheeled four-contact body (error against the rollout)")
+    settings = (("generator 5 ms, 0.02 m/s", 5e-3, 0.02), ("generator 5 ms, 1e-4 m/s", 5e-3, 1e-4),
+                ("generator 5e-5 s, 0.02 m/s", 5e-5, 0.02), ("generator 5e-5 s, 1e-4 m/s", 5e-5, 1e-4))
+    for u0, u1 in STEPS:
+        ref = rollout_dead_time(u0, u1)
+        cells = [f"{label} {d:.4f} ({100 * (d / ref - 1):+.1f} %)"
+                 for label, h, eps in settings for d in [generator_dead_time(u0, u1, h=h, eps=eps)]]
+        print(f"  {u0} -> {u1}: rollout {ref:.4f}; " + "; ".join(cells))
     return 0
 
 
