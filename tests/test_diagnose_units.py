@@ -272,6 +272,22 @@ def test_sandwich_reduces_to_the_iid_formula():
     np.testing.assert_allclose(cov, 0.25 * np.linalg.inv(jac.T @ jac), rtol=0.1, atol=1e-6)
 
 
+def test_gain_in_one_block_does_not_pass_on_round_off():
+    """An effect that acts in 1 of 10 blocks and leaves the others equal up to round-off: a
+    bootstrap replicate without that block has no gain (not +1e-16), so the one-sided bound is
+    not above zero ((1 - 1/10)^10 = 35 % of the replicates draw none of it)."""
+    from mjtrack.diagnose.stats import gain_test
+
+    rng = np.random.default_rng(3)
+    block = np.repeat(np.arange(10), 5)
+    before = rng.uniform(0.5, 1.5, block.size)
+    after = before * (1.0 - 2.0**-52)  # the last bit: what two fits that agree to round-off give
+    after[block == 0] *= 0.2
+    assert np.all(after[block > 0] < before[block > 0])
+    gt = gain_test(before, after, block)
+    assert gt.relative > 0.02 and gt.lower <= 0.0 and gt.p >= 0.2
+
+
 def test_traction_ratio_equivalents_round_trip():
     from mjtrack.diagnose.select import equivalent, traction_ratio
 
