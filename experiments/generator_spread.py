@@ -31,6 +31,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import diagnose_physics as phys  # noqa: E402
 
+from mjtrack.diagnose import select as sel  # noqa: E402
 from mjtrack.diagnose import surrogate as sg  # noqa: E402
 from mjtrack.models import coulomb  # noqa: E402
 
@@ -90,6 +91,7 @@ def generator_icr(robot, kind, vl, vr, *, h=None, eps=None, duration=6.0):
 def main() -> int:
     print(f"{'geometry':8s} {'command':>13s}  {'q0':>7s} {'coulomb':>8s} {'width':>7s} {'generator':>18s} "
           f"{'gen 1 ms, 0.001':>18s}  x_c coulomb / generator [m]")
+    gaps = []  # generator spread / reference spread - 1, at the generator's settings
     for name, (robot, kind) in phys.GEOMETRIES.items():
         q0 = sg.ground_response(robot).q0
         for vl, vr in COMMANDS:
@@ -101,6 +103,10 @@ def main() -> int:
                   f"{spread(gen):8.4f} ({100 * (spread(gen) / spread(ref) - 1):+5.1f} %) "
                   f"{spread(fine):8.4f} ({100 * (spread(fine) / spread(ref) - 1):+5.1f} %)  "
                   f"{ref[2]:+.4f} / {gen[2]:+.4f}")
+            gaps.append(spread(gen) / spread(ref) - 1.0)
+    # icr_spread's absolute model-form term (mjtrack.diagnose.select.MODEL_ABS): 1 sigma = the RMS gap
+    print(f"icr_spread gaps {100 * min(gaps):+.2f}..{100 * max(gaps):+.2f} %, RMS {np.sqrt(np.mean(np.square(gaps))):.4f}; "
+          f"select.MODEL_ABS: {sel.MODEL_ABS['icr_spread']}")
     print("\nyaw dead time [s], wheeled four-contact body (error against the rollout)")
     settings = (("generator 5 ms, 0.02 m/s", 5e-3, 0.02), ("generator 5 ms, 1e-4 m/s", 5e-3, 1e-4),
                 ("generator 5e-5 s, 0.02 m/s", 5e-5, 0.02), ("generator 5e-5 s, 1e-4 m/s", 5e-5, 1e-4))

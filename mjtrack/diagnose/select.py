@@ -147,13 +147,13 @@ MODEL_REL = 0.065
 # - icr_spread: the benchmark's generator (tests/diagnose_physics.py, at its settings) turns with a
 #   wider steady ICR spread than the Coulomb reference of the description the surrogate's q0 come
 #   from: +3.68 +3.68 +1.69 / +3.27 +3.28 +1.60 / +1.84 +1.85 +1.85 % (small / large / wheeled x 3
-#   commands; python experiments/generator_spread.py): RMS 0.0267.
+#   commands; python experiments/generator_spread.py prints the RMS): 0.0267.
 # - friction_scale: the generator's yaw transients are faster than the Coulomb rollout's (the
 #   surrogate's rigid-body reference); friction_scale shortens every transient as 1/fs, so a dead
 #   time ratio r = generator / coulomb reads as fs = 1/r: r = 0.890 0.935 0.887 0.938 (small),
 #   0.900 0.954 0.918 0.951 (large), 0.806 0.856 0.907 0.930 (wheeled as a 0.97 m track) over the 4
 #   distinct steps (python experiments/diagnose_transient_steps.py --skip-logs), 1/r - 1 = 0.05-0.24:
-#   RMS 0.118.
+#   RMS 0.118 (python experiments/diagnose_transient_steps.py prints it).
 # - every other effect: 0 (speed effects are fitted to measured speeds, an exact transform; the
 #   others' truth is transformed exactly by both physics).
 MODEL_ABS = {"icr_spread": 0.0267, "friction_scale": 0.118}
