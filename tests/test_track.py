@@ -19,7 +19,7 @@ from mjtrack.control.interface import TrackSpeedAdapter
 from mjtrack.errors import InputError
 from mjtrack.estimation import icr_from_psi, run_icr_ekf
 from mjtrack.estimation.icr_ekf import InverseICR
-from mjtrack.estimation.online import OnlineICREstimator
+from mjtrack.estimation.online import KnownICR, OnlineICREstimator
 from mjtrack.geometry import se2_step
 from mjtrack.io.robot import Robot
 from mjtrack.models import MICR
@@ -309,14 +309,46 @@ def test_compensation_is_not_worse_than_none_on_grid_points(scenario, mu, cg_x, 
     assert met["icr"]["rms_cross_track_m"] < 0.7 * met["none"]["rms_cross_track_m"]
 
 
+def test_known_icrs_stand_in_for_the_estimator():
+    known = KnownICR((0.29, -0.25, -0.04))
+    known.reset(0.0, np.zeros(3))
+    known.step(0.04, 0.3, 0.5, pose=np.zeros(3), twist=np.zeros(3))
+    assert known.t == 0.04
+    np.testing.assert_allclose(known.icr(), (0.29, -0.25, -0.04), atol=1e-12)
+    np.testing.assert_allclose(known.psi, np.array([-0.04, 0.02, 1.0]) / 0.54, atol=1e-12)
+    assert not known.psi_cov.any()
+    for bad in [(0.2, 0.2, 0.0), (float("nan"), -0.2, 0.0)]:
+        with pytest.raises(InputError):
+            KnownICR(bad)
+
+
+def test_the_grid_miss_is_the_estimate_not_the_absence_of_slip():
+    """The compensation grid's worst case (lane change, mu 0.4, CG 5 cm behind, 0.5 m/s, seed 1):
+    both modes are worse than none (RMS ratio 1.09 / 1.10, measured; none errs 2.7 mm under 1 cm
+    pose noise). With the ICRs the online estimator holds after a circle on the same ground
+    (another seed) in place of its estimate, the same compensation gains 26-30 % (0.70 / 0.74,
+    measured): the slip error is real, the estimate started from the nominal ICRs does not
+    identify it in this 12 s run."""
+    robot = Robot(mu=0.4, cg_x=-0.05)
+    icr = run_tracking(robot, scenario="circle", compensation="icr", speed=0.5, seed=1000).icr_history[-1, 1:]
+    kw = dict(scenario="lane_change", speed=0.5, seed=1)
+    none = run_tracking(robot, compensation="none", **kw).metrics
+    for mode in ("icr", "vir"):
+        online = run_tracking(robot, compensation=mode, **kw).metrics
+        known = run_tracking(robot, compensation=mode, compensation_options={"estimator": KnownICR(icr)}, **kw).metrics
+        assert online["rms_cross_track_m"] > none["rms_cross_track_m"], mode  # the documented miss
+        assert known["rms_cross_track_m"] < 0.85 * none["rms_cross_track_m"], (mode, known, none)
+        assert known["max_cross_track_m"] < none["max_cross_track_m"], (mode, known, none)
+
+
 @pytest.mark.slow
-def test_quick_compensation_grid_passes_above_the_noise_floor(tmp_path):
+def test_quick_compensation_grid_names_the_reason_of_each_miss(tmp_path):
     """experiments/compensation_grid.py --quick (24 cases, seed 0); the full 72-case grid is the script.
 
-    Every case where `none` errs more than the noise floor passes (icr and vir <= none in RMS and
-    maximum). Issue 14's "never worse" is not met at the floor: the lane change with mu 0.4, cg
-    -0.05 m at 0.5 m/s (none 2.7 mm RMS under 1 cm pose noise) gives vir a maximum ratio of 1.002
-    (icr 0.995; measured), so the script exits 1; there the ratios stay within 1 %."""
+    Issue 14's "never worse" is not met on the lane change with mu 0.4, cg -0.05 m at 0.5 m/s
+    (none 2.6 mm RMS): vir's maximum ratio is 1.004 (measured), so the script exits 1. Every mode
+    that fails is within 1 % of none, and the script names the reason by measurement: with the
+    ICRs of a circle on that ground in place of the estimate the same mode gains >= 5 %."""
     import json
     import subprocess
     import sys
@@ -332,8 +364,9 @@ def test_quick_compensation_grid_passes_above_the_noise_floor(tmp_path):
         for mode, m in c["modes"].items():
             if m["pass"]:
                 continue
-            assert "noise floor" in (m["reason"] or ""), (c["scenario"], c["mu"], c["cg_x"], c["speed"], mode, m)
+            assert "ICRs not identified in this run" in (m["reason"] or ""), (c["scenario"], c["mu"], c["cg_x"], mode, m)
             assert m["rms_ratio"] <= 1.01 and m["max_ratio"] <= 1.01, (c["scenario"], mode, m)
+            assert m["known_icr"]["rms_ratio"] <= 0.95 and m["known_icr"]["max_ratio"] <= 1.0, m
 
 
 @pytest.mark.slow

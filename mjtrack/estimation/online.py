@@ -31,7 +31,7 @@ from typing import Sequence
 import numpy as np
 
 from mjtrack.errors import InputError
-from mjtrack.estimation.icr_ekf import InverseICR
+from mjtrack.estimation.icr_ekf import InverseICR, icr_from_psi
 from mjtrack.estimation.imm import IMMSettings, imm_settings
 from mjtrack.estimation.pose_ekf import PoseParamFilter
 
@@ -161,3 +161,43 @@ class OnlineICREstimator:
         px, py, pz = self.s[3:]
         with np.errstate(divide="ignore", invalid="ignore"):
             return float(px / pz), float(py / pz), float(1.0 / pz)
+
+
+class KnownICR:
+    """Known ICRs in the interface of :class:`OnlineICREstimator` (what
+    :class:`~mjtrack.control.compensation.SlipCompensation` uses): ψ fixed, zero covariance.
+
+    For studies of compensation with an exact or a borrowed estimate (e.g. the ICRs identified
+    on another path): the compensation's trust rule still applies (with zero covariance its
+    weight is the share κ of the nominal map's twist misfit the ICRs explain).
+
+    Args:
+        icr: (y_l, y_r, x_c) [m], y_l != y_r.
+        twist_std: the twist noise std the trust rule normalises residuals by.
+    """
+
+    def __init__(self, icr: Sequence[float], *, twist_std: Sequence[float] = (0.02, 0.02, 0.02)) -> None:
+        y_l, y_r, x_c = (float(a) for a in icr)
+        if not (np.isfinite([y_l, y_r, x_c]).all() and y_l != y_r):
+            raise InputError(f"KnownICR: need finite ICRs with y_l != y_r, got {tuple(icr)}")
+        self.model = InverseICR.from_icr(y_l, y_r, x_c)
+        self.twist_std = np.asarray(twist_std, float)
+        self.t: float | None = None
+
+    def reset(self, t: float, pose) -> None:
+        self.t = float(t)
+
+    def step(self, t: float, v_left: float, v_right: float, *, pose=None, twist=None) -> None:
+        self.t = float(t)
+
+    @property
+    def psi(self) -> np.ndarray:
+        return np.asarray(self.model.params, float).copy()
+
+    @property
+    def psi_cov(self) -> np.ndarray:
+        return np.zeros((3, 3))
+
+    def icr(self) -> tuple[float, float, float]:
+        y_l, y_r, x_c = icr_from_psi(self.psi)
+        return float(y_l), float(y_r), float(x_c)
