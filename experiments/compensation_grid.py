@@ -81,12 +81,13 @@ def reason(scenario, mu, cg, speed, seed, mode, none_metrics, rms_ratio, options
     return f"nothing to gain ({ratios})", known
 
 
-def run_case(scenario, mu, cg, speed, seed, options):
+def run_case(scenario, mu, cg, speed, seed, options, reference_map="nominal", map_robot=None):
     robot = Robot(mu=mu, cg_x=cg)
     out = {}
     for mode in ("none", "icr", "vir"):
         res = run_tracking(robot, scenario=scenario, compensation=mode, speed=speed, laps=LAPS[scenario], seed=seed,
-                           compensation_options=options if mode != "none" else None)
+                           compensation_options=options if mode != "none" else None, reference_map=reference_map,
+                           map_robot=map_robot)
         m = dict(res.metrics)
         if len(res.icr_history):
             m["final_icr_estimate"] = res.icr_history[-1, 1:].tolist()
@@ -102,6 +103,12 @@ def main(argv=None) -> int:
     ap.add_argument("--options", type=json.loads, default=None, help="SlipCompensation options as JSON (ablation)")
     ap.add_argument("--known-icr", action="store_true",
                     help="every case with the ICRs of a circle on its ground in place of the online estimate")
+    ap.add_argument("--reference-map", choices=("nominal", "coulomb"), default="nominal",
+                    help="the map the compensation starts from (run_tracking's reference_map; default nominal)")
+    ap.add_argument("--map-cg-offset", type=float, default=0.0, metavar="M",
+                    help="with --reference-map coulomb: the description the map uses has its CG this far off the truth")
+    ap.add_argument("--map-mu-scale", type=float, default=1.0, metavar="X",
+                    help="with --reference-map coulomb: the description's friction is X times the truth's")
     ap.add_argument("--out", type=Path, default=None,
                     help="JSON results (default experiments/results/compensation_grid[_known_icr][_quick].json)")
     args = ap.parse_args(argv)
@@ -110,15 +117,20 @@ def main(argv=None) -> int:
     except OSError:
         pass
     seeds = args.seeds or ([0] if args.quick else [0, 1, 2])
-    out = args.out or Path(f"experiments/results/compensation_grid{'_known_icr' if args.known_icr else ''}"
+    tag = "" if args.reference_map == "nominal" else "_coulomb"
+    if args.map_cg_offset or args.map_mu_scale != 1.0:
+        tag += f"_cg{args.map_cg_offset:+g}_mu{args.map_mu_scale:g}"
+    out = args.out or Path(f"experiments/results/compensation_grid{tag}{'_known_icr' if args.known_icr else ''}"
                            f"{'_quick' if args.quick else ''}.json")
-    print(f"load {os.getloadavg()}; options {args.options}; known ICRs from a circle: {args.known_icr}")
+    print(f"load {os.getloadavg()}; options {args.options}; known ICRs from a circle: {args.known_icr}; reference map "
+          f"{args.reference_map} (description's CG offset {args.map_cg_offset:+g} m, friction x {args.map_mu_scale:g})")
     print(f"{'scenario':12s} {'mu':>3s} {'cg':>5s} {'v':>3s} {'seed':>4s}  {'none rms/max mm':>15s}  "
           f"{'icr rms,max ratio':>17s}  {'vir rms,max ratio':>17s}  pass  reasons")
     rows, t0 = [], time.time()
     for scenario, mu, cg, speed, seed in itertools.product(args.scenarios, MUS, CGS, SPEEDS, seeds):
         options = known_options(mu, cg, speed, args.options) if args.known_icr else args.options
-        met = run_case(scenario, mu, cg, speed, seed, options)
+        map_robot = Robot(mu=mu * args.map_mu_scale, cg_x=cg + args.map_cg_offset)
+        met = run_case(scenario, mu, cg, speed, seed, options, args.reference_map, map_robot)
         n = met["none"]
         row = {"scenario": scenario, "mu": mu, "cg_x": cg, "speed": speed, "seed": seed, "metrics": met, "modes": {}}
         txt = []
@@ -151,7 +163,8 @@ def main(argv=None) -> int:
     all_pass = all(s["passed"] == s["cases"] for s in summary.values())
     print(f"grid {'PASSES' if all_pass else 'FAILS'}; {time.time() - t0:.0f} s, load {os.getloadavg()}")
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"options": args.options, "known_icr": args.known_icr, "circle_icrs": {
+    out.write_text(json.dumps({"options": args.options, "known_icr": args.known_icr, "reference_map": args.reference_map,
+                               "map_cg_offset": args.map_cg_offset, "map_mu_scale": args.map_mu_scale, "circle_icrs": {
         f"mu {k[0]} cg_x {k[1]} speed {k[2]}": v for k, v in _KNOWN_ICR.items()}, "seeds": seeds, "summary": summary, "cases": rows,
                                "pass": all_pass}, indent=1) + "\n")
     print(f"wrote {out}")

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from mjtrack.control.compensation import (
+    CoulombICRMap,
     SlipCompensation,
     cross_track_errors,
     heading_correction,
@@ -309,6 +310,49 @@ def test_compensation_is_not_worse_than_none_on_grid_points(scenario, mu, cg_x, 
     assert met["icr"]["rms_cross_track_m"] < 0.7 * met["none"]["rms_cross_track_m"]
 
 
+@pytest.mark.parametrize("desc, v, w", [({"mu": 0.4, "cg_x": 0.05}, 0.5, 0.5), ({"mu": 0.8, "cg_x": -0.05}, 1.0, -0.67),
+                                         ({}, 0.3, 1.0)])
+def test_coulomb_map_drives_the_mujoco_robot_at_the_commanded_twist(desc, v, w):
+    """The Coulomb reference's steady ICRs (CoulombICRMap) inverted at (v, w) drive the MuJoCo robot
+    - an independent physics - at that twist: yaw rate within 1 % (0.3-0.7 % measured), where the
+    nominal map leaves it 20-30 % short; v_x within 1 mm/s."""
+    from mjtrack.sim.steady import steady_state as mujoco_steady
+
+    robot = Robot(**desc)
+    physics = mujoco_steady(robot, *track_speeds_from_psi(v, w, CoulombICRMap(robot)(v, w)))
+    nominal = mujoco_steady(robot, *track_speeds_from_psi(v, w, PSI0))
+    assert physics.wz == pytest.approx(w, rel=0.01) and physics.vx == pytest.approx(v, abs=1e-3)
+    assert abs(nominal.wz - w) > 0.15 * abs(w)
+
+
+def test_coulomb_map_inverts_its_own_physics_and_falls_back_where_there_is_none():
+    from mjtrack.models.coulomb import steady_state
+
+    robot = Robot(mu=0.4, cg_x=0.05)
+    cmap = CoulombICRMap(robot)
+    for v, w in [(0.5, 0.5), (1.0, -0.67), (0.3, 1.0)]:
+        s = steady_state(robot, *track_speeds_from_psi(v, w, cmap(v, w)))
+        # 3 fixed-point iterations from the nominal ICRs: within 3.2e-6 measured (1 iteration: 3.7e-3)
+        assert s.vx == pytest.approx(v, abs=1e-5) and s.wz == pytest.approx(w, abs=1e-5)
+    np.testing.assert_array_equal(cmap(0.0, 0.0), cmap(0.05, 0.05))  # floors: a straight is a gentle left turn
+    # 2 m/s on a 0.5 m radius needs 8 m/s^2 > mu g: no steady state, the nominal map
+    np.testing.assert_array_equal(cmap(2.0, 4.0), [0.0, 0.0, 1 / robot.track_gauge])
+
+
+def test_compensation_from_the_coulomb_map_where_slip_is_large():
+    """Circle, mu 0.4, CG 5 cm ahead, 1 m/s (none 210 mm RMS): the compensation started from the
+    Coulomb map of the robot's description errs 0.11 of none's RMS, against 0.33 from the nominal
+    map (seed 0, measured; experiments/compensation_grid.py --reference-map coulomb)."""
+    robot = Robot(mu=0.4, cg_x=0.05)
+    kw = dict(scenario="circle", speed=1.0, compensation="icr")
+    nominal = run_tracking(robot, **kw).metrics["rms_cross_track_m"]
+    physics = run_tracking(robot, reference_map="coulomb", **kw).metrics["rms_cross_track_m"]
+    none = run_tracking(robot, scenario="circle", speed=1.0, compensation="none").metrics["rms_cross_track_m"]
+    assert physics < 0.5 * nominal and physics < 0.2 * none, (physics, nominal, none)
+    with pytest.raises(InputError, match="reference_map"):
+        run_tracking(robot, reference_map="magic", **kw)
+
+
 def test_known_icrs_stand_in_for_the_estimator():
     known = KnownICR((0.29, -0.25, -0.04))
     known.reset(0.0, np.zeros(3))
@@ -401,6 +445,14 @@ def test_track_command_writes_json_and_figure(cli, tmp_path):
     assert (out / "tracking.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_track_command_takes_the_coulomb_reference_map(cli, tmp_path):
+    out = tmp_path / "run"
+    res = cli(["track", "--scenario", "circle", "--laps", "0.2", "--compensation", "vir", "--reference-map", "coulomb",
+               "--mu", "0.4", "-q", "--out", out])
+    assert res.rc == 0, res.err
+    assert json.loads((out / "tracking.json").read_text())["settings"]["reference_map"] == "coulomb"
+
+
 def test_the_plant_drives_up_an_incline_by_distance_times_its_sine():
     # Closed form: on a plane tilted by alpha about y (uphill +x), the centre rises by s*sin(alpha)
     # over a driven distance s. Tolerance 2 mm: suspension settles and the chassis pitches with load.
@@ -428,7 +480,7 @@ def test_track_command_on_terrain_records_it(cli, tmp_path):
     assert doc["max_cross_track_m"] < 0.05  # the 3 cm step does not throw it off the lane change
 
 
-@pytest.mark.parametrize("argv", [["--compensation", "magic"], ["--control-rate", "7"], ["--speed", "-1"],
+@pytest.mark.parametrize("argv", [["--reference-map", "magic"], ["--compensation", "magic"], ["--control-rate", "7"], ["--speed", "-1"],
                                   ["--terrain", "incline:abc"], ["--terrain", "step:0.03:1.0", "--control-rate", "30"]])
 def test_track_command_bad_input_exits_2(cli, tmp_path, argv):
     res = cli(["track", "--scenario", "circle", "--laps", "0.1", "-q", "--out", tmp_path / "x", *argv])

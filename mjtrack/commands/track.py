@@ -10,7 +10,10 @@ on the body point that does not drift sideways) or vir (the same map plus the vi
 heading correction 2.21). The estimate is applied with a trust weight in [0, 1]: 0 while it is
 unconverged, physically impossible, or no better than the nominal map at explaining the
 measured motion; so compensation fades out where it cannot help. Same controller and gains for
-all compensations. Writes DIR/tracking.json (rms_cross_track_m, max_cross_track_m,
+all compensations. --reference-map coulomb starts the compensation from the Coulomb reference's
+steady ICRs of the robot's description at each reference command instead of the nominal map
+(large gains where slip is large; worse than none on some paths with the centre of gravity
+behind the centre, see README). Writes DIR/tracking.json (rms_cross_track_m, max_cross_track_m,
 final_pos_err_m, mean_trust_weight, the settings, the robot, the final ICR estimate) and
 DIR/tracking.png (path vs reference, cross-track error over time). --terrain puts the robot on
 sloped, stepped, rough or patchy ground (the reference is followed in the horizontal plane;
@@ -37,6 +40,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--compensation", choices=list(MODES), default="vir",
                         help="slip compensation: none, icr (inverse ICR map + drift-free control point), vir (inverse ICR map + "
                              "heading correction 2.21); default vir")
+    parser.add_argument("--reference-map", choices=["nominal", "coulomb"], default="nominal",
+                        help="the map the compensation starts from and blends its online estimate against: nominal "
+                             "ICRs (default) or the Coulomb reference's steady ICRs of the robot description (halves the "
+                             "median error on README's grid, but worse than none on some paths with the CG behind, and "
+                             "up to 6x with a description whose CG is 3 cm off: calibrate the description first)")
     parser.add_argument("--controller", choices=["tracker", "feedforward"], default="tracker",
                         help="tracker: feed-forward + state feedback (default); feedforward: open loop")
     parser.add_argument("--speed", metavar="M/S", type=finite_float, default=None, help="reference speed [m/s] (default 0.5)")
@@ -106,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
     noise = {} if not args.no_noise else {"pose_noise": (0.0, 0.0, 0.0), "twist_noise": (0.0, 0.0, 0.0)}
     result = run_tracking(robot, scenario=args.scenario, compensation=args.compensation, controller=args.controller,
                           control_dt=1.0 / args.control_rate, speed=args.speed, laps=args.laps, seed=args.seed,
-                          terrain=terrain, **noise)
+                          terrain=terrain, reference_map=args.reference_map, **noise)
     hist = result.icr_history
     doc = dict(result.metrics)
     doc["settings"] = result.settings

@@ -68,6 +68,7 @@ from mjtrack.estimation.online import OnlineICREstimator
 log = logging.getLogger(__name__)
 
 MODES = ("none", "icr", "vir")
+REFERENCE_MAPS = ("nominal", "coulomb")
 # Prior std of psi around the nominal robot (0, 0, 1/T): informative, so that the start of a
 # run (the robot accelerating from rest, which no kinematic model describes) cannot throw the
 # estimate far off (with the batch filters' (2, 2, 4) psi_y reached 12 within 0.1 s).
@@ -139,7 +140,7 @@ def static_error_map(v_d: float, w_d: float, poles, fb_deviation=(0.0, 0.0, 0.0)
 
 
 def trust_weight(psi, psi_cov, psi_nominal, v_d: float, w_d: float, *, poles=(-1.0, -2.0, -4.0),
-                 scale: float = TRUST_SCALE) -> float:
+                 scale: float = TRUST_SCALE, feedback_psi_z: float | None = None) -> float:
     """Scalar weight λ in [0, 1] of the compensation ψ₀ + λ (ψ̂ − ψ₀) (derivation below).
 
     With the truth ψ and the estimate ψ̂ = ψ + ε, ε ~ N(0, P), the steady cross-track error of
@@ -156,20 +157,74 @@ def trust_weight(psi, psi_cov, psi_nominal, v_d: float, w_d: float, *, poles=(-1
     such a cancellation; there λ ≈ 0.
     λ is evaluated at the reference's (v_d, w_d) with |w_d| floored at 0.1 rad/s (all δ scale
     with w; the floor keeps λ defined on straight stretches, where it does not act).
+    With a reference map other than the nominal one (:class:`CoulombICRMap`), ``psi_nominal``
+    is that map's ψ: E₀ is the error of the feed-forward through it, the feedback going through
+    the nominal map (ψ_z = ``feedback_psi_z``, default ``psi_nominal``'s) about its drift-free point.
     """
     v_d = max(abs(v_d), 0.05)
     w_d = math.copysign(max(abs(w_d), 0.1), w_d if w_d != 0 else 1.0)
     psi, psi_nominal = np.asarray(psi, float), np.asarray(psi_nominal, float)
+    fb_z = psi_nominal[2] if feedback_psi_z is None else float(feedback_psi_z)
     d_none = velocity_deviation(psi_nominal, psi, 1.0)
-    e0 = float(static_error_map(v_d, w_d, poles, d_none)[1] @ d_none) * w_d
+    d_none_fb = velocity_deviation(np.array([psi_nominal[0] / psi_nominal[2] * fb_z, 0.0, fb_z]), psi, 1.0)
+    e0 = float(static_error_map(v_d, w_d, poles, d_none_fb)[1] @ d_none) * w_d
     # compensated: feed-forward through psi (no deviation at the truth psi), feedback through the
     # nominal map about the drift-free point (x_c, 0)
     x_c = psi[0] / psi[2]
-    d_fb = velocity_deviation(np.array([x_c * psi_nominal[2], 0.0, psi_nominal[2]]), psi, 1.0)
+    d_fb = velocity_deviation(np.array([x_c * fb_z, 0.0, fb_z]), psi, 1.0)
     jac = (w_d / psi[2]) * np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, x_c], [0.0, 0.0, 1.0]])  # ∂δ/∂ψ_true at ψ̂
     g = static_error_map(v_d, w_d, poles, d_fb)[1] @ jac
     var = scale**2 * float(g @ np.asarray(psi_cov, float) @ g)
     return e0 * e0 / (e0 * e0 + var) if e0 * e0 + var > 0 else 0.0
+
+
+class CoulombICRMap:
+    """ψ of the Coulomb reference's steady ICRs at a body command: the physics of the robot's
+    description (mass, centre of gravity, friction, geometry; :func:`mjtrack.models.coulomb.steady_state`)
+    as the map a compensation starts from, in place of the nominal one.
+
+    For a command (v, w) the track speeds that give it are found by fixed-point iteration:
+    (V_L, V_R) = :func:`inverse_micr` (v, w, ICRs), ICRs = the steady ICRs at (V_L, V_R), from the
+    nominal ICRs, ``iterations`` times (the ICRs move little with the track speeds: 3 iterations
+    agree with 6 to 1e-4 m on the default robot). |v| is floored at 0.05 m/s and |w| at
+    ``w_floor`` (a straight uses the ICRs of a gentle left turn; on a straight ΔV = 0 and only x_c
+    acts, through the control point). Results are cached on (v, w) rounded to 1e-3. Where no
+    steady state exists (the turn needs more friction than there is), the nominal ψ is returned
+    and logged once.
+    """
+
+    def __init__(self, robot, *, iterations: int = 3, w_floor: float = 0.05) -> None:
+        from mjtrack.models.coulomb import steady_state
+
+        self.robot = robot
+        self.iterations = int(iterations)
+        self.w_floor = float(w_floor)
+        self._steady = steady_state
+        self._cache: dict[tuple[float, float], np.ndarray] = {}
+        self._warned = False
+        self.nominal = np.array([0.0, 0.0, 1.0 / robot.track_gauge])
+
+    def __call__(self, v: float, w: float) -> np.ndarray:
+        from mjtrack.errors import MjtrackError
+
+        v = math.copysign(max(abs(v), 0.05), v if v != 0 else 1.0)
+        w = math.copysign(max(abs(w), self.w_floor), w if w != 0 else 1.0)
+        key = (round(v, 3), round(w, 3))
+        psi = self._cache.get(key)
+        if psi is None:
+            half = 0.5 * self.robot.track_gauge
+            y_l, y_r, x_c = half, -half, 0.0
+            try:
+                for _ in range(self.iterations):
+                    y_l, y_r, x_c = self._steady(self.robot, *inverse_micr(key[0], key[1], y_l, y_r)).icr
+                psi = InverseICR.from_icr(y_l, y_r, x_c).params
+            except MjtrackError as exc:
+                if not self._warned:
+                    log.info("CoulombICRMap: no steady state for (v, w) = %s (%s); nominal map used", key, exc)
+                    self._warned = True
+                psi = self.nominal
+            self._cache[key] = np.asarray(psi, float)
+        return self._cache[key].copy()
 
 
 class SlipCompensation:
@@ -191,12 +246,16 @@ class SlipCompensation:
             (:meth:`control_pose`); False: on the centre (the first version, for ablation).
         split_feedback: the feedback's correction goes through the nominal map
             (:meth:`track_speeds`); False: the whole command through the compensated one.
+        reference_map: callable (v, w) -> ψ, the map used at weight 0 in place of the nominal
+            one (e.g. :class:`CoulombICRMap` of the robot's description), evaluated at the
+            reference's (v_d, w_d); the estimate is blended against it, ψ_ref + λ (ψ̂ − ψ_ref),
+            with λ and κ taken against it. The feedback still goes through the nominal map.
     """
 
     def __init__(self, track_gauge: float, mode: str = "icr", *, estimator: OnlineICREstimator | None = None,
                  track_length: float | None = None, trust_scale: float = TRUST_SCALE, max_alpha: float = 0.5,
                  estimator_input: str = "measured", drift_free_point: bool = True, split_feedback: bool = True,
-                 poles=(-1.0, -2.0, -4.0)) -> None:
+                 poles=(-1.0, -2.0, -4.0), reference_map=None) -> None:
         if mode not in MODES:
             raise InputError(f"compensation must be one of {', '.join(MODES)}, got {mode!r}")
         if estimator_input not in ("measured", "command"):
@@ -223,6 +282,14 @@ class SlipCompensation:
         self.history: list[tuple[float, float, float, float]] = []  # (t, y_l, y_r, x_c) of the estimate
         self.applied_history: list[tuple[float, float, float, float]] = []  # (t, y_l, y_r, x_c) applied
         self.weight_history: list[tuple[float, float]] = []  # (t, λ)
+        self.reference_map = reference_map if mode != "none" else None
+
+    def psi_reference(self) -> np.ndarray:
+        """The map used at weight 0: the reference map at the last feed-forward (v_d, w_d), or the
+        nominal ψ (no reference map, or no command yet)."""
+        if self.reference_map is None or self._last_command == (0.0, 0.0):
+            return self.psi_nominal.copy()
+        return np.asarray(self.reference_map(*self._last_command), float)
 
     def observe(self, t: float, u_prev, pose, twist, track_speed=None) -> None:
         """Feed one measurement: pose, twist at t; u_prev the track speeds commanded before t;
@@ -250,7 +317,7 @@ class SlipCompensation:
         if not np.all(np.isfinite(twist)):
             return
         r_std2 = np.asarray(self.estimator.twist_std, float) ** 2
-        est, nom = InverseICR(*self.estimator.psi), InverseICR(*self.psi_nominal)
+        est, nom = InverseICR(*self.estimator.psi), InverseICR(*self.psi_reference())
         vl, vr = float(u[0]), float(u[1])
         r = twist - est.twist(vl, vr)
         r0 = twist - nom.twist(vl, vr)
@@ -279,23 +346,23 @@ class SlipCompensation:
                 and abs(x_c) <= 0.5 * self.track_length)
 
     def _trusted_psi(self) -> np.ndarray:
-        psi = self.estimator.psi
+        psi, ref = self.estimator.psi, self.psi_reference()
         if not self.admissible(psi):
             if not self._warned:
-                log.info("slip compensation: estimate psi = %s outside the admissible ICRs; nominal map used", psi)
+                log.info("slip compensation: estimate psi = %s outside the admissible ICRs; reference map used", psi)
                 self._warned = True
             self.weight, self._t_weight = 0.0, self.estimator.t
-            return self.psi_nominal.copy()
+            return ref
         v, w = self._last_command
         scale = self.trust_scale * math.sqrt(max(1.0, self.nis_mean))
-        lam = self.explained * trust_weight(psi, self.estimator.psi_cov, self.psi_nominal, v, w,
-                                            poles=self.poles, scale=scale)
+        lam = self.explained * trust_weight(psi, self.estimator.psi_cov, ref, v, w, poles=self.poles, scale=scale,
+                                            feedback_psi_z=self.psi_nominal[2])
         # the weight falls at once but rises no faster than the evidence for it accumulates
         # (the residual means lag by FIT_TAU): at most 1/(WEIGHT_RISE_TAUS · FIT_TAU) per second
         dt = self.estimator.t - self._t_weight if self._t_weight is not None else 0.0
         self._t_weight = self.estimator.t
         self.weight = min(lam, self.weight + dt / (WEIGHT_RISE_TAUS * FIT_TAU))
-        return self.psi_nominal + self.weight * (psi - self.psi_nominal)
+        return ref + self.weight * (psi - ref)
 
     @property
     def psi_applied(self) -> np.ndarray:
@@ -463,6 +530,8 @@ def run_tracking(
     config=None,
     compensation_options: dict | None = None,
     terrain=None,
+    reference_map: str = "nominal",
+    map_robot=None,
 ) -> TrackingResult:
     """Track a scenario's reference with the MuJoCo robot (:mod:`mjtrack.control.mujoco_plant`).
 
@@ -476,6 +545,10 @@ def run_tracking(
             seen by the controller and the estimator.
         terrain: :class:`~mjtrack.sim.terrain.Terrain` under the robot (default flat); the
             reference path is followed in the horizontal plane.
+        reference_map: "nominal" (the compensation starts from the nominal ICRs) or "coulomb"
+            (from the Coulomb reference's steady ICRs of the description, :class:`CoulombICRMap`).
+        map_robot: the description the "coulomb" map is computed from (default ``robot``; another
+            one to study a mis-described robot).
     Returns:
         :class:`TrackingResult`.
     """
@@ -485,9 +558,12 @@ def run_tracking(
 
     if controller not in ("tracker", "feedforward"):
         raise InputError(f"controller must be 'tracker' or 'feedforward', got {controller!r}")
+    if reference_map not in REFERENCE_MAPS:
+        raise InputError(f"reference_map must be one of {', '.join(REFERENCE_MAPS)}, got {reference_map!r}")
     reference = scenario_reference(scenario, speed=speed, laps=laps)
+    ref_map = CoulombICRMap(map_robot or robot) if reference_map == "coulomb" and compensation != "none" else None
     comp = SlipCompensation(robot.track_gauge, compensation, track_length=robot.track_length, poles=poles,
-                            **(compensation_options or {}))
+                            reference_map=ref_map, **(compensation_options or {}))
     ref = CorrectedReference(reference, comp)
     ctrl = TrajectoryTracker(ref, poles=poles) if controller == "tracker" else FeedForward(ref)
     ctrl.reset()
@@ -518,5 +594,6 @@ def run_tracking(
                 "speed_m_s": reference.profile.speed_value, "path_length_m": reference.path.length,
                 "pose_noise": list(pose_noise), "twist_noise": list(twist_noise),
                 "track_speed_noise": track_speed_noise, "seed": seed, "compensation_options": dict(compensation_options or {}),
+                "reference_map": reference_map,
                 "terrain": "flat" if terrain is None or terrain.is_flat else terrain.spec}
     return TrackingResult(loop, reference, metrics, hist, settings, applied)
