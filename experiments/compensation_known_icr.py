@@ -14,6 +14,10 @@ where it gains (mu 0.4 seed 2), each driven with none and, for icr and vir:
                 covariance kept): which part of the estimate's error does the harm;
   warm start    the online estimator started from the known ICRs (the default prior std), its
                 weight still taken against the nominal map.
+Then, on the circle, the lane change and the figure-eight (mu 0.4, CG behind, 0.5 m/s, seeds 0-2):
+the steady ICRs of the Coulomb reference at the circle's command (MuJoCo's steady ICRs agree
+with them) against the ICRs the online estimator identified on that circle in closed loop, both
+as a KnownICR through the same trust rule: are the ICRs the loop needs the steady ones?
 Prints RMS / maximum cross-track error ratios to none (< 1: better than none).
 """
 
@@ -28,8 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mjtrack.control.compensation import PSI_STD0, run_tracking
-from mjtrack.estimation.icr_ekf import InverseICR
+from mjtrack.control.compensation import PSI_STD0, CoulombICRMap, run_tracking
+from mjtrack.estimation.icr_ekf import InverseICR, icr_from_psi
 from mjtrack.estimation.online import KnownICR, OnlineICREstimator
 from mjtrack.io.robot import Robot
 
@@ -115,9 +119,30 @@ def main(argv=None) -> int:
                 parts.append(f"{name} {r[0]:.3f},{r[1]:.3f}")
             print(f"  {mode}: " + "  ".join(parts), flush=True)
         rows.append(row)
+    robot = Robot(mu=0.4, cg_x=CG)
+    steady = [float(a) for a in icr_from_psi(CoulombICRMap(robot)(SPEED, SPEED))]  # the circle: R 1 m
+    loop = known[0.4]
+    print(f"steady ICRs of the circle's command {np.round(steady, 4).tolist()}, closed-loop {np.round(loop, 4).tolist()}")
+    paths = []
+    for scenario in ("circle", "lane_change", "figure_eight"):
+        for seed in (0, 1, 2):
+            laps = 1.0 if scenario == "figure_eight" else None
+            kw = dict(scenario=scenario, speed=SPEED, seed=seed, laps=laps)
+            none = run_tracking(robot, compensation="none", **kw).metrics
+            res = {"scenario": scenario, "seed": seed}
+            parts = []
+            for name, icr in (("steady", steady), ("closed-loop", loop)):
+                for mode in ("icr", "vir"):
+                    m = run_tracking(robot, compensation=mode, compensation_options={"estimator": KnownICR(icr)}, **kw).metrics
+                    r = (m["rms_cross_track_m"] / none["rms_cross_track_m"], m["max_cross_track_m"] / none["max_cross_track_m"])
+                    res[f"{name} {mode}"] = {"rms_ratio": r[0], "max_ratio": r[1], "mean_trust_weight": m["mean_trust_weight"]}
+                    parts.append(f"{name} {mode} {r[0]:.2f},{r[1]:.2f}")
+            paths.append(res)
+            print(f"  {scenario:12s} seed {seed}: " + "  ".join(parts), flush=True)
     print(f"{time.time() - t0:.0f} s, load {os.getloadavg()}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps({"cases": rows}, indent=1) + "\n")
+    args.out.write_text(json.dumps({"cases": rows, "steady_icr": steady, "closed_loop_icr": loop, "paths": paths},
+                                   indent=1) + "\n")
     print(f"wrote {args.out}")
     return 0
 
