@@ -480,7 +480,8 @@ def test_track_command_on_terrain_records_it(cli, tmp_path):
     assert doc["max_cross_track_m"] < 0.05  # the 3 cm step does not throw it off the lane change
 
 
-@pytest.mark.parametrize("argv", [["--reference-map", "magic"], ["--compensation", "magic"], ["--control-rate", "7"], ["--speed", "-1"],
+@pytest.mark.parametrize("argv", [["--reference-map", "magic"], ["--reference-map", "coulomb", "--terrain", "incline:0.1"],
+                                  ["--compensation", "magic"], ["--control-rate", "7"], ["--speed", "-1"],
                                   ["--terrain", "incline:abc"], ["--terrain", "step:0.03:1.0", "--control-rate", "30"]])
 def test_track_command_bad_input_exits_2(cli, tmp_path, argv):
     res = cli(["track", "--scenario", "circle", "--laps", "0.1", "-q", "--out", tmp_path / "x", *argv])

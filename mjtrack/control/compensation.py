@@ -557,6 +557,9 @@ def run_tracking(
         raise InputError(f"controller must be 'tracker' or 'feedforward', got {controller!r}")
     if reference_map not in REFERENCE_MAPS:
         raise InputError(f"reference_map must be one of {', '.join(REFERENCE_MAPS)}, got {reference_map!r}")
+    if reference_map == "coulomb" and terrain is not None and not terrain.is_flat:
+        raise InputError("reference_map 'coulomb' is the steady state on flat ground; it does not model "
+                         f"terrain {terrain.spec!r}")
     reference = scenario_reference(scenario, speed=speed, laps=laps)
     ref_map = CoulombICRMap(map_robot or robot) if reference_map == "coulomb" and compensation != "none" else None
     comp = SlipCompensation(robot.track_gauge, compensation, track_length=robot.track_length, poles=poles,
