@@ -32,10 +32,11 @@ from pathlib import Path
 
 import numpy as np
 
-from mjtrack.control.compensation import PSI_STD0, CoulombICRMap, run_tracking
+from mjtrack.control.compensation import PSI_STD0, CoulombICRMap, run_tracking, track_speeds_from_psi
 from mjtrack.estimation.icr_ekf import InverseICR, icr_from_psi
 from mjtrack.estimation.online import KnownICR, OnlineICREstimator
 from mjtrack.io.robot import Robot
+from mjtrack.sim.steady import steady_state as mujoco_steady
 
 CASES = [(0.4, 0), (0.4, 1), (0.8, 1), (0.4, 2)]  # (mu, seed): lane change, cg_x -0.05, 0.5 m/s
 CG, SPEED, CIRCLE_SEED = -0.05, 0.5, 1000
@@ -120,9 +121,13 @@ def main(argv=None) -> int:
             print(f"  {mode}: " + "  ".join(parts), flush=True)
         rows.append(row)
     robot = Robot(mu=0.4, cg_x=CG)
-    steady = [float(a) for a in icr_from_psi(CoulombICRMap(robot)(SPEED, SPEED))]  # the circle: R 1 m
+    steady_psi = CoulombICRMap(robot)(SPEED, SPEED)  # the circle: R 1 m
+    steady = [float(a) for a in icr_from_psi(steady_psi)]
+    mj = mujoco_steady(robot, *track_speeds_from_psi(SPEED, SPEED, steady_psi))  # the same track speeds on MuJoCo
+    mj_icr = [float(mj.y_l), float(mj.y_r), float(mj.x_c)]
     loop = known[0.4]
-    print(f"steady ICRs of the circle's command {np.round(steady, 4).tolist()}, closed-loop {np.round(loop, 4).tolist()}")
+    print(f"steady ICRs at the circle's command: Coulomb reference {np.round(steady, 4).tolist()}, MuJoCo "
+          f"{np.round(mj_icr, 4).tolist()}; closed-loop online estimate {np.round(loop, 4).tolist()}")
     paths = []
     for scenario in ("circle", "lane_change", "figure_eight"):
         for seed in (0, 1, 2):
@@ -141,7 +146,8 @@ def main(argv=None) -> int:
             print(f"  {scenario:12s} seed {seed}: " + "  ".join(parts), flush=True)
     print(f"{time.time() - t0:.0f} s, load {os.getloadavg()}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps({"cases": rows, "steady_icr": steady, "closed_loop_icr": loop, "paths": paths},
+    args.out.write_text(json.dumps({"cases": rows, "steady_icr": steady, "mujoco_steady_icr": mj_icr,
+                                    "closed_loop_icr": loop, "paths": paths},
                                    indent=1) + "\n")
     print(f"wrote {args.out}")
     return 0

@@ -42,9 +42,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "heading correction 2.21); default vir")
     parser.add_argument("--reference-map", choices=["nominal", "coulomb"], default="nominal",
                         help="the map the compensation starts from and blends its online estimate against: nominal "
-                             "ICRs (default) or the Coulomb reference's steady ICRs of the robot description (halves the "
-                             "median error on README's grid, but worse than none on some paths with the CG behind, and "
-                             "up to 6x with a description whose CG is 3 cm off: calibrate the description first)")
+                             "ICRs (default) or the Coulomb reference's steady ICRs of the robot description, flat ground "
+                             "only (median error to none 0.43 -> 0.23-0.29 on README's grid, but worse than none on some "
+                             "paths with the CG behind, and up to 6x with a description whose CG is 3 cm off: calibrate "
+                             "the description first)")
     parser.add_argument("--controller", choices=["tracker", "feedforward"], default="tracker",
                         help="tracker: feed-forward + state feedback (default); feedforward: open loop")
     parser.add_argument("--speed", metavar="M/S", type=finite_float, default=None, help="reference speed [m/s] (default 0.5)")

@@ -86,6 +86,17 @@ FIT_TAU = 1.0
 WEIGHT_RISE_TAUS = 2.0
 
 
+def admissible_psi(psi, track_gauge: float, track_length: float) -> bool:
+    """Whether ψ describes physically possible ICRs of a tracked robot (:data:`SPACING_RANGE`,
+    |ȳ| <= T/2, |x_c| <= L/2)."""
+    if not (np.all(np.isfinite(psi)) and psi[2] > 0):
+        return False
+    spacing, ybar, x_c = 1.0 / psi[2], psi[1] / psi[2], psi[0] / psi[2]
+    lo, hi = SPACING_RANGE
+    return (lo * track_gauge <= spacing <= hi * track_gauge and abs(ybar) <= 0.5 * track_gauge
+            and abs(x_c) <= 0.5 * track_length)
+
+
 def inverse_micr(v: float, w: float, y_l: float, y_r: float) -> np.ndarray:
     """Track speeds (V_L, V_R) [m/s] that make the MICR robot move with (v_x, ω) = (v, w)."""
     if y_l == y_r:
@@ -187,12 +198,14 @@ class CoulombICRMap:
     For a command (v, w) the track speeds that give it are found by fixed-point iteration:
     (V_L, V_R) = :func:`inverse_micr` (v, w, ICRs), ICRs = the steady ICRs at (V_L, V_R), from the
     nominal ICRs, ``iterations`` times (the ICRs move little with the track speeds: 3 iterations
-    agree with 8 to 6e-6 m, and reproduce the command in the reference's own physics to 1e-5, on
-    the default robot and μ 0.4 with the CG ±5 cm; tested). |v| is floored at 0.05 m/s and |w| at
+    agree with 8 to 2e-5 m and reproduce the command in the reference's own physics to 1e-5 m/s,
+    rad/s on the default robot and μ 0.4 with the CG ±5 cm; the latter tested). |v| is floored at 0.05 m/s and |w| at
     ``w_floor`` (a straight uses the ICRs of a gentle left turn; on a straight ΔV = 0 and only x_c
     acts, through the control point). Results are cached on (v, w) rounded to 1e-3. Where no
-    steady state exists (the turn needs more friction than there is), the nominal ψ is returned
-    and logged once.
+    steady state exists (the turn needs more friction than there is) or its ICRs are not
+    physically admissible for a kinematic map (:func:`admissible_psi`; e.g. x_c beyond L/2 when
+    the robot slides out of a fast tight turn), the nominal ψ is returned and logged once: the
+    map does not extrapolate a sliding robot.
     """
 
     def __init__(self, robot, *, iterations: int = 3, w_floor: float = 0.05) -> None:
@@ -215,9 +228,11 @@ class CoulombICRMap:
                 for _ in range(self.iterations):
                     y_l, y_r, x_c = coulomb_steady_state(self.robot, *inverse_micr(key[0], key[1], y_l, y_r)).icr
                 psi = InverseICR.from_icr(y_l, y_r, x_c).params
+                if not admissible_psi(psi, self.robot.track_gauge, self.robot.track_length):
+                    raise MjtrackError(f"steady ICRs (y_l, y_r, x_c) = ({y_l:.3f}, {y_r:.3f}, {x_c:.3f}) m not admissible")
             except MjtrackError as exc:
                 if not self._warned:
-                    log.info("CoulombICRMap: no steady state for (v, w) = %s (%s); nominal map used", key, exc)
+                    log.info("CoulombICRMap: no usable steady state for (v, w) = %s (%s); nominal map used", key, exc)
                     self._warned = True
                 psi = self.nominal
             self._cache[key] = np.asarray(psi, float)
@@ -247,12 +262,14 @@ class SlipCompensation:
             one (e.g. :class:`CoulombICRMap` of the robot's description), evaluated at the
             reference's (v_d, w_d); the estimate is blended against it, ψ_ref + λ (ψ̂ − ψ_ref),
             with λ and κ taken against it. The feedback still goes through the nominal map.
+        weight_rise_taus: λ rises at most 1/(weight_rise_taus · FIT_TAU) per second (ablation;
+            default :data:`WEIGHT_RISE_TAUS`).
     """
 
     def __init__(self, track_gauge: float, mode: str = "icr", *, estimator: OnlineICREstimator | None = None,
                  track_length: float | None = None, trust_scale: float = TRUST_SCALE, max_alpha: float = 0.5,
                  estimator_input: str = "measured", drift_free_point: bool = True, split_feedback: bool = True,
-                 poles=(-1.0, -2.0, -4.0), reference_map=None) -> None:
+                 poles=(-1.0, -2.0, -4.0), reference_map=None, weight_rise_taus: float = WEIGHT_RISE_TAUS) -> None:
         if mode not in MODES:
             raise InputError(f"compensation must be one of {', '.join(MODES)}, got {mode!r}")
         if estimator_input not in ("measured", "command"):
@@ -280,6 +297,9 @@ class SlipCompensation:
         self.applied_history: list[tuple[float, float, float, float]] = []  # (t, y_l, y_r, x_c) applied
         self.weight_history: list[tuple[float, float]] = []  # (t, λ)
         self.reference_map = reference_map if mode != "none" else None
+        if not weight_rise_taus > 0:
+            raise InputError(f"weight_rise_taus must be positive, got {weight_rise_taus!r}")
+        self.weight_rise_taus = float(weight_rise_taus)
 
     def psi_reference(self) -> np.ndarray:
         """The map used at weight 0: the reference map at the last feed-forward (v_d, w_d), or the
@@ -334,13 +354,8 @@ class SlipCompensation:
         return float(np.clip(1.0 - self._fit_est / self._fit_nom, 0.0, 1.0))
 
     def admissible(self, psi) -> bool:
-        """Whether ψ describes physically possible ICRs (:data:`SPACING_RANGE`, |ȳ| <= T/2, |x_c| <= L/2)."""
-        if not (np.all(np.isfinite(psi)) and psi[2] > 0):
-            return False
-        spacing, ybar, x_c = 1.0 / psi[2], psi[1] / psi[2], psi[0] / psi[2]
-        lo, hi = SPACING_RANGE
-        return (lo * self.track_gauge <= spacing <= hi * self.track_gauge and abs(ybar) <= 0.5 * self.track_gauge
-                and abs(x_c) <= 0.5 * self.track_length)
+        """Whether ψ describes physically possible ICRs (:func:`admissible_psi` with this T and L)."""
+        return admissible_psi(psi, self.track_gauge, self.track_length)
 
     def _trusted_psi(self) -> np.ndarray:
         psi, ref = self.estimator.psi, self.psi_reference()
@@ -355,10 +370,10 @@ class SlipCompensation:
         lam = self.explained * trust_weight(psi, self.estimator.psi_cov, ref, v, w, poles=self.poles, scale=scale,
                                             feedback_psi_z=self.psi_nominal[2])
         # the weight falls at once but rises no faster than the evidence for it accumulates
-        # (the residual means lag by FIT_TAU): at most 1/(WEIGHT_RISE_TAUS · FIT_TAU) per second
+        # (the residual means lag by FIT_TAU): at most 1/(weight_rise_taus · FIT_TAU) per second
         dt = self.estimator.t - self._t_weight if self._t_weight is not None else 0.0
         self._t_weight = self.estimator.t
-        self.weight = min(lam, self.weight + dt / (WEIGHT_RISE_TAUS * FIT_TAU))
+        self.weight = min(lam, self.weight + dt / (self.weight_rise_taus * FIT_TAU))
         return ref + self.weight * (psi - ref)
 
     @property
@@ -594,6 +609,6 @@ def run_tracking(
                 "speed_m_s": reference.profile.speed_value, "path_length_m": reference.path.length,
                 "pose_noise": list(pose_noise), "twist_noise": list(twist_noise),
                 "track_speed_noise": track_speed_noise, "seed": seed, "compensation_options": dict(compensation_options or {}),
-                "reference_map": reference_map,
+                "reference_map": reference_map if compensation != "none" else "nominal",
                 "terrain": "flat" if terrain is None or terrain.is_flat else terrain.spec}
     return TrackingResult(loop, reference, metrics, hist, settings, applied)
