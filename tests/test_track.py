@@ -337,6 +337,10 @@ def test_coulomb_map_inverts_its_own_physics_and_falls_back_where_there_is_none(
     np.testing.assert_array_equal(cmap(0.0, 0.0), cmap(0.05, 0.05))  # floors: a straight is a gentle left turn
     # 2 m/s on a 0.5 m radius needs 8 m/s^2 > mu g: no steady state, the nominal map
     np.testing.assert_array_equal(cmap(2.0, 4.0), [0.0, 0.0, 1 / robot.track_gauge])
+    # 1.5 m/s at 2.5 rad/s: a steady state whose x_c (0.31 m) is beyond L/2 - a sliding robot, not a map
+    np.testing.assert_array_equal(cmap(1.5, 2.5), [0.0, 0.0, 1 / robot.track_gauge])
+    with pytest.raises(InputError, match="weight_rise_taus"):
+        SlipCompensation(0.4, "icr", weight_rise_taus=0.0)
 
 
 def test_compensation_from_the_coulomb_map_where_slip_is_large():
