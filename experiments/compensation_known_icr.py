@@ -8,7 +8,7 @@ where it gains (mu 0.4 seed 2), each driven with none and, for icr and vir:
   online        the compensation as it is (online estimate from the nominal ICRs);
   known         its estimate replaced by known ICRs (zero covariance, the same trust rule): those
                 the online estimator holds at the end of a circle (R 1 m, 1.5 turns, seed 1000)
-                on the same ground at the same speed;
+                on the same ground at the same speed (compensation_grid.known_icr);
   known x_c / known spacing / known ybar
                 the online estimate with that one quantity replaced by the known one (its
                 covariance kept): which part of the estimate's error does the harm;
@@ -18,7 +18,9 @@ Then, on the circle, the lane change and the figure-eight (mu 0.4, CG behind, 0.
 the steady ICRs of the Coulomb reference at the circle's command (MuJoCo's steady ICRs agree
 with them) against the ICRs the online estimator identified on that circle in closed loop, both
 as a KnownICR through the same trust rule: are the ICRs the loop needs the steady ones?
-Prints RMS / maximum cross-track error ratios to none (< 1: better than none).
+Prints RMS / maximum cross-track error ratios to none (< 1: better than none). Last, the
+Coulomb map (CoulombICRMap) against MuJoCo's steady state: the track speeds it gives for (v, w),
+held on the MuJoCo robot, against those of the nominal map (yaw-rate error in %).
 """
 
 from __future__ import annotations
@@ -38,8 +40,11 @@ from mjtrack.estimation.online import KnownICR, OnlineICREstimator
 from mjtrack.io.robot import Robot
 from mjtrack.sim.steady import steady_state as mujoco_steady
 
+from compensation_grid import known_icr  # noqa: E402  (the grid's: the ICRs after a circle on that ground, seed 1000)
+
 CASES = [(0.4, 0), (0.4, 1), (0.8, 1), (0.4, 2)]  # (mu, seed): lane change, cg_x -0.05, 0.5 m/s
-CG, SPEED, CIRCLE_SEED = -0.05, 0.5, 1000
+CG, SPEED = -0.05, 0.5
+MAP_CASES = [({"mu": 0.4, "cg_x": 0.05}, 0.5, 0.5), ({"mu": 0.8, "cg_x": -0.05}, 1.0, -0.67), ({}, 0.3, 1.0)]
 
 
 class PartlyKnown:
@@ -89,13 +94,9 @@ def main(argv=None) -> int:
     print(f"load {os.getloadavg()}")
     t0 = time.time()
     rows = []
-    known = {}
     for mu, seed in CASES:
         robot = Robot(mu=mu, cg_x=CG)
-        if mu not in known:
-            known[mu] = run_tracking(robot, scenario="circle", compensation="icr", speed=SPEED,
-                                     seed=CIRCLE_SEED).icr_history[-1, 1:].tolist()
-        k = known[mu]
+        k = known_icr(mu, CG, SPEED)
         T = robot.track_gauge
         variants = {
             "online": lambda: None,
@@ -125,7 +126,7 @@ def main(argv=None) -> int:
     steady = [float(a) for a in icr_from_psi(steady_psi)]
     mj = mujoco_steady(robot, *track_speeds_from_psi(SPEED, SPEED, steady_psi))  # the same track speeds on MuJoCo
     mj_icr = [float(mj.y_l), float(mj.y_r), float(mj.x_c)]
-    loop = known[0.4]
+    loop = known_icr(0.4, CG, SPEED)
     print(f"steady ICRs at the circle's command: Coulomb reference {np.round(steady, 4).tolist()}, MuJoCo "
           f"{np.round(mj_icr, 4).tolist()}; closed-loop online estimate {np.round(loop, 4).tolist()}")
     paths = []
@@ -144,10 +145,21 @@ def main(argv=None) -> int:
                     parts.append(f"{name} {mode} {r[0]:.2f},{r[1]:.2f}")
             paths.append(res)
             print(f"  {scenario:12s} seed {seed}: " + "  ".join(parts), flush=True)
+    maps = []
+    for desc, v, w in MAP_CASES:
+        rb = Robot(**desc)
+        err = {}
+        for name, psi in (("coulomb", CoulombICRMap(rb)(v, w)), ("nominal", np.array([0.0, 0.0, 1.0 / rb.track_gauge]))):
+            st = mujoco_steady(rb, *track_speeds_from_psi(v, w, psi))
+            err[name] = {"wz_err_pct": 100 * (st.wz - w) / abs(w), "vx_err_m_s": st.vx - v}
+        maps.append({"robot": desc, "v": v, "w": w, **err})
+        print(f"map on MuJoCo's steady state, {desc or 'default robot'} at (v, w) = ({v}, {w}): yaw rate "
+              f"{err['coulomb']['wz_err_pct']:+.2f} % (Coulomb map), {err['nominal']['wz_err_pct']:+.1f} % (nominal); "
+              f"v_x {1e3 * err['coulomb']['vx_err_m_s']:+.2f} mm/s (Coulomb map)")
     print(f"{time.time() - t0:.0f} s, load {os.getloadavg()}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps({"cases": rows, "steady_icr": steady, "mujoco_steady_icr": mj_icr,
-                                    "closed_loop_icr": loop, "paths": paths},
+                                    "closed_loop_icr": loop, "paths": paths, "map_on_mujoco": maps},
                                    indent=1) + "\n")
     print(f"wrote {args.out}")
     return 0

@@ -576,7 +576,7 @@ def run_tracking(
         raise InputError("reference_map 'coulomb' is the steady state on flat ground; it does not model "
                          f"terrain {terrain.spec!r}")
     reference = scenario_reference(scenario, speed=speed, laps=laps)
-    ref_map = CoulombICRMap(map_robot or robot) if reference_map == "coulomb" and compensation != "none" else None
+    ref_map = CoulombICRMap(map_robot or robot) if reference_map == "coulomb" else None  # unused by "none"
     comp = SlipCompensation(robot.track_gauge, compensation, track_length=robot.track_length, poles=poles,
                             reference_map=ref_map, **(compensation_options or {}))
     ref = CorrectedReference(reference, comp)
