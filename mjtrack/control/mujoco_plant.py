@@ -130,6 +130,9 @@ class MujocoTrackedPlant:
         self.data.ctrl[:] = self.B @ np.array([v_left, v_right], float)
         for _ in range(n):
             mujoco.mj_step(self.model, self.data)
+        # mj_step evaluates the sensors before it integrates: without a forward pass the
+        # controller would read the state one time step old (mjtrack.sim.rollout.aligned_rollout)
+        mujoco.mj_forward(self.model, self.data)
         if not np.all(np.isfinite(self.data.qpos)):
             raise MjtrackError("simulation diverged (non-finite state); reduce the time step")
 

@@ -302,6 +302,10 @@ def _add_servo(spec: mujoco.MjSpec, name: str, target: str, trntype, *, gear: fl
     if lag > 0:
         act.dyntype = mujoco.mjtDyn.mjDYN_FILTEREXACT
         act.dynprm[0] = lag
+        # the force of a step uses the set-point that step reached: without actearly a filtered
+        # drive acts on the previous step's set-point, a dead time of one step that a lag -> 0
+        # would keep (a lagged window simulator then ran 5 ms late on a log of an unlagged robot)
+        act.actearly = True
 
 
 def control_matrix(model: mujoco.MjModel) -> np.ndarray:

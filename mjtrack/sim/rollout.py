@@ -124,11 +124,37 @@ def run_batch(
     nbatch = max(len(models), control.shape[0], state0.shape[0])
     model_arg = models if len(models) > 1 else models[0]
     datas = [mujoco.MjData(models[0]) for _ in range(max(1, nthread))]
-    state, sensordata = mj_rollout.rollout(model_arg, datas if nthread > 1 else datas[0],
-                                           np.repeat(state0, nbatch // state0.shape[0], axis=0),
-                                           np.repeat(control, nbatch // control.shape[0], axis=0))
+    state, sensordata = aligned_rollout(model_arg, datas if nthread > 1 else datas[0],
+                                        np.repeat(state0, nbatch // state0.shape[0], axis=0),
+                                        np.repeat(control, nbatch // control.shape[0], axis=0))
     _check(state)
     return state, sensordata
+
+
+def aligned_rollout(model_arg, data_arg, state0: np.ndarray, control: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``mujoco.rollout.rollout`` with each step's sensors read at the state that step reached.
+
+    ``mj_step`` evaluates the sensors in its forward pass, *before* it integrates, so the
+    sensordata that ``mujoco.rollout`` returns beside the state after step k belong to the state
+    before it: one time step stale. A log sampled from them would carry every pose at t - dt
+    under the label t, and a window replayed from a logged pose would run one step behind its
+    log (a yaw error of wz dt from the first step on). The rollout here takes one more step with
+    the last control and returns, beside the state after step k, the sensors that step k + 1
+    evaluated at it.
+
+    Args:
+        model_arg, data_arg: as ``mujoco.rollout.rollout`` takes them (one or per-batch models;
+            one MjData, or one per thread).
+        state0: (nbatch, nstate) initial states (``mjSTATE_FULLPHYSICS``).
+        control: (nbatch, nstep, nu) controls, each held for one step.
+    Returns:
+        state (nbatch, nstep, nstate) after each step; sensordata (nbatch, nstep, nsensordata)
+        of those states.
+    """
+    control = np.asarray(control, dtype=float)
+    extended = np.ascontiguousarray(np.concatenate([control, control[:, -1:]], axis=1))
+    state, sensordata = mj_rollout.rollout(model_arg, data_arg, state0, extended)
+    return state[:, :-1], sensordata[:, 1:]
 
 
 def _check(state: np.ndarray) -> None:
@@ -239,10 +265,14 @@ def simulate(
     v_left, v_right, vx, vy, wz, and z, roll, pitch on a terrain other than flat; the first row
     is the settled rest state at t = 0. On terrain with edges use a time step of at most
     :data:`mjtrack.sim.terrain.EDGE_TIMESTEP` (:func:`drive_log` and ``steady`` do so themselves).
+
+    The commands are held for whole log periods (:func:`log_rate_commands`): the robot is driven
+    by exactly what its log's rows say, each row's command in force until the next row.
     """
     config = config or SimConfig()
-    commands = np.asarray(commands, dtype=float)
     terrain = terrain or Terrain()
+    dt = model.opt.timestep if model is not None else config.timestep
+    commands = log_rate_commands(commands, steps_per_sample(dt, log_rate))
     if config.track_model == "surfacevel":
         return _terrain_columns(_simulate_surfacevel(robot, commands, config=config, log_rate=log_rate,
                                                      terrain=terrain), terrain)
@@ -256,6 +286,21 @@ def simulate(
     out = {k: np.concatenate([[first[k]], v]) for k, v in cols.items()}
     out["yaw"] = np.unwrap(out["yaw"])
     return _terrain_columns(_commands_in_force(out, commands, stride), terrain)
+
+
+def log_rate_commands(commands: np.ndarray, stride: int) -> np.ndarray:
+    """Per-step commands (nstep, 2) held for whole log periods of ``stride`` steps: step k gets
+    the command of step stride * floor(k / stride).
+
+    A log records the command at its rows only, and its convention is that a row's command is in
+    force until the next row. A command that changed between two rows (a scenario's random switch
+    time, a command table off the log grid) would otherwise act up to a log period before the log
+    says it does: a window of the log replayed from its rows then turns a few steps late (a yaw
+    error of the change in yaw rate times that time).
+    """
+    commands = np.asarray(commands, dtype=float)
+    k = np.arange(commands.shape[0])
+    return commands[(k // stride) * stride]
 
 
 def _terrain_columns(out: dict[str, np.ndarray], terrain: Terrain) -> dict[str, np.ndarray]:
@@ -309,6 +354,7 @@ def _simulate_surfacevel(robot: Robot, commands: np.ndarray, *, config: SimConfi
     for k, cmd in enumerate(commands):
         drive.step(data, *driven[k])
         if (k + 1) % stride == 0:
+            mujoco.mj_forward(model, data)  # the sensors of the state reached (aligned_rollout)
             rows.append(row((k + 1) * model.opt.timestep, cmd))
     a = np.array(rows)
     if not np.all(np.isfinite(a)):

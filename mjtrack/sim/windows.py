@@ -41,7 +41,6 @@ from typing import Mapping, Sequence
 
 import mujoco
 import numpy as np
-from mujoco import rollout as mj_rollout
 
 from mjtrack.errors import InputError, MjtrackError
 from mjtrack.geometry import relative_pose, wrap_angle, world_to_body_velocity
@@ -50,7 +49,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import ROLLER_CHAIN, apply_rest_margins, build_model, control_matrix
 from mjtrack.sim.chassis import chassis_mass_properties, set_body_inertia, set_rest_springs
 from mjtrack.sim.config import SimConfig
-from mjtrack.sim.rollout import STATE_SPEC, SensorMap, collected_mujoco_warnings, settled_state, yaw_of
+from mjtrack.sim.rollout import STATE_SPEC, SensorMap, aligned_rollout, collected_mujoco_warnings, settled_state, yaw_of
 
 logger = logging.getLogger(__name__)
 
@@ -460,8 +459,8 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
             control = cmds @ sim.B.T
             for lo in range(0, M, CHUNK):
                 hi = min(M, lo + CHUNK)
-                _, sens = mj_rollout.rollout([model] * (hi - lo), datas if nthread > 1 else datas[0],
-                                             state0[lo:hi], np.ascontiguousarray(control[lo:hi]))
+                _, sens = aligned_rollout([model] * (hi - lo), datas if nthread > 1 else datas[0],
+                                          state0[lo:hi], control[lo:hi])
                 bad = ~np.all(np.isfinite(sens), axis=(1, 2))
                 lin = sens[:, :, sim.smap.linvel]
                 bad |= np.nanmax(np.abs(np.nan_to_num(lin, nan=np.inf)), axis=(1, 2)) > DIVERGED_SPEED
