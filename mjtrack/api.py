@@ -122,7 +122,7 @@ def log_icrs(log: "DriveLog", *, wz_min: float = 1e-3) -> "ICR":
 
     Args:
         log: a drive log with the body twist (``vx, vy, wz``) and measured track speeds.
-        wz_min: rows with |wz| below this yaw rate [rad/s] (straight driving, rest) are masked.
+        wz_min: rows whose yaw rate magnitude is below this [rad/s] (straight driving, rest) are masked.
 
     Returns:
         An :class:`~mjtrack.icr.ICR` of arrays (n,): ``y_l``, ``y_r``, ``x_c``, ``y_c`` [m] in the
@@ -341,8 +341,8 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
     from mjtrack.calibrate.run import calibrate, write_outputs
 
     cal = calibrate(log, robot, test=test_log, names=None if params is None else ",".join(params), horizon_s=horizon_s,
-                    max_iter=max_iter, quiet=quiet, train_path=log.source,
-                    test_path=None if test_log is None else test_log.source)
+                    max_iter=max_iter, quiet=quiet, train_path=log.source or "train log",
+                    test_path=None if test_log is None else test_log.source or "test log")
     if out_dir is not None:
         write_outputs(cal, out_dir)
     return cal
