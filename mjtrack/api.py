@@ -310,15 +310,15 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
     The Python form of ``mjtrack calibrate``: the log is cut into windows of ``horizon_s``, each
     simulated by MuJoCo from the measured state at its start under the logged commands, and
     the parameters are fitted (Levenberg-Marquardt, ``mujoco.sysid``) to the poses at the
-    windows' ends.
+    windows' ends; a parameter the log does not determine keeps its described value.
 
     Args:
         log: the measured training log.
         robot: the robot description to start from (what it gives is kept unless fitted).
         test_log: a held-out log of the same robot, scored before and after the fit.
-        params: the parameters to fit (``mu``, ``mu_left``, ``mu_right``, ``cg_x``, ``cg_y``,
-            ``track_length``, ``drive_lag``, ``drive_delay``, ``track_speed_scale``,
-            ``drive_force_limit``, and the ground model's parameters); default: the command's.
+        params: the parameters to fit, as ``mjtrack calibrate --params`` names them (e.g. ``mu``,
+            ``cg_x``, ``cg_y``, ``track_length``, ``drive_lag``, ``drive_delay``,
+            ``track_speed_scale``); default: the command's.
         horizon_s: window length [s].
         max_iter: optimiser iterations.
         out_dir: when given, ``robot.json``, ``calibration.json`` and ``report.html`` are written.
@@ -327,8 +327,8 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
     Returns:
         The calibration: ``calibrated`` (the fitted :class:`~mjtrack.io.robot.Robot`),
         ``before`` / ``after`` (position error at the windows' ends, ``.rms`` [m]), ``test_before``
-        / ``test_after`` with a test log, ``sentence`` (what changed and why), ``to_json()`` (the
-        content of calibration.json).
+        / ``test_after`` with a test log, ``causes`` and ``sentence`` (what changed and why),
+        ``to_json()`` (the content of calibration.json).
 
     Examples:
         >>> import mjtrack as mt
