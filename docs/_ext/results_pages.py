@@ -274,6 +274,8 @@ def render(page: Page) -> tuple[str, list[dict]]:
 def write_pages(out: Path = DEFAULT_OUT) -> list[Path]:
     """Write every results page, its figures and ``_provenance.json`` into ``out``."""
     out.mkdir(parents=True, exist_ok=True)
+    for old in out.glob("*.md"):  # a page no longer generated must not linger in the build
+        old.unlink()
     provenance: dict[str, list[dict]] = {}
     written = []
     index = ["# Results", "",
