@@ -301,7 +301,7 @@ def test_description_without_contact_length_uses_the_kinematic_baseline(icr, eff
                                  "yaw": noisy[:, 2]})
     robot = Robot.from_dict({"track_gauge": 0.4})
     d = diagnose(log, robot, baseline="surrogate", max_effects=1)
-    assert d.baseline == "kinematic" and "friction_scale" in d.skipped
+    assert d.baseline.name == "kinematic" and "friction_scale" in d.skipped
     assert d.cause == effect and d.findings[0].relative > 0.5
     if estimate is not None:
         assert d.findings[0].estimate[0] == pytest.approx(estimate, rel=0.05)
