@@ -94,11 +94,13 @@ def test_scoring_blocks_keep_segments_and_folds_whole():
     assert all(np.array_equal(a, b) for a, b in zip(draws, again))  # seeded
 
 
-def test_clean_log_gives_no_cause():
+def test_clean_log_gives_no_cause(capfd):
     # the finding test must hold on a log with nothing hidden (2 candidates, 30 s, 5 folds; the
     # experiment's clean 60 s log tests every candidate)
     lg, _ = make_log(None, seed=4, duration=30.0)
+    capfd.readouterr()
     d = diagnose(lg, NOMINAL, baseline="mujoco", effects=["friction_scale", "command_delay"])
+    assert capfd.readouterr().err == ""  # nothing printed per window (nor at all: no warning)
     assert d.cause == "none", d.summary()
     assert [c.effect.name for c in d.results] and all(not c.passed and c.gain.blocks >= 4 for c in d.results)
     assert "cause: none" in d.summary()
@@ -168,8 +170,8 @@ def test_cli_auto_falls_back_and_says_why(tmp_path):
     res = run_cli(["diagnose", path, "--out", out, "--quiet"])
     assert res.rc == 0, res.err
     data = json.loads((out / "diagnosis.json").read_text())
-    choice = data["baseline"]["choice"]
-    assert choice["chosen"] == "kinematic" and "track_length" in choice["why"] and "surrogate" in choice["why"]
+    assert data["baseline"]["simulator"] == "kinematic"
+    assert "track_length" in data["baseline"]["choice"] and "surrogate" in data["baseline"]["choice"]
 
 
 def test_cli_mujoco_without_contact_length_is_refused(tmp_path):
@@ -190,7 +192,48 @@ def test_cli_auto_chooses_mujoco_when_the_robot_can_be_built(tmp_path):
     res = run_cli(["diagnose", path, "--out", out, "--quiet", "--folds", "4"])
     assert res.rc == 0, res.err
     data = json.loads((out / "diagnosis.json").read_text())
-    assert data["baseline"]["simulator"] == "mujoco" and data["baseline"]["choice"]["chosen"] == "mujoco"
+    assert data["baseline"]["simulator"] == "mujoco" and data["baseline"]["choice"].startswith("auto")
+    assert len(data["baseline"]["screened_by_surrogate"]) == 3
     assert data["cause"] == "cg_offset_x"
     assert data["findings"][0]["estimate"]["cg_offset_x"] == pytest.approx(0.05, abs=0.015)
     assert "baseline: MuJoCo robot" in res.out
+
+
+def test_mujoco_warnings_are_summarised_in_one_line(caplog, capfd):
+    # simulate_windows collects each call's warnings; an outer summary (a whole diagnosis or fit)
+    # sees them all and logs one line; nothing reaches stderr
+    import logging
+
+    import mujoco
+
+    from mjtrack.sim.rollout import collected_mujoco_warnings, summarised_mujoco_warnings
+
+    m = mujoco.MjModel.from_xml_string("<mujoco><worldbody><body><freejoint/><geom size='0.1'/></body>"
+                                       "</worldbody></mujoco>")
+    data = mujoco.MjData(m)
+    capfd.readouterr()
+    with caplog.at_level(logging.WARNING):
+        with summarised_mujoco_warnings("a fit") as outer:
+            for _ in range(3):
+                with collected_mujoco_warnings() as inner:  # as each simulate_windows call does
+                    data.qvel[:] = 1e30  # "Nan, Inf or huge value in QVEL": one warning per step
+                    mujoco.mj_step(m, data)
+                    mujoco.mj_resetData(m, data)
+                assert len(inner) == 1
+    assert len(outer) == 3
+    lines = [r.getMessage() for r in caplog.records if "MuJoCo warned" in r.getMessage()]
+    assert len(lines) == 1 and lines[0].startswith("a fit: MuJoCo warned 3 times")
+    assert capfd.readouterr().err == ""
+    assert mujoco.get_mju_user_warning() is None  # the handler before is restored
+
+
+def test_model_rel_is_the_measured_one():
+    # MODEL_REL is what experiments/diagnose_mujoco_baseline.py measured and wrote (3 decimals)
+    from pathlib import Path
+
+    from mjtrack.diagnose import mujoco_baseline as mb
+
+    path = Path(__file__).resolve().parents[1] / "experiments" / "results" / "diagnose_mujoco_baseline.json"
+    measured = json.loads(path.read_text())["summary"]["model_rel"]
+    assert mb.MODEL_REL == round(measured, 3)
+    assert mb.MODEL_FORM.rel == mb.MODEL_REL and "diagnose_mujoco_baseline.py" in mb.MODEL_FORM.measured_by

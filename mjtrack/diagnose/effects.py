@@ -1,4 +1,10 @@
-"""The effect vocabulary (CONTRACTS.md §4) as extensions of the surrogate model.
+"""The effect vocabulary (CONTRACTS.md §4) and the surrogate model it extends.
+
+:data:`EFFECTS` is the one vocabulary of every baseline (:class:`Effect`: name, parameters,
+kind, meaning, signature, and the surrogate fit's bounds and start grid); what an effect changes
+is each baseline's own (``Baseline.vocabulary``): below, the surrogate's;
+``ground_anisotropy`` and ``road_wheels`` (contact models the surrogate cannot express) only the
+MuJoCo robot simulates (:mod:`mjtrack.diagnose.mujoco_baseline`).
 
 A candidate model = the baseline + one effect with its parameters. Two kinds:
 

@@ -26,7 +26,8 @@ class Diagnosis:
     diagnosis.json.
 
     ``baseline``: the model diagnosed (:class:`mjtrack.diagnose.baseline.Baseline`); ``choice``:
-    how it was chosen ({"requested", "chosen", "why"}, MuJoCo: also "screened_by_surrogate");
+    how it was chosen ({"requested", "chosen", "why"}; MuJoCo: also "screened_by_surrogate", the
+    candidates the surrogate diagnosis ranked best, or None);
     ``starts``, ``ends``, ``base_errors``: the scored windows and the baseline's errors on them;
     ``diverged``: windows whose baseline simulation diverged (neither fitted nor scored).
     """
@@ -163,7 +164,7 @@ class Diagnosis:
         out = {
             "log": self.log_path, "samples": self.samples, "duration_s": self.duration_s,
             "baseline": {"model": self.baseline.describe(), "metric": "pos_err_m", "horizon_s": self.horizon_s,
-                         "value": float(self.before), "simulator": self.baseline.name, "choice": dict(self.choice)},
+                         "value": float(self.before), "simulator": self.baseline.name},
             "cause": self.cause,
             "findings": [self._finding_json(r) for r in self.findings],
             "candidates": [self._candidate_json(r) for r in self.results],
@@ -196,6 +197,10 @@ class Diagnosis:
         }
         if self.test_log:
             out["test_log"] = self.test_log
+        if self.choice.get("why"):
+            out["baseline"]["choice"] = self.choice["why"]
+        if self.choice.get("screened_by_surrogate") is not None:
+            out["baseline"]["screened_by_surrogate"] = list(self.choice["screened_by_surrogate"])
         return out
 
     def _confirmation_json(self) -> dict:

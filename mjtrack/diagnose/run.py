@@ -46,7 +46,7 @@ MUJOCO_SCREEN = 3  # surrogate-ranked effects the MuJoCo baseline fits (plus its
 ROBOT_KEYS = ("track_gauge", "track_length", "track_width", "mass", "cg_x", "cg_y", "cg_z", "mu", "mu_left", "mu_right")
 
 __all__ = ["Diagnosis", "diagnose", "extended_robot", "write_outputs", "choose_horizon", "make_baseline",
-           "speed_timing", "noise_floor", "BASELINES"]
+           "speed_timing", "noise_floor", "concat_logs", "BASELINES"]
 
 
 def choose_baseline(robot: Robot) -> str:
@@ -65,11 +65,11 @@ def make_baseline(name: str, robot: Robot, data: rs.DriveData, starts: np.ndarra
         raise InputError(f"diagnose: unknown baseline {name!r} (known: {', '.join(BASELINES)})")
     notes = []
     if name == "kinematic":
-        base, why = "kinematic", "requested"
+        base, why = "kinematic", "kinematic: requested"
     else:
         base = choose_baseline(robot)
-        why = ("the rigid-track Coulomb surrogate: the description gives the contact length" if base == "coulomb"
-               else "the kinematic model: the description lacks the contact length the Coulomb surrogate needs")
+        why = (f"{name}: the rigid-track Coulomb surrogate (the description gives the contact length)" if base == "coulomb"
+               else f"{name}: the kinematic model (the description lacks the contact length the Coulomb surrogate needs)")
     causal = speed_timing(data)
     model = SurrogateBaseline(robot, base, transient=transient is True, causal_speeds=causal)
     if transient == "auto" and base == "coulomb":

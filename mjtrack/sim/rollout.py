@@ -99,14 +99,11 @@ def collected_mujoco_warnings():
 @contextlib.contextmanager
 def summarised_mujoco_warnings(what: str, log: logging.Logger | None = None):
     """MuJoCo's warnings during ``what`` (e.g. "diagnose run.csv") collected and, when there were
-    any, logged as one warning line at the end: how many, how many distinct, the first. Yields the
-    list of messages."""
+    any, logged as one warning line at the end: how many and the first. Yields the list of messages."""
     with collected_mujoco_warnings() as messages:
         yield messages
     if messages:
-        distinct = len(set(messages))
-        (log or logger).warning("%s: MuJoCo warned %d times (%d distinct; first: %s)", what, len(messages),
-                                distinct, messages[0].strip())
+        (log or logger).warning("%s: MuJoCo warned %d times (first: %s)", what, len(messages), messages[0].strip())
 
 
 def initial_state(model: mujoco.MjModel) -> np.ndarray:
