@@ -190,7 +190,7 @@ class Diagnosis:
                                "absolute": dict(self.baseline.model_form.absolute),
                                "measured_by": self.baseline.model_form.measured_by},
             },
-            "validation": {"stage": f"{self.baseline.name} ({'test log' if self.test_log else 'held-out'})",
+            "validation": {"stage": f"{self.baseline.noun} ({'test log' if self.test_log else 'held-out'})",
                            "mujoco": self._confirmation_json()},
             "timings_s": {k: round(v, 3) for k, v in self.timings.items()},
             "diverged_windows": self.diverged,
