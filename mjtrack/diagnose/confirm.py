@@ -37,10 +37,10 @@ def simulated_twist(robot, data: rs.DriveData, speeds: np.ndarray, *, config=Non
     """Body twist (N, 3) of the MuJoCo robot driven by per-sample track speeds (N, 2), each segment
     from rest, evaluated at the middle of each log step."""
     from mjtrack.sim.builder import build_model
-    from mjtrack.sim.config import SimConfig
+    from mjtrack.sim.config import sim_config
     from mjtrack.sim.rollout import hold_commands, simulate
 
-    config = config or SimConfig()
+    config = config or sim_config(None, robot=robot)  # the simulator the description records
     model = build_model(robot, config)
     dt_sim = model.opt.timestep
     out = np.zeros((data.n, 3))

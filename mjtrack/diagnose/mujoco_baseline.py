@@ -2,8 +2,10 @@
 
 What is diagnosed is the simulation: the log is cut into windows (default 2 s, inside its
 segments, not overlapping), each one simulated by the MuJoCo roller-chain robot from the
-measured state at its start (pose, twist, moving tracks; :mod:`mjtrack.sim.windows`) under the
-logged commands. The metric is the RMS position error at the window's end, in the measured
+measured state at its start (pose, twist, moving tracks; the states a log does not hold warmed
+up over the log's last :data:`mjtrack.sim.windows.WARMUP_S` before it, as calibration does;
+:mod:`mjtrack.sim.windows`) under the logged commands, with the simulator settings the robot
+description records (a calibrated robot's, :func:`mjtrack.sim.config.sim_config`). The metric is the RMS position error at the window's end, in the measured
 start frame (CONTRACTS ``pos_err_m``). Every candidate effect is an *extension of the MuJoCo
 robot* (:data:`CHANGES`): a model field (friction, centre of mass, drive lag, lateral friction of
 the anisotropic ground), a rebuilt model (road-wheel load), the world (gravity of an inclined
@@ -48,9 +50,9 @@ from mjtrack.diagnose.fit import Problem
 from mjtrack.diagnose.residuals import DriveData
 from mjtrack.errors import InputError
 from mjtrack.io.logs import DriveLog
-from mjtrack.io.robot import G, Robot
-from mjtrack.sim.config import SimConfig
-from mjtrack.sim.windows import WindowSim, drive_params, make_windows, simulate_windows
+from mjtrack.io.robot import Robot
+from mjtrack.sim.config import SimConfig, sim_config
+from mjtrack.sim.windows import WARMUP_S, WindowSim, drive_params, make_windows, simulate_windows
 
 N_BOOT = 1000  # blocked bootstrap replicates of the estimates (the gain test draws its own, stats.N_BOOT)
 # The MuJoCo baseline's own error on an effect's size, 1 sigma, as a share of the size |theta - nominal|
@@ -147,21 +149,6 @@ def choose_simulator(requested: str, robot: Robot) -> tuple[bool, str]:
 
 
 # -- simulation of the effects --------------------------------------------------------------------
-class _Sloped(WindowSim):
-    """The window simulator with gravity of an inclined plane (the log's x, y in the plane)."""
-
-    slope_a = (0.0, 0.0)  # a = sin(s) (cos psi, sin psi): uphill unit vector times sin(slope)
-
-    def variant_model(self, params):
-        m = super().variant_model(params)
-        ax, ay = self.slope_a
-        m.opt.gravity[:] = (-G * ax, -G * ay, -G * math.sqrt(max(0.0, 1.0 - ax * ax - ay * ay)))
-        return m
-
-    def settled(self, model, key):
-        return super().settled(model, tuple(key) + tuple(self.slope_a))
-
-
 def _clip_log(lg: DriveLog, limit: float) -> DriveLog:
     return dataclasses.replace(lg, v_left_cmd=np.clip(lg.v_left_cmd, -limit, limit),
                                v_right_cmd=np.clip(lg.v_right_cmd, -limit, limit))
@@ -178,10 +165,10 @@ def _slope_params(a) -> np.ndarray:
     return np.array([math.asin(min(1.0, math.hypot(*a))), math.atan2(a[1], a[0])])
 
 
-def _spec(robot: Robot, parts) -> tuple[str, dict, float | None, tuple[float, float]]:
+def _spec(robot: Robot, parts) -> tuple[str, dict, float | None]:
     """What the effects ``parts`` ((Effect, theta) pairs) do to a simulation: (simulator kind,
-    window parameters, command clip limit or None, slope vector a)."""
-    kind, variant, clip, slope = "base", {}, None, (0.0, 0.0)
+    window parameters, command clip limit or None)."""
+    kind, variant, clip = "base", {}, None
     scale, ratio = None, None
     for eff, theta in parts:
         name, v = eff.name, float(theta[0])
@@ -193,7 +180,7 @@ def _spec(robot: Robot, parts) -> tuple[str, dict, float | None, tuple[float, fl
         elif name == "speed_limit":
             clip = v if clip is None else min(clip, v)
         elif name == "slope":
-            slope = slope_vector(theta)
+            variant["slope_x"], variant["slope_y"] = slope_vector(theta)
         elif name == "friction_scale":
             scale = v
         elif name == "friction_asymmetry":
@@ -205,7 +192,7 @@ def _spec(robot: Robot, parts) -> tuple[str, dict, float | None, tuple[float, fl
         s = 1.0 if scale is None else scale
         left = robot.friction_left if ratio is None else robot.friction_right * ratio
         variant["mu_left"], variant["mu_right"] = left * s, robot.friction_right * s
-    return kind, variant, clip, slope
+    return kind, variant, clip
 
 
 def _vertex(grid: np.ndarray, curve: np.ndarray) -> float:
@@ -243,7 +230,7 @@ class MujocoBaseline(Baseline):
         log: the drive log (with a test log: both, concatenated; :meth:`problem` says which part
             is scored).
         horizon_s: window length [s].
-        config: simulator settings (default :class:`SimConfig`).
+        config: simulator settings (default: those the robot description records, else the defaults).
         nthread: threads of ``mujoco.rollout`` (results do not depend on it).
         seed: seed of the bootstrap draws.
     """
@@ -259,7 +246,7 @@ class MujocoBaseline(Baseline):
     def __init__(self, robot: Robot, log: DriveLog, *, horizon_s: float = 2.0, config: SimConfig | None = None,
                  nthread: int = 2, seed: int = 0) -> None:
         self.robot, self.log = robot, log
-        self.config = config or SimConfig()
+        self.config = config or sim_config(None, robot=robot)
         self.nthread, self.seed = nthread, seed
         self.ws = make_windows(log, horizon_s)
         self.horizon_s = float(horizon_s)
@@ -323,7 +310,7 @@ class MujocoBaseline(Baseline):
                 self._sims[kind] = WindowSim(r.replace(ground={"model": "road_wheels", "wheels": 4,
                                                                "concentration": 0.95, "span": 1.0}), self.config)
             else:
-                self._sims[kind] = _Sloped(r, self.config)
+                self._sims[kind] = WindowSim(r, self.config)
         return self._sims[kind]
 
     def _run(self, windows: np.ndarray, specs: Sequence[tuple]) -> np.ndarray:
@@ -332,19 +319,13 @@ class MujocoBaseline(Baseline):
         ws = self.ws.subset(windows)
         out, i = [], 0
         while i < len(specs):
-            kind, _, clip, slope = specs[i]
+            kind, _, clip = specs[i]
             j = i
-            while j < len(specs) and (specs[j][0], specs[j][2], specs[j][3]) == (kind, clip, slope):
+            while j < len(specs) and (specs[j][0], specs[j][2]) == (kind, clip):
                 j += 1
-            sim = self._sim(kind)
             lg = self.log if clip is None else _clip_log(self.log, clip)
-            if kind == "base":
-                sim.slope_a = slope
-            try:
-                res = simulate_windows(sim, lg, ws, [s[1] for s in specs[i:j]], nthread=self.nthread)
-            finally:
-                if kind == "base":
-                    sim.slope_a = (0.0, 0.0)
+            res = simulate_windows(self._sim(kind), lg, ws, [s[1] for s in specs[i:j]], nthread=self.nthread,
+                                   warmup_s=WARMUP_S)
             err = res.errors.copy()
             err[res.diverged] = np.nan
             out.append(err)
@@ -423,10 +404,9 @@ class MujocoBaseline(Baseline):
             h = SLOPE_STEP
             m = problem.starts.size
             base = list(problem.base)
-            specs = []
-            for a in ((h, 0.0), (-h, 0.0), (0.0, h), (0.0, -h)):
-                kind, variant, clip, _ = _spec(self.robot, base)
-                specs.append((kind, variant, clip, a))
+            kind, variant, clip = _spec(self.robot, base)
+            specs = [(kind, {**variant, "slope_x": a[0], "slope_y": a[1]}, clip)
+                     for a in ((h, 0.0), (-h, 0.0), (0.0, h), (0.0, -h))]
             w = problem.fit_windows
             e = np.full((4, m, 2), np.nan)
             e[:, w] = self._run(w, specs)[..., :2]
