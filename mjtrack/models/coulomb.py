@@ -32,6 +32,19 @@ distribution with centroid c_x, N_i = m g (1/2 +- c_y/T) w_i(c_x): a twist term
 proportional to c_x c_y x_i y_i that a rigid chassis cannot carry (0.06 T/2 on the ICRs of a
 150 kg robot with cg 0.05 T aside and 0.1 L ahead at R 2 m, 2 m/s; experiments/fidelity.py --wide).
 
+Wheels (``robot.traction == "wheels"``). A wheel touches the ground at one point under its
+axle, so each side is ``wheels_per_side`` points at the axle positions x_j evenly spaced over
+the wheelbase B (:meth:`mjtrack.io.robot.Robot.axle_positions`; ``n_points`` and ``n_across``
+do not apply), each moving over the ground with u_j of eq. (1) at its side's wheel surface
+speed: the wheels of a side turn together, as a track's contact points move together. Their
+loads are the same rigid plate on equal springs (Wong's linear distribution with the lever
+rule and the CG offset; beyond the support the plate lifts off the unloaded wheels), and the
+balance, the load transfer and the solvers are those of the track: one Coulomb reference for
+line and point contacts. For a symmetric pivot of a 2 x 2 robot with the CG at the centre and
+no inertia, the four slips have equal moment arms and Mz = 0 gives wz = 2 V T / (T^2 + B^2):
+the yaw ratio wz / (2V/T) = T^2 / (T^2 + B^2) (the limit of eq. 4 with the load at the ends).
+``rollout``'s default yaw inertia is then the B x T box, m (B^2 + T^2) / 12.
+
 Grounds (robot key ``ground``, :data:`mjtrack.io.robot.GROUND_MODELS`). ``road_wheels``: the
 springs under the plate have the stiffness shares s_i of :meth:`mjtrack.io.robot.Ground.load_shares`
 (the law the MuJoCo robot's roller springs realise), N_i = s_i max(0, a + b x_i + c y_i), the
@@ -128,9 +141,13 @@ class _Contacts:
         if int(n_across) != n_across or n_across < 1:
             raise InputError(f"coulomb: n_across must be an integer >= 1, got {n_across!r}")
         n, k = int(n_points), int(n_across)
-        L, T, w = robot.track_length, robot.track_gauge, robot.track_width
+        L, T, w = robot.contact_length, robot.track_gauge, robot.track_width
         self.robot = robot
-        self.xg = -L / 2 + (np.arange(n) + 0.5) * L / n  # midpoint grid along a track
+        if robot.traction == "wheels":  # one point under each axle (module docstring, "Wheels")
+            self.xg = np.asarray(robot.axle_positions(), dtype=float)
+            n, k = self.xg.size, 1
+        else:
+            self.xg = -L / 2 + (np.arange(n) + 0.5) * L / n  # midpoint grid along a track
         dy = (-w / 2 + (np.arange(k) + 0.5) * w / k) if k > 1 else np.zeros(1)
         xs = np.tile(self.xg, 2 * k)
         ys = np.concatenate([np.repeat(side * T / 2 + dy, n) for side in (1.0, -1.0)])
@@ -251,7 +268,8 @@ def contact_wrench(
 def normal_loads(
     robot: Robot, *, n_points: int = DEFAULT_N_POINTS, n_across: int = 1, accel=(0.0, 0.0)
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Contact points and loads: (x [m], y [m], N [N]), each shape (2 n_points n_across,)."""
+    """Contact points and loads: (x [m], y [m], N [N]), each shape (2 n_points n_across,) on tracks,
+    (2 wheels_per_side,) on wheels."""
     c = _Contacts(robot, n_points, n_across)
     return c.x.copy(), c.y.copy(), c.loads(*accel)
 
@@ -327,7 +345,7 @@ def _steady_residual(c: _Contacts, z, icr, mass_scale: float, load_transfer: boo
     Fx, Fy, Mz = c.wrench_icr(z[2], *icr, N)
     m = r.mass * mass_scale
     Mc = Mz - (r.cg_x * Fy - r.cg_y * Fx)
-    return np.array([Fx - m * acc[0], Fy - m * acc[1], Mc / r.track_length]) / r.weight
+    return np.array([Fx - m * acc[0], Fy - m * acc[1], Mc / r.contact_length]) / r.weight
 
 
 def steady_state(
@@ -595,7 +613,7 @@ def rollout(
     c = _Contacts(robot, n_points, n_across, slope)
     m = robot.mass
     g_up = G * np.sin(slope) * np.array([np.cos(slope_direction), np.sin(slope_direction)])  # plane frame
-    I = inertia if inertia is not None else m * (robot.track_length**2 + robot.track_gauge**2) / 12
+    I = inertia if inertia is not None else m * (robot.contact_length**2 + robot.track_gauge**2) / 12
     if not I > 0:
         raise InputError(f"rollout: inertia must be > 0, got {inertia!r}")
     cx, cy = c.cg

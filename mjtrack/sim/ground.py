@@ -84,10 +84,11 @@ def _road_wheels(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> None:
 
 def _anisotropic(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> None:
     rho = robot.ground["lateral_ratio"]
-    r = config.roller_radius
+    r = config.roller_radius  # (the wheel radius on a wheeled robot: its configured SimConfig)
+    element = "wheel" if robot.traction == "wheels" else "roller"
     for side, mu in (("left", robot.friction_left), ("right", robot.friction_right)):
         for i in range(config.n_rollers):
-            geom = spec.geom(f"roller_{side}_{i}")
+            geom = spec.geom(f"{element}_{side}_{i}")
             geom.type = mujoco.mjtGeom.mjGEOM_CAPSULE
             geom.size = [r, CAPSULE_HALF, 0.0]
             geom.quat = [math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0]  # capsule z-axis -> body y

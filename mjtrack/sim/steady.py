@@ -101,7 +101,7 @@ def steady_batch(
     for i, (r, c) in enumerate(zip(robots, commands)):
         groups.setdefault(case_timestep(config, r, c), []).append(i)
         _, turn_rate, mu = _turn(r, c)
-        capped += config.slip_divisions(r.track_length, turn_rate, mu) > MAX_STEP_DIVISIONS
+        capped += config.slip_divisions(r.contact_length, turn_rate, mu) > MAX_STEP_DIVISIONS
     if capped:
         logger.warning("%d of %d steady case(s) turn so gently that the slip budget asks for more than %d "
                        "divisions of the %g s step; they run at %g s and their ICRs may move when dt is halved "
@@ -122,11 +122,11 @@ def _turn(robot: Robot, command) -> tuple[np.ndarray, float, float]:
 
 
 def case_timestep(config: SimConfig, robot: Robot, command) -> float:
-    """The step [s] a steady case runs at (flat ground): ``config.step_for`` for the robot's track
-    length, the larger commanded track speed, the nominal turn rate (V_R - V_L) / T and the larger
+    """The step [s] a steady case runs at (flat ground): ``config.step_for`` for the robot's contact
+    length (track length, or wheelbase), the larger commanded track speed, the nominal turn rate (V_R - V_L) / T and the larger
     track friction, after the robot's speed scale."""
     v, turn_rate, mu = _turn(robot, command)
-    return config.step_for(robot.track_length, float(np.max(np.abs(v))), turn_rate, mu).timestep
+    return config.step_for(robot.contact_length, float(np.max(np.abs(v))), turn_rate, mu).timestep
 
 
 def _steady_rollout(robots: Sequence[Robot], commands: np.ndarray, config: SimConfig, settle_s: float,
