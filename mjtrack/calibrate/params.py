@@ -38,6 +38,7 @@ def _specs(robot: Robot, L: float) -> dict[str, ParamSpec]:
         ParamSpec("cg_x", -cgx, cgx, 0.02, "m", "centre of mass ahead of the geometric centre"),
         ParamSpec("cg_y", -cgy, cgy, 0.02, "m", "centre of mass left of the geometric centre"),
         ParamSpec("track_length", 0.15, 1.6, 0.1, "m", "track contact length"),
+        ParamSpec("wheelbase", 0.1, 3.0, 0.1, "m", "front to rear axle distance (wheeled robot)"),
         ParamSpec("drive_lag", 0.0, 1.5, 0.1, "s", "first-order time constant from command to track speed"),
         ParamSpec("drive_delay", 0.0, 0.6, 0.05, "s", "dead time from command to track speed"),
         ParamSpec("track_speed_scale", 0.5, 1.5, 0.05, "–", "actual / commanded track speed"),
@@ -58,14 +59,19 @@ DRIVE_START = {"drive_lag": 0.05, "drive_delay": 0.02, "track_speed_scale": 1.0}
 
 def specs_for(robot: Robot) -> dict[str, ParamSpec]:
     """Every parameter's spec for this robot (cg bounds follow its contact length)."""
-    return _specs(robot, robot.track_length)
+    return _specs(robot, robot.contact_length)
+
+
+def geometry_name(robot: Robot) -> str:
+    """The robot key of its contact length: ``track_length``, or a wheeled robot's ``wheelbase``."""
+    return "wheelbase" if robot.traction == "wheels" else "track_length"
 
 
 def default_names(robot: Robot) -> list[str]:
     """The parameters fitted when none are named."""
     names = list(DEFAULT_PARAMS)
-    if robot.provided is not None and "track_length" not in robot.provided:
-        names.append("track_length")
+    if robot.provided is not None and geometry_name(robot) not in robot.provided:
+        names.append(geometry_name(robot))
     names.extend(GROUND_PARAMS.get(robot.ground.model, ()))
     return names
 
@@ -81,6 +87,9 @@ def parse_names(text: str | None, robot: Robot) -> list[str]:
     for n in names:
         if n not in specs:
             raise InputError(f"--params: unknown parameter {n!r}; known: {', '.join(specs)}")
+        if n in ("track_length", "wheelbase") and n != geometry_name(robot):
+            raise InputError(f"--params: {n!r} is not the contact length of a robot on {robot.traction}; "
+                             f"fit {geometry_name(robot)!r}")
         for model, ps in GROUND_PARAMS.items():
             if n in ps and robot.ground.model != model:
                 raise InputError(f"--params: {n!r} belongs to the {model!r} ground; the robot's ground is "

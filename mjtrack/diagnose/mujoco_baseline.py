@@ -107,7 +107,7 @@ def _own(r: Robot, key: str, default: float) -> float:
 # reset: lag and dead time are added to the robot's own (an extension cannot remove them).
 EFFECTS: dict[str, MjEffect] = {e.name: e for e in (
     MjEffect("cg_offset_x", "ground", ("cg_offset_x",),
-             lambda r, lg: r.cg_x + r.track_length * np.linspace(-0.15, 0.15, 7),
+             lambda r, lg: r.cg_x + r.contact_length * np.linspace(-0.15, 0.15, 7),
              lambda r, lg: r.cg_x, "centre of mass x in the MuJoCo chassis (model field)"),
     MjEffect("cg_offset_y", "ground", ("cg_offset_y",),
              lambda r, lg: r.cg_y + r.track_gauge * np.linspace(-0.15, 0.15, 7),
@@ -144,10 +144,11 @@ def can_build(robot: Robot) -> tuple[bool, str]:
     """Whether the MuJoCo robot can be built from the description without assuming its geometry."""
     if robot.provided is None:
         return True, "the robot was given in full (built in code)"
-    if "track_length" in robot.provided:
-        return True, "the robot description gives the track contact length, so the MuJoCo robot can be built"
-    return False, ("the robot description has no 'track_length' (contact length): the MuJoCo robot would rest "
-                   "on an assumed geometry; run 'mjtrack calibrate' and pass its robot.json, or give track_length")
+    key = "wheelbase" if robot.traction == "wheels" else "track_length"
+    if key in robot.provided:
+        return True, f"the robot description gives the contact length ({key}), so the MuJoCo robot can be built"
+    return False, (f"the robot description has no '{key}' (contact length): the MuJoCo robot would rest "
+                   f"on an assumed geometry; run 'mjtrack calibrate' and pass its robot.json, or give {key}")
 
 
 def choose_simulator(requested: str, robot: Robot) -> tuple[bool, str]:
@@ -462,7 +463,11 @@ class MujocoDiagnosis:
 
     def model_text(self) -> str:
         g = self.robot.ground.to_dict()
-        return (f"MuJoCo roller-chain robot as described (T {self.robot.track_gauge:g} m, L {self.robot.track_length:g} m, "
+        r = self.robot
+        body = (f"wheeled robot as described ({r.wheels_per_side} wheels a side, T {r.track_gauge:g} m, "
+                f"wheelbase {r.contact_length:g} m, " if r.traction == "wheels" else
+                f"roller-chain robot as described (T {r.track_gauge:g} m, L {r.track_length:g} m, ")
+        return (f"MuJoCo {body}"
                 f"{self.robot.mass:g} kg, mu {self.robot.mu:g}, ground {g['model']}), each {self.horizon_s:g} s window "
                 "simulated from the measured state under the logged commands")
 
