@@ -81,6 +81,7 @@ class RollerChain(TrackModel):
     modelname = "tracked_robot"
     element = "roller"  # contact elements: bodies and geoms <element>_<side>_<i>
     element_rgba = (0.1, 0.1, 0.1, 1.0)
+    spin_inertia_share = 1.0  # an element's body inertia about its axle / a solid sphere's (0.4 m r^2)
 
     def configure(self, robot: Robot, config: SimConfig) -> SimConfig:
         return config.for_robot_mass(robot.mass)  # drive scaled to the robot
@@ -140,7 +141,7 @@ class RollerChain(TrackModel):
             roller.explicitinertial = True
             roller.mass = mr
             roller.ipos = [0, 0, 0]  # MjSpec leaves ipos unset otherwise (not on the spin axis)
-            roller.inertia = [0.4 * mr * r**2] * 3
+            roller.inertia = [0.4 * mr * r**2 * share for share in (1.0, self.spin_inertia_share, 1.0)]
             suspension.add_slide(roller, side, i, config)
             roller.add_joint(
                 name=f"roll_{side}_{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0],
@@ -256,6 +257,10 @@ class WheelSet(RollerChain):
     element = "wheel"
     element_rgba = (0.1, 0.1, 0.1, 0.0)  # the contact sphere is not drawn: the tyre is (decorate)
     idlers = False
+    # the wheel's spin inertia is the hinge's armature (the reflected drivetrain, joint space: no
+    # gyroscopic moment); a body inertia of a solid sphere gave a yawing robot the spinning wheels'
+    # roll moment, which neither the description nor the Coulomb reference has (module docstring)
+    spin_inertia_share = 0.01
 
     def configure(self, robot: Robot, config: SimConfig) -> SimConfig:
         """The roller chain's settings with one element per wheel, of the wheel's radius."""
@@ -264,8 +269,9 @@ class WheelSet(RollerChain):
         if config.track_model != "rollers" or config.coupling != "servo":
             raise InputError(f"wheels: a wheeled robot is built with the roller chain's settings (track_model "
                              f"'rollers', coupling 'servo'), got {config.track_model!r}, {config.coupling!r}")
-        return super().configure(robot, config).replace(n_rollers=robot.wheels_per_side,
-                                                        roller_radius=robot.wheel_radius)
+        return super().configure(robot, config).replace(
+            n_rollers=robot.wheels_per_side, roller_radius=robot.wheel_radius,
+            suspension_damping_ratio=min(config.suspension_damping_ratio, WHEEL_DAMPING_RATIO))
 
     def decorate(self, body, robot: Robot, config: SimConfig) -> None:
         """A tyre (cylinder of the wheel's radius and the tyre width, axle along y) and three spokes
@@ -286,6 +292,7 @@ class WheelSet(RollerChain):
         return [B / 2 + 0.6 * r, max(T / 2 - w / 2 - 0.01, 0.1 * T), 0.4 * r], [0, 0, r + 0.2 * r]
 
 
+WHEEL_DAMPING_RATIO = 0.5  # most damping of a wheel's spring / critical (module docstring, "Wheels")
 WHEELS = WheelSet()
 
 
