@@ -24,7 +24,9 @@ speeds; then again with the step halved (:meth:`SimConfig.halved`).
 Pass (every case): |y_l - y_l*|, |y_r - y_r*|, |x_c - x_c*| <= 0.05 T/2 (``err``), halving the
 step moves each ICR by < 0.02 T/2 (``dt_err``), each side has a wheel on the ground in >= 99 %
 of the steps, and the window is steady (standard deviation of wz <= 0.1 % of |wz|). Prints the worst cases and medians; writes ``wheeled_fidelity[_quick].json`` with
-every row, the summary, the command and the machine load; exit status 1 if a case fails.
+every row, the summary, the command and the machine load; exit status 1 if a case fails. Also
+reported: x_c's error less v_x dt (``err_x_c_horizon``), the offset of the friction rows' horizon
+(assets/README.md), to show what is left beside it.
 ``--quick``: :data:`QUICK` (a subset for the tests).
 """
 
@@ -135,6 +137,9 @@ def run(quick: bool, config: SimConfig | None = None) -> list[dict]:
                            err_y_l=abs(res.y_l - ref.y_l) / half, err_y_r=abs(res.y_r - ref.y_r) / half,
                            err_x_c=abs(res.x_c - ref.x_c) / half)
                 row["err"] = max(row["err_y_l"], row["err_y_r"], row["err_x_c"])
+                # less the friction rows' horizon: the noslip friction opposes the slip one step
+                # ahead, which puts x_c v_x dt ahead of Coulomb (assets/README.md)
+                row["err_x_c_horizon"] = abs(res.x_c - ref.x_c - res.vx * row["timestep"]) / half
             except Exception as exc:  # noqa: BLE001 -- no reference steady state (tip-over): a failure
                 row.update(ref_error=str(exc), err=float("nan"))
             row["dt_err"] = _icr_change(res, f) / half
@@ -158,7 +163,7 @@ def summary(rows: list[dict]) -> dict:
     out = {"cases": len(rows), "passed": sum(r["pass"] for r in rows),
            "no_reference": sum("ref_error" in r for r in rows), "min_contact": min(r["contact_min"] for r in rows),
            "unsteady": sum(not r["steady"] for r in rows)}
-    for key in ("err", "err_y_l", "err_y_r", "err_x_c", "dt_err"):
+    for key in ("err", "err_y_l", "err_y_r", "err_x_c", "err_x_c_horizon", "dt_err"):
         vals = [r.get(key, float("nan")) for r in rows]
         out[f"worst_{key}"] = worst(key) if key in ("err", "dt_err") else float(np.nanmax(vals))
         out[f"median_{key}"] = float(np.nanmedian(vals))

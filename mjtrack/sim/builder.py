@@ -52,6 +52,28 @@ measurements):
   belt's speed, as the contact points of a belt do (x_c within 0.0017 L there).
 * **Sensors**: the chassis' (:mod:`mjtrack.sim.chassis`) and the track speeds
   (``track_speed_<side>``, m/s).
+
+Wheels (:class:`WheelSet`, a robot with ``traction: "wheels"``; measurements in
+``assets/README.md``, "Wheels"). A wheel touches the ground at one point under its axle, which is
+what a roller is: each side gets ``wheels_per_side`` of the roller chain's elements at the axle
+positions (:meth:`mjtrack.io.robot.Robot.axle_positions`) with the wheel's radius (bodies and
+geoms ``wheel_<side>_<i>``, hinges ``roll_<side>_<i>``, slides ``susp_<side>_<i>``, servos
+``drive_<side>_<i>``, the side's belt joint ``belt_<side>``: the wheels of a side turn together, as
+a chain or belt drive makes them), so the loads stay determinate on the springs (the tyres'
+deflection), the friction is the noslip pass's hard Coulomb friction and the rest margins put the
+contact point at the wheel radius. ``track_speed_<side>`` is the wheels' mean surface speed. What
+differs from a roller:
+
+* the sphere is not drawn; a tyre (cylinder of the tyre width) with spokes is, so that a video
+  shows the wheels turn (``mjtrack.render.turn_wheels`` turns them by a log's speeds);
+* the wheel body's inertia about its axle is 1 % of a solid sphere's (``spin_inertia_share``): the
+  spin inertia is the hinge's armature (the reflected drivetrain, joint space), because a body
+  inertia makes the spinning wheels of a yawing robot precess: a roll moment I w_spin w_z per
+  wheel that neither the robot description nor the Coulomb reference has;
+* the springs take at most half critical damping (``max_damping_ratio``): the explicit damper at
+  critical damping (c dt / m 1.24 at 5 ms, stable for the rollers) let a 280 kg robot's wheels hop
+  in a fast pivot once the wheels' gyroscopic coupling was gone;
+* no idlers: a wheel climbs what its radius allows.
 """
 
 from __future__ import annotations
@@ -261,6 +283,9 @@ class WheelSet(RollerChain):
     # gyroscopic moment); a body inertia of a solid sphere gave a yawing robot the spinning wheels'
     # roll moment, which neither the description nor the Coulomb reference has (module docstring)
     spin_inertia_share = 0.01
+    # most damping of a wheel's spring / critical: at critical damping (c dt / m = 1.24 at 5 ms) the
+    # explicit damper let a 280 kg robot's wheels hop once the gyroscopic moment was gone (module docstring)
+    max_damping_ratio = 0.5
 
     def configure(self, robot: Robot, config: SimConfig) -> SimConfig:
         """The roller chain's settings with one element per wheel, of the wheel's radius."""
@@ -271,7 +296,7 @@ class WheelSet(RollerChain):
                              f"'rollers', coupling 'servo'), got {config.track_model!r}, {config.coupling!r}")
         return super().configure(robot, config).replace(
             n_rollers=robot.wheels_per_side, roller_radius=robot.wheel_radius,
-            suspension_damping_ratio=min(config.suspension_damping_ratio, WHEEL_DAMPING_RATIO))
+            suspension_damping_ratio=min(config.suspension_damping_ratio, self.max_damping_ratio))
 
     def decorate(self, body, robot: Robot, config: SimConfig) -> None:
         """A tyre (cylinder of the wheel's radius and the tyre width, axle along y) and three spokes
@@ -292,7 +317,6 @@ class WheelSet(RollerChain):
         return [B / 2 + 0.6 * r, max(T / 2 - w / 2 - 0.01, 0.1 * T), 0.4 * r], [0, 0, r + 0.2 * r]
 
 
-WHEEL_DAMPING_RATIO = 0.5  # most damping of a wheel's spring / critical (module docstring, "Wheels")
 WHEELS = WheelSet()
 
 
