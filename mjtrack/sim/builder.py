@@ -73,6 +73,10 @@ differs from a roller:
 * the springs take at most half critical damping (``max_damping_ratio``): the explicit damper at
   critical damping (c dt / m 1.24 at 5 ms, stable for the rollers) let a 280 kg robot's wheels hop
   in a fast pivot once the wheels' gyroscopic coupling was gone;
+* the noslip pass runs at least 100 iterations to a tolerance of at most 1e-8: a spin-up winds a
+  side's belt up between its wheels (the front wheel driven, the rear one braked, close to mu N each,
+  held by static friction as a chain drive's wind-up is), and with 40 iterations the unconverged
+  stick forces turned a straight-driving robot at a steady yaw rate;
 * no idlers: a wheel climbs what its radius allows.
 """
 
@@ -286,9 +290,14 @@ class WheelSet(RollerChain):
     # most damping of a wheel's spring / critical: at critical damping (c dt / m = 1.24 at 5 ms) the
     # explicit damper let a 280 kg robot's wheels hop once the gyroscopic moment was gone (module docstring)
     max_damping_ratio = 0.5
+    # the noslip pass converged at least this far: the wheels of a side wind their belt up against
+    # each other (stuck wheels, forces near the cone), and 40 iterations left a yaw creep (docstring)
+    min_noslip_iterations = 100
+    max_noslip_tolerance = 1e-8
 
     def configure(self, robot: Robot, config: SimConfig) -> SimConfig:
-        """The roller chain's settings with one element per wheel, of the wheel's radius."""
+        """The roller chain's settings with one element per wheel, of the wheel's radius, and the
+        wheels' limits on spring damping and the noslip pass's convergence."""
         if robot.traction != "wheels":
             raise InputError("wheels: the robot's traction is 'tracks'")
         if config.track_model != "rollers" or config.coupling != "servo":
@@ -296,7 +305,9 @@ class WheelSet(RollerChain):
                              f"'rollers', coupling 'servo'), got {config.track_model!r}, {config.coupling!r}")
         return super().configure(robot, config).replace(
             n_rollers=robot.wheels_per_side, roller_radius=robot.wheel_radius,
-            suspension_damping_ratio=min(config.suspension_damping_ratio, self.max_damping_ratio))
+            suspension_damping_ratio=min(config.suspension_damping_ratio, self.max_damping_ratio),
+            noslip_iterations=max(config.noslip_iterations, self.min_noslip_iterations),
+            noslip_tolerance=min(config.noslip_tolerance, self.max_noslip_tolerance))
 
     def decorate(self, body, robot: Robot, config: SimConfig) -> None:
         """A tyre (cylinder of the wheel's radius and the tyre width, axle along y) and three spokes
