@@ -7,22 +7,16 @@ wheeled closed forms are checked in tests/test_wheels.py)."""
 from __future__ import annotations
 
 import functools
-import sys
-from pathlib import Path
 
 import pytest
 
-BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
+from mjtrack.testing.repo import load_benchmark
 
 
 @functools.lru_cache(maxsize=2)
 def _grid(quick: bool):
-    sys.path.insert(0, str(BENCHMARKS))
-    try:
-        import wheeled_fidelity
-    finally:
-        sys.path.remove(str(BENCHMARKS))
-    return wheeled_fidelity, wheeled_fidelity.run(quick)
+    bench = load_benchmark("wheeled_fidelity")
+    return bench, bench.run(quick)
 
 
 def _check(quick: bool, n_cases: int) -> None:

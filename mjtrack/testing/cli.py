@@ -1,6 +1,6 @@
 """Helpers for CLI-level tests: run ``mjtrack ARGS`` and look at exit status, stdout, stderr.
 
-    from cli_helpers import run_cli, assert_usage_error
+    from mjtrack.testing.cli import run_cli, assert_usage_error
 
     res = run_cli(["diagnose", str(log_path), "--out", str(tmp_path / "d")])
     assert res.rc == 0, res.err
