@@ -15,7 +15,11 @@ measured by switching one setting back (a subclass of the wheels, so the product
    2 m/s with cg_x = -0.1 B, 6 s at 5 ms: whether it diverges with critical spring damping
    (``max_damping_ratio`` 1) and with the default (0.5), without the gyroscopic inertia, and with
    critical damping and the solid-sphere inertia.
-3. **Rolling wheels.** From ``wheeled_fidelity.json`` (run that first): the cases whose reference
+3. **Belt wind-up on straight commands.** The Husky-like robot at 1 m/s on both sides, 6 s from
+   rest: yaw rate, lateral speed and the belt springs' forces at the end, with the roller chain's
+   noslip settings (40 iterations, tolerance 1e-6) and with the wheels' (``min_noslip_iterations``,
+   ``max_noslip_tolerance``).
+4. **Rolling wheels.** From ``wheeled_fidelity.json`` (run that first): the cases whose reference
    steady state has a wheel rolling without slipping (an ICR on a wheel: y on the wheel line and
    x_c at an axle), and how far MuJoCo's ICRs are from that wheel (its creep).
 
@@ -65,6 +69,13 @@ class CriticalWheels(WheelSet):
 class GyroCriticalWheels(WheelSet):
     spin_inertia_share = 1.0
     max_damping_ratio = 1.0
+
+
+class RollerNoslipWheels(WheelSet):
+    """The wheels with the roller chain's noslip settings."""
+
+    min_noslip_iterations = 0
+    max_noslip_tolerance = 1.0
 
 
 def run_constant(robot: Robot, wheels: WheelSet, command, *, timestep: float, seconds: float):
@@ -129,6 +140,19 @@ def wheel_hop() -> dict:
     return out
 
 
+def wind_up() -> dict:
+    out = {"robot": HUSKY.to_dict(), "command": (1.0, 1.0), "seconds": 6.0}
+    for label, wheels in (("roller_chain_noslip", RollerNoslipWheels()), ("default", WheelSet())):
+        model, data, bad = run_constant(HUSKY, wheels, (1.0, 1.0), timestep=0.005, seconds=6.0)
+        belts = {model.tendon(t).name: float(-model.tendon_stiffness[t] * data.ten_length[t])
+                 for t in range(model.ntendon) if model.tendon(t).name.startswith("belt_")}
+        out[label] = {"diverged_at": bad, "noslip_iterations": int(model.opt.noslip_iterations),
+                      "noslip_tolerance": float(model.opt.noslip_tolerance),
+                      "wz": float(data.sensor("body_angvel").data[2]), "vy": float(data.sensor("body_linvel").data[1]),
+                      "belt_spring_force_N": belts, "mu_N_per_wheel": HUSKY.mu * HUSKY.weight / 4}
+    return out
+
+
 def rolling(fidelity: Path) -> dict | None:
     if not fidelity.exists():
         return None
@@ -157,7 +181,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=RESULTS, help="folder of the result file (and of wheeled_fidelity.json)")
     args = ap.parse_args(argv)
     doc = {"command": "python benchmarks/wheel_physics.py", "load_average": os.getloadavg(), "g": G,
-           "gyroscopic": gyroscopic(), "wheel_hop": wheel_hop(), "rolling": rolling(args.out / "wheeled_fidelity.json")}
+           "gyroscopic": gyroscopic(), "wheel_hop": wheel_hop(), "wind_up": wind_up(),
+           "rolling": rolling(args.out / "wheeled_fidelity.json")}
     print(json.dumps(doc, indent=1))
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "wheel_physics.json"

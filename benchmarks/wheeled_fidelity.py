@@ -176,6 +176,13 @@ def summary(rows: list[dict]) -> dict:
     return out
 
 
+def write_result(doc: dict, path: Path) -> None:
+    """The result file: the header indented, one line per row (a diff shows the rows that moved)."""
+    head = json.dumps({k: v for k, v in doc.items() if k != "rows"}, indent=1, default=float)
+    rows = ",\n".join("  " + json.dumps(r, default=float) for r in doc["rows"])
+    path.write_text(head[:-2] + ',\n "rows": [\n' + rows + "\n ]\n}\n")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="the quick subset (QUICK)")
@@ -202,7 +209,7 @@ def main(argv: list[str] | None = None) -> int:
            "machine": {"cpus": os.cpu_count(), "python": platform.python_version()}, "rows": rows}
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / ("wheeled_fidelity_quick.json" if args.quick else "wheeled_fidelity.json")
-    path.write_text(json.dumps(doc, indent=1, default=float) + "\n")
+    write_result(doc, path)
     print(f"wrote {path}")
     return 0 if summ["passed"] == summ["cases"] else 1
 

@@ -216,3 +216,14 @@ def test_the_video_turns_each_side_s_wheels_by_its_travel_over_the_radius(model)
         for i in range(2):
             assert q[1, model.joint(f"roll_{side}_{i}").qposadr[0]] == pytest.approx(angle)
     assert q[1, :7] == pytest.approx(model.qpos0[:7])
+
+
+def test_wheels_on_the_anisotropic_ground_match_the_reference():
+    # lateral tyre friction half the longitudinal (capsule contacts across each wheel); the first
+    # command turns about the front axle (the reference's rolling state), the second is a pivot
+    from mjtrack.sim.steady import steady_batch
+
+    r = husky(cg_x=0.03, ground={"model": "anisotropic", "lateral_ratio": 0.5})
+    for s in steady_batch([r, r], np.array([[0.2, 0.8], [-0.5, 0.5]])):
+        ref = steady_state(r, s.v_left, s.v_right)
+        assert max(abs(a - b) for a, b in zip((s.y_l, s.y_r, s.x_c), ref.icr)) < 0.05 * r.track_gauge / 2

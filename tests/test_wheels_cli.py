@@ -107,3 +107,33 @@ def test_cli_demo_with_a_wheeled_robot_file(robot_file, tmp_path):
 ])
 def test_bad_wheeled_input_exits_2_in_one_line(robot_file, argv, match):
     assert_usage_error(run_cli([*argv, "--robot", robot_file]), match)
+
+
+@pytest.fixture(scope="module")
+def long_log(robot_file, tmp_path_factory):
+    out = tmp_path_factory.mktemp("sim30") / "h30.csv"
+    res = run_cli(["simulate", "--scenario", "random_steps", "--robot", robot_file, "--duration", "30", "--out", out,
+                   "-q"])
+    assert res.rc == 0, res.err
+    return out
+
+
+@pytest.mark.slow
+def test_calibrate_recovers_a_wheeled_robot_s_friction_and_wheelbase(long_log, tmp_path):
+    wrong = tmp_path / "wrong.json"
+    wrong.write_text(json.dumps({**WHEELED, "mu": 0.6, "wheelbase": 0.42}))
+    res = run_cli(["calibrate", long_log, "--robot", wrong, "--params", "mu,wheelbase", "--out", tmp_path / "c", "-q"])
+    assert res.rc == 0, res.err
+    doc = json.loads((tmp_path / "c" / "calibration.json").read_text())
+    # the log's own robot: mu 0.8, wheelbase 0.512 (measured 0.79997 and 0.50996 from 0.6 and 0.42)
+    assert doc["parameters"]["mu"] == pytest.approx(0.8, abs=0.02)
+    assert doc["parameters"]["wheelbase"] == pytest.approx(0.512, abs=0.01)
+    assert doc["train"]["after"] < 0.1 * doc["train"]["before"]
+
+
+@pytest.mark.slow
+def test_diagnose_the_mujoco_wheeled_robot_on_its_own_log(long_log, tmp_path):
+    res = run_cli(["diagnose", long_log, "--baseline", "mujoco", "--out", tmp_path / "d", "-q"])
+    assert res.rc == 0, res.err
+    doc = json.loads((tmp_path / "d" / "diagnosis.json").read_text())
+    assert doc["cause"] == "none" and "wheeled robot" in doc["baseline"]["model"]

@@ -138,7 +138,7 @@ class Verdict:
     tied_with: list[str] = field(default_factory=list)
 
     def to_json(self) -> dict:
-        out = {"determined": self.determined, "changed": self.changed, "reason": self.reason}
+        out = {"determined": bool(self.determined), "changed": bool(self.changed), "reason": self.reason}
         if self.tied_with:
             out["tied_with"] = list(self.tied_with)
         return out

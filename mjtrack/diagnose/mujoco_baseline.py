@@ -541,6 +541,8 @@ def diagnose_mujoco(lg: DriveLog, robot: Robot, *, horizon_s: float = 2.0, n_fol
 
     t0 = time.perf_counter()
     names = list(effects) if effects is not None else list(DEFAULT_EFFECTS)
+    if robot.traction == "wheels":  # the road-wheel ground spreads a track's load; a wheel's is at its axle
+        names = [n for n in names if n != "road_wheels"]
     unknown = [n for n in names if n not in EFFECTS]
     if unknown:
         raise InputError(f"diagnose: unknown effect(s) {unknown}; known: {', '.join(EFFECTS)}")

@@ -1,4 +1,4 @@
-"""Robot description (CONTRACTS.md §2): the geometry, mass and friction of a skid-steer robot,
+"""Robot description: the geometry, mass and friction of a skid-steer robot,
 on two tracks or on wheels (``traction``).
 
 A :class:`Robot` is what every simulating command takes, what ``simulate`` writes beside

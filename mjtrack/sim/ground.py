@@ -22,7 +22,9 @@ measurements: ``assets/README.md`` ("Ground models").
   tests/test_ground.py). Each roller becomes a capsule of the same radius whose axis is the
   roller's spin axis (chassis y, unchanged by its rolling) and whose half-length is
   ``CAPSULE_HALF`` (two contact points 2 mm apart, one on each side of the track line); its
-  pair gets friction (rho mu, mu): the first tangent is the capsule axis. The elliptic cone
+  pair gets friction (rho mu, mu): the first tangent is the capsule axis. A wheeled robot's wheels
+  (``wheel_<side>_<i>``, the same spheres on their axles) get the same: lateral tyre friction
+  rho mu, longitudinal mu. The elliptic cone
   (f_lat / (rho mu))^2 + (f_long / mu)^2 <= f_n^2 with the noslip pass's hard friction gives the
   maximum-dissipation force on that ellipse, f = -f_n M^2 u / |M u|, M = diag(mu, rho mu).
 """
