@@ -21,13 +21,18 @@ def robot_file(tmp_path_factory):
     return path
 
 
-@pytest.fixture(scope="module")
-def wheeled_log(robot_file, tmp_path_factory):
-    out = tmp_path_factory.mktemp("sim") / "h.csv"
-    res = run_cli(["simulate", "--scenario", "random_steps", "--robot", robot_file, "--duration", "4", "--out", out,
+def simulated(robot_file, folder, seconds: float):
+    """A random-steps log of the robot file: ``mjtrack simulate`` into ``folder/log.csv``."""
+    out = folder / "log.csv"
+    res = run_cli(["simulate", "--scenario", "random_steps", "--robot", robot_file, "--duration", seconds, "--out", out,
                    "-q"])
     assert res.rc == 0, res.err
     return out
+
+
+@pytest.fixture(scope="module")
+def wheeled_log(robot_file, tmp_path_factory):
+    return simulated(robot_file, tmp_path_factory.mktemp("sim"), 4)
 
 
 def test_simulate_writes_the_wheeled_description(wheeled_log):
@@ -111,11 +116,7 @@ def test_bad_wheeled_input_exits_2_in_one_line(robot_file, argv, match):
 
 @pytest.fixture(scope="module")
 def long_log(robot_file, tmp_path_factory):
-    out = tmp_path_factory.mktemp("sim30") / "h30.csv"
-    res = run_cli(["simulate", "--scenario", "random_steps", "--robot", robot_file, "--duration", "30", "--out", out,
-                   "-q"])
-    assert res.rc == 0, res.err
-    return out
+    return simulated(robot_file, tmp_path_factory.mktemp("sim30"), 30)
 
 
 @pytest.mark.slow
