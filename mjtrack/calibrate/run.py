@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from mjtrack.calibrate.causes import Cause, find_causes, summary
-from mjtrack.calibrate.fit import FitResult, fit, objective
+from mjtrack.calibrate.fit import FitResult, central_jacobian, fit, objective
 from mjtrack.calibrate.identify import Linearised, ModelForm, Verdict, final_verdicts, select
 from mjtrack.calibrate.params import described_values, parse_names, specs_for, start_values, window_params
 from mjtrack.diagnose import residuals as rs
@@ -48,6 +48,8 @@ log = logging.getLogger(__name__)
 
 #: robot keys whose defaults a description may silently rely on (named under ``assumed``)
 DESCRIBED = ("track_length", "track_width", "mass", "cg_x", "cg_y", "cg_z", "mu", "sprocket_radius")
+MAX_ROUNDS = 3  # refits after the first fit, each after what the log determines was decided again
+STEP_TOL = 0.25  # the fit has converged when the remaining Gauss-Newton step is below this share of every half-width
 STEADY_MIN_WZ = 0.3  # [rad/s] nominal yaw rate below which a window's yaw ratio is not used
 ICR_MIN_TURN = 0.3  # |turn ratio| below which a window's ICRs are not used (they diverge)
 
@@ -273,13 +275,6 @@ def _score(sim: WindowSim, lg: DriveLog, ws: WindowSet, variants: list[dict], *,
     return [Scored.of(res, p) for p in range(len(variants))]
 
 
-def _linearised(fr: FitResult, obj, sources: list[ModelForm]) -> Linearised:
-    specs = obj.specs
-    theta = np.array([fr.values[n] / specs[n].scale for n in fr.names])
-    return Linearised(names=list(fr.names), theta=theta, jac=fr.jac, resid=fr.resid,
-                      rows_per_window=obj.rows_per_window, specs=specs, model_form=sources)
-
-
 def model_form_sources(obj, values: dict[str, float], resid: np.ndarray, jac: np.ndarray, config: SimConfig, *,
                        refine: bool = True) -> tuple[list[ModelForm], dict[str, float]]:
     """The model-form sources at ``values`` (the fit's residuals ``resid``, Jacobian ``jac``):
@@ -364,33 +359,63 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
     test_before = _score(sim, test, tws, [{}], **kw)[0] if test is not None else None
     timings["before"] = time.perf_counter() - t1
 
-    # every candidate fitted; what the log determines and needs changed; the kept ones fitted again
+    # every candidate fitted; then, until it settles: what the log determines and needs changed,
+    # the rest back at its described value, the kept ones fitted again
     t2 = time.perf_counter()
     obj = objective(sim, train, ws, names, nthread=nthread, warmup_s=warmup_s)
-    with Progress(total=max_iter + max(2, max_iter // 2), label="calibrate", quiet=quiet) as bar:
+    specs = obj.specs
+    refit_iter = max(3, max_iter // 2)
+    with Progress(total=max_iter + MAX_ROUNDS * refit_iter, label="calibrate", quiet=quiet) as bar:
         result = fit(obj, start, max_iter=max_iter, on_iter=lambda i, c: bar.update())
-        sources, _ = model_form_sources(obj, result.values, result.resid, result.jac, config)
-        sel = select(_linearised(result, obj, sources), described)
-        refit = None
-        verdicts = dict(sel.verdicts)
+        fits = [result]
+        point, resid, jac = dict(result.values), result.resid, result.jac  # every candidate, at the current point
+        free = list(names)
+        for round_ in range(MAX_ROUNDS + 1):
+            # every candidate linearised at the current point (the dropped ones at their described
+            # value): what the log determines and needs changed is decided again for all of them
+            sources, size = model_form_sources(obj, point, resid, jac, config)
+            theta = np.array([point[n] / specs[n].scale for n in names])
+            lin = Linearised(names=list(names), theta=theta, jac=jac, resid=resid,
+                             rows_per_window=obj.rows_per_window, specs=specs, model_form=sources)
+            fidx = [names.index(n) for n in free]
+            rest = np.abs(lin.step(fidx)[fidx]) * lin.scales[fidx]
+            converged = bool(np.all(rest <= STEP_TOL * lin.uncertainty(fidx).half))
+            ahead = Linearised(names=list(names), theta=theta, jac=jac, resid=resid,
+                               rows_per_window=obj.rows_per_window, specs=specs, model_form=sources)
+            ahead.advance()
+            sel = select(ahead, described)
+            if (sel.free == free and converged) or not sel.free or round_ == MAX_ROUNDS:
+                break
+            free = sel.free
+            fobj = objective(sim, train, ws, free, nthread=nthread, warmup_s=warmup_s)
+            begin = {n: float(np.clip(sel.values[n], specs[n].lo, specs[n].hi)) for n in free}
+            fr = fit(fobj, begin, max_iter=refit_iter, multistart=False, on_iter=lambda i, c: bar.update())
+            fits.append(fr)
+            point = {**described, **fr.values}
+            resid, jac = central_jacobian(obj, np.array([point[n] / specs[n].scale for n in names]),
+                                          central=np.array([n in free for n in names]))
+        # the verdicts: those the last decision sent back to their description, and, unless it sent
+        # back every one, the fitted ones at the current point (when the rounds ran out first, the
+        # last fit stands as fitted)
+        kept = [] if not sel.free else free
+        verdicts: dict[str, Verdict] = {n: v for n, v in sel.verdicts.items() if n not in kept}
+        ties = {k: v for k, v in sel.ties.items() if k in kept}
         values = {**described}
-        model_form: dict[str, dict[str, float]] = {}
-        if sel.free:
-            if sel.free == list(names):
-                final, fobj = result, obj
-            else:
-                fobj = objective(sim, train, ws, sel.free, nthread=nthread, warmup_s=warmup_s)
-                specs = fobj.specs
-                begin = {n: float(np.clip(sel.values[n], specs[n].lo, specs[n].hi)) for n in sel.free}
-                final = refit = fit(fobj, begin, max_iter=max(2, max_iter // 2), multistart=False,
-                                    on_iter=lambda i, c: bar.update())
-            fsources, size = model_form_sources(fobj, final.values, final.resid, final.jac, config)
-            lin = _linearised(final, fobj, fsources)
-            verdicts.update(final_verdicts(lin, described, sel.ties))
-            values.update(final.values)
-            u = lin.uncertainty(list(range(len(lin.names))))
+        model_form: dict[str, dict] = {}
+        u = None
+        if kept:
+            kidx = [names.index(n) for n in kept]
+            klin = Linearised(names=list(kept), theta=theta[kidx], jac=jac[:, kidx], resid=resid,
+                              rows_per_window=obj.rows_per_window, specs=specs,
+                              model_form=[ModelForm(m.name, m.g[kidx]) for m in sources])
+            final, u, rest = final_verdicts(klin, described, ties)
+            verdicts.update(final)
+            values.update({n: point[n] for n in kept})
             model_form = {"residual_change_m": size,
-                          "shift": {src_: {n: float(v) for n, v in zip(lin.names, sh)} for src_, sh in u.shifts.items()}}
+                          "shift": {src_: {n: float(v) for n, v in zip(kept, sh)} for src_, sh in u.shifts.items()},
+                          "optimiser": {n: float(v) for n, v in zip(kept, rest)}}
+            lin = klin
+        refit = fits[-1] if len(fits) > 1 else None
     timings["fit"] = time.perf_counter() - t2
 
     # the calibrated robot, scored on the same windows and on the test log; the causes
@@ -401,7 +426,7 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
     test_after = (_score(sim, test, tws, [wp], **kw)[0] if changed else test_before) if test is not None else None
     cal_robot = calibrated_robot(robot, {n: values[n] for n in changed}, config)
     corr = np.eye(len(changed))
-    if changed:
+    if changed and u is not None:
         cidx = [lin.names.index(n) for n in changed]
         corr = u.corr[np.ix_(cidx, cidx)]
 
@@ -409,7 +434,7 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
         res = simulate_windows(sim, train, ws, [window_params(v, robot) for v in variants], **kw)
         return res.rms()
 
-    causes = find_causes(changed, values, described, corr, sel.ties, score, before.rms, after.rms,
+    causes = find_causes(changed, values, described, corr, ties, score, before.rms, after.rms,
                          track_length=robot.track_length)
     timings["after"] = time.perf_counter() - t3
 

@@ -22,8 +22,9 @@ BENCHMARKS = ROOT / "experiments"
 RESULTS = BENCHMARKS / "results"
 """The stored result files the documentation's results pages are generated from."""
 MEASUREMENTS = ROOT / "benchmarks"
-"""Measurement scripts of the wheeled robot (result files in ``MEASUREMENTS / "results"``);
-:func:`load_benchmark` looks here after :data:`BENCHMARKS`."""
+"""Measurement scripts of the wheeled robot; their result files are in ``MEASUREMENTS / "results"``."""
+DOCS = ROOT / "docs"
+"""The documentation sources; ``docs/_ext`` holds the generators of its CLI and results pages."""
 
 
 def load_benchmark(name: str) -> ModuleType:
@@ -41,13 +42,17 @@ def load_benchmark(name: str) -> ModuleType:
         multiprocessing workers and pickled objects find it).
 
     Raises:
-        FileNotFoundError: no such script in :data:`BENCHMARKS` nor :data:`MEASUREMENTS`.
+        FileNotFoundError: no such script in :data:`BENCHMARKS`.
     """
+    return load_file(BENCHMARKS / f"{name}.py", name)
+
+
+def load_file(path: Path, name: str) -> ModuleType:
+    """Import the Python file ``path`` as the module ``name`` (see :func:`load_benchmark`)."""
     if name in sys.modules:
         return sys.modules[name]
-    path = next((f / f"{name}.py" for f in (BENCHMARKS, MEASUREMENTS) if (f / f"{name}.py").is_file()), None)
-    if path is None:
-        raise FileNotFoundError(f"no benchmark script {name}.py in {BENCHMARKS} or {MEASUREMENTS}")
+    if not path.is_file():
+        raise FileNotFoundError(f"no such script {path}")
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
