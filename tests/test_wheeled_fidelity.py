@@ -31,7 +31,7 @@ def _check(quick: bool, n_cases: int) -> None:
 
 def test_quick_wheeled_grid_matches_the_point_contact_reference():
     """40 turns: Husky-, Warthog-, Jackal-like and a six-wheeler, pivot and R 1-10 m at 0.2 and
-    2 m/s, cg +-0.1 B (measured worst 0.018 T/2, dt halving 0.009 T/2: benchmarks/results)."""
+    2 m/s, cg +-0.1 B (the full grid's worst cases: benchmarks/results/wheeled_fidelity.json)."""
     _check(True, 40)
 
 
