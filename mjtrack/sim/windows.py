@@ -569,8 +569,8 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
                 done += hi - lo
                 if progress is not None:
                     progress(done, total)
-    if warned:
-        logger.info("windows: %d of %d rollouts diverged (MuJoCo warned %d times, e.g. %r); scored as diverged",
+    if warned:  # one line per call; a caller that makes many calls summarises them (summarised_mujoco_warnings)
+        logger.debug("windows: %d of %d rollouts diverged (MuJoCo warned %d times, e.g. %r); scored as diverged",
                     int(diverged.sum()), P * M, len(warned), warned[0])
     errors = window_errors(log, ws, poses)
     return WindowResult(poses=poses, errors=errors, speeds=speeds, diverged=diverged)
