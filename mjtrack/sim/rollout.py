@@ -33,6 +33,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_commands
+from mjtrack.sim.scene import ELEMENT_KINDS
 from mjtrack.sim.surfacevel import TrackDrive
 from mjtrack.sim.terrain import Terrain, timestep_for
 
@@ -67,7 +68,7 @@ class SensorMap:
             track_speed=(int(model.sensor("track_speed_left").adr[0]), int(model.sensor("track_speed_right").adr[0])),
             ground_left=int(model.sensor("ground_left").adr[0]), ground_right=int(model.sensor("ground_right").adr[0]),
             elements=sum(1 for g in range(model.ngeom)
-                         if model.geom(g).name.startswith(("roller_left_", "track_left_"))),
+                         if model.geom(g).name.startswith(tuple(f"{k}_left_" for k in ELEMENT_KINDS))),
         )
 
 
