@@ -2,8 +2,10 @@
 
 The CLI is a thin layer. Each command lives in ``mjtrack/commands/<name>.py`` and
 defines ``HELP`` (one line), ``add_arguments(parser)`` and ``run(args) -> int``;
-the library does the work. Exit status: 0 success, 2 bad input or usage,
-1 internal failure.
+the library does the work. Exit status: 0 success, 2 bad input or usage (one line),
+1 internal failure, 130 / 143 interrupted by SIGINT (Ctrl-C) / SIGTERM (one line; the outputs
+the command had written are removed again, except what a resume needs:
+:mod:`mjtrack.interrupts`, :func:`mjtrack.io.atomic.transaction`).
 """
 
 from __future__ import annotations
@@ -11,9 +13,14 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
+import re
+import signal
 import sys
 
+from mjtrack import interrupts
 from mjtrack.errors import InputError, MjtrackError
+from mjtrack.io import atomic
 
 # Command name -> module under mjtrack.commands. Order is the order of ``--help``.
 COMMANDS: dict[str, str] = {
@@ -32,8 +39,24 @@ COMMANDS: dict[str, str] = {
 }
 
 
+# a value that starts with "-" is a negative number, not an option: -1e300, -.5, -inf (argparse's own
+# rule knows only -1 and -1.5, so "--v-left -1e300" was a usage error about a missing argument)
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse with usage errors on one line (the usage itself is in ``--help``)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = _NEGATIVE_NUMBER
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="mjtrack",
         description=(
             "Tracked-robot testbed: MuJoCo skid-steer physics, kinematic slip models "
@@ -46,7 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
         module = importlib.import_module(f"mjtrack.commands.{module_name}")
         p = sub.add_parser(name, help=module.HELP, description=module.__doc__)
         module.add_arguments(p)
-        p.set_defaults(_run=module.run)
+        p.set_defaults(_run=module.run, _on_interrupt=getattr(module, "ON_INTERRUPT", ""))
     return parser
 
 
@@ -69,17 +92,47 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "command", None):
         parser.print_help()
         return 2
+
+    def interrupted(signum: int) -> str:
+        hint = f"; {args._on_interrupt}" if args._on_interrupt else ""
+        return f"mjtrack {args.command}: interrupted by {signal.Signals(signum).name}{hint}"
+
     try:
-        return int(args._run(args) or 0)
-    except InputError as exc:
-        print(f"mjtrack {args.command}: error: {one_line(exc)}", file=sys.stderr)
-        return 2
-    except MjtrackError as exc:
-        print(f"mjtrack {args.command}: failed: {one_line(exc)}", file=sys.stderr)
-        return 1
-    except OSError as exc:  # disk full, permission denied, ...: one line, not a traceback
-        print(f"mjtrack {args.command}: failed: {one_line(exc)}", file=sys.stderr)
-        return 1
+        with interrupts.handling(message=interrupted):
+            interrupts.add_emergency_cleanup(atomic.emergency_cleanup)
+            with atomic.transaction(force=bool(getattr(args, "force", False))):
+                return int(args._run(args) or 0)
+    except interrupts.Interrupted as exc:
+        return _end_interrupted(interrupted(exc.signum), exc.exit_status, program=argv is None)
+    except Exception as exc:
+        signum = interrupts.received()
+        if signum is not None:  # a failure the interrupt caused (a pipe to a killed child, a cancelled task)
+            return _end_interrupted(interrupted(signum), 128 + signum, program=argv is None)
+        if isinstance(exc, InputError):
+            print(f"mjtrack {args.command}: error: {one_line(exc)}", file=sys.stderr)
+            return 2
+        if isinstance(exc, (MjtrackError, OSError)):  # OSError: disk full, permission denied, ...
+            print(f"mjtrack {args.command}: failed: {one_line(exc)}", file=sys.stderr)
+            return 1
+        if isinstance(exc, MemoryError):  # the work estimates should have refused it before
+            print(f"mjtrack {args.command}: failed: out of memory", file=sys.stderr)
+            return 1
+        raise
+
+
+def _end_interrupted(line: str, status: int, *, program: bool) -> int:
+    """Print the interrupt's one line. Run as a program (``argv`` None), end the process at once:
+    the outputs are already rolled back, and the exit handlers of half-started libraries (a dask
+    cluster cut short while it started) would only add tracebacks after the line."""
+    print(line, file=sys.stderr)
+    if program:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        os._exit(status)
+    return status
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -80,6 +80,7 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
              video_size: tuple[int, int] = (640, 480), fps: float = 25.0, speed: float = 2.0,
              quiet: bool = False, terrain=None) -> DemoResult:
     """Run the demo into ``out_dir`` (created); see the module docstring."""
+    from mjtrack.io.atomic import make_output_dir
     from mjtrack.io.logs import robot_path_for, write_log
     from mjtrack.io.robot import write_robot
     from mjtrack.progress import Progress
@@ -91,7 +92,7 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
 
     start = time.perf_counter()
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    make_output_dir(out)
     terrain = terrain or Terrain()
     robot = with_terrain(DEMO_ROBOT, terrain)
     stage_s = {}

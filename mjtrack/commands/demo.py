@@ -13,7 +13,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjtrack.commands._common import TERRAIN_HELP, add_output_options, check_out_dir, terrain_from_args
+from mjtrack.commands._common import TERRAIN_HELP, add_output_options, check_out_dir, check_overwrite, terrain_from_args
+
+OUTPUTS = ("report.html", "metrics.json", "rollout.csv", "rollout.json", "video.mp4")
 
 HELP = "the main job on defaults: MuJoCo rollout, all models and filters validated, report, video"
 
@@ -30,6 +32,7 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.demo import run_demo
 
     out = check_out_dir(args.out)
+    check_overwrite([out / name for name in OUTPUTS], args.force)
     res = run_demo(out, video=not args.no_video, quiet=args.quiet, terrain=terrain_from_args(args))
     head = res.headline
     if not args.quiet:

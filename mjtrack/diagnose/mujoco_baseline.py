@@ -61,7 +61,7 @@ import numpy as np
 from mjtrack.diagnose import select as sel
 from mjtrack.diagnose import stats as st
 from mjtrack.errors import InputError
-from mjtrack.io.atomic import atomic_write_text
+from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import G, Robot
 from mjtrack.sim.config import SimConfig
@@ -630,7 +630,7 @@ def write_mujoco_outputs(diag: MujocoDiagnosis, out: str | Path) -> None:
     from mjtrack.report.html import Report
 
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    make_output_dir(out)
     data = diag.to_json()
     rep = Report(title="MuJoCo robot diagnosed on a measured log",
                  intro=f"Log {diag.log_path}: {diag.samples} samples, {diag.n_windows} windows. Baseline: {diag.model_text()}. "
