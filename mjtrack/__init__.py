@@ -4,25 +4,38 @@ Subpackages: ``mjtrack.sim`` (the MuJoCo robot), ``mjtrack.models`` (kinematic m
 rigid-track Coulomb reference, simplified dynamics, wheeled robots), ``mjtrack.estimation``
 (slip, ICR and virtual-robot filters), ``mjtrack.validate``, ``mjtrack.diagnose``,
 ``mjtrack.control``, ``mjtrack.render``, ``mjtrack.thesis``, ``mjtrack.io``. The names below
-are the ones most scripts need; importing this package does not load MuJoCo.
+are the ones most scripts need; they load on first use (``mjtrack.Robot``), so importing this
+package loads nothing heavy (not NumPy, not MuJoCo) and the command line can take Ctrl-C from
+its first moment on.
 """
 
 from mjtrack.errors import InputError as InputError
 from mjtrack.errors import MjtrackError as MjtrackError
 from mjtrack.errors import SingularMotionError as SingularMotionError
-from mjtrack.icr import ICR as ICR
-from mjtrack.icr import icr_from_twist as icr_from_twist
-from mjtrack.icr import twist_from_icr as twist_from_icr
-from mjtrack.icr import virtual_robot_from_twist as virtual_robot_from_twist
-from mjtrack.io import DriveLog as DriveLog
-from mjtrack.io import Robot as Robot
-from mjtrack.io import read_log as read_log
-from mjtrack.io import read_robot as read_robot
-from mjtrack.io import write_log as write_log
-from mjtrack.models.kinematic import MICR as MICR
-from mjtrack.models.kinematic import MPP as MPP
-from mjtrack.models.kinematic import MVIR as MVIR
-from mjtrack.models.kinematic import Nominal as Nominal
-from mjtrack.models.kinematic import integrate as integrate
+
+# name -> module it comes from (loaded on first access, PEP 562)
+_LAZY = {
+    "ICR": "mjtrack.icr", "icr_from_twist": "mjtrack.icr", "twist_from_icr": "mjtrack.icr",
+    "virtual_robot_from_twist": "mjtrack.icr",
+    "DriveLog": "mjtrack.io", "Robot": "mjtrack.io", "read_log": "mjtrack.io", "read_robot": "mjtrack.io",
+    "write_log": "mjtrack.io",
+    "MICR": "mjtrack.models.kinematic", "MPP": "mjtrack.models.kinematic", "MVIR": "mjtrack.models.kinematic",
+    "Nominal": "mjtrack.models.kinematic", "integrate": "mjtrack.models.kinematic",
+}
 
 __version__ = "0.1.0"
+__all__ = ["InputError", "MjtrackError", "SingularMotionError", *_LAZY, "__version__"]
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'mjtrack' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

@@ -20,7 +20,6 @@ import sys
 
 from mjtrack import interrupts
 from mjtrack.errors import InputError, MjtrackError
-from mjtrack.io import atomic
 
 # Command name -> module under mjtrack.commands. Order is the order of ``--help``.
 COMMANDS: dict[str, str] = {
@@ -80,42 +79,50 @@ def one_line(text: object) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:  # argparse exits 2 on usage errors, 0 on --help
-        return int(exc.code or 0)
-    logging.basicConfig(
-        level=logging.DEBUG if args.verbose else logging.WARNING,
-        format="%(levelname)s %(name)s: %(message)s",
-    )
-    if not getattr(args, "command", None):
-        parser.print_help()
-        return 2
+    program = argv is None  # run as the mjtrack program (not called from Python code)
+    words = sys.argv[1:] if argv is None else [str(a) for a in argv]
+    # the handlers go in first: building the parser imports every command (seconds on a busy machine)
+    state = {"command": next((w for w in words if w in COMMANDS), None), "hint": ""}
 
     def interrupted(signum: int) -> str:
-        hint = f"; {args._on_interrupt}" if args._on_interrupt else ""
-        return f"mjtrack {args.command}: interrupted by {signal.Signals(signum).name}{hint}"
+        who = f"mjtrack {state['command']}" if state["command"] else "mjtrack"
+        hint = f"; {state['hint']}" if state["hint"] else ""
+        return f"{who}: interrupted by {signal.Signals(signum).name}{hint}"
 
     try:
         with interrupts.handling(message=interrupted):
+            from mjtrack.io import atomic
+
             interrupts.add_emergency_cleanup(atomic.emergency_cleanup)
+            parser = build_parser()
+            try:
+                args = parser.parse_args(argv)
+            except SystemExit as exc:  # argparse exits 2 on usage errors, 0 on --help
+                return int(exc.code or 0)
+            logging.basicConfig(
+                level=logging.DEBUG if args.verbose else logging.WARNING,
+                format="%(levelname)s %(name)s: %(message)s",
+            )
+            if not getattr(args, "command", None):
+                parser.print_help()
+                return 2
+            state["command"], state["hint"] = args.command, args._on_interrupt
             with atomic.transaction(force=bool(getattr(args, "force", False))):
                 return int(args._run(args) or 0)
     except interrupts.Interrupted as exc:
-        return _end_interrupted(interrupted(exc.signum), exc.exit_status, program=argv is None)
+        return _end_interrupted(interrupted(exc.signum), exc.exit_status, program=program)
     except Exception as exc:
         signum = interrupts.received()
         if signum is not None:  # a failure the interrupt caused (a pipe to a killed child, a cancelled task)
-            return _end_interrupted(interrupted(signum), 128 + signum, program=argv is None)
+            return _end_interrupted(interrupted(signum), 128 + signum, program=program)
         if isinstance(exc, InputError):
-            print(f"mjtrack {args.command}: error: {one_line(exc)}", file=sys.stderr)
+            print(f"mjtrack {state['command']}: error: {one_line(exc)}", file=sys.stderr)
             return 2
         if isinstance(exc, (MjtrackError, OSError)):  # OSError: disk full, permission denied, ...
-            print(f"mjtrack {args.command}: failed: {one_line(exc)}", file=sys.stderr)
+            print(f"mjtrack {state['command']}: failed: {one_line(exc)}", file=sys.stderr)
             return 1
         if isinstance(exc, MemoryError):  # the work estimates should have refused it before
-            print(f"mjtrack {args.command}: failed: out of memory", file=sys.stderr)
+            print(f"mjtrack {state['command']}: failed: out of memory", file=sys.stderr)
             return 1
         raise
 
