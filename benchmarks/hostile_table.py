@@ -95,6 +95,7 @@ def cases(d: Path) -> list[tuple[str, list[str], dict]]:
         ("diagnose --folds 1e9", ["diagnose", log, "--folds", "1000000000", "--out", "D1"], {}),
         ("steady --v-left 1e300", ["steady", "--v-left", "1e300", "--v-right", "0.5"], {}),
         ("steady --v-left -1e300", ["steady", "--v-left", "-1e300", "--v-right", "0.5"], {}),
+        ("steady --v-left=-1e300", ["steady", "--v-left=-1e300", "--v-right", "0.5"], {}),
         ("steady --v-left 1000", ["steady", "--v-left", "1000", "--v-right", "0.5"], {}),
         ("steady --settle 1e12", ["steady", "--v-left", "0.5", "--v-right", "0.6", "--settle", "1e12"], {}),
         ("track --laps 1e12", ["track", "--laps", "1000000000000", "--out", "T1"], {}),
@@ -110,7 +111,8 @@ def cases(d: Path) -> list[tuple[str, list[str], dict]]:
                                   "--out", "S3.csv"], {}),
         ("grid scalar speed", ["sweep", "--grid", "scalar_grid.json", "--out", "W1", "--workers", "1"], {}),
         ("Ctrl-C during sweep", ["sweep", "--grid", "grid24.json", "--out", "W2", "--workers", "2"],
-         {"interrupt": (signal.SIGINT, 12.0)}),
+         {"interrupt": (signal.SIGINT, 25.0), "keep": True}),
+        ("the same sweep again (resume)", ["sweep", "--grid", "grid24.json", "--out", "W2", "--workers", "2"], {}),
         ("Ctrl-C during calibrate", ["calibrate", log, "--track-length", "0.5", "--out", "C1"],
          {"interrupt": (signal.SIGINT, 12.0)}),
         ("Ctrl-C during demo", ["demo", "--out", "M1"], {"interrupt": (signal.SIGINT, 25.0)}),
@@ -136,6 +138,7 @@ def main() -> None:
         for name, argv, kw in cases(d):
             if args.only and args.only not in name:
                 continue
+            keep = kw.pop("keep", False)
             res = run(argv, d, **kw)
             res["left"] = sorted(set(listing(d)) - before)
             res["name"] = name
@@ -143,6 +146,8 @@ def main() -> None:
             rows.append(res)
             print(f"{name:45s} rc={res['rc']!s:8s} {res['seconds']:7.2f}s lines={res['stderr_lines']:<3d} "
                   f"{res['first_stderr_line'][:100]}  left={res['left'][:6]}", flush=True)
+            if keep:  # the next case resumes from what this one left
+                continue
             # each case starts from the prepared inputs
             for rel in sorted(res["left"], key=len, reverse=True):
                 p = d / rel

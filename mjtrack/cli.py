@@ -90,25 +90,36 @@ def main(argv: list[str] | None = None) -> int:
         return f"{who}: interrupted by {signal.Signals(signum).name}{hint}"
 
     try:
-        with interrupts.handling(message=interrupted):
-            from mjtrack.io import atomic
+        # run as a program, the signals are ignored once the block ends: the result is decided and
+        # printed inside it, a late signal must not turn it into a death without a word
+        with interrupts.handling(message=interrupted, then_ignore=program):
+            return _run(argv, state, program, interrupted)
+    except interrupts.Interrupted as exc:  # while the handlers were being installed
+        return _end_interrupted(interrupted(exc.signum), exc.exit_status, program=program)
 
-            interrupts.add_emergency_cleanup(atomic.emergency_cleanup)
-            parser = build_parser()
-            try:
-                args = parser.parse_args(argv)
-            except SystemExit as exc:  # argparse exits 2 on usage errors, 0 on --help
-                return int(exc.code or 0)
-            logging.basicConfig(
-                level=logging.DEBUG if args.verbose else logging.WARNING,
-                format="%(levelname)s %(name)s: %(message)s",
-            )
-            if not getattr(args, "command", None):
-                parser.print_help()
-                return 2
-            state["command"], state["hint"] = args.command, args._on_interrupt
-            with atomic.transaction(force=bool(getattr(args, "force", False))):
-                return int(args._run(args) or 0)
+
+def _run(argv: list[str] | None, state: dict, program: bool, interrupted) -> int:
+    """Parse and run one command inside the interrupt handling of :func:`main`; every outcome is
+    printed here (one line on stderr unless it succeeds)."""
+    try:
+        from mjtrack.io import atomic
+
+        interrupts.add_emergency_cleanup(atomic.emergency_cleanup)
+        parser = build_parser()
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:  # argparse exits 2 on usage errors, 0 on --help
+            return int(exc.code or 0)
+        logging.basicConfig(
+            level=logging.DEBUG if args.verbose else logging.WARNING,
+            format="%(levelname)s %(name)s: %(message)s",
+        )
+        if not getattr(args, "command", None):
+            parser.print_help()
+            return 2
+        state["command"], state["hint"] = args.command, args._on_interrupt
+        with atomic.transaction(force=bool(getattr(args, "force", False))):
+            return int(args._run(args) or 0)
     except interrupts.Interrupted as exc:
         return _end_interrupted(interrupted(exc.signum), exc.exit_status, program=program)
     except Exception as exc:

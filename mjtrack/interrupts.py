@@ -132,13 +132,15 @@ def _watchdog(read_fd: int, done: threading.Event, stream) -> None:
 
 
 @contextlib.contextmanager
-def handling(message: Callable[[int], str] | None = None, *, stream=None) -> Iterator[None]:
+def handling(message: Callable[[int], str] | None = None, *, stream=None, then_ignore: bool = False) -> Iterator[None]:
     """Install the SIGINT/SIGTERM handlers and the watchdog for the ``with`` block.
 
     Args:
         message: the one line the watchdog prints if it has to end the process (given the
             signal number); the caller prints its own line when the block unwinds normally.
         stream: where the watchdog writes (default ``sys.stderr`` at entry).
+        then_ignore: after the block, ignore SIGINT and SIGTERM instead of restoring the previous
+            handlers (a program about to exit with a result it has already reported).
 
     Outside the main thread (where Python cannot set handlers) it does nothing.
     """
@@ -152,27 +154,31 @@ def handling(message: Callable[[int], str] | None = None, *, stream=None) -> Ite
     if message is not None:
         _state.message = message
     _state.active = True
+    for s in SIGNALS:  # first: a signal from now on is ours, even while the watchdog starts
+        signal.signal(s, _handler)
     read_fd, write_fd = os.pipe()
     os.set_blocking(write_fd, False)
     done = threading.Event()
-    old_fd = None
-    try:
-        old_fd = signal.set_wakeup_fd(write_fd, warn_on_full_buffer=False)
-    except ValueError:  # pragma: no cover - not the main thread after all
-        pass
+    old_fd = signal.set_wakeup_fd(write_fd, warn_on_full_buffer=False)
     watchdog = threading.Thread(target=_watchdog, args=(read_fd, done, stream or sys.stderr), daemon=True,
                                 name="mjtrack-interrupt-watchdog")
-    watchdog.start()
-    for s in SIGNALS:
-        signal.signal(s, _handler)
+    try:
+        watchdog.start()
+    except BaseException:  # interrupted while starting: undo, and let the interrupt through
+        signal.set_wakeup_fd(old_fd)
+        os.close(write_fd)
+        os.close(read_fd)
+        for s, h in previous.items():
+            signal.signal(s, h)
+        _state.deferred, _state.pending, _state.raised, _state.cleanups, _state.message, _state.active = saved
+        raise
     try:
         yield
     finally:
         done.set()
         for s, h in previous.items():
-            signal.signal(s, h)
-        if old_fd is not None:
-            signal.set_wakeup_fd(old_fd)
+            signal.signal(s, signal.SIG_IGN if then_ignore else h)
+        signal.set_wakeup_fd(old_fd)
         with contextlib.suppress(OSError):
             os.write(write_fd, b"\0")  # wake the watchdog so that it sees `done`
         watchdog.join(timeout=1.0)

@@ -138,31 +138,6 @@ def finite_float(text: str) -> float:
     return value
 
 
-def int_at_least(minimum: int):
-    """argparse ``type=``: an integer >= ``minimum`` (anything else is a usage error, exit 2)."""
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {text!r}")
-        return value
-
-    return parse
-
-
-def positive_float(text: str) -> float:
-    """argparse ``type=``: a finite float > 0."""
-    value = finite_float(text)
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
-    return value
-
-
-positive_int = int_at_least(1)  # argparse ``type=``: an integer >= 1
-
-
 def add_robot_options(parser: argparse.ArgumentParser) -> None:
     """Add ``--robot FILE`` and the per-field overrides (all default to ``None``: not given)."""
     group = parser.add_argument_group(

@@ -63,6 +63,11 @@ class OutputTransaction:
         """``path`` stays when the transaction is rolled back (it is what a resume needs)."""
         self.kept.add(Path(path).absolute())
 
+    def commit(self) -> None:
+        """Everything written so far is final: a later rollback keeps it (a complete set of outputs
+        must not be undone by an interrupt that arrives after it is in place)."""
+        self.kept.update(self.written)
+
     def discard(self, path: str | os.PathLike) -> None:
         """``path`` no longer stays on a rollback (its resume state has been used up)."""
         self.kept.discard(Path(path).absolute())

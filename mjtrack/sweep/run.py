@@ -180,8 +180,16 @@ def _client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
 WORKER_MEMORY = 300e6  # [bytes] a local dask worker process with MuJoCo loaded, running a chunk (measured ~250 MB)
 
 
+MAX_WORKERS_PER_CORE = 4  # more local worker processes than this per core only add start-up time and memory
+
+
 def check_worker_memory(workers: int) -> None:
-    """Refuse a local cluster whose worker processes would not fit in the memory available now."""
+    """Refuse a local cluster of more than :data:`MAX_WORKERS_PER_CORE` processes per core, or one
+    whose worker processes would not fit in the memory available now (with the estimate)."""
+    cores = os.cpu_count() or 1
+    if workers > MAX_WORKERS_PER_CORE * cores:
+        raise InputError(f"--workers {workers}: more than {MAX_WORKERS_PER_CORE} worker processes per core "
+                         f"({cores} cores here); use at most {MAX_WORKERS_PER_CORE * cores}")
     available = available_memory()
     need = workers * WORKER_MEMORY
     if available is not None and need > available:
@@ -291,6 +299,8 @@ def run_sweep(
             if tx is not None:
                 tx.discard(p)
             p.unlink(missing_ok=True)
+        if tx is not None:
+            tx.commit()
     return SweepSummary(cases=len(grid.cases), ran=len(todo), resumed=len(grid.cases) - len(todo),
                         seconds=time.monotonic() - start, run_seconds=run_seconds, workers=n_workers)
 
