@@ -18,14 +18,11 @@ import argparse
 import os
 import sys
 import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from marmotte_calibration import DATA, GROUNDS, starting_robot
 
-from marmotte_calibration import DATA, GROUNDS, starting_robot  # noqa: E402
-
-from mjtrack.calibrate.run import calibrate  # noqa: E402
-from mjtrack.io import read_log_with_robot  # noqa: E402
+from mjtrack.calibrate.run import calibrate
+from mjtrack.io import read_log_with_robot
 
 
 def main() -> int:

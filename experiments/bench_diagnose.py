@@ -3,7 +3,7 @@
     python experiments/bench_diagnose.py [--effect cg_offset_x] [--minutes 10] [--no-speeds]
                                          [--marmotte PATH.csv] [--horizon S]
 
-The synthetic log comes from the tests' independent generator (tests/diagnose_physics.py: its
+The synthetic log comes from the tests' independent generator (mjtrack/testing/diagnose_physics.py: its
 own rigid-body Coulomb simulation, pose noise); the budget is 30 s for the whole diagnosis on
 the surrogate baseline (read, forward selection over every effect, write the report). With
 --marmotte it also runs the real Marmotte log and prints its findings. Prints the machine load.
@@ -18,14 +18,12 @@ import tempfile
 import time
 from pathlib import Path
 
+from mjtrack.diagnose import diagnose, write_outputs
+from mjtrack.io.logs import read_log_with_robot, write_log
+from mjtrack.io.robot import write_robot
+from mjtrack.testing.diagnose_logs import HIDDEN, make_log
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))  # the synthetic-log generator lives with the tests
-
-from test_diagnose_generator import HIDDEN, make_log  # noqa: E402
-
-from mjtrack.diagnose import diagnose, write_outputs  # noqa: E402
-from mjtrack.io.logs import read_log_with_robot, write_log  # noqa: E402
-from mjtrack.io.robot import write_robot  # noqa: E402
 
 BUDGET_S = 30.0
 

@@ -1,6 +1,6 @@
 """Seeded benchmark of `mjtrack diagnose` on logs from an INDEPENDENT physics generator.
 
-The logs come from tests/diagnose_physics.py (its own rigid-body simulation: Gauss-Legendre
+The logs come from mjtrack/testing/diagnose_physics.py (its own rigid-body simulation: Gauss-Legendre
 contact grids or four wheel contacts, regularised Coulomb friction, plane-pressure load
 transfer, linearly implicit Euler), which shares no dynamics code with the diagnosis. Cases:
 every single effect at three magnitudes (the smallest near the noise), pairs (ground + ground,
@@ -39,18 +39,15 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from diagnose_physics import INPUT, SPEED_STD, make_log  # noqa: E402
-
-from mjtrack.diagnose import diagnose  # noqa: E402
-from mjtrack.diagnose.stats import sample_blocks  # noqa: E402
-from mjtrack.diagnose.select import MODEL_REL, TRACTION_PAIR, min_active_blocks  # noqa: E402
+from mjtrack.diagnose import diagnose
+from mjtrack.diagnose.select import MODEL_REL, TRACTION_PAIR, min_active_blocks
+from mjtrack.diagnose.stats import sample_blocks
+from mjtrack.testing.diagnose_physics import INPUT, SPEED_STD, make_log
 
 MAGNITUDES = {
     "cg_offset_x": [{"cg_offset_x": v} for v in (0.02, 0.05, -0.1)],

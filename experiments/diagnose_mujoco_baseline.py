@@ -2,7 +2,7 @@
 
     python experiments/diagnose_mujoco_baseline.py [--duration 60] [--hidden a,b] [--all] [--out FILE.json]
 
-Logs: tests/mujoco_effects.py (the MuJoCo robot with one hidden effect, seeded random step
+Logs: mjtrack/testing/mujoco_effects.py (the MuJoCo robot with one hidden effect, seeded random step
 commands, 20 Hz, noisy poses; written without mjtrack.diagnose; the anisotropic ground there is
 its own implementation, not mjtrack.sim.ground), and a clean log. The diagnosis is given the
 nominal robot (with the generator's drive force limit, 600 N m at the 6 cm sprocket = 10 kN per
@@ -26,20 +26,18 @@ import argparse
 import json
 import math
 import os
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))  # the MuJoCo log generator lives with the tests
+from mjtrack.diagnose import mujoco_baseline as mb
+from mjtrack.diagnose.run import diagnose_simulation
+from mjtrack.diagnose.stats import t_quantile
+from mjtrack.io.robot import Robot
+from mjtrack.testing.mujoco_effects import HIDDEN, ROBOT, make_log
 
-from mujoco_effects import HIDDEN, ROBOT, make_log  # noqa: E402
-from mjtrack.diagnose import mujoco_baseline as mb  # noqa: E402
-from mjtrack.diagnose.run import diagnose_simulation  # noqa: E402
-from mjtrack.diagnose.stats import t_quantile  # noqa: E402
-from mjtrack.io.robot import Robot  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 DRIVE_FORCE_LIMIT = 600.0 / ROBOT.sprocket_radius  # [N] the generator's drives (mujoco_effects.DRIVES)
 

@@ -4,7 +4,7 @@
                                                   [--variants pose,speeds] [--default-drives] [--steps]
                                                   [--out PATH.json]
 
-Each log comes from the MuJoCo generator of the tests (tests/mujoco_effects.py: the robot of
+Each log comes from the MuJoCo generator of the tests (mjtrack/testing/mujoco_effects.py: the robot of
 mjtrack.sim with one hidden effect, pose noise 1 cm / 0.3 deg, track-speed noise 0.01 m/s), plus
 clean logs. Prints one row per log: effect, injected value(s), named cause, estimate of the
 injected effect's parameter(s) with its 95 % interval, pooled held-out gain, the checks of
@@ -22,13 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
+from mjtrack.diagnose import diagnose
+from mjtrack.sim.config import SimConfig
+from mjtrack.testing.mujoco_effects import HIDDEN, make_log
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))  # the MuJoCo log generator lives with the tests
-
-from mujoco_effects import HIDDEN, make_log  # noqa: E402
-
-from mjtrack.diagnose import diagnose  # noqa: E402
-from mjtrack.sim.config import SimConfig  # noqa: E402
 
 REL_TOL = 0.25  # issue 6: estimate within +-25 %
 DIR_TOL = 0.25  # [rad] slope_direction: an angle, compared on the circle
@@ -75,7 +73,7 @@ def step_responses() -> list[dict]:
     its friction-limited transient (Surrogate(..., transient=True), surrogate.friction_limited),
     the time-domain rigid-track Coulomb reference (coulomb.rollout, box yaw inertia) and the
     mode-wise mu g ramp the baseline used before (dead time D / (2 mu g) for a step of D m/s)."""
-    from mujoco_effects import DRIVES, ROBOT
+    from mjtrack.testing.mujoco_effects import DRIVES, ROBOT
 
     from mjtrack.diagnose.effects import Surrogate
     from mjtrack.diagnose.residuals import DriveData

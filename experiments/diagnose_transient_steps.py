@@ -3,7 +3,7 @@
 Issue 12: on fresh logs (``experiments/diagnose_benchmark.py --seed 1000``) two continuous wheeled
 logs with track speeds got ``friction_scale`` ~ 1.2 beside the right effect. Two measurements:
 
-1. Yaw step responses. For each geometry of tests/diagnose_physics.py, the equivalent yaw dead
+1. Yaw step responses. For each geometry of mjtrack/testing/diagnose_physics.py, the equivalent yaw dead
    time int (w_end - w)/(w_end - w_0) dt after each step of :data:`STEPS` (x 0.5 m/s) of
    - generator: the benchmark's independent physics (the wheeled robot on its four wheel
      contacts, the tracked ones on Gauss-Legendre grids);
@@ -31,20 +31,17 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 from scipy import optimize
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-import diagnose_physics as phys  # noqa: E402
-
-from mjtrack.diagnose import diagnose  # noqa: E402
-from mjtrack.diagnose import select as sel  # noqa: E402
-from mjtrack.diagnose import surrogate as sg  # noqa: E402
-from mjtrack.io.robot import G  # noqa: E402
-from mjtrack.models import coulomb  # noqa: E402
+from mjtrack.diagnose import diagnose
+from mjtrack.diagnose import select as sel
+from mjtrack.diagnose import surrogate as sg
+from mjtrack.io.robot import G
+from mjtrack.models import coulomb
+from mjtrack.testing import diagnose_physics as phys
 
 # turn entries from straight, spins from rest, turn and spin reversals, both turn directions (x V)
 STEPS = (((1.0, 1.0), (1.0, 0.0)), ((1.0, 1.0), (0.0, 1.0)), ((0.0, 0.0), (-1.0, 1.0)), ((0.0, 0.0), (1.0, -1.0)),

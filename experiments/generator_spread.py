@@ -2,7 +2,7 @@
 
     python experiments/generator_spread.py
 
-For each geometry of tests/diagnose_physics.py (the independent physics the diagnosis benchmark
+For each geometry of mjtrack/testing/diagnose_physics.py (the independent physics the diagnosis benchmark
 draws its logs from) and three constant commands, the steady ICRs of the generator (last 1 s
 of 6 s, at its own settings: 5 ms step, 0.02 m/s regularisation, and at 1 ms / 0.001 m/s)
 against those of the Coulomb reference of the robot *description* (mjtrack.models.coulomb,
@@ -24,16 +24,13 @@ regularisation made small alone, and both small, beside the converged Coulomb ro
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-import diagnose_physics as phys  # noqa: E402
-
-from mjtrack.diagnose import select as sel  # noqa: E402
-from mjtrack.diagnose import surrogate as sg  # noqa: E402
-from mjtrack.models import coulomb  # noqa: E402
+from mjtrack.diagnose import select as sel
+from mjtrack.diagnose import surrogate as sg
+from mjtrack.models import coulomb
+from mjtrack.testing import diagnose_physics as phys
 
 COMMANDS = ((0.3, 0.5), (0.1, 0.3), (-0.3, 0.3))
 STEPS = (((0.5, 0.5), (0.5, 0.0)), ((0.0, 0.0), (-0.5, 0.5)))

@@ -84,22 +84,19 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from fidelity import commands_for, wide_robots  # noqa: E402
+from fidelity import commands_for, wide_robots
 
-from mjtrack.io.robot import G  # noqa: E402
-from mjtrack.models.coulomb import steady_state as coulomb  # noqa: E402
-from mjtrack.sim.builder import build_model, control_matrix  # noqa: E402
-from mjtrack.sim.config import SimConfig  # noqa: E402
-from mjtrack.sim.rollout import STATE_SPEC, drive_log, settled_state  # noqa: E402
-from mjtrack.sim.steady import steady_batch  # noqa: E402
-
+from mjtrack.io.robot import G
+from mjtrack.models.coulomb import steady_state as coulomb
+from mjtrack.sim.builder import build_model, control_matrix
+from mjtrack.sim.config import SimConfig
+from mjtrack.sim.rollout import STATE_SPEC, drive_log, settled_state
+from mjtrack.sim.steady import steady_batch
 
 
 def FixedStep(**changes) -> SimConfig:  # noqa: N802 -- a SimConfig, named for what it pins

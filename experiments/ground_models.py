@@ -5,7 +5,7 @@
 1. Steady pivot yaw ratio wz / ((V_R - V_L) / T) on the Marmotte's gauge (T = 0.5927 m, its
    published value; contact length L unknown, so 0.4 - 0.8 m): MuJoCo (mjtrack.sim.steady, the
    roller chain with the ground model) beside the independent quadrature of the steady balance
-   (tests/ground_balance.py), for the coulomb ground, the anisotropic ground at the lateral
+   (mjtrack/testing/ground_balance.py), for the coulomb ground, the anisotropic ground at the lateral
    ratio that gives the measured 0.96 (found on the quadrature), and road wheels (4 wheels,
    95 % of the load) at the span that gives 0.96.
 2. Speed: steps per second of a 10 s random-steps rollout (one thread, median of 3) per model.
@@ -18,22 +18,20 @@ import argparse
 import json
 import os
 import statistics
-import sys
 import time
 from pathlib import Path
 
 from scipy.optimize import brentq
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))  # the independent balance lives with the tests
+from mjtrack.io.robot import Robot
+from mjtrack.sim.builder import build_model
+from mjtrack.sim.config import SimConfig
+from mjtrack.sim.rollout import hold_commands, run_batch, settled_state
+from mjtrack.sim.scenarios import scenario_commands
+from mjtrack.sim.steady import steady_state
+from mjtrack.testing.ground_balance import yaw_ratio
 
-from ground_balance import yaw_ratio  # noqa: E402
-from mjtrack.io.robot import Robot  # noqa: E402
-from mjtrack.sim.builder import build_model  # noqa: E402
-from mjtrack.sim.config import SimConfig  # noqa: E402
-from mjtrack.sim.rollout import hold_commands, run_batch, settled_state  # noqa: E402
-from mjtrack.sim.scenarios import scenario_commands  # noqa: E402
-from mjtrack.sim.steady import steady_state  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 T_MARMOTTE = 0.592723  # [m] marmotte_boreal.json
 R_MARMOTTE = 0.116702  # [m] sprocket radius, marmotte_boreal.json

@@ -23,12 +23,11 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from fidelity import GEOMETRIES, commands_for  # noqa: E402
+from fidelity import GEOMETRIES, commands_for
 
-from mjtrack.models.coulomb import steady_state as coulomb_steady  # noqa: E402
-from mjtrack.sim.config import SimConfig  # noqa: E402
-from mjtrack.sim.steady import steady_batch  # noqa: E402
+from mjtrack.models.coulomb import steady_state as coulomb_steady
+from mjtrack.sim.config import SimConfig
+from mjtrack.sim.steady import steady_batch
 
 CASES = {
     "pivot": ("default", "pivot", 0.5, 0.0, 0.8),

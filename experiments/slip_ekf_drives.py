@@ -15,18 +15,16 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import filter_consistency as fc  # noqa: E402
+import filter_consistency as fc
 
-from mjtrack.estimation import consistency as cons  # noqa: E402
-from mjtrack.estimation import run_slip_ekf  # noqa: E402
-from mjtrack.io.robot import Robot  # noqa: E402
-from mjtrack.sim.rollout import drive_log  # noqa: E402
-from mjtrack.sim.scenarios import scenario_commands  # noqa: E402
+from mjtrack.estimation import consistency as cons
+from mjtrack.estimation import run_slip_ekf
+from mjtrack.io.robot import Robot
+from mjtrack.sim.rollout import drive_log
+from mjtrack.sim.scenarios import scenario_commands
 
 
 def main(argv=None) -> int:

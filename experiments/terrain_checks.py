@@ -20,20 +20,17 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from mjtrack.io.robot import Robot  # noqa: E402
-from mjtrack.models.coulomb import plane_to_world, rollout, world_to_plane  # noqa: E402
-from mjtrack.sim.config import sim_config  # noqa: E402
-from mjtrack.sim.rollout import simulate  # noqa: E402
-from mjtrack.sim.terrain import parse_terrain, timestep_for  # noqa: E402
+from mjtrack.io.robot import Robot
+from mjtrack.models.coulomb import plane_to_world, rollout, world_to_plane
+from mjtrack.sim.config import sim_config
+from mjtrack.sim.rollout import simulate
+from mjtrack.sim.terrain import parse_terrain, timestep_for
 
 
 def run(robot, spec, v_left, v_right, seconds, model="rollers", log_rate=50.0):

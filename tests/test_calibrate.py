@@ -15,11 +15,11 @@ import json
 import numpy as np
 import pytest
 
-from cli_helpers import run_cli
 from mjtrack.calibrate.run import calibrate
 from mjtrack.io.logs import write_log
 from mjtrack.io.robot import Robot, read_robot, write_robot
 from mjtrack.sim import SimConfig, drive_log
+from mjtrack.testing.cli import run_cli
 
 TRUTH = {"mu": 0.5, "cg_x": 0.04, "cg_y": -0.03}
 LAG = 0.2

@@ -4,10 +4,10 @@ import json
 
 import numpy as np
 import pytest
-from cli_helpers import assert_usage_error, run_cli
 from matplotlib.image import imread
 
 from mjtrack.cli import COMMANDS
+from mjtrack.testing.cli import assert_usage_error, run_cli
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 

@@ -1,6 +1,6 @@
 """The Coulomb rollout's transients against the independent rigid-body generator.
 
-tests/diagnose_physics.py integrates the same kind of body with its own code (linearly implicit
+mjtrack/testing/diagnose_physics.py integrates the same kind of body with its own code (linearly implicit
 Euler, its own plane-pressure loads lagged one step, regularised Coulomb). With its step and
 regularisation small (5e-5 s, 1e-4 m/s) its lags vanish, and on the same body — four contacts at
 (+-0.25, +-0.275) m (the rollout's two midpoints per side of a 1.0 m line), 50 kg, the same yaw
@@ -15,8 +15,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import diagnose_physics as phys
 from mjtrack.models import coulomb
+from mjtrack.testing import diagnose_physics as phys
 
 V, DUR = 0.5, 1.0
 ROBOT, KIND = phys.GEOMETRIES["wheeled"]  # 4 wheels at (+-WHEELBASE/2, +-T/2)

@@ -4,8 +4,8 @@ effects are flagged with what would separate them; DRIVE-layout logs work at def
 the command writes diagnosis.json (CONTRACTS.md §4) and report.html; bad input exits 2 with one
 line and writes nothing.
 
-The logs come from the separate, INDEPENDENT generator (tests/diagnose_physics.py through
-tests/test_diagnose_generator.py): its own rigid-body Coulomb simulation, realistic pose noise;
+The logs come from the separate, INDEPENDENT generator (mjtrack/testing/diagnose_physics.py through
+mjtrack/testing/diagnose_logs.py): its own rigid-body Coulomb simulation, realistic pose noise;
 the diagnosis does not know what was injected. The baseline is always given explicitly.
 """
 
@@ -15,14 +15,14 @@ import json
 
 import numpy as np
 import pytest
-from cli_helpers import run_cli
-from test_diagnose_generator import HIDDEN, make_log
 
 from mjtrack import cli
 from mjtrack.diagnose import diagnose
 from mjtrack.errors import InputError
 from mjtrack.io.logs import write_log
 from mjtrack.io.robot import write_robot
+from mjtrack.testing.cli import run_cli
+from mjtrack.testing.diagnose_logs import HIDDEN, make_log
 
 DURATION = 120.0  # [s] at 20 Hz; long enough for 5 folds of 2 s windows, short enough for the default run
 INPUT = ("track_speed_scale", "actuator_lag", "command_delay", "speed_limit", "yaw_rate_limit")
@@ -287,7 +287,7 @@ def test_cli_bad_robot_horizon_and_usage_exit_2(tmp_path, mjtrack_cli):
 def test_description_without_contact_length_uses_the_kinematic_baseline(icr, effect, estimate):
     """A real-log situation (only track_gauge known): baseline (2.1); a wider ICR spread is named
     icr_spread with its factor, a shifted no-slip line is named cg_offset_x (its x_c signature)."""
-    from test_diagnose_generator import commands
+    from mjtrack.testing.diagnose_physics import commands
 
     from mjtrack.io.logs import DriveLog
     from mjtrack.io.robot import Robot
@@ -314,7 +314,7 @@ def test_description_without_contact_length_uses_the_kinematic_baseline(icr, eff
 
 def _mujoco_log(robot, seed=3, duration=90.0):
     """A log of the MuJoCo robot (mjtrack.sim) under the generator's commands, scaled to 0.6 m/s."""
-    from test_diagnose_generator import XY_STD, YAW_STD, commands
+    from mjtrack.testing.diagnose_physics import XY_STD, YAW_STD, commands
 
     from mjtrack.io.logs import DriveLog
     from mjtrack.sim.config import SimConfig
@@ -357,7 +357,7 @@ def test_mujoco_log_named_and_confirmed_in_mujoco(cg_x):
 def test_selection_does_not_flip_with_the_fold_count():
     """A speed limit of 0.45 m/s that only the faster commands reach (about a sixth of the log):
     found at 3, 5 and 10 folds alike (the gain test is over blocks of windows, not over folds)."""
-    from diagnose_physics import make_log as physics_log
+    from mjtrack.testing.diagnose_physics import make_log as physics_log
 
     log, robot = physics_log({"speed_limit": 0.45}, seed=12, duration=180.0, vmax=0.5)
     for k in (3, 5, 10):
@@ -372,7 +372,7 @@ def test_gain_within_the_surrogates_resolution_is_not_named(monkeypatch):
     friction_scale ~ 1.22 pass the gain test (6.2 %, bound 0.9 %), but its 95 % interval, which
     carries the absolute model-form term MODEL_ABS, holds the nominal 1: not named, and the
     evidence says why. Without the term (MODEL_ABS emptied) it is named: a false cause."""
-    import diagnose_physics as phys
+    from mjtrack.testing import diagnose_physics as phys
 
     from mjtrack.diagnose import select as sel
 

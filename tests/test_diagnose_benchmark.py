@@ -6,13 +6,11 @@ starts), run by the default test run; the whole benchmark (41 logs) is
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
-import diagnose_benchmark as bench  # noqa: E402
+from mjtrack.testing.repo import load_benchmark
+
+bench = load_benchmark("diagnose_benchmark")
 
 
 def _check(row):

@@ -1,7 +1,7 @@
 """Issue 6 on MuJoCo logs: every hidden effect named, estimated within 25 %, with a held-out gain;
 clean logs give "none".
 
-The logs come from the separate MuJoCo GENERATOR (tests/mujoco_effects.py): the robot of
+The logs come from the separate MuJoCo GENERATOR (mjtrack/testing/mujoco_effects.py): the robot of
 mjtrack.sim with one effect of CONTRACTS.md §4 hidden, pose noise 1 cm / 0.3 deg at 20 Hz,
 pose only or with the simulated track speeds. The diagnosis gets the log and the nominal robot
 only. The default run checks a few effects on 120 s logs; the full matrix (every effect x
@@ -16,11 +16,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from mujoco_effects import DRIVES, HIDDEN, LOG_DT, ROBOT, apply_input, commands, make_log, slope_gravity
 
 from mjtrack.diagnose import diagnose
 from mjtrack.io.robot import G
 from mjtrack.sim.rollout import hold_commands
+from mjtrack.testing import mujoco_effects
+from mjtrack.testing.mujoco_effects import DRIVES, HIDDEN, LOG_DT, ROBOT, apply_input, commands, make_log, slope_gravity
 
 DURATION = 120.0  # [s] per log: 2400 samples, 5 folds of 2 s windows; ~1.5 s to simulate, ~2 s to diagnose
 SEED = 11
@@ -153,7 +154,7 @@ def test_slope_gravity_points_downhill():
 
 
 def test_generator_shares_nothing_with_the_diagnosis():
-    tree = ast.parse((Path(__file__).parent / "mujoco_effects.py").read_text())
+    tree = ast.parse(Path(mujoco_effects.__file__).read_text())
     imported = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
     imported |= {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
     assert imported and not any(m.startswith("mjtrack.diagnose") for m in imported)

@@ -1,6 +1,6 @@
 """diagnose --baseline mujoco: the MuJoCo robot diagnosed on MuJoCo logs with one hidden effect.
 
-The logs come from tests/mujoco_effects.py (no code shared with mjtrack.diagnose; its anisotropic
+The logs come from mjtrack/testing/mujoco_effects.py (no code shared with mjtrack.diagnose; its anisotropic
 ground is its own implementation, not mjtrack.sim.ground). Default: the hidden ground extension
 among three candidates on a 40 s log (~30 s on a loaded 2-core machine), the blocks of the
 finding test on a segmented log, and a clean log (no cause); slow: every hidden effect against
@@ -11,16 +11,15 @@ from __future__ import annotations
 
 import json
 
-import pytest
-
-from mujoco_effects import HIDDEN, ROBOT, make_log
 import numpy as np
+import pytest
 
 from mjtrack.diagnose.mujoco_baseline import _Scoring, can_build, diagnose_mujoco, write_mujoco_outputs
 from mjtrack.errors import InputError
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.windows import make_windows
+from mjtrack.testing.mujoco_effects import HIDDEN, ROBOT, make_log
 
 NOMINAL = Robot.from_dict({**ROBOT.to_dict(), "drive_force_limit": 600.0 / ROBOT.sprocket_radius})
 
@@ -154,7 +153,7 @@ def _write(tmp_path, robot_dict, *, effect="cg_offset_x", duration=30.0):
 
 
 def test_cli_auto_falls_back_and_says_why(tmp_path):
-    from cli_helpers import run_cli
+    from mjtrack.testing.cli import run_cli
 
     path = _write(tmp_path, {"track_gauge": ROBOT.track_gauge})  # no contact length
     out = tmp_path / "d"
@@ -165,7 +164,7 @@ def test_cli_auto_falls_back_and_says_why(tmp_path):
 
 
 def test_cli_mujoco_without_contact_length_is_refused(tmp_path):
-    from cli_helpers import assert_usage_error, run_cli
+    from mjtrack.testing.cli import assert_usage_error, run_cli
 
     path = _write(tmp_path, {"track_gauge": ROBOT.track_gauge}, duration=6.0)
     res = run_cli(["diagnose", path, "--out", tmp_path / "d", "--baseline", "mujoco"])
@@ -175,7 +174,7 @@ def test_cli_mujoco_without_contact_length_is_refused(tmp_path):
 
 @pytest.mark.slow
 def test_cli_auto_chooses_mujoco_when_the_robot_can_be_built(tmp_path):
-    from cli_helpers import run_cli
+    from mjtrack.testing.cli import run_cli
 
     path = _write(tmp_path, NOMINAL.to_dict(), duration=40.0)
     out = tmp_path / "d"

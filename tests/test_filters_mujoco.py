@@ -5,23 +5,16 @@ ICRs, causal 2 s predictions); this test runs it on one left and one right 10 s 
 robot with the centre of gravity 0.05 m forward (about 2 s of CPU).
 """
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from mjtrack.io.robot import Robot
-
-_PATH = Path(__file__).resolve().parents[1] / "experiments" / "filters_on_mujoco.py"
+from mjtrack.testing.repo import load_benchmark
 
 
 @pytest.fixture(scope="module")
 def exp():
-    spec = importlib.util.spec_from_file_location("filters_on_mujoco", _PATH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_benchmark("filters_on_mujoco")
 
 
 @pytest.fixture(scope="module")

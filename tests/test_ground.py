@@ -1,6 +1,6 @@
 """Ground models of the MuJoCo robot (mjtrack.sim.ground) against an independent steady balance.
 
-The oracle (tests/ground_balance.py) is a quadrature of the force and yaw-moment balance of a
+The oracle (mjtrack/testing/ground_balance.py) is a quadrature of the force and yaw-moment balance of a
 rigid two-track vehicle with the ground's load distribution and friction law written out on its
 own; MuJoCo's steady turns (mjtrack.sim.steady) must give the same yaw ratio.
 """
@@ -14,13 +14,13 @@ import mujoco
 import numpy as np
 import pytest
 
-from ground_balance import yaw_ratio
 from mjtrack.errors import InputError
 from mjtrack.io.robot import Ground, Robot, read_robot
 from mjtrack.sim.builder import build_model
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.ground import load_shares
 from mjtrack.sim.steady import steady_state
+from mjtrack.testing.ground_balance import yaw_ratio
 
 ROBOT = Robot()  # T 0.4, L 0.5, mu 0.8
 
@@ -128,7 +128,7 @@ def test_coulomb_reference_honours_the_ground(ground, speeds):
     quadrature: both are quasi-static balances with the cg on the centre, so they differ only by
     discretisation (200 points per track, a wheel's point load split between its two neighbours;
     the quadrature keeps it a point): 1e-4 in yaw ratio (measured: 2e-5 at most)."""
-    from ground_balance import steady_twist
+    from mjtrack.testing.ground_balance import steady_twist
 
     from mjtrack.models import coulomb
 

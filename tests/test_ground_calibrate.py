@@ -1,6 +1,6 @@
 """A hidden ground extension in a MuJoCo log is found by ``calibrate``.
 
-The log comes from tests/mujoco_effects.py, whose anisotropic ground is its own implementation
+The log comes from mjtrack/testing/mujoco_effects.py, whose anisotropic ground is its own implementation
 (capsule rollers and pair friction written there, not through mjtrack.sim.ground); calibrate
 starts from an isotropic-looking lateral ratio (0.9) on a robot built with the anisotropic ground.
 """
@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import pytest
 
-from mujoco_effects import HIDDEN, ROBOT, make_log
 from mjtrack.calibrate.run import calibrate
 from mjtrack.io.robot import Robot
+from mjtrack.testing.mujoco_effects import HIDDEN, ROBOT, make_log
 
 
 @pytest.mark.slow

@@ -11,7 +11,6 @@ from pathlib import Path
 
 import pytest
 
-from cli_helpers import assert_usage_error, run_cli
 from mjtrack.commands._common import (
     add_output_options,
     add_robot_options,
@@ -21,6 +20,7 @@ from mjtrack.commands._common import (
 )
 from mjtrack.errors import InputError
 from mjtrack.io.robot import Robot, read_robot, write_robot
+from mjtrack.testing.cli import assert_usage_error, run_cli
 
 DATA = Path(__file__).parent / "data"
 

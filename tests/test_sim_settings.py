@@ -6,9 +6,7 @@ from __future__ import annotations
 
 import functools
 import math
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,8 +16,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.models.coulomb import steady_state as coulomb
 from mjtrack.sim.config import MAX_STEP_DIVISIONS, SimConfig, previous_defaults
 from mjtrack.sim.steady import case_timestep, steady_batch
-
-EXPERIMENTS = Path(__file__).resolve().parents[1] / "experiments"
+from mjtrack.testing.repo import load_benchmark
 
 
 def test_solver_and_drive_settings_are_validated():
@@ -126,11 +123,7 @@ def test_heavy_robot_keeps_the_commanded_speed_difference():
 
 @functools.lru_cache(maxsize=1)
 def _wide_rows():
-    sys.path.insert(0, str(EXPERIMENTS))
-    try:
-        import fidelity
-    finally:
-        sys.path.remove(str(EXPERIMENTS))
+    fidelity = load_benchmark("fidelity")
     return fidelity, fidelity.run_wide(True, SimConfig(), half_dt=True)
 
 

@@ -15,7 +15,6 @@ import mujoco
 import numpy as np
 import pytest
 
-from cli_helpers import run_cli
 from mjtrack.errors import InputError
 from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model, control_matrix
@@ -24,6 +23,7 @@ from mjtrack.sim.rollout import simulate
 from mjtrack.sim.steady import steady_state
 from mjtrack.sim.surfacevel import set_track_speeds
 from mjtrack.sim.terrain import parse_terrain, timestep_for
+from mjtrack.testing.cli import run_cli
 
 MODELS = ["rollers", "surfacevel"]
 

@@ -401,11 +401,11 @@ def test_quick_compensation_grid_names_the_reason_of_each_miss(tmp_path):
     import json
     import subprocess
     import sys
-    from pathlib import Path
 
-    root = Path(__file__).resolve().parents[1]
-    res = subprocess.run([sys.executable, str(root / "experiments" / "compensation_grid.py"), "--quick",
-                          "--out", str(tmp_path / "grid.json")], cwd=root, capture_output=True, text=True)
+    from mjtrack.testing.repo import BENCHMARKS, ROOT
+
+    res = subprocess.run([sys.executable, str(BENCHMARKS / "compensation_grid.py"), "--quick",
+                          "--out", str(tmp_path / "grid.json")], cwd=ROOT, capture_output=True, text=True)
     assert res.returncode in (0, 1), res.stdout[-3000:] + res.stderr[-3000:]
     cases = json.loads((tmp_path / "grid.json").read_text())["cases"]
     assert len(cases) == 24
@@ -434,7 +434,7 @@ def cli(monkeypatch):
     from mjtrack import cli as cli_mod
 
     monkeypatch.setitem(cli_mod.COMMANDS, "track", "track")
-    from cli_helpers import run_cli
+    from mjtrack.testing.cli import run_cli
 
     return run_cli
 

@@ -4,7 +4,9 @@ The residual of a parameter vector is, for every window of the log (each simulat
 measured start state by :func:`mjtrack.sim.windows.simulate_windows`), the predicted minus the
 measured pose at ``CHECKPOINTS`` fractions of the window (position in the start frame [m], yaw
 times ``yaw_length`` [m]), divided by sqrt(number of windows) so that the cost is a mean. A
-window whose simulation blew up gets ``DIVERGED_RESIDUAL`` in every component.
+window whose simulation blew up gets ``DIVERGED_RESIDUAL`` in every component. Windows start
+with hidden states warmed up over the log's own past where their segment allows
+(:data:`mjtrack.sim.windows.WARMUP_S`).
 
 What ``mujoco.sysid`` does here: the parameters are a ``sysid.ParameterDict`` (in units of each
 parameter's typical change, so one finite-difference step suits all), ``sysid.optimize`` runs
@@ -33,10 +35,10 @@ from typing import Callable
 
 import numpy as np
 
-from mjtrack.calibrate.params import ParamSpec, specs_for
+from mjtrack.calibrate.params import ParamSpec, specs_for, window_params
 from mjtrack.geometry import relative_pose
 from mjtrack.io.logs import DriveLog
-from mjtrack.sim.windows import WindowSet, WindowSim, measured_window_poses, simulate_windows
+from mjtrack.sim.windows import WARMUP_S, WindowSet, WindowSim, measured_window_poses, simulate_windows
 
 log = logging.getLogger(__name__)
 
@@ -65,6 +67,7 @@ class Objective:
     specs: dict[str, ParamSpec]
     yaw_length: float
     nthread: int = 2
+    warmup_s: float = WARMUP_S
     progress: Callable[[int, int], None] | None = None
     evaluations: int = 0
     seconds: float = 0.0
@@ -75,6 +78,11 @@ class Objective:
         self._meas = measured_window_poses(self.log, self.windows)
         n = self.windows.ends - self.windows.starts
         self._idx = np.stack([np.round(f * n).astype(int) for f in CHECKPOINTS], -1)  # (M, C)
+
+    @property
+    def rows_per_window(self) -> int:
+        """Residual components of one window (checkpoints x (along, across, yaw))."""
+        return 3 * len(CHECKPOINTS)
 
     @property
     def scales(self) -> np.ndarray:
@@ -89,9 +97,15 @@ class Objective:
         Z = np.asarray(Z, float)
         one = Z.ndim == 1
         Z2 = Z[:, None] if one else Z
-        variants = [self.params_of(Z2[:, j]) for j in range(Z2.shape[1])]
+        variants = [window_params(self.params_of(Z2[:, j]), self.sim.robot) for j in range(Z2.shape[1])]
+        return self.residuals_of(variants, one=one)
+
+    def residuals_of(self, variants: list[dict], *, one: bool = False, sim: WindowSim | None = None,
+                     warmup_s: float | None = None) -> np.ndarray:
+        """Residuals (R, P) of P window-parameter dicts (optionally on another simulator or warm-up)."""
         t0 = time.perf_counter()
-        res = simulate_windows(self.sim, self.log, self.windows, variants, nthread=self.nthread)
+        res = simulate_windows(sim or self.sim, self.log, self.windows, variants, nthread=self.nthread,
+                               warmup_s=self.warmup_s if warmup_s is None else warmup_s)
         self.seconds += time.perf_counter() - t0
         self.evaluations += len(variants)
         R = self._residuals(res.poses, res.diverged)
@@ -119,10 +133,14 @@ class Objective:
 
 @dataclass
 class FitResult:
-    """Fitted values, half-width 95 % intervals, the starts tried and the optimiser's trace."""
+    """Fitted values, the starts tried, the optimiser's trace, and the final Jacobian and residuals.
 
+    ``jac``: (R, n) derivative of the residuals with respect to the *scaled* parameters (units of
+    each parameter's typical change, :attr:`ParamSpec.scale`); ``resid``: (R,) residuals at the
+    fitted values; both feed :mod:`mjtrack.calibrate.identify`."""
+
+    names: list[str]
     values: dict[str, float]
-    intervals: dict[str, tuple[float, float]]
     start: dict[str, float]
     starts_tried: list[tuple[dict[str, float], float]]
     cost_start: float
@@ -132,6 +150,8 @@ class FitResult:
     seconds: float
     sim_seconds: float
     method: str
+    jac: np.ndarray
+    resid: np.ndarray
 
 
 def _multistart(obj: Objective, z0: np.ndarray) -> tuple[np.ndarray, list[tuple[dict[str, float], float]]]:
@@ -174,6 +194,7 @@ def fit(obj: Objective, start: dict[str, float], *, max_iter: int = 8, multistar
     import mujoco.sysid as sysid
 
     t0 = time.perf_counter()
+    evals0, sim0 = obj.evaluations, obj.seconds
     specs = obj.specs
     scales = obj.scales
     z0 = np.array([start[n] for n in obj.names]) / scales
@@ -202,27 +223,17 @@ def fit(obj: Objective, start: dict[str, float], *, max_iter: int = 8, multistar
                                  mu_factor=LM_MU_FACTOR if mu_factor is None else mu_factor)
     z = opt.as_vector()
     r = obj.residuals(z)
-    J = np.asarray(result.jac)
-    intervals: dict[str, tuple[float, float]] = {}
-    try:
-        _, half = sysid.calculate_intervals([r], J)
-        half = np.abs(np.asarray(half, float)) * scales
-    except Exception as exc:  # singular Jacobian: no interval rather than a wrong one
-        log.warning("intervals not computed: %s", exc)
-        half = np.full(len(obj.names), np.nan)
-    values = obj.params_of(z)
-    for n, h in zip(obj.names, half):
-        v = values[n]
-        intervals[n] = (v - float(h), v + float(h)) if np.isfinite(h) else (float("nan"), float("nan"))
-    return FitResult(values=values, intervals=intervals, start={n: float(v) for n, v in obj.params_of(z_start).items()},
+    return FitResult(names=list(obj.names), values=obj.params_of(z),
+                     start={n: float(v) for n, v in obj.params_of(z_start).items()},
                      starts_tried=tried, cost_start=cost_start, cost_final=float(np.sum(r ** 2)),
-                     iterations=len(iters), evaluations=obj.evaluations, seconds=time.perf_counter() - t0,
-                     sim_seconds=obj.seconds,
+                     iterations=len(iters), evaluations=obj.evaluations - evals0, seconds=time.perf_counter() - t0,
+                     sim_seconds=obj.seconds - sim0, jac=np.asarray(result.jac, float), resid=np.asarray(r, float),
                      method="mujoco.sysid.optimize (mujoco.minimize.least_squares, vectorised finite differences)")
 
 
-def objective(robot, log_: DriveLog, windows: WindowSet, names: list[str], config, *, nthread: int = 2) -> Objective:
-    """The objective of ``names`` on ``log_``'s windows for ``robot`` simulated with ``config``."""
-    sim = WindowSim(robot, config)
+def objective(sim: WindowSim, log_: DriveLog, windows: WindowSet, names: list[str], *, nthread: int = 2,
+              warmup_s: float = WARMUP_S) -> Objective:
+    """The objective of ``names`` on ``log_``'s windows for the robot of ``sim``."""
+    robot = sim.robot
     return Objective(sim=sim, log=log_, windows=windows, names=list(names), specs=specs_for(robot),
-                     yaw_length=robot.track_gauge / 2, nthread=nthread)
+                     yaw_length=robot.track_gauge / 2, nthread=nthread, warmup_s=warmup_s)

@@ -1,15 +1,29 @@
-"""The parameters ``calibrate`` can fit: names, bounds, units, starting values.
+"""The parameters ``calibrate`` can fit: names, bounds, resolution, units, starting values.
 
-Names are robot-description keys (CONTRACTS §2) or parameters of the robot's ground model
-(``lateral_ratio`` of ``anisotropic``; ``concentration``, ``span`` of ``road_wheels``). How each one
-reaches the MuJoCo robot: :mod:`mjtrack.sim.windows` (model fields, commands, or a rebuild).
+Names are robot-description keys, the friction ratio ``mu_ratio``, an inclined ground
+(``slope_x``, ``slope_y``) or parameters of the robot's ground model (``lateral_ratio`` of
+``anisotropic``; ``concentration``, ``span`` of ``road_wheels``). :func:`window_params` turns fitted
+values into the parameters of :mod:`mjtrack.sim.windows`, which sets them on the MuJoCo robot.
+
+Friction is fitted as its level and its left/right split: ``mu`` the geometric mean of the two
+sides' coefficients, ``mu_ratio`` = mu_left / mu_right, so mu_left = mu sqrt(ratio) and
+mu_right = mu / sqrt(ratio). The two act differently -- the split steers every turn, the level
+matters only where the motion is friction-limited -- so one can be determined by a log that leaves
+the other free (:mod:`mjtrack.calibrate.identify`).
+
+Each parameter has a *resolution*: the change that matters for a prediction. A parameter is
+determined by a log when its 95 % interval is narrower than plus or minus its resolution.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from mjtrack.errors import InputError
+from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.windows import WINDOW_PARAMS, drive_params, robot_params
@@ -17,63 +31,92 @@ from mjtrack.sim.windows import WINDOW_PARAMS, drive_params, robot_params
 
 @dataclass(frozen=True)
 class ParamSpec:
-    """One fittable parameter: bounds [lo, hi], a typical change (the optimiser's scale), unit, meaning."""
+    """One fittable parameter.
+
+    Attributes:
+        name: the parameter's name (a robot key, ``mu_ratio``, ``slope_x``/``slope_y`` or a ground parameter).
+        lo, hi: physical bounds of the fit.
+        scale: a typical change (the optimiser's unit, so one finite-difference step suits all).
+        resolution: the change that matters (half-width below which the log determines it).
+        unit: unit of the value.
+        kind: what it belongs to: "ground", "contact", "mass", "drive" or "terrain".
+        what: one line saying what it is.
+    """
 
     name: str
     lo: float
     hi: float
     scale: float
+    resolution: float
     unit: str
+    kind: str
     what: str
 
 
-def _specs(robot: Robot, L: float) -> dict[str, ParamSpec]:
+def _specs(robot: Robot) -> dict[str, ParamSpec]:
+    L, T = robot.track_length, robot.track_gauge
     # cg bounds: a quarter of the half-length / half-gauge; the roller chain's explicit-Euler step
-    # diverged at cg_x = 0.4 L/2 in some transients (measured, tests/test_windows.py notes)
-    cgx, cgy = 0.25 * L / 2, 0.25 * robot.track_gauge / 2
+    # diverged at cg_x = 0.4 L/2 in some transients (tests/test_windows.py)
+    cgx, cgy = 0.25 * L / 2, 0.25 * T / 2
     return {s.name: s for s in (
-        ParamSpec("mu", 0.05, 2.0, 0.1, "–", "ground friction, both tracks"),
-        ParamSpec("mu_left", 0.05, 2.0, 0.1, "–", "ground friction of the left track"),
-        ParamSpec("mu_right", 0.05, 2.0, 0.1, "–", "ground friction of the right track"),
-        ParamSpec("cg_x", -cgx, cgx, 0.02, "m", "centre of mass ahead of the geometric centre"),
-        ParamSpec("cg_y", -cgy, cgy, 0.02, "m", "centre of mass left of the geometric centre"),
-        ParamSpec("track_length", 0.15, 1.6, 0.1, "m", "track contact length"),
-        ParamSpec("drive_lag", 0.0, 1.5, 0.1, "s", "first-order time constant from command to track speed"),
-        ParamSpec("drive_delay", 0.0, 0.6, 0.05, "s", "dead time from command to track speed"),
-        ParamSpec("track_speed_scale", 0.5, 1.5, 0.05, "–", "actual / commanded track speed"),
-        ParamSpec("drive_force_limit", 5.0, 5000.0, 50.0, "N", "largest force a track drive applies"),
-        ParamSpec("lateral_ratio", 0.05, 1.0, 0.1, "–", "lateral / longitudinal friction (anisotropic ground)"),
-        ParamSpec("concentration", 0.0, 0.95, 0.1, "–", "share of the load on the road wheels (road_wheels ground)"),
-        ParamSpec("span", 0.05, 1.0, 0.1, "–", "road-wheel span / contact length (road_wheels ground)"),
+        ParamSpec("mu", 0.05, 2.0, 0.1, 0.1, "–", "ground", "ground friction (geometric mean of the two sides)"),
+        ParamSpec("mu_ratio", 0.2, 5.0, 0.1, 0.05, "–", "ground", "left / right friction"),
+        ParamSpec("mu_left", 0.05, 2.0, 0.1, 0.1, "–", "ground", "ground friction of the left side"),
+        ParamSpec("mu_right", 0.05, 2.0, 0.1, 0.1, "–", "ground", "ground friction of the right side"),
+        ParamSpec("cg_x", -cgx, cgx, 0.02, 0.02 * L, "m", "mass", "centre of mass ahead of the geometric centre"),
+        ParamSpec("cg_y", -cgy, cgy, 0.02, 0.02 * T, "m", "mass", "centre of mass left of the geometric centre"),
+        ParamSpec("track_length", 0.15, 1.6, 0.1, 0.05 * L, "m", "contact", "track contact length"),
+        ParamSpec("drive_lag", 0.0, 1.5, 0.1, 0.02, "s", "drive", "first-order time constant from command to track speed"),
+        ParamSpec("drive_delay", 0.0, 0.6, 0.05, 0.02, "s", "drive", "dead time from command to track speed"),
+        ParamSpec("track_speed_scale", 0.5, 1.5, 0.05, 0.02, "–", "drive", "actual / commanded track speed"),
+        ParamSpec("drive_force_limit", 5.0, 5000.0, 50.0, 50.0, "N", "drive", "largest force a track drive applies"),
+        ParamSpec("slope_x", -0.5, 0.5, 0.02, 0.01, "–", "terrain", "sin(slope) x uphill direction's x (log frame)"),
+        ParamSpec("slope_y", -0.5, 0.5, 0.02, 0.01, "–", "terrain", "sin(slope) x uphill direction's y (log frame)"),
+        ParamSpec("lateral_ratio", 0.05, 1.0, 0.1, 0.05, "–", "ground", "lateral / longitudinal friction (anisotropic ground)"),
+        ParamSpec("concentration", 0.0, 0.95, 0.1, 0.05, "–", "ground", "share of the load on the road wheels (road_wheels ground)"),
+        ParamSpec("span", 0.05, 1.0, 0.1, 0.05, "–", "ground", "road-wheel span / contact length (road_wheels ground)"),
     )}
 
 
 GROUND_PARAMS = {"anisotropic": ("lateral_ratio",), "road_wheels": ("concentration", "span"), "coulomb": ()}
-#: fitted unless --params says otherwise (plus track_length when the robot file lacks it, and the
-#: parameters of the robot's ground model)
-DEFAULT_PARAMS = ("mu", "cg_x", "cg_y", "drive_lag", "drive_delay", "track_speed_scale")
+#: every cause a user meets on a drive log, fitted unless --params names others; identifiability,
+#: not this list, decides what stays (:mod:`mjtrack.calibrate.identify`). Plus the ground model's
+#: parameters, and the slope where the log's poses share one world frame.
+DEFAULT_PARAMS = ("mu", "mu_ratio", "cg_x", "cg_y", "track_length", "drive_lag", "drive_delay", "track_speed_scale")
+SLOPE_PARAMS = ("slope_x", "slope_y")
 #: first values of drivetrain keys that the robot file lacks (a value on a bound stalls the fit)
 DRIVE_START = {"drive_lag": 0.05, "drive_delay": 0.02, "track_speed_scale": 1.0}
 
 
 def specs_for(robot: Robot) -> dict[str, ParamSpec]:
-    """Every parameter's spec for this robot (cg bounds follow its contact length)."""
-    return _specs(robot, robot.track_length)
+    """Every parameter's spec for this robot (cg bounds and resolutions follow its geometry)."""
+    return _specs(robot)
 
 
-def default_names(robot: Robot) -> list[str]:
+def one_frame(log: DriveLog) -> bool:
+    """Whether the log's segments share one world frame (a slope there means something): False when
+    every segment starts at the origin with zero heading (each window in its own frame, as the
+    DRIVE data of wheeled robots)."""
+    starts = [sl.start for sl in log.segment_slices()]
+    if len(starts) < 2:
+        return True
+    p = np.stack([log.x[starts], log.y[starts], log.yaw[starts]], -1)
+    return bool(np.any(np.abs(p) > 1e-9))
+
+
+def default_names(robot: Robot, log: DriveLog | None = None) -> list[str]:
     """The parameters fitted when none are named."""
     names = list(DEFAULT_PARAMS)
-    if robot.provided is not None and "track_length" not in robot.provided:
-        names.append("track_length")
+    if log is not None and one_frame(log):
+        names.extend(SLOPE_PARAMS)
     names.extend(GROUND_PARAMS.get(robot.ground.model, ()))
     return names
 
 
-def parse_names(text: str | None, robot: Robot) -> list[str]:
+def parse_names(text: str | None, robot: Robot, log: DriveLog | None = None) -> list[str]:
     """``--params a,b,c`` checked against the catalogue and the robot's ground model."""
     if text is None:
-        return default_names(robot)
+        return default_names(robot, log)
     names = [n.strip() for n in text.split(",") if n.strip()]
     specs = specs_for(robot)
     if not names:
@@ -87,31 +130,61 @@ def parse_names(text: str | None, robot: Robot) -> list[str]:
                                  f"{robot.ground.model!r} (set robot key ground: {{\"model\": \"{model}\"}})")
     if len(set(names)) != len(names):
         raise InputError(f"--params: a parameter is named twice: {text!r}")
-    if "mu" in names and ({"mu_left", "mu_right"} & set(names)):
-        raise InputError("--params: fit either 'mu' or 'mu_left'/'mu_right', not both")
-    assert set(names) <= set(WINDOW_PARAMS)
+    if ({"mu", "mu_ratio"} & set(names)) and ({"mu_left", "mu_right"} & set(names)):
+        raise InputError("--params: fit friction either as 'mu'/'mu_ratio' or as 'mu_left'/'mu_right', not both")
     return names
 
 
-def start_values(robot: Robot, names: list[str], config: SimConfig) -> dict[str, float]:
-    """First value of each fitted parameter: the robot's, else a neutral one; refused off its bounds."""
+def described_values(robot: Robot, names: list[str], config: SimConfig) -> dict[str, float]:
+    """Each parameter's value in the description (its default where the description lacks it)."""
     current = robot_params(robot)
     drive = drive_params(robot)
+    out = {}
+    for n in names:
+        if n == "mu":
+            v = math.sqrt(robot.friction_left * robot.friction_right)
+        elif n == "mu_ratio":
+            v = robot.friction_left / robot.friction_right
+        elif n in ("mu_left", "mu_right"):
+            v = robot.friction_left if n == "mu_left" else robot.friction_right
+        elif n in DRIVE_START:
+            v = drive.get(n)
+            v = {"drive_lag": 0.0, "drive_delay": 0.0, "track_speed_scale": 1.0}[n] if v is None else v
+        elif n == "drive_force_limit":
+            from mjtrack.sim.drivetrain import drive_of
+
+            v = current.get(n) or drive_of(robot, config).force_limit
+        else:
+            v = current.get(n)
+        out[n] = float(v)
+    return out
+
+
+def start_values(robot: Robot, names: list[str], config: SimConfig) -> dict[str, float]:
+    """First value of each fitted parameter: the described one, moved off a bound it sits on for
+    the drivetrain keys the description lacks; refused off its bounds."""
+    described = described_values(robot, names, config)
     specs = specs_for(robot)
     out = {}
     for n in names:
-        v = current.get(n)
-        if n in ("mu_left", "mu_right") and v is None:
-            v = robot.mu
+        v = described[n]
         given = robot.provided is None or n in robot.provided
-        if n in DRIVE_START and (drive.get(n) is None or not given):
+        if n in DRIVE_START and (drive_params(robot).get(n) is None or not given):
             v = DRIVE_START[n]
-        if n == "drive_force_limit" and v is None:
-            from mjtrack.sim.drivetrain import drive_of
-
-            v = drive_of(robot, config).force_limit
         s = specs[n]
-        if v is None or not s.lo <= v <= s.hi:
+        if not s.lo <= v <= s.hi:
             raise InputError(f"robot: {n} = {v!r} is outside the range calibrate fits in [{s.lo:g}, {s.hi:g}] {s.unit}")
         out[n] = float(v)
+    return out
+
+
+def window_params(values: dict[str, float], robot: Robot) -> dict[str, float]:
+    """The :mod:`mjtrack.sim.windows` parameters of fitted ``values`` (friction level and split
+    become the two sides' coefficients)."""
+    out = {k: v for k, v in values.items() if k not in ("mu", "mu_ratio")}
+    if "mu" in values or "mu_ratio" in values:
+        mu = values.get("mu", math.sqrt(robot.friction_left * robot.friction_right))
+        ratio = values.get("mu_ratio", robot.friction_left / robot.friction_right)
+        out["mu_left"], out["mu_right"] = mu * math.sqrt(ratio), mu / math.sqrt(ratio)
+    assert set(out) <= set(WINDOW_PARAMS), sorted(set(out) - set(WINDOW_PARAMS))
     return out

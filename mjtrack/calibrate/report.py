@@ -132,16 +132,36 @@ def build_report(cal) -> Report:
             [[f["what"], f["part"], f.get("windows", ""), _num(f["measured"]), _num(f["simulated_before"]),
               _num(f["simulated_after"])] for f in cal.findings])
 
-    s = rep.section("Fitted parameters")
-    s.paragraph(f"Fitted by {cal.fit.method}: {cal.fit.iterations} iterations, {cal.fit.evaluations} parameter sets "
-                f"× {len(cal.train_windows)} windows simulated in {cal.fit.seconds:.1f} s; cost (mean squared window "
-                f"residual) {cal.fit.cost_start:.4g} → {cal.fit.cost_final:.4g}. Intervals: 95 % from the final "
-                "Jacobian (sysid.calculate_intervals), treating residuals as independent — a lower bound on the "
-                "uncertainty.")
-    s.table(["parameter", "start", "fitted", "95 % interval", "unit", "meaning"],
-            [[n, cal.fit.start[n], cal.fit.values[n],
-              f"[{cal.fit.intervals[n][0]:.4g}, {cal.fit.intervals[n][1]:.4g}]", specs[n].unit, specs[n].what]
-             for n in cal.names])
+    s = rep.section("Why: the causes of the improvement")
+    if cal.causes:
+        s.paragraph("Each cause is a changed parameter, or a group the fit cannot move independently. Share: the "
+                    "fraction of the training improvement lost when the cause goes back to its described value; "
+                    "alone: the relative improvement from the cause's change only.")
+        s.table(["cause", "parameters", "share of the improvement", "improvement alone"],
+                [[c.sentence, ", ".join(c.parameters), f"{100 * c.share:.0f} %", f"{100 * c.gain_alone:.0f} %"]
+                 for c in cal.causes])
+    else:
+        s.verdict("Nothing needs to change: no parameter differs from its description by more than its interval.")
+
+    s = rep.section("What the log determines")
+    fits = [cal.fit] + ([cal.refit] if cal.refit is not None else [])
+    s.paragraph(f"Fitted by {cal.fit.method}: first every candidate ({cal.fit.iterations} iterations, cost "
+                f"{cal.fit.cost_start:.4g} → {cal.fit.cost_final:.4g})"
+                + (f", then the kept ones again ({cal.refit.iterations} iterations, cost {cal.refit.cost_final:.4g})"
+                   if cal.refit is not None else "")
+                + f"; {sum(f.evaluations for f in fits)} parameter sets × {len(cal.train_windows)} windows simulated "
+                  f"in {sum(f.seconds for f in fits):.1f} s. Intervals: 95 %, a cluster-robust sandwich over clusters "
+                  "of consecutive windows plus each parameter's model-form shift (a finer simulator, a longer warm-up "
+                  "of the hidden states). A parameter is determined when its half-width is at most its resolution; "
+                  "one that is not, or whose described value lies in its interval, keeps the described value.")
+    rows = []
+    for n in cal.names:
+        v = cal.verdicts[n]
+        iv = "" if v.interval is None else f"[{v.interval[0]:.4g}, {v.interval[1]:.4g}]"
+        rows.append([n, cal.described[n], cal.values[n], iv, specs[n].resolution, specs[n].unit,
+                     "yes" if v.determined else "no", "changed" if v.changed else "kept", v.reason])
+    s.table(["parameter", "described", "calibrated", "95 % interval", "resolution", "unit", "determined", "",
+             "why"], rows)
     if cal.fit.starts_tried:
         s.table(["start tried (multi-start)", "cost"],
                 [[", ".join(f"{k} {v:.3g}" for k, v in p.items()), c] for p, c in cal.fit.starts_tried])

@@ -1,15 +1,21 @@
-"""``calibrate(train, robot)``: the MuJoCo robot fitted to a measured log, and what it gets wrong.
+"""``calibrate(train, robot)``: the MuJoCo robot fitted to a measured log, and what it got wrong.
 
 Stages (timed):
-1. windows of the training log (and of the test log), each simulated from its measured state
+1. windows of the training log (and of the test log), each simulated from its measured state with
+   hidden states warmed up over the log's past where its segment allows
    (:mod:`mjtrack.sim.windows`);
 2. the robot as described (every default it relies on named under ``assumed``) scored on them:
    errors at the horizon binned by curvature, speed, turn direction and time; steady-turn yaw
    ratio and ICRs measured against simulated;
-3. the windowed fit (:mod:`mjtrack.calibrate.fit`, ``mujoco.sysid``) of the named parameters;
+3. the windowed fit (:mod:`mjtrack.calibrate.fit`, ``mujoco.sysid``) of every candidate
+   parameter; the model-form error of the fit's simulator measured at the optimum (a finer
+   simulator, a longer warm-up); what the log determines and what it says must change
+   (:mod:`mjtrack.calibrate.identify`), the rest back at its described value; the kept ones
+   fitted again;
 4. the calibrated robot scored on the same windows and on the test log (never used in the fit);
-5. outputs: robot.json (complete, builds the calibrated robot), calibration.json (CONTRACTS §5
-   plus extra keys), report.html (:mod:`mjtrack.calibrate.report`).
+   the causes of the improvement measured (:mod:`mjtrack.calibrate.causes`);
+5. outputs: robot.json (complete, with the simulator settings the fit used), calibration.json,
+   report.html (:mod:`mjtrack.calibrate.report`).
 """
 
 from __future__ import annotations
@@ -24,17 +30,19 @@ from pathlib import Path
 
 import numpy as np
 
+from mjtrack.calibrate.causes import Cause, find_causes, summary
 from mjtrack.calibrate.fit import FitResult, fit, objective
-from mjtrack.calibrate.params import parse_names, start_values
+from mjtrack.calibrate.identify import Linearised, ModelForm, Verdict, final_verdicts, select
+from mjtrack.calibrate.params import described_values, parse_names, specs_for, start_values, window_params
 from mjtrack.diagnose import residuals as rs
 from mjtrack.errors import InputError
 from mjtrack.geometry import _sinc_terms, relative_pose
 from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
-from mjtrack.sim.config import sim_config
-from mjtrack.sim.windows import (DRIVE_DEFAULTS, WindowResult, WindowSet, WindowSim, geometry_robot, make_windows,
-                                 measured_window_poses, simulate_windows)
+from mjtrack.sim.config import SimConfig, sim_config
+from mjtrack.sim.windows import (DRIVE_DEFAULTS, WARMUP_S, WindowResult, WindowSet, WindowSim, geometry_robot,
+                                 make_windows, measured_window_poses, simulate_windows)
 
 log = logging.getLogger(__name__)
 
@@ -64,7 +72,13 @@ class Scored:
 
 @dataclass
 class Calibration:
-    """Everything calibrate found; :meth:`to_json` is calibration.json."""
+    """Everything calibrate found; :meth:`to_json` is calibration.json.
+
+    ``names``: every parameter the fit was allowed to move; ``values``: their calibrated values
+    (the described value for those the log does not determine or does not need changed);
+    ``verdicts``: what the log says of each (:class:`mjtrack.calibrate.identify.Verdict`);
+    ``fit``: the first fit (all of ``names``), ``refit``: the final fit of the kept parameters
+    (None when nothing was kept or all were); ``causes``: the measured causes of the improvement."""
 
     train_path: str
     test_path: str | None
@@ -73,9 +87,15 @@ class Calibration:
     track_model: str
     horizon_s: float
     names: list[str]
+    values: dict[str, float]
+    described: dict[str, float]
+    verdicts: dict[str, Verdict]
     fixed: dict[str, float]
     assumed: dict[str, str]
     fit: FitResult
+    refit: FitResult | None
+    model_form: dict[str, dict[str, float]]
+    causes: list[Cause]
     train_windows: WindowSet
     test_windows: WindowSet | None
     train_log: DriveLog
@@ -89,25 +109,40 @@ class Calibration:
     config: dict
     timings: dict[str, float] = field(default_factory=dict)
 
+    @property
+    def changed(self) -> list[str]:
+        return [n for n in self.names if self.verdicts[n].changed]
+
     def to_json(self) -> dict:
-        params = {n: self.fit.values[n] for n in self.names}
+        fits = [self.fit] + ([self.refit] if self.refit is not None else [])
         out = {
             "simulator": "mujoco", "track_model": self.track_model,
-            "parameters": params,
-            "intervals": {n: list(self.fit.intervals[n]) for n in self.names},
+            "parameters": {n: self.values[n] for n in self.names},
+            "intervals": {n: list(v.interval) for n, v in self.verdicts.items() if v.interval is not None},
+            "determined": {n: self.verdicts[n].to_json() for n in self.names},
+            "described": self.described,
+            "changed": self.changed,
             "fixed": self.fixed, "assumed": self.assumed,
             "train": {"log": self.train_path, "metric": "pos_err_m", "horizon_s": self.horizon_s,
                       "before": self.before.rms, "after": self.after.rms, "windows": len(self.train_windows)},
             "findings": self.findings,
+            "causes": [c.to_json() for c in self.causes],
             "summary": self.sentence,
+            "model_form": self.model_form,
             "start": self.fit.start, "starts_tried": [{"parameters": p, "cost": c} for p, c in self.fit.starts_tried],
-            "method": {"optimizer": self.fit.method, "iterations": self.fit.iterations,
-                       "simulated_windows": self.fit.evaluations * len(self.train_windows),
-                       "cost_start": self.fit.cost_start, "cost_final": self.fit.cost_final,
-                       "intervals": "95 % half-widths from sysid.calculate_intervals on the final Jacobian "
-                                    "(residuals treated as independent: a statistical lower bound)",
+            "method": {"optimizer": self.fit.method,
+                       "fits": [{"parameters": f.names, "iterations": f.iterations, "cost_start": f.cost_start,
+                                 "cost_final": f.cost_final} for f in fits],
+                       "simulated_windows": sum(f.evaluations for f in fits) * len(self.train_windows),
+                       "intervals": "95 %: cluster-robust sandwich over clusters of consecutive windows (Student t), "
+                                    "plus the model-form shift of each parameter (a finer simulator, a longer "
+                                    "warm-up of the hidden states), linearised at the optimum",
+                       "determined": "half-width at most the parameter's resolution; a parameter that is not "
+                                     "determined, or whose described value lies in its interval, keeps the "
+                                     "described value",
                        "windows": "each window simulated from the measured state at its start (pose, twist, "
-                                  "track speeds); errors at the window's end in its start frame"},
+                                  f"track speeds), hidden states warmed up over up to {WARMUP_S:g} s of the log "
+                                  "before it; errors at the window's end in its start frame"},
             "sim_config": self.config,
             "timings_s": self.timings,
         }
@@ -203,84 +238,108 @@ def assumed_values(robot: Robot, names: list[str]) -> dict[str, str]:
     return out
 
 
-def calibrated_robot(robot: Robot, values: dict[str, float]) -> Robot:
-    """The robot with fitted values written into its description (drive keys, ground parameters)."""
-    r = geometry_robot(robot, values)
-    fields = {k: values[k] for k in ("mu", "mu_left", "mu_right", "cg_x", "cg_y") if k in values}
+def calibrated_robot(robot: Robot, values: dict[str, float], config: SimConfig) -> Robot:
+    """The robot with calibrated values written into its description (friction per side, centre
+    of mass, contact length, drive keys, ground parameters) and, under ``simulator``, the settings
+    of the simulator they were fitted with. A slope is the log's ground, not the robot's: it stays
+    in calibration.json."""
+    import dataclasses
+
+    wp = window_params({k: v for k, v in values.items() if k not in ("slope_x", "slope_y")}, robot)
+    r = geometry_robot(robot, wp)
+    fields = {k: wp[k] for k in ("mu", "mu_left", "mu_right", "cg_x", "cg_y") if k in wp}
     if "mu_left" in fields and "mu_right" in fields:
-        fields.setdefault("mu", math.sqrt(fields["mu_left"] * fields["mu_right"]))
-    if "lateral_ratio" in values:
+        fields["mu"] = math.sqrt(fields["mu_left"] * fields["mu_right"])
+        if math.isclose(fields["mu_left"], fields["mu_right"], rel_tol=1e-12):
+            fields["mu_left"] = fields["mu_right"] = None
+    if "lateral_ratio" in wp:
         fields["ground"] = type(r.ground)(r.ground.model, tuple({**dict(r.ground.params),
-                                                                  "lateral_ratio": values["lateral_ratio"]}.items()))
+                                                                  "lateral_ratio": wp["lateral_ratio"]}.items()))
     r = r.replace(**fields)
     extra = dict(r.extra)
     for k in DRIVE_DEFAULTS:
-        if k in values:
+        if k in wp:
             if hasattr(r, k):
-                r = r.replace(**{k: values[k]})
+                r = r.replace(**{k: wp[k]})
             else:
-                extra[k] = values[k]
-    import dataclasses
-
+                extra[k] = wp[k]
+    extra["simulator"] = {"track_model": config.track_model, "n_rollers": int(config.n_rollers)}
     return dataclasses.replace(r, extra=extra)
 
 
-def _sentence(robot: Robot, cal_values: dict[str, float], meas: dict, before: dict, after: dict,
-              rms: tuple[float, float]) -> str:
-    """One sentence: what the uncalibrated simulation got wrong and why (from the numbers)."""
-    parts = []
-    why = []
-    ym, yb = meas.get("yaw_ratio", float("nan")), before.get("yaw_ratio", float("nan"))
-    if np.isfinite(ym) and np.isfinite(yb) and abs(ym - yb) > 0.03:
-        parts.append(f"it turned at {yb:.2f} of the nominal yaw rate where the robot turns at {ym:.2f}")
-        if yb < ym:
-            g = robot.ground.model
-            what = {"coulomb": f"rigid {robot.track_length:.2f} m tracks on isotropic Coulomb ground resist turning "
-                               "more than the real contact does"}.get(g, f"its {g} ground resists turning too much")
-            moved = [f"{k} {cal_values[k]:.3g}" for k in ("track_length", "lateral_ratio", "span", "concentration")
-                     if k in cal_values]
-            why.append(what + (f" (fitted: {', '.join(moved)})" if moved else ""))
-        else:
-            why.append("its ground resists turning less than the real contact does")
-    lag = cal_values.get("drive_lag", 0.0)
-    delay = cal_values.get("drive_delay", 0.0)
-    if lag > 0.05 or delay > 0.05:
-        parts.append("its tracks followed the commands at once")
-        drive = [f"a {lag:.2f} s lag" if "drive_lag" in cal_values else "",
-                 f"a {delay:.2f} s delay" if "drive_delay" in cal_values else ""]
-        why.append("the real drives reach a command with " + " and ".join(d for d in drive if d))
-    scale = cal_values.get("track_speed_scale", 1.0)
-    if abs(scale - 1.0) > 0.03:
-        parts.append(f"its tracks ran at the commanded speed where the real ones run at {scale:.2f} of it")
-    if not parts:
-        return (f"The uncalibrated simulation's {rms[0]:.3g} m error at the horizon has no single dominant cause "
-                f"among the fitted parameters (calibrated {rms[1]:.3g} m).")
-    text = "The uncalibrated MuJoCo robot was wrong because " + "; ".join(parts)
-    if why:
-        text += ", since " + " and ".join(why)
-    return text + f" (2 s error {rms[0]:.3g} m before, {rms[1]:.3g} m after calibration)."
+def _score(sim: WindowSim, lg: DriveLog, ws: WindowSet, variants: list[dict], *, nthread: int,
+           warmup_s: float) -> list[Scored]:
+    res = simulate_windows(sim, lg, ws, variants, nthread=nthread, warmup_s=warmup_s)
+    return [Scored.of(res, p) for p in range(len(variants))]
 
 
-def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None, track_model: str = "rollers",
+def _linearised(fr: FitResult, obj, sources: list[ModelForm]) -> Linearised:
+    specs = obj.specs
+    theta = np.array([fr.values[n] / specs[n].scale for n in fr.names])
+    return Linearised(names=list(fr.names), theta=theta, jac=fr.jac, resid=fr.resid,
+                      rows_per_window=obj.rows_per_window, specs=specs, model_form=sources)
+
+
+def model_form_sources(obj, values: dict[str, float], resid: np.ndarray, jac: np.ndarray, config: SimConfig, *,
+                       refine: bool = True) -> tuple[list[ModelForm], dict[str, float]]:
+    """The model-form sources at ``values`` (the fit's residuals ``resid``, Jacobian ``jac``):
+
+    * ``simulator``: the residuals of a finer simulator (time step halved, at least the default
+      roller count) minus the fit's -- what the discretisation of the fit's robot costs;
+    * ``warm_up``: the residuals with twice the warm-up of the hidden states minus the fit's -- what
+      is left of the start state that the log does not hold.
+
+    Returns the sources (g = J^T (r_other - r)) and each one's RMS residual change [m]."""
+    robot = obj.sim.robot
+    wp = window_params(values, robot)
+    out, size = [], {}
+    if refine:
+        finer = config.replace(timestep=config.timestep / 2, n_rollers=max(config.n_rollers, SimConfig().n_rollers))
+        r_fine = obj.residuals_of([wp], one=True, sim=WindowSim(robot, finer))
+        out.append(ModelForm("simulator", jac.T @ (r_fine - resid)))
+        size["simulator"] = float(np.sqrt(np.sum((r_fine - resid) ** 2)))
+    if obj.warmup_s > 0:
+        r_warm = obj.residuals_of([wp], one=True, warmup_s=2 * obj.warmup_s)
+        out.append(ModelForm("warm_up", jac.T @ (r_warm - resid)))
+        size["warm_up"] = float(np.sqrt(np.sum((r_warm - resid) ** 2)))
+    return out, size
+
+
+def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
               names: str | list[str] | None = None, horizon_s: float = 2.0, n_rollers: int | None = None,
               max_iter: int = 8, nthread: int = 2, quiet: bool = True, train_path: str | None = None,
-              test_path: str | None = None) -> Calibration:
-    """Fit the MuJoCo robot to ``train`` (see the module docstring); bad input raises InputError."""
+              test_path: str | None = None, warmup_s: float = WARMUP_S) -> Calibration:
+    """Fit the MuJoCo robot to ``train`` (see the module docstring); bad input raises InputError.
+
+    Args:
+        train: the log to fit on.
+        robot: its description (the described values are where every parameter starts and where
+            each one the log does not determine stays).
+        test: a log of the same robot, scored but never fitted.
+        names: parameters the fit may move (``--params`` text or a list; default
+            :func:`mjtrack.calibrate.params.default_names`).
+        horizon_s: window length [s].
+        n_rollers: contact rollers per track of the fit's simulator (default: the robot's
+            ``simulator`` setting, else 10).
+        max_iter: Levenberg-Marquardt iterations of the first fit (the refit gets half).
+        nthread: rollout threads (results do not depend on it).
+        warmup_s: history [s] over which each window's hidden states are warmed up (0: none).
+    """
     from mjtrack.progress import Progress
 
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     src = train_path or train.source or "train log"
-    if track_model != "rollers":
-        raise InputError(f"--track-model {track_model}: windows restart the robot through mujoco.rollout, which "
-                         "drives actuators; the surfacevel model sets its track speeds from Python every step "
-                         "(use --track-model rollers)")
-    if isinstance(names, str) or names is None:
-        names = parse_names(names, robot)
-    config = sim_config("rollers")
+    config = sim_config(None, robot=robot)
+    if config.track_model != "rollers":
+        raise InputError("calibrate: the robot's simulator is surfacevel; windows restart the robot through "
+                         "mujoco.rollout, which drives actuators (the rollers track model)")
     if n_rollers is not None:
         config = config.replace(n_rollers=int(n_rollers))
+    if isinstance(names, str) or names is None:
+        names = parse_names(names, robot, train)
     start = start_values(robot, names, config)
+    described = described_values(robot, names, config)
     ws = make_windows(train, horizon_s)
     if len(ws) == 0:
         longest = max(float(train.t[s][-1] - train.t[s][0]) for s in train.segment_slices())
@@ -297,27 +356,61 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None, tr
     assumed = assumed_values(robot, names)
     timings["prepare"] = time.perf_counter() - t0
 
-    # the robot as described, and the fit
+    # the robot as described
     t1 = time.perf_counter()
     sim = WindowSim(robot, config)
-    before = Scored.of(simulate_windows(sim, train, ws, nthread=nthread))
-    test_before = Scored.of(simulate_windows(sim, test, tws, nthread=nthread)) if test is not None else None
+    kw = dict(nthread=nthread, warmup_s=warmup_s)
+    before = _score(sim, train, ws, [{}], **kw)[0]
+    test_before = _score(sim, test, tws, [{}], **kw)[0] if test is not None else None
     timings["before"] = time.perf_counter() - t1
+
+    # every candidate fitted; what the log determines and needs changed; the kept ones fitted again
     t2 = time.perf_counter()
-    obj = objective(robot, train, ws, names, config, nthread=nthread)
-    obj.sim = sim
-    with Progress(total=max_iter, label="calibrate", quiet=quiet) as bar:
-        def on_iter(i, cost):
-            bar.update()
-        result = fit(obj, start, max_iter=max_iter, on_iter=on_iter)
+    obj = objective(sim, train, ws, names, nthread=nthread, warmup_s=warmup_s)
+    with Progress(total=max_iter + max(2, max_iter // 2), label="calibrate", quiet=quiet) as bar:
+        result = fit(obj, start, max_iter=max_iter, on_iter=lambda i, c: bar.update())
+        sources, _ = model_form_sources(obj, result.values, result.resid, result.jac, config)
+        sel = select(_linearised(result, obj, sources), described)
+        refit = None
+        verdicts = dict(sel.verdicts)
+        values = {**described}
+        model_form: dict[str, dict[str, float]] = {}
+        if sel.free:
+            if sel.free == list(names):
+                final, fobj = result, obj
+            else:
+                fobj = objective(sim, train, ws, sel.free, nthread=nthread, warmup_s=warmup_s)
+                specs = fobj.specs
+                begin = {n: float(np.clip(sel.values[n], specs[n].lo, specs[n].hi)) for n in sel.free}
+                final = refit = fit(fobj, begin, max_iter=max(2, max_iter // 2), multistart=False,
+                                    on_iter=lambda i, c: bar.update())
+            fsources, size = model_form_sources(fobj, final.values, final.resid, final.jac, config)
+            lin = _linearised(final, fobj, fsources)
+            verdicts.update(final_verdicts(lin, described, sel.ties))
+            values.update(final.values)
+            u = lin.uncertainty(list(range(len(lin.names))))
+            model_form = {"residual_change_m": size,
+                          "shift": {src_: {n: float(v) for n, v in zip(lin.names, sh)} for src_, sh in u.shifts.items()}}
     timings["fit"] = time.perf_counter() - t2
 
-    # the calibrated robot, scored on the same windows and on the test log
+    # the calibrated robot, scored on the same windows and on the test log; the causes
     t3 = time.perf_counter()
-    values = dict(result.values)
-    after = Scored.of(simulate_windows(sim, train, ws, [values], nthread=nthread))
-    test_after = Scored.of(simulate_windows(sim, test, tws, [values], nthread=nthread)) if test is not None else None
-    cal_robot = calibrated_robot(robot, values)
+    changed = [n for n in names if verdicts[n].changed]
+    wp = window_params({n: values[n] for n in changed}, robot)
+    after = _score(sim, train, ws, [wp], **kw)[0] if changed else before
+    test_after = (_score(sim, test, tws, [wp], **kw)[0] if changed else test_before) if test is not None else None
+    cal_robot = calibrated_robot(robot, {n: values[n] for n in changed}, config)
+    corr = np.eye(len(changed))
+    if changed:
+        cidx = [lin.names.index(n) for n in changed]
+        corr = u.corr[np.ix_(cidx, cidx)]
+
+    def score(variants):
+        res = simulate_windows(sim, train, ws, [window_params(v, robot) for v in variants], **kw)
+        return res.rms()
+
+    causes = find_causes(changed, values, described, corr, sel.ties, score, before.rms, after.rms,
+                         track_length=robot.track_length)
     timings["after"] = time.perf_counter() - t3
 
     findings = []
@@ -342,16 +435,19 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None, tr
                                      "simulated_after": ta["icr"].get(side, {}).get(key, float("nan")),
                                      "windows": meas["icr"][side]["windows"]})
     part = "test" if test is not None else "train"
-    m, tb, ta = meas_by[part]
+    m, tb, _ = meas_by[part]
     rms = (test_before.rms, test_after.rms) if test is not None else (before.rms, after.rms)
-    sentence = _sentence(robot, values, m, tb, ta, rms)
+    sentence = summary(causes, rms, where="held-out" if test is not None else "training",
+                       yaw=(m["yaw_ratio"], tb["yaw_ratio"]))
     timings["total"] = time.perf_counter() - t0
     return Calibration(
         train_path=str(train_path or train.source), test_path=None if test is None else str(test_path or test.source),
-        robot=robot, calibrated=cal_robot, track_model=track_model, horizon_s=float(horizon_s), names=list(names),
-        fixed=fixed, assumed=assumed, fit=result, train_windows=ws, test_windows=tws, train_log=train, test_log=test,
-        before=before, after=after, test_before=test_before, test_after=test_after, findings=_clean(findings),
-        sentence=sentence, config=config.to_dict(), timings=timings)
+        robot=robot, calibrated=cal_robot, track_model=config.track_model, horizon_s=float(horizon_s),
+        names=list(names), values={n: float(values[n]) for n in names}, described=described, verdicts=verdicts,
+        fixed=fixed, assumed=assumed, fit=result, refit=refit, model_form=model_form, causes=causes,
+        train_windows=ws, test_windows=tws, train_log=train, test_log=test, before=before, after=after,
+        test_before=test_before, test_after=test_after, findings=_clean(findings), sentence=sentence,
+        config=config.to_dict(), timings=timings)
 
 
 def _clean(obj):

@@ -94,7 +94,7 @@ OPTION_BOUNDS: dict[str, Bound] = {
     "height": Bound(16, 4320, "px", "an even image height", integer=True, even=True),
     "folds": Bound(3, 1_000, "", "a number of folds", integer=True),
     "iterations": Bound(1, 1_000, "", "a number of iterations", integer=True),
-    "rollers": Bound(2, 100, "", "rollers per track", integer=True),
+    "rollers": Bound(2, 200, "", "rollers per track", integer=True),  # a robot file's simulator n_rollers too
     "threads": Bound(1, 64, "", "a number of threads", integer=True),
     "workers": Bound(1, 64, "", "a number of worker processes", integer=True),
     # robot options: the robot reader's plausibility table

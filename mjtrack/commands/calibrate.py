@@ -1,22 +1,27 @@
 """Calibrate the MuJoCo robot to a measured drive log: windows of the log (2 s by default), each
-simulated from the measured state at its start (pose, body twist, track speeds) and driven by the
-logged commands, first with the robot as described, then with parameters fitted by least squares
-(mujoco.sysid) -- friction, centre of mass, contact length, drivetrain lag / delay / speed scale /
-force limit, the ground model's parameters. Writes DIR/robot.json (the calibrated robot, usable
-with --robot by every command), DIR/calibration.json (parameters, intervals, fixed and assumed
-values, errors before/after on the training and test logs, yaw ratio and ICR findings) and
-DIR/report.html. With --test the gain is measured on a log the fit never saw.
+simulated from the measured state at its start (pose, body twist, track speeds; hidden states warmed
+up over the log's past where its segment allows) and driven by the logged commands, first with the
+robot as described, then with parameters fitted by least squares (mujoco.sysid): friction level and
+left/right ratio, centre of mass, contact length, drive lag, delay and speed scale, a slope, the
+ground model's parameters. What the log does not determine, and what it does not need changed,
+keeps its described value and calibration.json says why (key "determined"); every interval is a
+95 % interval that includes the fit simulator's own error; "causes" measures what each change
+explains. Writes DIR/robot.json (the calibrated robot with the simulator settings of the fit, usable
+with --robot by every command), DIR/calibration.json and DIR/report.html. With --test the gain is
+measured on a log the fit never saw.
 
 The robot is TRAIN.json beside the log unless --robot FILE is given. Values the description lacks
-are named in calibration.json under "assumed" (a missing track_length is fitted). Bad input (a test
-log of another robot, a log too short for one window, an unknown parameter or one outside its
-range) exits with status 2, one line, and writes nothing.
+are named in calibration.json under "assumed". Bad input (a test log of another robot, a log too
+short for one window, an unknown parameter or one outside its range) exits with status 2, one line,
+and writes nothing.
 
-Parameters (--params, comma separated): mu, mu_left, mu_right, cg_x, cg_y, track_length,
-drive_lag, drive_delay, track_speed_scale, drive_force_limit; with robot key ground
-{"model": "anisotropic"}: lateral_ratio; with {"model": "road_wheels"}: concentration, span.
-Default: mu, cg_x, cg_y, drive_lag, drive_delay, track_speed_scale, plus track_length when the
-robot file lacks it, plus the ground model's parameters.
+Parameters (--params, comma separated): mu, mu_ratio (left / right friction), cg_x, cg_y,
+track_length, drive_lag, drive_delay, track_speed_scale, slope_x, slope_y (sin of the slope times
+the uphill direction in the log's frame), drive_force_limit, mu_left, mu_right (instead of mu and
+mu_ratio); with robot key ground {"model": "anisotropic"}: lateral_ratio; with
+{"model": "road_wheels"}: concentration, span. Default: mu, mu_ratio, cg_x, cg_y, track_length,
+drive_lag, drive_delay, track_speed_scale, plus slope_x, slope_y when the log's segments share one
+world frame, plus the ground model's parameters.
 """
 
 from __future__ import annotations
@@ -36,13 +41,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--test", metavar="TEST.csv", type=Path, default=None,
                         help="held-out log of the same robot, scored but never fitted")
     parser.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder (created if needed)")
-    parser.add_argument("--track-model", choices=("rollers", "surfacevel"), default="rollers",
-                        help="MuJoCo track model (windows need rollers: surfacevel is refused)")
     parser.add_argument("--params", metavar="NAMES", default=None, help="parameters to fit, comma separated")
     parser.add_argument("--horizon", metavar="S", type=bounded("horizon"), default=2.0, help="window length [s] (default 2)")
     parser.add_argument("--max-iter", metavar="N", type=bounded("iterations"), default=8, help="optimiser iterations (default 8)")
     parser.add_argument("--rollers", metavar="N", type=bounded("rollers"), default=None,
-                        help="contact rollers per track in the simulation (default 10; 6 is ~2x faster)")
+                        help="contact rollers per track in the simulation (default: the robot file's simulator "
+                             "setting, else 10; 6 is ~2x faster); recorded in robot.json")
     parser.add_argument("--threads", metavar="N", type=bounded("threads"), default=2, help="rollout threads (default 2)")
     add_robot_options(parser)
     add_output_options(parser)
@@ -57,12 +61,17 @@ def run(args: argparse.Namespace) -> int:
     test, test_robot = test_log_and_robot(args.test)
     if test_robot is not None:
         check_same_robot(robot, test_robot, str(args.test))
-    cal = calibrate(train, robot, test=test, track_model=args.track_model, names=args.params, horizon_s=args.horizon,
+    cal = calibrate(train, robot, test=test, names=args.params, horizon_s=args.horizon,
                     n_rollers=args.rollers, max_iter=args.max_iter, nthread=args.threads, quiet=args.quiet,
                     train_path=str(args.log), test_path=None if args.test is None else str(args.test))
     write_outputs(cal, out)
-    vals = ", ".join(f"{n} = {cal.fit.values[n]:.4g}" for n in cal.names)
-    print(f"fitted: {vals}")
+    changed = ", ".join(f"{n} {cal.described[n]:.4g} -> {cal.values[n]:.4g}" for n in cal.changed) or "nothing"
+    kept = [n for n in cal.names if not cal.verdicts[n].changed]
+    print(f"changed: {changed}")
+    if kept:
+        undetermined = [n for n in kept if not cal.verdicts[n].determined]
+        print(f"kept as described: {', '.join(kept)}"
+              + (f" (not determined by this log: {', '.join(undetermined)})" if undetermined else ""))
     print(f"train {cal.horizon_s:g} s position RMSE {cal.before.rms:.3g} -> {cal.after.rms:.3g} m")
     if cal.test_before is not None:
         print(f"test  {cal.horizon_s:g} s position RMSE {cal.test_before.rms:.3g} -> {cal.test_after.rms:.3g} m (held out)")

@@ -144,7 +144,7 @@ MODEL_REL = 0.065
 # independent physics of ONE robot description lie on a clean log, which does not shrink with the
 # effect's size. 1 sigma = the RMS of the measured gaps (as MODEL_REL is an RMS), taken over every
 # geometry and manoeuvre measured (the gaps are one-signed biases; the RMS carries mean and spread):
-# - icr_spread: the benchmark's generator (tests/diagnose_physics.py, at its settings) turns with a
+# - icr_spread: the benchmark's generator (mjtrack/testing/diagnose_physics.py, at its settings) turns with a
 #   wider steady ICR spread than the Coulomb reference of the description the surrogate's q0 come
 #   from: +3.68 +3.68 +1.69 / +3.27 +3.28 +1.60 / +1.84 +1.85 +1.85 % (small / large / wheeled x 3
 #   commands; python experiments/generator_spread.py prints the RMS): 0.0267.

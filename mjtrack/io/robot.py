@@ -4,8 +4,8 @@ A :class:`Robot` is what every simulating command takes, what ``simulate`` write
 its log (``LOG.json``) and what ``diagnose`` reads. SI units; angles in radians.
 
 Keys beyond the fields: a key close to a known one (``drive_lags``) is refused as a typo, with
-the known key it resembles; the wheeled robot keys (:data:`WHEELED_KEYS`) and ``terrain`` (what a
-log was simulated on) are known; any other key (a data set's metadata such as ``robot``, ``note``,
+the known key it resembles; the wheeled robot keys (:data:`WHEELED_KEYS`) and the keys mjtrack writes
+itself (:data:`RECORD_KEYS`: ``terrain``, ``simulator``) are known; any other key (a data set's metadata such as ``robot``, ``note``,
 ``sample_rate_hz``) is kept in ``extra``, so that a description round-trips, and listed once in a
 warning. A description file is at most :data:`MAX_FILE_BYTES` and nested at most
 :data:`MAX_DEPTH` deep (:func:`mjtrack.io.jsonfile.read_json`).
@@ -33,7 +33,9 @@ MAX_DEPTH = 6  # nesting: description > terrain > patches > patch (LOG.json of a
 # keys of wheeled robots (traction "tracks" | "wheels", wheel_radius = sprocket_radius's alias,
 # wheelbase, wheels_per_side): known, never a typo of each other or of the track keys
 WHEELED_KEYS = ("traction", "wheel_radius", "wheelbase", "wheels_per_side")
-RECORD_KEYS = ("terrain",)  # written beside a simulated log (the terrain it ran on); text in some data sets
+# written by mjtrack itself: "terrain" beside a simulated log (the terrain it ran on; text in some
+# data sets), "simulator" by calibrate (the simulator settings the parameters were fitted with)
+RECORD_KEYS = ("terrain", "simulator")
 TYPO_CUTOFF = 0.8  # difflib similarity at which an unknown key is taken for a misspelt known key
 _warned: set[tuple[str, tuple[str, ...]]] = set()  # (source, keys) already listed in a warning
 

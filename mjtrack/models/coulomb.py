@@ -39,7 +39,7 @@ plane again found by minimising the springs' energy. ``anisotropic``: friction r
 track, the maximum-dissipation force on the ellipse (f_x/mu)^2 + (f_y/(rho mu))^2 <= N^2,
 f_i = -mu N_i (u_x, rho^2 u_y)/|(u_x, rho u_y)|, with the convex dissipation
 D = sum mu_i N_i |(u_x, rho u_y)|. Both checked against an independent quadrature
-(tests/ground_balance.py, tests/test_ground.py). Before session 7 both grounds were silently
+(mjtrack/testing/ground_balance.py, tests/test_ground.py). Before session 7 both grounds were silently
 read as plain Coulomb here and in the diagnosis surrogate built on this module.
 
 Load transfer (``load_transfer``, default True). The friction forces act at the ground, a
@@ -86,7 +86,7 @@ no point lifts, so one step is usually exact), started from the kinematic (centr
 acceleration, to |residual| <= 1e-9 g. Until session 7 it took one fixed-point step: exact in
 steady state only; after a turn entry from straight driving one step put the lateral
 transfer on the wrong side (-0.12 m/s^2 where 0.29 is right) and made the yaw dead time 8 %
-too long on a 50 kg wheeled body (against the independent generator tests/diagnose_physics.py
+too long on a 50 kg wheeled body (against the independent generator mjtrack/testing/diagnose_physics.py
 with a 5e-5 s step: tests/test_coulomb_transient.py). ``load_iterations`` = k keeps k
 fixed-point steps (ablation).
 

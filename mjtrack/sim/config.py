@@ -351,14 +351,50 @@ def surfacevel_config(**changes) -> SimConfig:
     return SimConfig(**{k: v for k, v in {**SURFACEVEL_SETTINGS, **changes}.items() if k in names or k in changes})
 
 
-def sim_config(track_model: str = "rollers", *, timestep: float | None = None) -> SimConfig:
+#: settings a robot description may carry under its key ``simulator`` (a calibrated robot records
+#: the simulator its parameters were fitted with, so that every command rebuilds that one)
+ROBOT_SIM_KEYS = ("track_model", "n_rollers", "timestep")
+
+
+def robot_sim_settings(robot) -> dict:
+    """The ``simulator`` settings of a robot description ({} when it has none); InputError on a bad one."""
+    given = robot.extra.get("simulator") if robot is not None else None
+    if given is None:
+        return {}
+    if not isinstance(given, dict) or set(given) - set(ROBOT_SIM_KEYS):
+        raise InputError(f"robot: 'simulator' must be an object with keys among {', '.join(ROBOT_SIM_KEYS)}, "
+                         f"got {given!r}")
+    out = dict(given)
+    if "n_rollers" in out and (not isinstance(out["n_rollers"], int) or isinstance(out["n_rollers"], bool)
+                               or not 2 <= out["n_rollers"] <= 200):
+        raise InputError(f"robot: simulator 'n_rollers' must be a whole number in [2, 200], got {out['n_rollers']!r}")
+    if "timestep" in out and (isinstance(out["timestep"], bool) or not isinstance(out["timestep"], (int, float))
+                              or not 1e-5 <= out["timestep"] <= 0.05):
+        raise InputError(f"robot: simulator 'timestep' must be a number in [1e-05, 0.05] s, got {out['timestep']!r}")
+    if out.get("track_model", "rollers") not in ("rollers", "surfacevel"):
+        raise InputError(f"robot: simulator 'track_model' must be rollers or surfacevel, got {out['track_model']!r}")
+    return out
+
+
+def sim_config(track_model: str | None = "rollers", *, timestep: float | None = None, robot=None) -> SimConfig:
     """The measured default settings of a track model (the surfacevel model has its own); with
     ``timestep``, that fixed step (no ``lag_budget`` nor ``slip_budget``: an explicit step is
-    used as given)."""
+    used as given).
+
+    With ``robot``, the settings its description records under ``simulator``
+    (:func:`robot_sim_settings`) apply where the arguments do not say otherwise: ``track_model``
+    None takes the robot's (else rollers), ``timestep`` None the robot's."""
+    settings = robot_sim_settings(robot)
+    if track_model is None:
+        track_model = settings.get("track_model", "rollers")
+    if timestep is None and "timestep" in settings and settings.get("track_model", "rollers") == track_model:
+        timestep = float(settings["timestep"])
     if track_model == "surfacevel":
         config = surfacevel_config(track_model="surfacevel")
     elif track_model == "rollers":
         config = SimConfig()
+        if "n_rollers" in settings:
+            config = config.replace(n_rollers=int(settings["n_rollers"]))
     else:
         raise InputError(f"unknown track model {track_model!r}; choose rollers or surfacevel")
     return config if timestep is None else config.replace(timestep=timestep, lag_budget=None, slip_budget=None)

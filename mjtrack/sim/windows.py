@@ -45,7 +45,7 @@ import numpy as np
 from mjtrack.errors import InputError, MjtrackError
 from mjtrack.geometry import relative_pose, wrap_angle, world_to_body_velocity
 from mjtrack.io.logs import DriveLog
-from mjtrack.io.robot import Robot
+from mjtrack.io.robot import G, Robot
 from mjtrack.sim.builder import ROLLER_CHAIN, apply_rest_margins, build_model, control_matrix
 from mjtrack.sim.chassis import chassis_mass_properties, set_body_inertia, set_rest_springs
 from mjtrack.sim.config import SimConfig
@@ -54,8 +54,11 @@ from mjtrack.sim.rollout import STATE_SPEC, SensorMap, aligned_rollout, collecte
 logger = logging.getLogger(__name__)
 
 #: parameters that :meth:`WindowSim.variant_model` sets on a compiled model (``lateral_ratio``: the
-#: anisotropic ground's lateral / longitudinal friction, on a robot built with that ground)
-MODEL_PARAMS = ("mu", "mu_left", "mu_right", "cg_x", "cg_y", "drive_lag", "drive_force_limit", "lateral_ratio")
+#: anisotropic ground's lateral / longitudinal friction, on a robot built with that ground;
+#: ``slope_x``, ``slope_y``: an inclined ground as the gravity of the plane, a = sin(slope) times
+#: the uphill unit vector in the log's world frame, the log's x, y read as in-plane coordinates)
+MODEL_PARAMS = ("mu", "mu_left", "mu_right", "cg_x", "cg_y", "drive_lag", "drive_force_limit", "lateral_ratio",
+                "slope_x", "slope_y")
 #: parameters applied to the commands
 COMMAND_PARAMS = ("drive_delay", "track_speed_scale")
 #: parameters that change the model's structure: a robot rebuilt per distinct value (contact
@@ -67,6 +70,10 @@ DRIVE_DEFAULTS = {"drive_lag": None, "drive_delay": None, "drive_force_limit": N
 MIN_LAG = 1e-4  # [s] a lag this short acts as none (the filtered drive needs lag > 0)
 DIVERGED_SPEED = 20.0  # [m/s] a tracked robot's body this fast has left the physics (explicit-Euler blow-up)
 CHUNK = 48  # windows per rollout call (bounds the state output's memory)
+#: [s] history over which calibration and diagnosis warm up a window's hidden states
+#: (:func:`warm_states`): on the simulator's own 60 s logs it takes the replay error at 2 s from
+#: 0.40 mm RMS (2 mm worst, a start mid-reversal) to 0.0003 mm; 1 s gains nothing more
+WARMUP_S = 0.5
 
 
 # -- windows ------------------------------------------------------------------------------------
@@ -176,7 +183,17 @@ def robot_params(robot: Robot) -> dict[str, float | None]:
     g = dict(robot.ground.params)
     return {"mu": robot.mu, "mu_left": robot.mu_left, "mu_right": robot.mu_right,
             "cg_x": robot.cg_x, "cg_y": robot.cg_y, **drive_params(robot), "track_length": robot.track_length,
-            "lateral_ratio": g.get("lateral_ratio"), "concentration": g.get("concentration"), "span": g.get("span")}
+            "lateral_ratio": g.get("lateral_ratio"), "concentration": g.get("concentration"), "span": g.get("span"),
+            "slope_x": 0.0, "slope_y": 0.0}
+
+
+def slope_of(params: Mapping[str, float | None]) -> tuple[float, float]:
+    """The in-plane gravity direction (a_x, a_y) = sin(slope) (cos dir, sin dir) of ``params``
+    (0 where absent); InputError when it is not a plane's (|a| >= sin 60 deg)."""
+    ax, ay = float(params.get("slope_x") or 0.0), float(params.get("slope_y") or 0.0)
+    if not (math.isfinite(ax) and math.isfinite(ay)) or math.hypot(ax, ay) >= math.sin(math.radians(60)):
+        raise InputError(f"windows: slope (slope_x, slope_y) = ({ax!r}, {ay!r}) is not an incline below 60 deg")
+    return ax, ay
 
 
 def geometry_robot(robot: Robot, params: Mapping[str, float | None]) -> Robot:
@@ -298,6 +315,9 @@ class WindowSim:
                 raise InputError(f"windows: drive_force_limit must be > 0 N, got {flim!r}")
             per = float(flim) / len(self.roll_dofs[0])
             m.actuator_forcerange[:] = [-per, per]
+        ax, ay = slope_of(params)
+        if ax or ay:
+            m.opt.gravity[:] = (-G * ax, -G * ay, -G * math.sqrt(1.0 - ax * ax - ay * ay))
         return m
 
     def settled(self, model: mujoco.MjModel, key: tuple) -> np.ndarray:
@@ -337,6 +357,59 @@ class WindowSim:
             data.time = 0.0
             mujoco.mj_getState(model, data, out[j], STATE_SPEC)
         return out
+
+
+    def pinned(self, model: mujoco.MjModel, state: np.ndarray, pose: np.ndarray, twist: np.ndarray) -> np.ndarray:
+        """``state`` (nstate,) moved to the planar ``pose`` (x, y, yaw) and ``twist`` (vx, vy, wz),
+        every other state kept: height, roll, pitch and their rates, the tracks, the drives."""
+        data = mujoco.MjData(model)
+        mujoco.mj_setState(model, data, state, STATE_SPEC)
+        q = data.qpos[self.qadr + 3:self.qadr + 7].copy()
+        turn = float(pose[2]) - float(yaw_of(q))
+        qz = np.array([math.cos(turn / 2), 0.0, 0.0, math.sin(turn / 2)])
+        quat = np.empty(4)
+        mujoco.mju_mulQuat(quat, qz, q)  # a turn about the world vertical
+        data.qpos[self.qadr + 3:self.qadr + 7] = quat
+        data.qpos[self.qadr:self.qadr + 2] = pose[:2]
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        vx, vy, wz = twist
+        data.qvel[self.vadr:self.vadr + 2] = (c * vx - s * vy, s * vx + c * vy)
+        data.qvel[self.vadr + 5] = wz
+        out = np.empty_like(state)
+        mujoco.mj_getState(model, data, out, STATE_SPEC)
+        return out
+
+
+def warm_states(sim: WindowSim, model: mujoco.MjModel, log: DriveLog, ws: WindowSet, rest: np.ndarray,
+                state0: np.ndarray, twists: np.ndarray, warmup_s: float, *, delay: float, scale: float,
+                datas: list) -> np.ndarray:
+    """Start states (M, nstate) whose hidden states come from the log's own past: each window's
+    robot is started ``warmup_s`` earlier (at most from its segment's start) from the logged state
+    there, driven by the logged commands up to the window's start, and then moved to the logged
+    pose and twist (:meth:`WindowSim.pinned`). The states a log does not hold -- suspension
+    deflections under load transfer, each roller's and belt's speed, the drives' filter -- are then
+    those the robot's recent history gives, not those of a robot at rest. Windows at a segment's
+    start keep ``state0``."""
+    out = state0.copy()
+    slices = log.segment_slices()
+    first = np.array([slices[k].start for k in ws.segment])
+    wstart = np.array([max(f, f + int(np.searchsorted(log.t[f:s + 1], log.t[s] - warmup_s - 1e-9)))
+                       for f, s in zip(first, ws.starts)])
+    nsteps = np.round((log.t[ws.starts] - log.t[wstart]) / sim.dt).astype(int)
+    for n in np.unique(nsteps[nsteps > 0]):
+        g = np.flatnonzero(nsteps == n)
+        wws = WindowSet(wstart[g], ws.starts[g], ws.segment[g], warmup_s)
+        p0 = np.stack([log.x[wws.starts], log.y[wws.starts], log.yaw[wws.starts]], -1).astype(float)
+        sp0 = start_speeds(log, wws)
+        st = sim.initial_states(model, rest, p0, start_twists(log, wws), sp0)
+        cmds = window_commands(log, wws, sim.dt, int(n), delay=delay, scale=scale, before=sp0)
+        states, _ = aligned_rollout([model] * g.size, datas if len(datas) > 1 else datas[0], st, cmds @ sim.B.T)
+        for i, j in enumerate(g):
+            end = states[i, -1]
+            if np.all(np.isfinite(end)):
+                pose = np.array([log.x[ws.starts[j]], log.y[ws.starts[j]], log.yaw[ws.starts[j]]], float)
+                out[j] = sim.pinned(model, end, pose, twists[j])
+    return out
 
 
 @dataclass(frozen=True)
@@ -399,7 +472,8 @@ def window_commands(log: DriveLog, ws: WindowSet, dt: float, nstep: int, *, dela
 
 def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
                      variants: Sequence[Mapping[str, float | None]] | None = None, *,
-                     nthread: int = 1, twists: np.ndarray | None = None, progress=None) -> WindowResult:
+                     nthread: int = 1, twists: np.ndarray | None = None, progress=None,
+                     warmup_s: float = 0.0) -> WindowResult:
     """Roll out every window of ``ws`` under every parameter set of ``variants`` (default: the
     robot as described); see the module docstring for the initial state and the commands.
 
@@ -411,6 +485,8 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
         nthread: threads for ``mujoco.rollout`` (results do not depend on it).
         twists: (M, 3) start twists (default :func:`start_twists`).
         progress: optional callable(done, total) called after each rollout chunk.
+        warmup_s: > 0: each window's hidden states warmed up over this much of the log before it
+            (:func:`warm_states`); 0: the robot's rest state moved to the logged state.
     """
     if len(ws) == 0:
         raise InputError(f"{log.source or 'drive log'}: no window of {ws.horizon_s:g} s fits in any segment")
@@ -441,7 +517,7 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
         for p, params in enumerate(variants):
             vsim = sim.for_params(params)
             model = vsim.variant_model(params)
-            key = (params.get("cg_x"), params.get("cg_y"))
+            key = (params.get("cg_x"), params.get("cg_y"), *slope_of(params))
             try:
                 rest = vsim.settled(model, key)
             except MjtrackError:  # a variant that cannot even stand (cg at the edge of the support)
@@ -455,6 +531,9 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
             delay = float(params.get("drive_delay") or 0.0)
             if delay < 0 or not scale > 0:
                 raise InputError(f"windows: drive_delay must be >= 0 and track_speed_scale > 0, got {delay!r}, {scale!r}")
+            if warmup_s > 0:
+                state0 = warm_states(vsim, model, log, ws, rest, state0, twists, warmup_s, delay=delay, scale=scale,
+                                     datas=datas)
             cmds = window_commands(log, ws, sim.dt, nstep, delay=delay, scale=scale, before=speeds0)
             control = cmds @ sim.B.T
             for lo in range(0, M, CHUNK):

@@ -10,8 +10,8 @@ surfacevel element variants. Every setting is pinned in the stored file (the Sim
 are stored, not taken from the current defaults), so a change of a default elsewhere does not
 show up here; a change of what the builders make from the same inputs does.
 
-    python tests/builder_fingerprints.py --write   # store tests/data/builder_fingerprints.json
-    python tests/builder_fingerprints.py           # compare with the stored file, list differences
+    python -m mjtrack.testing.builder_fingerprints --write   # store tests/data/builder_fingerprints.json
+    python -m mjtrack.testing.builder_fingerprints           # compare with the stored file, list differences
 
 ``tests/test_builder_fingerprints.py`` runs the comparison by default. The hashes are bit-exact
 (same MuJoCo build and CPU family); regenerate the file only for an intended model change, and
@@ -25,20 +25,18 @@ import dataclasses
 import hashlib
 import json
 import sys
-from pathlib import Path
 
 import mujoco
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from mjtrack.io.robot import Ground, Robot
+from mjtrack.sim.builder import build_model, build_spec, control_matrix
+from mjtrack.sim.config import SimConfig, surfacevel_config
+from mjtrack.sim.surfacevel import build_surfacevel_model, robot_spec, set_track_speeds
+from mjtrack.sim.terrain import HField, Step, Terrain
+from mjtrack.testing.repo import TESTS
 
-from mjtrack.io.robot import Ground, Robot  # noqa: E402
-from mjtrack.sim.builder import build_model, build_spec, control_matrix  # noqa: E402
-from mjtrack.sim.config import SimConfig, surfacevel_config  # noqa: E402
-from mjtrack.sim.surfacevel import build_surfacevel_model, robot_spec, set_track_speeds  # noqa: E402
-from mjtrack.sim.terrain import HField, Step, Terrain  # noqa: E402
-
-STORE = Path(__file__).resolve().parent / "data" / "builder_fingerprints.json"
+STORE = TESTS / "data" / "builder_fingerprints.json"
 STEPS = 150  # rollout length [steps]
 COMMAND = (0.3, 0.5)  # (V_L, V_R) [m/s]: a gentle left turn
 

@@ -1,0 +1,172 @@
+"""Why the calibrated robot predicts better: the changes that carry the gain, measured.
+
+A *cause* is one changed parameter, or a group of changed parameters that the fit cannot move
+independently (|correlation| of their estimates at least :data:`COUPLED`), together with the
+parameters the log cannot tell apart from them (ties, :mod:`mjtrack.calibrate.identify`). For each
+cause two simulations of the training windows are scored: the calibrated robot with the cause's
+parameters back at their described values (``share``: the fraction of the improvement lost) and
+the described robot with only the cause's changes (``gain_alone``: its relative improvement).
+Causes are ordered by ``share``; the summary sentence is built from them, never from a template of
+what usually goes wrong. No change, no cause: ``causes`` is empty and the summary says so.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+COUPLED = 0.7  # |correlation| above which changed parameters form one cause
+
+
+@dataclass
+class Cause:
+    """One cause: its parameters (changed ones first, then those tied to them), their described
+    and calibrated values, ``share`` and ``gain_alone`` (see the module docstring), and a sentence."""
+
+    parameters: list[str]
+    changed: dict[str, tuple[float, float]]
+    tied: list[str]
+    share: float
+    gain_alone: float
+    sentence: str
+
+    def to_json(self) -> dict:
+        return {"parameters": self.parameters, "share": self.share, "gain_alone": self.gain_alone,
+                "changes": {k: {"described": a, "calibrated": b} for k, (a, b) in self.changed.items()},
+                "tied": self.tied, "sentence": self.sentence}
+
+
+def groups(names: list[str], corr: np.ndarray) -> list[list[str]]:
+    """Connected components of ``names`` under |corr| >= :data:`COUPLED`."""
+    n = len(names)
+    label = list(range(n))
+
+    def find(i):
+        while label[i] != i:
+            label[i] = label[label[i]]
+            i = label[i]
+        return i
+
+    for i in range(n):
+        for j in range(i + 1, n):
+            if abs(corr[i, j]) >= COUPLED:
+                label[find(i)] = find(j)
+    out: dict[int, list[str]] = {}
+    for i in range(n):
+        out.setdefault(find(i), []).append(names[i])
+    return list(out.values())
+
+
+def phrase(name: str, value: float, described: float, *, track_length: float) -> str:
+    """What a change of one parameter says of the robot, in words."""
+    if name == "cg_x":
+        return (f"its centre of mass is {abs(value):.3g} m {'ahead of' if value > 0 else 'behind'} the geometric "
+                f"centre (described {described:+.3g} m)")
+    if name == "cg_y":
+        return (f"its centre of mass is {abs(value):.3g} m {'left' if value > 0 else 'right'} of the centre line "
+                f"(described {described:+.3g} m)")
+    if name == "mu":
+        return f"its ground's friction is {value:.3g}, not {described:.3g}"
+    if name == "mu_ratio":
+        return (f"its left side grips {value:.3g} times as much as its right (described {described:.3g}): "
+                "the ground differs under the two sides")
+    if name in ("mu_left", "mu_right"):
+        return f"its {name[3:]} side's friction is {value:.3g}, not {described:.3g}"
+    if name == "track_length":
+        more = "less" if value > described else "more"
+        return (f"its ground contact is {value:.3g} m long, not {described:.3g} m: the simulated contact resists "
+                f"turning {more} than the real one")
+    if name == "wheelbase":
+        return f"its wheelbase acts as {value:.3g} m, not {described:.3g} m"
+    if name == "drive_lag":
+        return f"its drives reach a command with a {value:.3g} s lag (described {described:.3g} s)"
+    if name == "drive_delay":
+        return f"its drives act {value:.3g} s after a command (described {described:.3g} s)"
+    if name == "track_speed_scale":
+        return f"its tracks run at {value:.3g} of the commanded speed (described {described:.3g})"
+    if name == "drive_force_limit":
+        return f"its drives saturate at {value:.3g} N (described {described:.3g} N)"
+    if name == "lateral_ratio":
+        return f"its ground resists sideways slip {value:.3g} times as much as forward slip (described {described:.3g})"
+    if name in ("concentration", "span"):
+        return f"its load sits on its road wheels differently ({name} {value:.3g}, described {described:.3g})"
+    return f"{name} is {value:.4g}, not {described:.4g}"
+
+
+def slope_phrase(ax: float, ay: float) -> str:
+    s = math.degrees(math.asin(min(1.0, math.hypot(ax, ay))))
+    d = math.degrees(math.atan2(ay, ax))
+    return f"it drove on ground inclined {s:.2g} deg, uphill towards {d:.0f} deg in the log's frame"
+
+
+def sentence_of(params: list[str], values: dict[str, float], described: dict[str, float], tied: list[str],
+                track_length: float) -> str:
+    parts = []
+    if "slope_x" in params or "slope_y" in params:
+        parts.append(slope_phrase(values.get("slope_x", 0.0), values.get("slope_y", 0.0)))
+    parts += [phrase(n, values[n], described[n], track_length=track_length) for n in params
+              if n not in ("slope_x", "slope_y")]
+    text = "; ".join(parts)
+    if tied:
+        text += f" (or, equally well on this log, a change of {', '.join(tied)})"
+    return text
+
+
+def find_causes(changed: list[str], values: dict[str, float], described: dict[str, float], corr: np.ndarray,
+                ties: dict[str, list[str]], score: Callable[[list[dict[str, float]]], np.ndarray],
+                rms_before: float, rms_after: float, *, track_length: float) -> list[Cause]:
+    """The causes of the improvement ``rms_before`` -> ``rms_after`` (module docstring).
+
+    Args:
+        changed: the parameters the calibration changed, in the order of ``corr``'s rows.
+        values, described: calibrated and described values of at least ``changed``.
+        corr: (n, n) correlation of the changed parameters' estimates.
+        ties: parameter -> the parameters it carries the combination with.
+        score: RMS position error [m] of the training windows for each of a list of parameter
+            sets (each a full set of the calibrated parameters' values).
+        rms_before, rms_after: the described and the calibrated robot's RMS error [m].
+    """
+    if not changed:
+        return []
+    gs = groups(changed, corr)
+    full = {n: values[n] for n in changed}
+    variants = []
+    for g in gs:
+        variants.append({**full, **{n: described[n] for n in g}})  # without the cause
+        variants.append({**{n: described[n] for n in changed}, **{n: values[n] for n in g}})  # the cause alone
+    rms = score(variants)
+    gain = rms_before - rms_after
+    out = []
+    for k, g in enumerate(gs):
+        without, alone = float(rms[2 * k]), float(rms[2 * k + 1])
+        tied = sorted({t for n in g for t in ties.get(n, [])})
+        out.append(Cause(parameters=g + tied, changed={n: (described[n], values[n]) for n in g}, tied=tied,
+                         share=(without - rms_after) / gain if gain > 0 else 0.0,
+                         gain_alone=1.0 - alone / rms_before if rms_before > 0 else 0.0,
+                         sentence=sentence_of(g, values, described, tied, track_length)))
+    out.sort(key=lambda c: -c.share)
+    return out
+
+
+def summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: tuple[float, float] | None) -> str:
+    """The calibration's one-paragraph conclusion, from its measured causes."""
+    before, after = rms
+    if not causes:
+        return (f"Nothing needs to change: the described robot predicts this log within what the log determines "
+                f"({where} 2 s position error {before:.3g} m); no parameter differs from its description by more "
+                "than its interval.")
+    first = causes[0]
+    text = f"The described MuJoCo robot erred mostly because {first.sentence}"
+    text += f" ({100 * first.share:.0f} % of the improvement; alone it removes {100 * first.gain_alone:.0f} % of the error)"
+    more = [c for c in causes[1:] if c.share >= 0.1]
+    if more:
+        text += "; also " + "; ".join(f"{c.sentence} ({100 * c.share:.0f} %)" for c in more)
+    if yaw is not None and all(np.isfinite(yaw)):
+        text += f". Steady-turn yaw ratio: measured {yaw[0]:.2f}, described robot {yaw[1]:.2f}"
+    return text + f". {where.capitalize()} 2 s position error {before:.3g} m before, {after:.3g} m after calibration."
+
+
+__all__ = ["COUPLED", "Cause", "find_causes", "groups", "summary"]

@@ -1,0 +1,265 @@
+"""What a log determines: 95 % intervals of fitted parameters, which of them the log determines,
+and which it says must change.
+
+Intervals. The residuals of a window fit are not independent draws: the components of one window
+share its start state, and neighbouring windows of one log share the robot's state and the
+simulator's errors. The covariance is therefore the cluster-robust sandwich
+A^-1 (sum_g s_g s_g^T) A^-1 G / (G - 1), A = J^T J, s_g = J_g^T r_g the score of cluster g (a few
+consecutive windows, :func:`clusters`), with Student's t at G - 1 degrees of freedom. The
+simulator's own error does not average out over windows, so each interval also carries the
+*model-form shift* of every parameter: the change of the fitted value that replacing the fit's
+simulator by a better one would cause, linearised as A^-1 J^T (r_better - r) (:class:`ModelForm`;
+the sources are measured by :func:`mjtrack.calibrate.run.calibrate`). Half-width
+t sd + |shift| (a bias does not shrink with more windows, so it is added, not put in quadrature).
+
+What the log determines. A parameter is determined when its half-width is at most its resolution
+(:attr:`mjtrack.calibrate.params.ParamSpec.resolution`). :func:`select` removes, one at a time,
+the parameter whose half-width is the largest multiple of its resolution and recomputes the
+others' intervals without it (the sandwich of the remaining columns); a parameter removed because
+it trades with another (|correlation| above :data:`TIE`) leaves that one to carry their
+combination, and both are reported as not determined one by one. Then, among the determined
+ones, the parameter whose described value lies deepest inside its interval goes back to that
+value (the others follow the linearised least-squares optimum), until every remaining parameter
+differs from its description by more than its half-width: a log on which nothing needs to change
+changes nothing.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+
+from mjtrack.calibrate.params import ParamSpec
+
+TIE = 0.9  # |correlation| above which a parameter removed as undetermined trades with the other
+EIG_FLOOR = 1e-12  # eigenvalues of A below this share of the largest count as zero (infinite variance)
+CLUSTER_WINDOWS = 3  # consecutive windows per cluster (fewer when the log has few windows per parameter)
+
+
+def clusters(n_windows: int, n_params: int) -> np.ndarray:
+    """Cluster label (M,) of each window: consecutive groups of :data:`CLUSTER_WINDOWS` windows,
+    smaller groups when there would be fewer than three clusters per parameter."""
+    size = max(1, min(CLUSTER_WINDOWS, n_windows // max(1, 3 * n_params)))
+    return np.arange(n_windows) // size
+
+
+@dataclass(frozen=True)
+class ModelForm:
+    """A model-form source: its name and g = J^T (r_better - r) (n,) in scaled units."""
+
+    name: str
+    g: np.ndarray
+
+
+@dataclass
+class Linearised:
+    """The fit linearised at its optimum, for any subset of its parameters.
+
+    Attributes:
+        names: the fitted parameters (columns of ``jac``).
+        theta: (n,) fitted values, scaled (units of each spec's ``scale``).
+        jac: (R, n) Jacobian of the residuals, scaled columns.
+        resid: (R,) residuals at ``theta``.
+        rows_per_window: residual components per window (window-major rows).
+        specs: every parameter's spec.
+        model_form: the model-form sources.
+    """
+
+    names: list[str]
+    theta: np.ndarray
+    jac: np.ndarray
+    resid: np.ndarray
+    rows_per_window: int
+    specs: dict[str, ParamSpec]
+    model_form: list[ModelForm] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.A = self.jac.T @ self.jac
+        self.scales = np.array([self.specs[n].scale for n in self.names])
+        self.M = self.resid.size // self.rows_per_window
+
+    def _inv(self, A: np.ndarray) -> np.ndarray:
+        w, V = np.linalg.eigh(A)
+        w = np.maximum(w, max(float(w.max()), 1e-300) * EIG_FLOOR)
+        return (V / w) @ V.T
+
+    def uncertainty(self, idx: list[int], resid: np.ndarray | None = None) -> "Uncertainty":
+        """Intervals of the parameters ``idx`` (positions in ``names``) with the others held."""
+        r = self.resid if resid is None else resid
+        J = self.jac[:, idx]
+        Ainv = self._inv(J.T @ J)
+        lab = clusters(self.M, len(idx))
+        G = int(lab.max()) + 1
+        scores = (J * r[:, None]).reshape(self.M, self.rows_per_window, len(idx)).sum(axis=1)
+        S = np.zeros((G, len(idx)))
+        np.add.at(S, lab, scores)
+        cov = Ainv @ (S.T @ S) @ Ainv * (G / max(G - 1, 1))
+        sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        shifts = np.array([Ainv @ m.g[idx] for m in self.model_form]).reshape(len(self.model_form), len(idx))
+        shift = np.sqrt(np.sum(shifts ** 2, axis=0)) if len(self.model_form) else np.zeros(len(idx))
+        t = float(stats.t.ppf(0.975, max(G - 1, 1)))
+        corr = cov / np.maximum(np.outer(sd, sd), 1e-300)
+        sc = self.scales[idx]
+        return Uncertainty(names=[self.names[i] for i in idx], sd=sd * sc, shift=shift * sc,
+                           half=(t * sd + shift) * sc, corr=corr, clusters=G, t=t,
+                           shifts={m.name: s * sc for m, s in zip(self.model_form, shifts)})
+
+
+@dataclass(frozen=True)
+class Uncertainty:
+    """Intervals of a set of parameters (physical units): ``sd`` statistical standard deviation,
+    ``shift`` model-form shift, ``half`` 95 % half-width, ``corr`` correlations of the statistical
+    part, ``clusters`` their number, ``t`` the quantile used, ``shifts`` each source's shift."""
+
+    names: list[str]
+    sd: np.ndarray
+    shift: np.ndarray
+    half: np.ndarray
+    corr: np.ndarray
+    clusters: int
+    t: float
+    shifts: dict[str, np.ndarray]
+
+
+@dataclass
+class Verdict:
+    """What the log says of one parameter the fit was allowed to move."""
+
+    name: str
+    determined: bool
+    changed: bool
+    value: float
+    described: float
+    interval: tuple[float, float] | None
+    reason: str
+    tied_with: list[str] = field(default_factory=list)
+
+    def to_json(self) -> dict:
+        out = {"determined": self.determined, "changed": self.changed, "reason": self.reason}
+        if self.tied_with:
+            out["tied_with"] = list(self.tied_with)
+        return out
+
+
+def _fmt(v: float, unit: str) -> str:
+    return f"{v:.3g} {unit}" if unit not in ("–", "-") else f"{v:.3g}"
+
+
+@dataclass
+class Selection:
+    """The outcome of :func:`select`: the parameters to keep fitting (``free``) and their linearised
+    values (physical), the verdicts of the others so far."""
+
+    free: list[str]
+    values: dict[str, float]
+    verdicts: dict[str, Verdict]
+    ties: dict[str, list[str]]
+
+
+def select(lin: Linearised, described: dict[str, float]) -> Selection:
+    """Remove what the log does not determine, then what it does not need changed (module docstring)."""
+    specs = lin.specs
+    idx = list(range(len(lin.names)))
+    theta = lin.theta.copy()
+    resid = lin.resid.copy()
+    verdicts: dict[str, Verdict] = {}
+    ties: dict[str, list[str]] = {}
+    res = np.array([specs[n].resolution for n in lin.names])
+    d_scaled = np.array([described[n] / specs[n].scale for n in lin.names])
+
+    def revert(i: int) -> None:
+        """Set parameter i to its described value; the free ones follow the linearised optimum."""
+        nonlocal theta, resid
+        rest = [k for k in idx if k != i]
+        step = d_scaled[i] - theta[i]
+        A = lin.A
+        if rest:
+            dr = -np.linalg.lstsq(A[np.ix_(rest, rest)], A[rest, i] * step, rcond=None)[0]
+            theta[rest] += dr
+            resid = resid + lin.jac[:, rest] @ dr
+        resid = resid + lin.jac[:, i] * step
+        theta[i] = d_scaled[i]
+
+    # 1. what the log determines
+    while idx:
+        u = lin.uncertainty(idx, resid)
+        ratio = u.half / res[idx]
+        k = int(np.argmax(ratio))
+        if ratio[k] <= 1.0:
+            break
+        i = idx[k]
+        name = lin.names[i]
+        spec = specs[name]
+        partners = [(idx[j], float(u.corr[k, j])) for j in range(len(idx)) if j != k and abs(u.corr[k, j]) > TIE]
+        if partners:
+            j, c = max(partners, key=lambda p: abs(p[1]))
+            other = lin.names[j]
+            reason = (f"trades with {other} (correlation {c:+.2f}): the log determines their combination, not "
+                      f"each one; {name} stays at its described value {_fmt(described[name], spec.unit)} and "
+                      f"{other} carries the combination")
+            ties.setdefault(other, []).append(name)
+            tied = [other]
+        else:
+            reason = (f"not determined by this log: its 95 % interval would be +-{_fmt(u.half[k], spec.unit)}, "
+                      f"wider than the +-{_fmt(spec.resolution, spec.unit)} that matters; it stays at its "
+                      f"described value {_fmt(described[name], spec.unit)}")
+            tied = []
+        verdicts[name] = Verdict(name, False, False, described[name], described[name], None, reason, tied)
+        revert(i)
+        idx.remove(i)
+
+    # 2. what the log says must change
+    while idx:
+        u = lin.uncertainty(idx, resid)
+        z = np.abs(theta[idx] - d_scaled[idx]) * lin.scales[idx] / np.maximum(u.half, 1e-300)
+        k = int(np.argmin(z))
+        if z[k] > 1.0:
+            break
+        i = idx[k]
+        name = lin.names[i]
+        spec = specs[name]
+        v = theta[i] * spec.scale
+        lo, hi = max(spec.lo, v - u.half[k]), min(spec.hi, v + u.half[k])
+        verdicts[name] = Verdict(name, name not in ties, False, described[name], described[name], (lo, hi),
+                                 f"consistent with the description: {_fmt(described[name], spec.unit)} lies in the "
+                                 f"95 % interval [{lo:.4g}, {hi:.4g}] of the fit; kept", ties.get(name, []))
+        revert(i)
+        idx.remove(i)
+    free = [lin.names[i] for i in idx]
+    return Selection(free=free, values={lin.names[i]: float(theta[i] * lin.scales[i]) for i in range(len(lin.names))},
+                     verdicts=verdicts, ties={k: v for k, v in ties.items() if k in free})
+
+
+def final_verdicts(lin: Linearised, described: dict[str, float], ties: dict[str, list[str]]) -> dict[str, Verdict]:
+    """Verdicts of the parameters still fitted at the final optimum (``lin`` of the final fit)."""
+    u = lin.uncertainty(list(range(len(lin.names))))
+    out = {}
+    for k, name in enumerate(lin.names):
+        spec = lin.specs[name]
+        v = float(lin.theta[k] * spec.scale)
+        lo, hi = max(spec.lo, v - u.half[k]), min(spec.hi, v + u.half[k])
+        tied = ties.get(name, [])
+        if tied:
+            reason = (f"carries its combination with {', '.join(tied)}, which the log cannot tell apart: "
+                      f"{_fmt(v, spec.unit)} [{lo:.4g}, {hi:.4g}] holds only with "
+                      f"{', '.join(tied)} at the described value")
+        elif u.half[k] > spec.resolution:
+            reason = (f"moved but barely determined: 95 % interval +-{_fmt(u.half[k], spec.unit)} is wider than the "
+                      f"+-{_fmt(spec.resolution, spec.unit)} that matters")
+        else:
+            reason = (f"determined: 95 % interval [{lo:.4g}, {hi:.4g}] {spec.unit if spec.unit not in ('–', '-') else ''}"
+                      f"(statistical +-{_fmt(u.t * u.sd[k], spec.unit)} over {u.clusters} clusters of windows, "
+                      f"model form +-{_fmt(u.shift[k], spec.unit)})").replace("  ", " ")
+        out[name] = Verdict(name, not tied and u.half[k] <= spec.resolution, True, v, described[name], (lo, hi),
+                            reason, tied)
+    return out
+
+
+def has_changed(value: float, described: float) -> bool:
+    return not math.isclose(value, described, rel_tol=1e-12, abs_tol=1e-15)
+
+
+__all__ = ["Linearised", "ModelForm", "Selection", "Uncertainty", "Verdict", "clusters", "final_verdicts", "select"]
