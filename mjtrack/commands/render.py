@@ -44,7 +44,12 @@ def run(args: argparse.Namespace) -> int:
     out = check_out_file(args.out, suffixes=(".mp4",), inputs=inputs)
     gif = check_out_file(args.gif, suffixes=(".gif",), inputs=inputs) if args.gif else None
     check_overwrite([out, *([gif] if gif else [])], args.force)
-    drive, robot, _, _ = source_from_args(args)
+    from mjtrack.render.video import check_frames
+
+    def frames(duration: float) -> None:  # a video too long is refused before the scenario is simulated
+        check_frames([[0.0, duration]], fps=args.fps, speed=args.speed)
+
+    drive, robot, _, _ = source_from_args(args, before_rollout=frames)
     stats = render_log(drive, robot, out, width=args.width, height=args.height, fps=args.fps, speed=args.speed,
                        quiet=args.quiet)
     print(f"wrote {out} ({stats.frames} frames, {stats.duration:.1f} s, {stats.width}x{stats.height})")

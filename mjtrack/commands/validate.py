@@ -44,8 +44,11 @@ def add_source_arguments(parser: argparse.ArgumentParser) -> None:
     add_terrain_option(parser)
 
 
-def source_from_args(args: argparse.Namespace):
-    """(DriveLog, Robot, words, truth title) from ``LOG.csv`` or ``--scenario``; bad combinations raise InputError."""
+def source_from_args(args: argparse.Namespace, *, before_rollout=None):
+    """(DriveLog, Robot, words, truth title) from ``LOG.csv`` or ``--scenario``; bad combinations raise InputError.
+
+    ``before_rollout(duration)``: called with a scenario's duration [s] before it is simulated
+    (a caller's own work estimate, so that it refuses before the rollout is spent)."""
     from mjtrack.io.logs import read_log, robot_path_for
     from mjtrack.io.robot import read_robot
 
@@ -59,6 +62,8 @@ def source_from_args(args: argparse.Namespace):
         table, duration = scenario_commands(args.scenario, robot, duration=args.duration, seed=args.seed)
         words = f"MuJoCo rollout of the scenario '{args.scenario}' ({duration:g} s, seed {args.seed})"
         terrain = terrain_from_args(args, args.scenario)
+        if before_rollout is not None:
+            before_rollout(duration)
         if not terrain.is_flat:
             words += f" on terrain {terrain.spec}"
         return drive_log(robot, table, duration=duration, terrain=terrain), robot, words, "MuJoCo rollout"
