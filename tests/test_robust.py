@@ -125,6 +125,17 @@ def test_negative_numbers_are_values_and_usage_errors_are_one_line(tmp_path):
     assert res.rc == 0, res.err
     one_error_line(_in(tmp_path, ["steady", "--v-left", "0.1"]), r"required: --v-right")
     one_error_line(_in(tmp_path, ["simulate", "--scenario", "nope", "--out", "x.csv"]), r"invalid choice: 'nope'")
+    # argparse drops a "--" value and hands the option an empty list: refused, not a traceback
+    one_error_line(_in(tmp_path, ["steady", "--v-left", "0.1", "--v-right", "0.2", "--settle=--"]),
+                   r"--settle: expected one value, got '--'")
+
+
+@pytest.mark.parametrize("path", ["", ".", "logs/"])
+def test_a_log_path_that_names_no_file_is_refused(path):
+    from mjtrack.io.logs import robot_path_for
+
+    with pytest.raises(InputError, match="not a file name"):
+        robot_path_for(path)
 
 
 # -- JSON readers ---------------------------------------------------------------------------
