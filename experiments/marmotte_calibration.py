@@ -12,13 +12,13 @@ radius 0.129 m, i.e. a 0.72 m track contact; sensor rack of 10.4 kg centred 0.08
 chassis centre, giving cg_x = 0.016 m and a cg height of about 0.155 m). Friction: no public value;
 mu starts at 0.5 and is fitted. The drivetrain starts ideal (no lag, delay, scale) and is fitted.
 
-For each ground model (robot key ``ground``) the same parameters are fitted, plus the ground's own:
-``coulomb`` (rigid track; its contact length is fitted too, from the public 0.72 m),
-``anisotropic`` (contact length kept at the public 0.72 m, lateral/longitudinal friction ratio
-fitted), ``road_wheels`` (0.72 m, 4 road wheels: load concentration and span fitted). Prints, per
-ground: the test 2 s position RMSE before / after and its relative gain, the steady-turn yaw ratio
-measured and simulated on the test part, the fitted parameters with intervals and the report's
-sentence. Writes calibration.json + robot.json per ground under
+For each ground model (robot key ``ground``) calibrate's default candidates are fitted (friction
+level and ratio, centre of mass, contact length, lag, delay, speed scale, slope), plus the ground's
+own: ``coulomb`` (rigid track), ``anisotropic`` (lateral/longitudinal friction ratio), ``road_wheels``
+(4 road wheels: load concentration and span); what the log does not determine keeps its starting
+value. Prints, per ground: the test 2 s position RMSE before / after and its relative gain, the
+steady-turn yaw ratio measured and simulated on the test part, every parameter with its interval
+and whether the log determines it, the causes and the summary. Writes calibration.json + robot.json per ground under
 experiments/results/marmotte_calibration/ and the reports under /tmp/marmotte_calibration/.
 """
 
@@ -51,12 +51,10 @@ PUBLIC = {
     "cg_z": (0.155, f"public model: wheel centres 0.129 m above ground, rack 0.13 m higher ({SUBT}/model.sdf)"),
     "mu": (0.5, "no public value: start value, fitted"),
 }
-COMMON = ["mu", "cg_x", "cg_y", "drive_lag", "drive_delay", "track_speed_scale"]
 GROUNDS = {
-    "coulomb": ({"model": "coulomb"}, COMMON + ["track_length"]),
-    "anisotropic": ({"model": "anisotropic", "lateral_ratio": 0.7}, COMMON + ["lateral_ratio"]),
-    "road_wheels": ({"model": "road_wheels", "wheels": 4, "concentration": 0.8, "span": 0.8},
-                    COMMON + ["concentration", "span"]),
+    "coulomb": {"model": "coulomb"},
+    "anisotropic": {"model": "anisotropic", "lateral_ratio": 0.7},
+    "road_wheels": {"model": "road_wheels", "wheels": 4, "concentration": 0.8, "span": 0.8},
 }
 
 
@@ -99,10 +97,9 @@ def main() -> int:
     RESULTS.mkdir(parents=True, exist_ok=True)
     summary = {}
     for name in args.grounds.split(","):
-        ground, params = GROUNDS[name]
-        robot = starting_robot(base, ground)
+        robot = starting_robot(base, GROUNDS[name])
         t0 = time.time()
-        cal = calibrate(train, robot, test=test, names=params, n_rollers=args.rollers,
+        cal = calibrate(train, robot, test=test, n_rollers=args.rollers,
                         max_iter=4 if args.quick else args.max_iter, quiet=not sys.stderr.isatty(),
                         train_path=f"{DATA.name} (first 50 %)", test_path=f"{DATA.name} (next 20 %)")
         wall = time.time() - t0
@@ -115,10 +112,14 @@ def main() -> int:
                 shutil.copy(out / f, RESULTS / f"{name}_{f}")
         cj = cal.to_json()
         yaw = next(f for f in cj["findings"] if f["what"] == "yaw ratio" and f["part"] == "test")
-        print(f"\n== ground {name}: fitted {', '.join(params)} ({wall:.0f} s, load {os.getloadavg()[0]:.2f})")
-        for n in params:
-            lo, hi = cal.fit.intervals[n]
-            print(f"  {n:18s} {cal.fit.start[n]:8.4g} -> {cal.fit.values[n]:8.4g}  [{lo:.4g}, {hi:.4g}]")
+        print(f"\n== ground {name}: candidates {', '.join(cal.names)} ({wall:.0f} s, load {os.getloadavg()[0]:.2f})")
+        for n in cal.names:
+            v = cal.verdicts[n]
+            iv = "" if v.interval is None else f"[{v.interval[0]:.4g}, {v.interval[1]:.4g}]"
+            print(f"  {n:18s} {cal.described[n]:8.4g} -> {cal.values[n]:8.4g}  {iv:24s} "
+                  f"{'determined' if v.determined else 'NOT determined'}, {'changed' if v.changed else 'kept'}")
+        for c in cal.causes:
+            print(f"  cause {', '.join(c.parameters)}: share {c.share:.2f}, alone {c.gain_alone:.2f}")
         t = cj["test"]
         print(f"  train 2 s position RMSE {cal.before.rms:.4f} -> {cal.after.rms:.4f} m")
         print(f"  TEST  2 s position RMSE {t['before']:.4f} -> {t['after']:.4f} m: {100 * t['relative']:.1f} % lower "
@@ -130,7 +131,9 @@ def main() -> int:
         summary[name] = {"test_before": t["before"], "test_after": t["after"], "relative": t["relative"],
                          "yaw_measured": yaw["measured"], "yaw_before": yaw["simulated_before"],
                          "yaw_after": yaw["simulated_after"], "seconds": wall,
-                         "parameters": cal.fit.values, "intervals": cal.fit.intervals}
+                         "parameters": cal.values, "determined": {n: v.to_json() for n, v in cal.verdicts.items()},
+                         "intervals": {n: v.interval for n, v in cal.verdicts.items()},
+                         "causes": [c.to_json() for c in cal.causes]}
     if not args.quick:
         (RESULTS / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     return 0

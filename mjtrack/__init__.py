@@ -3,10 +3,10 @@
 Subpackages: ``mjtrack.sim`` (the MuJoCo robot), ``mjtrack.models`` (kinematic models, the
 rigid-track Coulomb reference, simplified dynamics, wheeled robots), ``mjtrack.estimation``
 (slip, ICR and virtual-robot filters), ``mjtrack.validate``, ``mjtrack.diagnose``,
-``mjtrack.control``, ``mjtrack.render``, ``mjtrack.thesis``, ``mjtrack.io``. The names below
-are the ones most scripts need; they load on first use (``mjtrack.Robot``), so importing this
-package loads nothing heavy (not NumPy, not MuJoCo) and the command line can take Ctrl-C from
-its first moment on.
+``mjtrack.calibrate``, ``mjtrack.control``, ``mjtrack.render``, ``mjtrack.thesis``,
+``mjtrack.io``. The names below are the public API (:mod:`mjtrack.api` holds the functions that
+do a whole job). They load on first use (``mjtrack.Robot``), so importing this package loads
+nothing heavy (not NumPy, not MuJoCo) and the command line can take Ctrl-C from its first moment.
 """
 
 from mjtrack.errors import InputError as InputError
@@ -15,12 +15,12 @@ from mjtrack.errors import SingularMotionError as SingularMotionError
 
 # name -> module it comes from (loaded on first access, PEP 562)
 _LAZY = {
-    "ICR": "mjtrack.icr", "icr_from_twist": "mjtrack.icr", "twist_from_icr": "mjtrack.icr",
-    "virtual_robot_from_twist": "mjtrack.icr",
-    "DriveLog": "mjtrack.io", "Robot": "mjtrack.io", "read_log": "mjtrack.io", "read_robot": "mjtrack.io",
-    "write_log": "mjtrack.io",
-    "MICR": "mjtrack.models.kinematic", "MPP": "mjtrack.models.kinematic", "MVIR": "mjtrack.models.kinematic",
-    "Nominal": "mjtrack.models.kinematic", "integrate": "mjtrack.models.kinematic",
+    **dict.fromkeys(("calibrate_robot", "coulomb_steady_state", "diagnose_log", "log_icrs", "mujoco_steady_state",
+                     "simulate_log", "validate_models"), "mjtrack.api"),
+    **dict.fromkeys(("ICR", "icr_from_twist", "twist_from_icr", "virtual_robot_from_twist"), "mjtrack.icr"),
+    **dict.fromkeys(("DriveLog", "Robot", "read_log", "read_log_with_robot", "read_robot", "write_log",
+                     "write_robot"), "mjtrack.io"),
+    **dict.fromkeys(("MICR", "MPP", "MVIR", "Nominal", "integrate"), "mjtrack.models.kinematic"),
 }
 
 __version__ = "0.1.0"

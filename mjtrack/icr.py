@@ -47,7 +47,7 @@ WZ_MIN = 1e-9  # [rad/s] default |wz| below which the ICRs are treated as at inf
 class ICR:
     """ICRs of a motion, eq. (2.13). Arrays of a common shape [m].
 
-    ``valid`` is False where |wz| < wz_min; the other fields are NaN there.
+    ``valid`` is False where ``|wz| < wz_min``; the other fields are NaN there.
     """
 
     y_l: np.ndarray

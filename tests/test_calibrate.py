@@ -58,7 +58,11 @@ def test_calibration_recovers_friction_cg_and_lag_from_a_wrong_start(logs):
 
     train, test = read_log(logs / "train.csv"), read_log(logs / "test.csv")
     cal = calibrate(train, read_robot(logs / "train.json"), test=test, names="mu,cg_x,cg_y,drive_lag", max_iter=6)
-    v = cal.fit.values
+    v = cal.values
+    assert all(cal.verdicts[n].determined and cal.verdicts[n].changed for n in ("mu", "cg_x", "cg_y", "drive_lag"))
+    for n in ("mu", "cg_x", "cg_y", "drive_lag"):  # the intervals cover the truth
+        lo, hi = cal.verdicts[n].interval
+        assert lo <= {**TRUTH, "drive_lag": LAG}[n] <= hi, (n, lo, hi)
     # mu acts only through friction-limited transients (rigid-Coulomb steady turns do not depend on
     # it), so 6 windows pin it to ~6 %; the cg and the lag, which shape every turn, to a few %
     assert abs(v["mu"] - 0.5) < 0.05, v
@@ -89,7 +93,7 @@ def test_cli_writes_a_robot_every_command_accepts(logs, tmp_path):
     assert "<script" not in html and "http" not in html and "What the uncalibrated simulation got wrong" in html
 
 
-@pytest.mark.parametrize("case", ["other_robot", "too_short", "unknown_param", "out_of_range", "surfacevel",
+@pytest.mark.parametrize("case", ["other_robot", "too_short", "unknown_param", "out_of_range",
                                   "wrong_ground_param"])
 def test_bad_input_exits_2_one_line_nothing_written(logs, tmp_path, case):
     from mjtrack.io.logs import read_log
@@ -112,8 +116,6 @@ def test_bad_input_exits_2_one_line_nothing_written(logs, tmp_path, case):
         data["drive_lag"] = 5.0
         (tmp_path / "r.json").write_text(json.dumps(data))
         args += ["--robot", tmp_path / "r.json", "--params", "mu,drive_lag"]
-    elif case == "surfacevel":
-        args += ["--track-model", "surfacevel"]
     elif case == "wrong_ground_param":
         args += ["--params", "lateral_ratio"]
     res = run_cli(args)
@@ -133,7 +135,7 @@ def test_calibration_recovers_drivetrain_and_contact_length(tmp_path):
     lg = drive_log(truth, _table(30.0, 5), duration=30.0, log_rate=20.0)
     cal = calibrate(lg, Robot(mu=0.6, track_length=0.6), names="track_length,drive_delay,track_speed_scale",
                     max_iter=10)
-    v = cal.fit.values
+    v = cal.values
     assert abs(v["track_length"] - 0.4) < 0.03, v
     assert abs(v["drive_delay"] - delay) < 0.02, v
     assert abs(v["track_speed_scale"] - scale) < 0.01, v

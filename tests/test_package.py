@@ -5,8 +5,10 @@ import mjtrack
 
 
 def test_public_api_names():
-    for name in ("Robot", "DriveLog", "read_log", "write_log", "Nominal", "MPP", "MICR", "MVIR", "integrate",
-                 "icr_from_twist", "twist_from_icr", "MjtrackError", "InputError", "__version__"):
+    for name in ("Robot", "DriveLog", "read_log", "write_log", "read_robot", "write_robot", "read_log_with_robot",
+                 "Nominal", "MPP", "MICR", "MVIR", "integrate", "icr_from_twist", "twist_from_icr", "MjtrackError",
+                 "InputError", "__version__", "simulate_log", "log_icrs", "mujoco_steady_state",
+                 "coulomb_steady_state", "validate_models", "diagnose_log", "calibrate_robot"):
         assert hasattr(mjtrack, name), name
 
 

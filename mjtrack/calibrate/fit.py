@@ -222,13 +222,37 @@ def fit(obj: Objective, start: dict[str, float], *, max_iter: int = 8, multistar
                                  mu_min=LM_MU_MIN if mu_min is None else mu_min,
                                  mu_factor=LM_MU_FACTOR if mu_factor is None else mu_factor)
     z = opt.as_vector()
-    r = obj.residuals(z)
+    r, J = central_jacobian(obj, z)
     return FitResult(names=list(obj.names), values=obj.params_of(z),
                      start={n: float(v) for n, v in obj.params_of(z_start).items()},
                      starts_tried=tried, cost_start=cost_start, cost_final=float(np.sum(r ** 2)),
                      iterations=len(iters), evaluations=obj.evaluations - evals0, seconds=time.perf_counter() - t0,
-                     sim_seconds=obj.seconds - sim0, jac=np.asarray(result.jac, float), resid=np.asarray(r, float),
+                     sim_seconds=obj.seconds - sim0, jac=J, resid=np.asarray(r, float),
                      method="mujoco.sysid.optimize (mujoco.minimize.least_squares, vectorised finite differences)")
+
+
+JAC_STEP = 0.01  # central-difference step of the final Jacobian, in units of a parameter's typical change
+
+
+def central_jacobian(obj: Objective, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Residuals (R,) at the scaled point z (n,) and their Jacobian (R, n) by central differences
+    of :data:`JAC_STEP` (one-sided at a bound), all 2n + 1 points in one batch.
+
+    The optimiser's own Jacobian is a forward difference of :data:`FD_EPS`, possibly from an
+    earlier iterate; intervals and the convergence check need the derivative at the fitted point.
+    A dead time acts through the commands held over whole time steps, so the residuals are only
+    piecewise smooth in it (kinks where it crosses a multiple of the step): a forward step of half a
+    time step across a kink gave a 16 times too steep derivative and a gradient of the wrong sign."""
+    n = z.size
+    lo = np.array([obj.specs[k].lo for k in obj.names]) / obj.scales
+    hi = np.array([obj.specs[k].hi for k in obj.names]) / obj.scales
+    plus, minus = np.minimum(z + JAC_STEP, hi), np.maximum(z - JAC_STEP, lo)
+    Z = np.tile(z[:, None], (1, 2 * n + 1))
+    for i in range(n):
+        Z[i, 1 + 2 * i], Z[i, 2 + 2 * i] = plus[i], minus[i]
+    R = obj.residuals(Z)
+    J = np.stack([(R[:, 1 + 2 * i] - R[:, 2 + 2 * i]) / max(plus[i] - minus[i], 1e-300) for i in range(n)], -1)
+    return R[:, 0], J
 
 
 def objective(sim: WindowSim, log_: DriveLog, windows: WindowSet, names: list[str], *, nthread: int = 2,

@@ -81,23 +81,53 @@ class Linearised:
         self.scales = np.array([self.specs[n].scale for n in self.names])
         self.M = self.resid.size // self.rows_per_window
 
-    def _inv(self, A: np.ndarray) -> np.ndarray:
-        w, V = np.linalg.eigh(A)
-        w = np.maximum(w, max(float(w.max()), 1e-300) * EIG_FLOOR)
-        return (V / w) @ V.T
+    def step(self, idx: list[int] | None = None) -> np.ndarray:
+        """The Gauss-Newton step (n,) from ``theta`` to the linearised optimum of the parameters
+        ``idx`` (default all), the others held; a parameter on a bound that the gradient pushes
+        outwards stays there (0 in the step). Zero where the optimiser converged."""
+        idx = list(range(len(self.names))) if idx is None else list(idx)
+        lo = np.array([self.specs[n].lo for n in self.names]) / self.scales
+        hi = np.array([self.specs[n].hi for n in self.names]) / self.scales
+        grad = self.jac.T @ self.resid  # half the gradient of the cost
+        act = list(idx)
+        for _ in range(len(idx) + 1):
+            out = np.zeros(len(self.names))
+            if act:
+                out[act] = -np.linalg.lstsq(self.A[np.ix_(act, act)], grad[act], rcond=None)[0]
+            stuck = [i for i in act if (self.theta[i] + out[i] < lo[i] and self.theta[i] - lo[i] <= 1e-9 * max(1.0, abs(lo[i])))
+                     or (self.theta[i] + out[i] > hi[i] and hi[i] - self.theta[i] <= 1e-9 * max(1.0, abs(hi[i])))]
+            if not stuck:
+                break
+            act = [i for i in act if i not in stuck]
+        return np.clip(self.theta + out, lo, hi) - self.theta
+
+    def advance(self) -> np.ndarray:
+        """Move ``theta`` and ``resid`` to the linearised optimum (:meth:`step`); returns the step."""
+        d = self.step()
+        self.theta = self.theta + d
+        self.resid = self.resid + self.jac @ d
+        return d
+
+    @staticmethod
+    def _inv(J: np.ndarray) -> np.ndarray:
+        """(J^T J)^-1 from the singular values of J (forming J^T J first loses the small ones)."""
+        _, sv, Vt = np.linalg.svd(J, full_matrices=False)
+        sv = np.maximum(sv, max(float(sv.max(initial=0.0)), 1e-300) * math.sqrt(EIG_FLOOR))
+        return (Vt.T / sv ** 2) @ Vt
 
     def uncertainty(self, idx: list[int], resid: np.ndarray | None = None) -> "Uncertainty":
         """Intervals of the parameters ``idx`` (positions in ``names``) with the others held."""
         r = self.resid if resid is None else resid
         J = self.jac[:, idx]
-        Ainv = self._inv(J.T @ J)
+        Ainv = self._inv(J)
         lab = clusters(self.M, len(idx))
         G = int(lab.max()) + 1
         scores = (J * r[:, None]).reshape(self.M, self.rows_per_window, len(idx)).sum(axis=1)
         S = np.zeros((G, len(idx)))
         np.add.at(S, lab, scores)
-        cov = Ainv @ (S.T @ S) @ Ainv * (G / max(G - 1, 1))
-        sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        W = S @ Ainv * math.sqrt(G / max(G - 1, 1))  # cov = W^T W: never negative, even for a near-singular A
+        cov = W.T @ W
+        sd = np.sqrt(np.diag(cov))
         shifts = np.array([Ainv @ m.g[idx] for m in self.model_form]).reshape(len(self.model_form), len(idx))
         shift = np.sqrt(np.sum(shifts ** 2, axis=0)) if len(self.model_form) else np.zeros(len(idx))
         t = float(stats.t.ppf(0.975, max(G - 1, 1)))
@@ -138,7 +168,7 @@ class Verdict:
     tied_with: list[str] = field(default_factory=list)
 
     def to_json(self) -> dict:
-        out = {"determined": self.determined, "changed": self.changed, "reason": self.reason}
+        out = {"determined": bool(self.determined), "changed": bool(self.changed), "reason": self.reason}
         if self.tied_with:
             out["tied_with"] = list(self.tied_with)
         return out
@@ -233,29 +263,38 @@ def select(lin: Linearised, described: dict[str, float]) -> Selection:
                      verdicts=verdicts, ties={k: v for k, v in ties.items() if k in free})
 
 
-def final_verdicts(lin: Linearised, described: dict[str, float], ties: dict[str, list[str]]) -> dict[str, Verdict]:
-    """Verdicts of the parameters still fitted at the final optimum (``lin`` of the final fit)."""
+def final_verdicts(lin: Linearised, described: dict[str, float], ties: dict[str, list[str]]
+                   ) -> tuple[dict[str, Verdict], Uncertainty, np.ndarray]:
+    """Verdicts of the parameters still fitted, at the final fit (``lin``), and their uncertainty.
+    Where the optimiser stopped short of the linearised optimum, the remaining step is added to
+    each half-width (returned, physical units, as the third value)."""
     u = lin.uncertainty(list(range(len(lin.names))))
+    rest = np.abs(lin.step()) * lin.scales
     out = {}
     for k, name in enumerate(lin.names):
         spec = lin.specs[name]
         v = float(lin.theta[k] * spec.scale)
-        lo, hi = max(spec.lo, v - u.half[k]), min(spec.hi, v + u.half[k])
+        half = float(u.half[k] + rest[k])
+        lo, hi = max(spec.lo, v - half), min(spec.hi, v + half)
         tied = ties.get(name, [])
+        changed = has_changed(v, described[name])
         if tied:
             reason = (f"carries its combination with {', '.join(tied)}, which the log cannot tell apart: "
                       f"{_fmt(v, spec.unit)} [{lo:.4g}, {hi:.4g}] holds only with "
                       f"{', '.join(tied)} at the described value")
-        elif u.half[k] > spec.resolution:
-            reason = (f"moved but barely determined: 95 % interval +-{_fmt(u.half[k], spec.unit)} is wider than the "
+        elif half > spec.resolution:
+            reason = (f"moved but barely determined: 95 % interval +-{_fmt(half, spec.unit)} is wider than the "
                       f"+-{_fmt(spec.resolution, spec.unit)} that matters")
         else:
-            reason = (f"determined: 95 % interval [{lo:.4g}, {hi:.4g}] {spec.unit if spec.unit not in ('–', '-') else ''}"
-                      f"(statistical +-{_fmt(u.t * u.sd[k], spec.unit)} over {u.clusters} clusters of windows, "
-                      f"model form +-{_fmt(u.shift[k], spec.unit)})").replace("  ", " ")
-        out[name] = Verdict(name, not tied and u.half[k] <= spec.resolution, True, v, described[name], (lo, hi),
+            unit = "" if spec.unit in ("–", "-") else f" {spec.unit}"
+            reason = (f"determined: 95 % interval [{lo:.4g}, {hi:.4g}]{unit} (statistical "
+                      f"+-{_fmt(u.t * u.sd[k], spec.unit)} over {u.clusters} clusters of windows, model form "
+                      f"+-{_fmt(u.shift[k], spec.unit)}, optimiser +-{_fmt(rest[k], spec.unit)})")
+            if not changed:
+                reason += "; equal to the description"
+        out[name] = Verdict(name, bool(not tied and half <= spec.resolution), changed, v, described[name], (lo, hi),
                             reason, tied)
-    return out
+    return out, u, rest
 
 
 def has_changed(value: float, described: float) -> bool:

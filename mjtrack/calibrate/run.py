@@ -48,6 +48,8 @@ log = logging.getLogger(__name__)
 
 #: robot keys whose defaults a description may silently rely on (named under ``assumed``)
 DESCRIBED = ("track_length", "track_width", "mass", "cg_x", "cg_y", "cg_z", "mu", "sprocket_radius")
+MAX_ROUNDS = 3  # refits after the first fit, each after what the log determines was decided again
+STEP_TOL = 0.25  # the fit has converged when the remaining Gauss-Newton step is below this share of every half-width
 STEADY_MIN_WZ = 0.3  # [rad/s] nominal yaw rate below which a window's yaw ratio is not used
 ICR_MIN_TURN = 0.3  # |turn ratio| below which a window's ICRs are not used (they diverge)
 
@@ -364,33 +366,52 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
     test_before = _score(sim, test, tws, [{}], **kw)[0] if test is not None else None
     timings["before"] = time.perf_counter() - t1
 
-    # every candidate fitted; what the log determines and needs changed; the kept ones fitted again
+    # every candidate fitted; then, until it settles: what the log determines and needs changed,
+    # the rest back at its described value, the kept ones fitted again
     t2 = time.perf_counter()
     obj = objective(sim, train, ws, names, nthread=nthread, warmup_s=warmup_s)
-    with Progress(total=max_iter + max(2, max_iter // 2), label="calibrate", quiet=quiet) as bar:
+    refit_iter = max(3, max_iter // 2)
+    with Progress(total=max_iter + MAX_ROUNDS * refit_iter, label="calibrate", quiet=quiet) as bar:
         result = fit(obj, start, max_iter=max_iter, on_iter=lambda i, c: bar.update())
-        sources, _ = model_form_sources(obj, result.values, result.resid, result.jac, config)
-        sel = select(_linearised(result, obj, sources), described)
-        refit = None
-        verdicts = dict(sel.verdicts)
+        fits = [result]
+        cur, cur_obj = result, obj
+        verdicts: dict[str, Verdict] = {}
+        ties: dict[str, list[str]] = {}
+        lin = None
+        for round_ in range(MAX_ROUNDS + 1):
+            sources, size = model_form_sources(cur_obj, cur.values, cur.resid, cur.jac, config)
+            lin = _linearised(cur, cur_obj, sources)
+            step = np.abs(lin.step()) * lin.scales
+            half = lin.uncertainty(list(range(len(lin.names)))).half
+            converged = bool(np.all(step <= STEP_TOL * half))
+            ahead = _linearised(cur, cur_obj, sources)
+            ahead.advance()
+            sel = select(ahead, described)
+            verdicts.update(sel.verdicts)
+            ties = {k: v for k, v in {**ties, **sel.ties}.items()}
+            if not sel.free or (sel.free == cur.names and converged) or round_ == MAX_ROUNDS:
+                break
+            cur_obj = objective(sim, train, ws, sel.free, nthread=nthread, warmup_s=warmup_s)
+            specs = cur_obj.specs
+            begin = {n: float(np.clip(sel.values[n], specs[n].lo, specs[n].hi)) for n in sel.free}
+            cur = fit(cur_obj, begin, max_iter=refit_iter, multistart=False, on_iter=lambda i, c: bar.update())
+            fits.append(cur)
         values = {**described}
-        model_form: dict[str, dict[str, float]] = {}
-        if sel.free:
-            if sel.free == list(names):
-                final, fobj = result, obj
-            else:
-                fobj = objective(sim, train, ws, sel.free, nthread=nthread, warmup_s=warmup_s)
-                specs = fobj.specs
-                begin = {n: float(np.clip(sel.values[n], specs[n].lo, specs[n].hi)) for n in sel.free}
-                final = refit = fit(fobj, begin, max_iter=max(2, max_iter // 2), multistart=False,
-                                    on_iter=lambda i, c: bar.update())
-            fsources, size = model_form_sources(fobj, final.values, final.resid, final.jac, config)
-            lin = _linearised(final, fobj, fsources)
-            verdicts.update(final_verdicts(lin, described, sel.ties))
-            values.update(final.values)
-            u = lin.uncertainty(list(range(len(lin.names))))
+        model_form: dict[str, dict] = {}
+        u = None
+        # the last fit's parameters, unless the last decision sent every one of them back (when the
+        # rounds ran out first, the last fit stands as fitted)
+        kept = list(cur.names) if sel.free else []
+        if kept:
+            for n in kept:
+                verdicts.pop(n, None)
+            final, u, rest = final_verdicts(lin, described, {k: v for k, v in ties.items() if k in kept})
+            verdicts.update(final)
+            values.update(cur.values)
             model_form = {"residual_change_m": size,
-                          "shift": {src_: {n: float(v) for n, v in zip(lin.names, sh)} for src_, sh in u.shifts.items()}}
+                          "shift": {src_: {n: float(v) for n, v in zip(lin.names, sh)} for src_, sh in u.shifts.items()},
+                          "optimiser": {n: float(v) for n, v in zip(lin.names, rest)}}
+        refit = fits[-1] if len(fits) > 1 else None
     timings["fit"] = time.perf_counter() - t2
 
     # the calibrated robot, scored on the same windows and on the test log; the causes
@@ -401,7 +422,7 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
     test_after = (_score(sim, test, tws, [wp], **kw)[0] if changed else test_before) if test is not None else None
     cal_robot = calibrated_robot(robot, {n: values[n] for n in changed}, config)
     corr = np.eye(len(changed))
-    if changed:
+    if changed and u is not None:
         cidx = [lin.names.index(n) for n in changed]
         corr = u.corr[np.ix_(cidx, cidx)]
 
@@ -409,7 +430,7 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
         res = simulate_windows(sim, train, ws, [window_params(v, robot) for v in variants], **kw)
         return res.rms()
 
-    causes = find_causes(changed, values, described, corr, sel.ties, score, before.rms, after.rms,
+    causes = find_causes(changed, values, described, corr, ties, score, before.rms, after.rms,
                          track_length=robot.track_length)
     timings["after"] = time.perf_counter() - t3
 

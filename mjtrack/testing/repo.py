@@ -21,6 +21,8 @@ BENCHMARKS = ROOT / "experiments"
 """The benchmark scripts: each one writes its result files under :data:`RESULTS`."""
 RESULTS = BENCHMARKS / "results"
 """The stored result files the documentation's results pages are generated from."""
+DOCS = ROOT / "docs"
+"""The documentation sources; ``docs/_ext`` holds the generators of its CLI and results pages."""
 
 
 def load_benchmark(name: str) -> ModuleType:
@@ -40,11 +42,15 @@ def load_benchmark(name: str) -> ModuleType:
     Raises:
         FileNotFoundError: no such script in :data:`BENCHMARKS`.
     """
+    return load_file(BENCHMARKS / f"{name}.py", name)
+
+
+def load_file(path: Path, name: str) -> ModuleType:
+    """Import the Python file ``path`` as the module ``name`` (see :func:`load_benchmark`)."""
     if name in sys.modules:
         return sys.modules[name]
-    path = BENCHMARKS / f"{name}.py"
     if not path.is_file():
-        raise FileNotFoundError(f"no benchmark script {path}")
+        raise FileNotFoundError(f"no such script {path}")
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module

@@ -1,0 +1,120 @@
+"""The calibration self-consistency battery: MuJoCo logs with one known change each, calibrated from
+the description without it (:mod:`mjtrack.testing.battery`).
+
+For every case: the training log (seed 11) and the test log (seed 12) of the truth, ``calibrate`` on
+the training log from the description, then per parameter the truth, the estimate, the 95 %
+interval and whether the log determines it; whether every determined parameter's interval covers
+its truth; the causes named (the true one must lead; the clean log must give none); the held-out
+error before and after. With ``--diagnose`` the same logs also go through
+``diagnose --baseline mujoco`` against the description, whose cause is recorded beside.
+
+    python benchmarks/calibration_battery.py                       # 3 geometries x 10 changes
+    python benchmarks/calibration_battery.py --geometries default --changes cg_x,clean
+
+Writes benchmarks/results/calibration_battery.json (merged with earlier cases of another
+selection) and prints the coverage table, the worst row and the machine's load.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mjtrack.calibrate.run import calibrate
+from mjtrack.testing.battery import CHANGES, GEOMETRIES, case, described_robot, make_log
+
+RESULT = Path(__file__).resolve().parent / "results" / "calibration_battery.json"
+
+
+def run_case(c, *, duration: float, diagnose: bool) -> dict:
+    train = make_log(c, duration=duration, seed=11)
+    test = make_log(c, duration=duration, seed=12)
+    robot = described_robot(c)
+    t0 = time.perf_counter()
+    cal = calibrate(train, robot, test=test, nthread=2)
+    seconds = time.perf_counter() - t0
+    rows = []
+    for n in cal.names:
+        v = cal.verdicts[n]
+        truth = c.truth.get(n)
+        lo, hi = v.interval if v.interval is not None else (None, None)
+        covered = None if (truth is None or lo is None) else bool(lo - 1e-12 <= truth <= hi + 1e-12)
+        rows.append({"parameter": n, "truth": truth, "estimate": cal.values[n], "interval": v.interval,
+                     "determined": v.determined, "changed": v.changed, "covered": covered, "reason": v.reason})
+    causes = [cc.parameters for cc in cal.causes]
+    if c.cause:
+        cause_ok = bool(causes) and bool(set(causes[0]) & set(c.cause))
+    else:
+        cause_ok = not causes
+    out = {"case": c.name, "geometry": c.geometry, "change": c.change, "truth_keys": c.true_keys,
+           "rows": rows, "causes": [cc.to_json() for cc in cal.causes], "summary": cal.sentence,
+           "expected_cause": list(c.cause), "cause_ok": cause_ok,
+           "coverage_ok": all(r["covered"] is not False for r in rows if r["determined"]),
+           "train": [cal.before.rms, cal.after.rms], "test": [cal.test_before.rms, cal.test_after.rms],
+           "seconds": seconds}
+    if diagnose:
+        from mjtrack.diagnose.run import diagnose as run_diagnose
+
+        t1 = time.perf_counter()
+        d = run_diagnose(train, robot, baseline="mujoco", test_log=test)
+        out["diagnose"] = {"cause": d.cause, "findings": [f["effect"] for f in d.to_json()["findings"]],
+                           "seconds": time.perf_counter() - t1}
+    return out
+
+
+def _plain(o):
+    """numpy scalars and arrays as JSON values."""
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(type(o).__name__)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--geometries", default=",".join(GEOMETRIES))
+    ap.add_argument("--changes", default=",".join(CHANGES))
+    ap.add_argument("--duration", type=float, default=60.0, help="seconds of each log (default 60)")
+    ap.add_argument("--diagnose", action="store_true", help="also diagnose --baseline mujoco each case")
+    ap.add_argument("--out", type=Path, default=RESULT)
+    args = ap.parse_args(argv)
+    load0 = os.getloadavg()
+    old = json.loads(args.out.read_text()) if args.out.exists() else {"cases": {}}
+    results = old.get("cases", {})
+    for g in args.geometries.split(","):
+        for ch in args.changes.split(","):
+            c = case(g, ch)
+            r = run_case(c, duration=args.duration, diagnose=args.diagnose)
+            results[c.name] = r
+            det = [x for x in r["rows"] if x["determined"]]
+            miss = [x["parameter"] for x in det if x["covered"] is False]
+            print(f"{c.name:28s} cause {'ok ' if r['cause_ok'] else 'BAD'} "
+                  f"{[cc['parameters'] for cc in r['causes']][:2]}  covered {len(det) - len(miss)}/{len(det)}"
+                  + (f" MISSED {miss}" if miss else "")
+                  + f"  test {r['test'][0]:.4g} -> {r['test'][1]:.4g} m  {r['seconds']:.0f} s"
+                  + (f"  diagnose: {r['diagnose']['cause']}" if "diagnose" in r else ""), flush=True)
+            args.out.parent.mkdir(parents=True, exist_ok=True)
+            args.out.write_text(json.dumps({"cases": results, "duration_s": args.duration, "load_before": load0,
+                                            "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
+    rows = [(name, x) for name, r in results.items() for x in r["rows"] if x["determined"]]
+    cov = [x["covered"] for _, x in rows if x["covered"] is not None]
+    print(f"\ncoverage of determined parameters: {sum(cov)}/{len(cov)} = {np.mean(cov):.3f}")
+    print(f"causes right: {sum(r['cause_ok'] for r in results.values())}/{len(results)}")
+    worst = max(rows, key=lambda nx: (0 if nx[1]["covered"] is not False else 1,
+                                      abs(nx[1]["estimate"] - nx[1]["truth"]) /
+                                      max(1e-12, (nx[1]["interval"][1] - nx[1]["interval"][0]) / 2)))
+    n, x = worst
+    print(f"worst row: {n} {x['parameter']}: truth {x['truth']:.5g}, estimate {x['estimate']:.5g}, "
+          f"interval [{x['interval'][0]:.5g}, {x['interval'][1]:.5g}]")
+    print(f"load average before {load0}, after {os.getloadavg()} ({os.cpu_count()} cores)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,312 @@
+"""The results pages, generated from the stored result files of the benchmark scripts.
+
+Run by the documentation build (a Sphinx extension: the pages are written when the build
+starts) or alone::
+
+    python docs/_ext/results_pages.py [OUT_DIR]       # default docs/results
+
+Every number on a results page is read here from a result file under
+:data:`mjtrack.testing.repo.RESULTS`; nothing is typed. Beside the pages the generator writes
+``_provenance.json``: for every number, the file and the JSON pointer it came from (and the
+reduction, for a mean or maximum over a list), so that ``tests/test_docs_results.py`` can check
+each printed number against its file independently of this module.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import statistics
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from mjtrack.testing.repo import RESULTS, ROOT
+
+HERE = Path(__file__).resolve().parent
+DEFAULT_OUT = HERE.parent / "results"
+SIGNIFICANT = 3  # significant digits of a printed float
+
+
+# -- reading values with their provenance ------------------------------------------------------
+def pointer_get(data: Any, pointer: str) -> Any:
+    """The value at a JSON pointer (RFC 6901: ``/a/0/b``)."""
+    value = data
+    for token in pointer.split("/")[1:]:
+        token = token.replace("~1", "/").replace("~0", "~")
+        value = value[int(token)] if isinstance(value, list) else value[token]
+    return value
+
+
+REDUCTIONS: dict[str, Callable[[list[float]], float]] = {
+    "mean": statistics.fmean, "max": max, "min": min, "median": statistics.median,
+}
+
+
+@dataclass
+class Source:
+    """One result file: its path relative to the repository and its parsed content."""
+
+    path: Path
+
+    def __post_init__(self) -> None:
+        self.data = json.loads(self.path.read_text())
+
+    @property
+    def rel(self) -> str:
+        return self.path.relative_to(ROOT).as_posix()
+
+    @property
+    def command(self) -> str | None:
+        return self.data.get("command") if isinstance(self.data, dict) else None
+
+
+@dataclass
+class Cell:
+    """A table cell: text, or a number with where it came from."""
+
+    text: str
+    provenance: dict | None = None
+
+
+def number(src: Source, pointer: str, *, reduce: str | None = None, field_name: str | None = None,
+           scale: float = 1.0) -> Cell:
+    """A cell with the value at ``pointer`` (a list reduced by ``reduce`` over its items' field
+    ``field_name``), times ``scale``, printed to :data:`SIGNIFICANT` digits (integers exactly)."""
+    value = pointer_get(src.data, pointer)
+    if reduce is not None:
+        items = [v[field_name] if field_name else v for v in value]
+        value = REDUCTIONS[reduce](items)
+    prov = {"file": src.rel, "pointer": pointer, "reduce": reduce, "field": field_name, "scale": scale}
+    if value is None:
+        return Cell("n/a", {**prov, "kind": "null"})
+    if isinstance(value, bool):
+        return Cell("yes" if value else "no", {**prov, "kind": "bool"})
+    value = value * scale
+    if isinstance(value, int):
+        return Cell(str(value), {**prov, "kind": "number"})
+    if not math.isfinite(value):
+        return Cell(str(value), {**prov, "kind": "number"})
+    return Cell(f"{value:.{SIGNIFICANT}g}", {**prov, "kind": "number"})
+
+
+@dataclass
+class Table:
+    caption: str
+    header: list[str]
+    rows: list[list[Cell | str]] = field(default_factory=list)
+
+    def add(self, *cells: Cell | str) -> None:
+        assert len(cells) == len(self.header), (self.caption, cells)
+        self.rows.append([c if isinstance(c, Cell) else Cell(c) for c in cells])
+
+
+@dataclass
+class Page:
+    name: str
+    title: str
+    intro: str
+    sources: list[Source]
+    tables: list[Table]
+    figures: list[tuple[Path, str]] = field(default_factory=list)  # (result figure, caption)
+
+
+# -- the pages ---------------------------------------------------------------------------------
+def _fidelity() -> Page:
+    rollers = Source(RESULTS / "fidelity" / "fidelity.json")
+    surfacevel = Source(RESULTS / "fidelity" / "fidelity_surfacevel.json")
+    wide = Source(RESULTS / "fidelity" / "fidelity_wide_rollers.json")
+    holdout = Source(RESULTS / "fidelity" / "fidelity_wide_holdout_rollers.json")
+    steady = Table("Steady turns against the rigid-track Coulomb reference, per track model and robot geometry. "
+                   "Errors: the largest ICR distance, lateral over half the gauge T/2 and longitudinal over the "
+                   "contact length L.",
+                   ["track model", "geometry", "cases", "passed", "max |Δy| / (T/2)", "max |Δx_c| / L",
+                    "min contact fraction"])
+    for label, src in (("rollers", rollers), ("surfacevel", surfacevel)):
+        for geom in ("default", "long"):
+            p = f"/summary/{geom}"
+            steady.add(label, geom, number(src, p + "/cases"), number(src, p + "/passed"),
+                       number(src, p + "/max_err_y_over_half_gauge"), number(src, p + "/max_err_x_over_length"),
+                       number(src, p + "/min_contact_fraction"))
+    conv = Table("Convergence of the roller chain: how far the steady ICRs move when the time step is halved or the "
+                 "rollers are doubled.", ["check", "cases", "max |Δy| / (T/2)", "max |Δx_c| / L"])
+    for key, label in (("half_dt", "time step halved"), ("double_rollers", "rollers doubled")):
+        p = f"/convergence/{key}"
+        conv.add(label, number(rollers, p + "/cases"), number(rollers, p + "/max_dy_over_half_gauge"),
+                 number(rollers, p + "/max_dx_over_length"))
+    straight = Table("Straight driving of the roller chain: measured speed against the command, and sideways drift.",
+                     ["command [m/s]", "relative speed error", "drift [mm/m]"])
+    for i in range(len(rollers.data["straight"])):
+        p = f"/straight/{i}"
+        straight.add(number(rollers, p + "/v_cmd"), number(rollers, p + "/rel_speed_err"),
+                     number(rollers, p + "/drift_mm_per_m"))
+    grids = Table("The wider grid (robots of other mass and proportions, gentle to sharp turns, slow to fast) and its "
+                  "hold-out grid, roller chain. Pass: within the file's tolerances in every check.",
+                  ["grid", "cases", "passed", "worst |Δy| / (T/2)", "median |Δy| / (T/2)", "worst |Δx_c| / L",
+                   "median |Δx_c| / L", "worst time-step halving |Δy| / (T/2)", "min contact fraction"])
+    for label, src in (("wide", wide), ("hold-out", holdout)):
+        p = "/rollers/summary"
+        grids.add(label, number(src, p + "/cases"), number(src, p + "/passed"), number(src, p + "/worst_err_y/value"),
+                  number(src, p + "/median_err_y"), number(src, p + "/worst_err_x/value"), number(src, p + "/median_err_x"),
+                  number(src, p + "/worst_dt_dy/value"), number(src, p + "/min_contact"))
+    tol = Table("Tolerances of the wider grids, as stored with the results.", ["tolerance", "wide", "hold-out"])
+    for key in wide.data["tolerances"]:
+        tol.add(key, number(wide, f"/tolerances/{key}"), number(holdout, f"/tolerances/{key}"))
+    return Page(
+        "fidelity", "Fidelity against Coulomb theory",
+        "The MuJoCo robot's steady turns compared with the rigid-track Coulomb reference of the same description "
+        "(see the concepts page on the Coulomb reference): each case holds constant track speeds, averages the "
+        "twist, and compares the measured ICRs with the reference's.",
+        [rollers, surfacevel, wide, holdout], [steady, conv, straight, grids, tol],
+        [(RESULTS / "fidelity" / "fidelity.png", "Roller chain against the Coulomb reference, per case.")])
+
+
+def _diagnosis() -> Page:
+    runs = [("seed 0", Source(RESULTS / "diagnose_benchmark.json")),
+            ("seed 1000", Source(RESULTS / "diagnose_benchmark_seed1000.json"))]
+    keys = [("logs", "logs"), ("with_effect", "logs with an effect above the detectability floor"),
+            ("named_right", "of these, cause named right"), ("pairs", "logs with two effects"),
+            ("pairs_right", "of these, both named"), ("clean", "clean logs"), ("clean_none", "of these, cause none"),
+            ("extra_effects", "extra effects named"), ("below_floor", "logs below the detectability floor"),
+            ("below_floor_fooled", "of these, a wrong cause named"), ("params", "estimated parameters"),
+            ("covered", "of these, truth inside the interval"), ("median_abs_bias", "median relative bias"),
+            ("worst_abs_bias", "worst relative bias"), ("median_diagnose_s", "median diagnosis time [s]")]
+    table = Table("Summary of the diagnosis benchmark for two seeds of the log generator.",
+                  ["quantity", *(label for label, _ in runs)])
+    for key, label in keys:
+        table.add(label, *(number(src, f"/summary/{key}") for _, src in runs))
+    return Page(
+        "diagnosis-benchmark", "Diagnosis benchmark",
+        "Logs from the independent physics generator of the tests (`mjtrack.testing.diagnose_physics`: its own "
+        "rigid-body simulation, sharing no code with the diagnosis), each with hidden effects of known size, "
+        "diagnosed with the surrogate baseline. Written by `python experiments/diagnose_benchmark.py` "
+        "(`--seed 1000` for the second column).",
+        [src for _, src in runs], [table])
+
+
+def _filters() -> Page:
+    src = Source(RESULTS / "filter_consistency.json")
+    table = Table("Normalised innovation and estimation error squared per degree of freedom (NIS, NEES), mean over "
+                  "the seeds; a consistent filter lies inside the bands of the last table. Pass: inside both bands.",
+                  ["case", "filter", "NIS / dof", "NEES / dof", "pass"])
+    for case, c in src.data["cases"].items():
+        for name in c["filters"]:
+            p = f"/cases/{case}/filters/{name}"
+            table.add(case, name, number(src, p, reduce="mean", field_name="nis_per_dof"),
+                      number(src, p, reduce="mean", field_name="nees_per_dof"),
+                      number(src, f"/cases/{case}/pass/{name}"))
+    bands = Table("Bands a consistent filter's mean NIS and NEES per degree of freedom lie in.",
+                  ["quantity", "low", "high"])
+    bands.add("NIS / dof", number(src, "/nis_band/0"), number(src, "/nis_band/1"))
+    bands.add("NEES / dof", number(src, "/nees_band/0"), number(src, "/nees_band/1"))
+    return Page(
+        "filter-consistency", "Filter consistency",
+        "The three parameter filters (slip EKF, ICR EKF, virtual-robot filter), each as a plain random walk and with "
+        "adaptive process noise (`_imm`), run on MuJoCo logs with seeded measurement noise. Written by "
+        "`python experiments/filter_consistency.py`.",
+        [src], [table, bands])
+
+
+def _speed() -> Page:
+    src = Source(RESULTS / "bench_sim.json")
+    rt = Table("Real-time factor of the default robot (random steps), previous and current default settings timed "
+               "in one run.", ["settings", "real-time factor", "per CPU second", "steps per second", "time step [s]"])
+    for key, label in (("old", "previous defaults"), ("new", "current defaults")):
+        p = f"/realtime/{key}"
+        rt.add(label, number(src, p + "/realtime_factor"), number(src, p + "/realtime_factor_per_cpu_second"),
+               number(src, p + "/steps_per_second"), number(src, p + "/timestep"))
+    prof = Table("Where a step goes (MuJoCo's timers), current defaults [ms per step].", ["stage", "ms"])
+    for key in ("step_ms", "position_ms", "velocity_ms", "actuation_ms", "constraint_ms", "advance_ms"):
+        prof.add(key.removesuffix("_ms"), number(src, f"/profile/new/{key}"))
+    rollers = Table("Cost against the number of rollers per track, current defaults.",
+                    ["rollers", "steps per second", "real-time factor", "cost relative to ten rollers"])
+    for i in range(len(src.data["rollers"]["new"])):
+        p = f"/rollers/new/{i}"
+        rollers.add(number(src, p + "/n_rollers"), number(src, p + "/steps_per_second"),
+                    number(src, p + "/realtime_factor"), number(src, p + "/cost_vs_10"))
+    other = Table("A batch of rollouts on one and two threads, and the surfacevel track model.", ["quantity", "value"])
+    other.add("batch size", number(src, "/batch/nbatch"))
+    other.add("batch speed-up, two threads over one", number(src, "/batch/speedup"))
+    other.add("surfacevel real-time factor", number(src, "/surfacevel/realtime_factor"))
+    other.add("surfacevel time step [s]", number(src, "/surfacevel/timestep"))
+    other.add("load average before (one minute)", number(src, "/loadavg_before/0"))
+    other.add("load average after (one minute)", number(src, "/loadavg_after/0"))
+    return Page(
+        "speed", "Speed",
+        "Timings depend on the machine and its load; the load averages of the run are in the last table.",
+        [src], [rt, prof, rollers, other])
+
+
+PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _filters, _speed)
+
+
+# -- writing -----------------------------------------------------------------------------------
+def _escape(text: str) -> str:
+    return text.replace("|", "\\|")
+
+
+def render(page: Page) -> tuple[str, list[dict]]:
+    """The page's Markdown and the provenance of its numbers (table, row, column: 0-based)."""
+    lines = [f"# {page.title}", "", page.intro, ""]
+    provenance = []
+    for t_index, table in enumerate(page.tables):
+        lines += [f"**{_escape(table.caption)}**", "", "| " + " | ".join(map(_escape, table.header)) + " |",
+                  "|" + "---|" * len(table.header)]
+        for r_index, row in enumerate(table.rows):
+            lines.append("| " + " | ".join(_escape(c.text) for c in row) + " |")
+            for c_index, cell in enumerate(row):
+                if cell.provenance is not None:
+                    provenance.append({"table": t_index, "row": r_index, "column": c_index, "text": cell.text,
+                                       **cell.provenance})
+        lines.append("")
+    for path, caption in page.figures:
+        lines += [f"```{{figure}} {path.name}", "", caption, "```", ""]
+    lines += ["**Result files**", ""]
+    for src in page.sources:
+        made = f", written by `{src.command}`" if src.command else ""
+        lines.append(f"- `{src.rel}`{made}")
+    lines.append("")
+    return "\n".join(lines), provenance
+
+
+def write_pages(out: Path = DEFAULT_OUT) -> list[Path]:
+    """Write every results page, its figures and ``_provenance.json`` into ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    for old in out.glob("*.md"):  # a page no longer generated must not linger in the build
+        old.unlink()
+    provenance: dict[str, list[dict]] = {}
+    written = []
+    index = ["# Results", "",
+             "Every table and figure here is generated from the result files the benchmark scripts write "
+             "(`python docs/_ext/results_pages.py`, run by `docs/build`); each page names its result files and "
+             "the commands that wrote them.", "", "```{toctree}", ":maxdepth: 1", ""]
+    for make in PAGES:
+        page = make()
+        text, prov = render(page)
+        path = out / f"{page.name}.md"
+        path.write_text(text)
+        for fig, _ in page.figures:
+            shutil.copyfile(fig, out / fig.name)
+        provenance[page.name] = prov
+        index.append(page.name)
+        written.append(path)
+    index += ["```", ""]
+    (out / "index.md").write_text("\n".join(index))
+    (out / "_provenance.json").write_text(json.dumps(provenance, indent=1) + "\n")
+    return written
+
+
+def _on_builder_inited(app) -> None:
+    write_pages(Path(app.srcdir) / "results")
+
+
+def setup(app):
+    app.connect("builder-inited", _on_builder_inited)
+    return {"version": "1", "parallel_read_safe": True}
+
+
+if __name__ == "__main__":
+    for p in write_pages(Path(sys.argv[1]) if len(sys.argv) > 1 else DEFAULT_OUT):
+        print(p)
