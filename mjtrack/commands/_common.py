@@ -81,7 +81,7 @@ OPTION_BOUNDS: dict[str, Bound] = {
     "duration": Bound(0.0, DAY_S, "s", "a simulated time", low_open=True),
     "settle": Bound(0.0, DAY_S, "s", "a settling time"),
     "window": Bound(0.0, DAY_S, "s", "an averaging window", low_open=True),
-    "horizon": Bound(0.0, 600.0, "s", "a prediction horizon", low_open=True),
+    "horizon": Bound(0.0, 60.0, "s", "a prediction horizon", low_open=True),  # 48 windows of 60 s: ~0.7 GB a rollout call
     "timestep": Bound(1e-5, 0.05, "s", "a simulation time step"),
     "log_rate": Bound(0.0, 10_000.0, "Hz", "a log rate", low_open=True),
     "control_rate": Bound(0.0, 1_000.0, "Hz", "a control rate", low_open=True),
