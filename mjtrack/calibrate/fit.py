@@ -231,27 +231,43 @@ def fit(obj: Objective, start: dict[str, float], *, max_iter: int = 8, multistar
                      method="mujoco.sysid.optimize (mujoco.minimize.least_squares, vectorised finite differences)")
 
 
-JAC_STEP = 0.01  # central-difference step of the final Jacobian, in units of a parameter's typical change
-
-
-def central_jacobian(obj: Objective, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def central_jacobian(obj: Objective, z: np.ndarray, central: np.ndarray | None = None
+                     ) -> tuple[np.ndarray, np.ndarray]:
     """Residuals (R,) at the scaled point z (n,) and their Jacobian (R, n) by central differences
-    of :data:`JAC_STEP` (one-sided at a bound), all 2n + 1 points in one batch.
+    of each parameter's resolution (one-sided at a bound, and where ``central`` (n,) is False:
+    a secant towards the interior), all points in one batch.
 
     The optimiser's own Jacobian is a forward difference of :data:`FD_EPS`, possibly from an
-    earlier iterate; intervals and the convergence check need the derivative at the fitted point.
-    A dead time acts through the commands held over whole time steps, so the residuals are only
-    piecewise smooth in it (kinks where it crosses a multiple of the step): a forward step of half a
-    time step across a kink gave a 16 times too steep derivative and a gradient of the wrong sign."""
+    earlier iterate; intervals and the convergence check need the slope at the fitted point, over
+    the change that matters. Infinitesimal steps mislead twice here: a dead time acts through the
+    commands held over whole time steps, so the residuals are only piecewise smooth in it (a forward
+    step of half a time step across a kink gave a 16 times too steep derivative and a gradient of
+    the wrong sign); and a drive lag or a dead time well below the 5 ms step hardly shows (at
+    lag 0.1 ms the residuals did not change at all, at 1 ms a thousandth of what 5 ms does), so a
+    derivative at zero calls a lag the log pins to a few milliseconds undetermined."""
     n = z.size
     lo = np.array([obj.specs[k].lo for k in obj.names]) / obj.scales
     hi = np.array([obj.specs[k].hi for k in obj.names]) / obj.scales
-    plus, minus = np.minimum(z + JAC_STEP, hi), np.maximum(z - JAC_STEP, lo)
-    Z = np.tile(z[:, None], (1, 2 * n + 1))
+    h = np.array([obj.specs[k].resolution for k in obj.names]) / obj.scales
+    central = np.ones(n, bool) if central is None else np.asarray(central, bool)
+    plus, minus = np.minimum(z + h, hi), np.maximum(z - h, lo)
+    cols, pairs = [z], []
     for i in range(n):
-        Z[i, 1 + 2 * i], Z[i, 2 + 2 * i] = plus[i], minus[i]
-    R = obj.residuals(Z)
-    J = np.stack([(R[:, 1 + 2 * i] - R[:, 2 + 2 * i]) / max(plus[i] - minus[i], 1e-300) for i in range(n)], -1)
+        a, b = plus[i], minus[i]
+        if not central[i]:  # one side only: the one with room
+            a, b = (plus[i], z[i]) if plus[i] - z[i] >= z[i] - minus[i] else (z[i], minus[i])
+        idx = []
+        for v in (a, b):
+            if v == z[i]:
+                idx.append(0)
+            else:
+                zz = z.copy()
+                zz[i] = v
+                cols.append(zz)
+                idx.append(len(cols) - 1)
+        pairs.append((idx[0], idx[1], a - b))
+    R = obj.residuals(np.stack(cols, -1))
+    J = np.stack([(R[:, ia] - R[:, ib]) / max(d, 1e-300) for ia, ib, d in pairs], -1)
     return R[:, 0], J
 
 

@@ -259,6 +259,10 @@ def select(lin: Linearised, described: dict[str, float]) -> Selection:
         revert(i)
         idx.remove(i)
     free = [lin.names[i] for i in idx]
+    for v in verdicts.values():  # a tie whose carrier went back to its description: neither moves
+        if v.tied_with and v.tied_with[0] not in free and "carries the combination" in v.reason:
+            v.reason = v.reason.replace(f"and {v.tied_with[0]} carries the combination",
+                                        f"and so does {v.tied_with[0]}: their combination needs no change")
     return Selection(free=free, values={lin.names[i]: float(theta[i] * lin.scales[i]) for i in range(len(lin.names))},
                      verdicts=verdicts, ties={k: v for k, v in ties.items() if k in free})
 

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from mjtrack.calibrate.causes import Cause, find_causes, summary
-from mjtrack.calibrate.fit import FitResult, fit, objective
+from mjtrack.calibrate.fit import FitResult, central_jacobian, fit, objective
 from mjtrack.calibrate.identify import Linearised, ModelForm, Verdict, final_verdicts, select
 from mjtrack.calibrate.params import described_values, parse_names, specs_for, start_values, window_params
 from mjtrack.diagnose import residuals as rs
@@ -275,13 +275,6 @@ def _score(sim: WindowSim, lg: DriveLog, ws: WindowSet, variants: list[dict], *,
     return [Scored.of(res, p) for p in range(len(variants))]
 
 
-def _linearised(fr: FitResult, obj, sources: list[ModelForm]) -> Linearised:
-    specs = obj.specs
-    theta = np.array([fr.values[n] / specs[n].scale for n in fr.names])
-    return Linearised(names=list(fr.names), theta=theta, jac=fr.jac, resid=fr.resid,
-                      rows_per_window=obj.rows_per_window, specs=specs, model_form=sources)
-
-
 def model_form_sources(obj, values: dict[str, float], resid: np.ndarray, jac: np.ndarray, config: SimConfig, *,
                        refine: bool = True) -> tuple[list[ModelForm], dict[str, float]]:
     """The model-form sources at ``values`` (the fit's residuals ``resid``, Jacobian ``jac``):
@@ -370,47 +363,58 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
     # the rest back at its described value, the kept ones fitted again
     t2 = time.perf_counter()
     obj = objective(sim, train, ws, names, nthread=nthread, warmup_s=warmup_s)
+    specs = obj.specs
     refit_iter = max(3, max_iter // 2)
     with Progress(total=max_iter + MAX_ROUNDS * refit_iter, label="calibrate", quiet=quiet) as bar:
         result = fit(obj, start, max_iter=max_iter, on_iter=lambda i, c: bar.update())
         fits = [result]
-        cur, cur_obj = result, obj
-        verdicts: dict[str, Verdict] = {}
-        ties: dict[str, list[str]] = {}
-        lin = None
+        point, resid, jac = dict(result.values), result.resid, result.jac  # every candidate, at the current point
+        free = list(names)
         for round_ in range(MAX_ROUNDS + 1):
-            sources, size = model_form_sources(cur_obj, cur.values, cur.resid, cur.jac, config)
-            lin = _linearised(cur, cur_obj, sources)
-            step = np.abs(lin.step()) * lin.scales
-            half = lin.uncertainty(list(range(len(lin.names)))).half
-            converged = bool(np.all(step <= STEP_TOL * half))
-            ahead = _linearised(cur, cur_obj, sources)
+            # every candidate linearised at the current point (the dropped ones at their described
+            # value): what the log determines and needs changed is decided again for all of them
+            sources, size = model_form_sources(obj, point, resid, jac, config)
+            theta = np.array([point[n] / specs[n].scale for n in names])
+            lin = Linearised(names=list(names), theta=theta, jac=jac, resid=resid,
+                             rows_per_window=obj.rows_per_window, specs=specs, model_form=sources)
+            fidx = [names.index(n) for n in free]
+            rest = np.abs(lin.step(fidx)[fidx]) * lin.scales[fidx]
+            converged = bool(np.all(rest <= STEP_TOL * lin.uncertainty(fidx).half))
+            ahead = Linearised(names=list(names), theta=theta, jac=jac, resid=resid,
+                               rows_per_window=obj.rows_per_window, specs=specs, model_form=sources)
             ahead.advance()
             sel = select(ahead, described)
-            verdicts.update(sel.verdicts)
-            ties = {k: v for k, v in {**ties, **sel.ties}.items()}
-            if not sel.free or (sel.free == cur.names and converged) or round_ == MAX_ROUNDS:
+            if (sel.free == free and converged) or not sel.free or round_ == MAX_ROUNDS:
                 break
-            cur_obj = objective(sim, train, ws, sel.free, nthread=nthread, warmup_s=warmup_s)
-            specs = cur_obj.specs
-            begin = {n: float(np.clip(sel.values[n], specs[n].lo, specs[n].hi)) for n in sel.free}
-            cur = fit(cur_obj, begin, max_iter=refit_iter, multistart=False, on_iter=lambda i, c: bar.update())
-            fits.append(cur)
+            free = sel.free
+            fobj = objective(sim, train, ws, free, nthread=nthread, warmup_s=warmup_s)
+            begin = {n: float(np.clip(sel.values[n], specs[n].lo, specs[n].hi)) for n in free}
+            fr = fit(fobj, begin, max_iter=refit_iter, multistart=False, on_iter=lambda i, c: bar.update())
+            fits.append(fr)
+            point = {**described, **fr.values}
+            resid, jac = central_jacobian(obj, np.array([point[n] / specs[n].scale for n in names]),
+                                          central=np.array([n in free for n in names]))
+        # the verdicts: those the last decision sent back to their description, and, unless it sent
+        # back every one, the fitted ones at the current point (when the rounds ran out first, the
+        # last fit stands as fitted)
+        kept = [] if not sel.free else free
+        verdicts: dict[str, Verdict] = {n: v for n, v in sel.verdicts.items() if n not in kept}
+        ties = {k: v for k, v in sel.ties.items() if k in kept}
         values = {**described}
         model_form: dict[str, dict] = {}
         u = None
-        # the last fit's parameters, unless the last decision sent every one of them back (when the
-        # rounds ran out first, the last fit stands as fitted)
-        kept = list(cur.names) if sel.free else []
         if kept:
-            for n in kept:
-                verdicts.pop(n, None)
-            final, u, rest = final_verdicts(lin, described, {k: v for k, v in ties.items() if k in kept})
+            kidx = [names.index(n) for n in kept]
+            klin = Linearised(names=list(kept), theta=theta[kidx], jac=jac[:, kidx], resid=resid,
+                              rows_per_window=obj.rows_per_window, specs=specs,
+                              model_form=[ModelForm(m.name, m.g[kidx]) for m in sources])
+            final, u, rest = final_verdicts(klin, described, ties)
             verdicts.update(final)
-            values.update(cur.values)
+            values.update({n: point[n] for n in kept})
             model_form = {"residual_change_m": size,
-                          "shift": {src_: {n: float(v) for n, v in zip(lin.names, sh)} for src_, sh in u.shifts.items()},
-                          "optimiser": {n: float(v) for n, v in zip(lin.names, rest)}}
+                          "shift": {src_: {n: float(v) for n, v in zip(kept, sh)} for src_, sh in u.shifts.items()},
+                          "optimiser": {n: float(v) for n, v in zip(kept, rest)}}
+            lin = klin
         refit = fits[-1] if len(fits) > 1 else None
     timings["fit"] = time.perf_counter() - t2
 
