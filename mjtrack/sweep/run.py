@@ -251,20 +251,20 @@ def run_sweep(
         done = {}
     todo = [c for c in grid.cases if c.index not in done]
     start = time.monotonic()
-    atomic.make_output_dir(out)
     tx = atomic.current()
     for p in (csv_path, json_path):  # the resume state: rewritten freely, kept when the run is cut short
         if tx is not None:
             tx.allow(p)
             tx.keep(p)
-    _write_json(json_path, grid, settings, cols, [])  # the settings first: a resume checks them
     n_workers, run_seconds = 0, 0.0
     if todo:
-        with _client(workers or os.cpu_count() or 1, scheduler) as client:
+        with _client(workers or os.cpu_count() or 1, scheduler) as client:  # a refused cluster writes nothing
             workers_info = client.scheduler_info().get("workers", {})
             n_workers = len(workers_info)
             slots = sum(int(w.get("nthreads", 1)) for w in workers_info.values()) or 1
             size = chunk_size or auto_chunk_size(len(todo), slots)
+            atomic.make_output_dir(out)
+            _write_json(json_path, grid, settings, cols, [])  # the settings first: a resume checks them
             # write the kept rows back without any partial tail, then append as cases finish
             atomic_write_text(csv_path, _csv_text(cols, [done[k] for k in sorted(done)]))
             t_submit = time.monotonic()
