@@ -229,6 +229,7 @@ def test_unreachable_scheduler_is_an_input_error(tmp_path, capsys, monkeypatch):
     rc = main(["sweep", "--grid", str(tmp_path / "g.json"), "--out", str(tmp_path / "o"),
                "--scheduler", "tcp://127.0.0.1:9", *SHORT])
     assert rc == 2 and "cannot reach a dask scheduler" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()  # refused before anything, the resume state included, is written
 
 
 @pytest.mark.slow
