@@ -98,7 +98,20 @@ def deferred() -> Iterator[None]:
         raise Interrupted(signum)
 
 
-def _watchdog(read_fd: int, done: threading.Event, stream) -> None:
+def _write_line(line: str, err_fd: int | None, stream) -> None:
+    """``line`` on the standard error the command started with (a dup of its fd: a block that sends
+    fd 2 elsewhere, :func:`silent_children`, must not swallow it), else on ``stream``."""
+    try:
+        if err_fd is not None:
+            os.write(err_fd, (line + "\n").encode("utf-8", "replace"))
+        else:
+            stream.write(line + "\n")
+            stream.flush()
+    except Exception:
+        pass
+
+
+def _watchdog(read_fd: int, done: threading.Event, stream, err_fd: int | None) -> None:
     while True:
         try:
             data = os.read(read_fd, 64)
@@ -123,11 +136,7 @@ def _watchdog(read_fd: int, done: threading.Event, stream) -> None:
                 func()
             except Exception:  # best effort: the process ends now whatever happens
                 pass
-        try:
-            stream.write(_state.message(signum) + "\n")
-            stream.flush()
-        except Exception:
-            pass
+        _write_line(_state.message(signum), err_fd, stream)
         os._exit(128 + signum)
 
 
@@ -160,14 +169,20 @@ def handling(message: Callable[[int], str] | None = None, *, stream=None, then_i
     os.set_blocking(write_fd, False)
     done = threading.Event()
     old_fd = signal.set_wakeup_fd(write_fd, warn_on_full_buffer=False)
-    watchdog = threading.Thread(target=_watchdog, args=(read_fd, done, stream or sys.stderr), daemon=True,
+    stream = stream or sys.stderr
+    try:
+        err_fd = os.dup(stream.fileno())
+    except (AttributeError, OSError, ValueError):  # a stream without a file (a test's StringIO)
+        err_fd = None
+    watchdog = threading.Thread(target=_watchdog, args=(read_fd, done, stream, err_fd), daemon=True,
                                 name="mjtrack-interrupt-watchdog")
     try:
         watchdog.start()
     except BaseException:  # interrupted while starting: undo, and let the interrupt through
         signal.set_wakeup_fd(old_fd)
-        os.close(write_fd)
-        os.close(read_fd)
+        for fd in (write_fd, read_fd, err_fd):
+            if fd is not None:
+                os.close(fd)
         for s, h in previous.items():
             signal.signal(s, h)
         _state.deferred, _state.pending, _state.raised, _state.cleanups, _state.message, _state.active = saved
@@ -182,8 +197,9 @@ def handling(message: Callable[[int], str] | None = None, *, stream=None, then_i
         with contextlib.suppress(OSError):
             os.write(write_fd, b"\0")  # wake the watchdog so that it sees `done`
         watchdog.join(timeout=1.0)
-        os.close(write_fd)
-        os.close(read_fd)
+        for fd in (write_fd, read_fd, err_fd):
+            if fd is not None:
+                os.close(fd)
         # `received` stays: the caller reads it after the block to tell an interrupt's aftermath
         _state.deferred, _state.pending, _state.raised, _state.cleanups, _state.message, _state.active = saved
 
