@@ -58,6 +58,7 @@ class _State:
         self.cleanups: list[Callable[[], None]] = []
         self.message: Callable[[int], str] = lambda signum: f"interrupted by {signal.Signals(signum).name}"
         self.active = False
+        self.redelivered = 0  # interrupts swallowed where Python ignores exceptions
 
 
 _state = _State()
@@ -71,6 +72,18 @@ def received() -> int | None:
 def add_emergency_cleanup(func: Callable[[], None]) -> None:
     """Run ``func`` (no arguments, must not raise) if the watchdog has to end the process."""
     _state.cleanups.append(func)
+
+
+def _unraisable(info) -> None:
+    """``sys.unraisablehook`` while handling: an Interrupted raised where Python ignores exceptions
+    (a weakref callback inside an import, a ``__del__``) would print "Exception ignored" and be
+    lost; it is dropped without a word, and the watchdog, which saw the signal, ends the process
+    after its grace period (a second signal is raised again)."""
+    if isinstance(getattr(info, "exc_value", None), Interrupted) and _state.active:
+        _state.raised = False
+        _state.redelivered += 1
+        return
+    sys.__unraisablehook__(info)
 
 
 def _handler(signum: int, frame) -> None:
@@ -163,6 +176,9 @@ def handling(message: Callable[[int], str] | None = None, *, stream=None, then_i
     if message is not None:
         _state.message = message
     _state.active = True
+    previous_hook = sys.unraisablehook
+    sys.unraisablehook = _unraisable
+    _state.redelivered = 0
     for s in SIGNALS:  # first: a signal from now on is ours, even while the watchdog starts
         signal.signal(s, _handler)
     read_fd, write_fd = os.pipe()
@@ -185,6 +201,7 @@ def handling(message: Callable[[int], str] | None = None, *, stream=None, then_i
                 os.close(fd)
         for s, h in previous.items():
             signal.signal(s, h)
+        sys.unraisablehook = previous_hook
         _state.deferred, _state.pending, _state.raised, _state.cleanups, _state.message, _state.active = saved
         raise
     try:
@@ -193,6 +210,7 @@ def handling(message: Callable[[int], str] | None = None, *, stream=None, then_i
         done.set()
         for s, h in previous.items():
             signal.signal(s, signal.SIG_IGN if then_ignore else h)
+        sys.unraisablehook = previous_hook
         signal.set_wakeup_fd(old_fd)
         with contextlib.suppress(OSError):
             os.write(write_fd, b"\0")  # wake the watchdog so that it sees `done`
