@@ -38,7 +38,7 @@ def run(path: Path, out: Path, horizon) -> float:
     t3 = time.perf_counter()
     total = t3 - t0
     print(f"  {path.name}: {d.samples} samples, {int(d.data.seg[-1]) + 1} segments, {d.starts.size} windows "
-          f"at {d.horizon_s:g} s, baseline '{d.baseline}' RMSE {d.before:.4g} m")
+          f"at {d.horizon_s:g} s, baseline '{d.baseline.name}' RMSE {d.before:.4g} m")
     print(f"  read {t1 - t0:6.2f} s | prepare {d.timings['prepare']:6.2f} s | selection "
           f"{d.timings['selection']:6.2f} s ({len(d.steps)} steps) | report "
           f"{t3 - t2:6.2f} s | total {total:6.2f} s "

@@ -45,8 +45,9 @@ from pathlib import Path
 import numpy as np
 
 from mjtrack.diagnose import diagnose
-from mjtrack.diagnose.select import MODEL_REL, TRACTION_PAIR, min_active_blocks
+from mjtrack.diagnose.select import TRACTION_PAIR, min_active_blocks
 from mjtrack.diagnose.stats import sample_blocks
+from mjtrack.diagnose.surrogate_baseline import MODEL_REL
 from mjtrack.testing.diagnose_physics import INPUT, SPEED_STD, make_log
 
 MAGNITUDES = {
@@ -207,7 +208,7 @@ def summarise(rows: list[dict]) -> dict:
 def model_error_on_mujoco() -> tuple[float, int]:
     """RMS relative error of the surrogate's estimates on last round's MuJoCo matrix, as a share of
     the effect size |truth - nominal| (the interval's model term MODEL_REL in
-    mjtrack/diagnose/select.py comes from it): (rms, count)."""
+    mjtrack/diagnose/surrogate_baseline.py comes from it): (rms, count)."""
     path = Path(__file__).resolve().parent / "results" / "diagnose_mujoco_effects.json"
     nominal = {"cg_offset_x": 0.0, "cg_offset_y": 0.0, "friction_scale": 1.0, "friction_asymmetry": 1.0,
                "track_speed_scale": 1.0, "slope": 0.0, "actuator_lag": 0.0, "command_delay": 0.0}

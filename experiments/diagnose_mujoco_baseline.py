@@ -7,8 +7,8 @@ commands, 20 Hz, noisy poses; written without mjtrack.diagnose; the anisotropic 
 its own implementation, not mjtrack.sim.ground), and a clean log. The diagnosis is given the
 nominal robot (with the generator's drive force limit, 600 N m at the 6 cm sprocket = 10 kN per
 track) and runs as ``mjtrack diagnose LOG --baseline mujoco`` does
-(:func:`mjtrack.diagnose.run.diagnose_simulation`: the surrogate pre-screens its 3 best effects,
-plus the two MuJoCo-only grounds; ``--all``: every MuJoCo candidate, no pre-screen), 5 folds.
+(:func:`mjtrack.diagnose.diagnose` with ``baseline="mujoco"``: the surrogate pre-screens its 3 best
+effects, plus the two MuJoCo-only grounds; ``--all``: every MuJoCo candidate, no pre-screen), 5 folds.
 
 Printed per log: the cause, the hidden effect's estimate with its 95 % interval, whether the
 interval holds the truth, the held-out gain and its one-sided 95 % bound, the effects tied with
@@ -31,8 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mjtrack.diagnose import diagnose
 from mjtrack.diagnose import mujoco_baseline as mb
-from mjtrack.diagnose.run import diagnose_simulation
 from mjtrack.diagnose.stats import t_quantile
 from mjtrack.io.robot import Robot
 from mjtrack.testing.mujoco_effects import HIDDEN, ROBOT, make_log
@@ -56,27 +56,28 @@ def truth_of(effect: str) -> tuple[str, float]:
 def run_one(effect: str | None, *, duration: float, seed: int, n_folds: int, screen: int | None) -> dict:
     lg, _ = make_log(effect, seed=seed, duration=duration)
     t0 = time.perf_counter()
-    d = diagnose_simulation(lg, nominal_robot(), n_folds=n_folds, screen=screen)
+    d = diagnose(lg, nominal_robot(), baseline="mujoco", n_folds=n_folds, screen=screen)
     wall = time.perf_counter() - t0
+    blocks = d.results[0].gain.blocks if d.results else 0
     row = {"hidden": effect or "none", "cause": d.cause, "wall_s": wall, "load_average": os.getloadavg(),
-           "windows": d.n_windows, "blocks": d.n_blocks, "before": d.before,
-           "fitted": [c.effect.name for c in d.candidates], "screened": d.choice.get("screened_by_surrogate"),
+           "windows": int(d.starts.size), "diverged": d.diverged, "blocks": blocks, "before": d.before,
+           "fitted": [c.effect.name for c in d.results], "screened": d.choice.get("screened_by_surrogate"),
            "findings": [c.effect.name for c in d.findings], "timings_s": d.timings}
     if effect is None:
         return row
     key, truth = truth_of(effect)
     row["truth"] = {k: float(v) for k, v in HIDDEN[effect].params.items()}
-    c = next((c for c in d.candidates if c.effect.name == effect), None)
+    c = next((c for c in d.results if c.effect.name == effect), None)
     row["named"] = bool(c is not None and c.passed and (d.cause == effect or d.cause in c.tied_with))
     if c is None:
         return row
     k0 = c.effect.params[0]
-    nominal = 0.0 if effect == "slope" else float(c.effect.nominal(nominal_robot(), lg))
+    nominal = float(c.nominal[0])
     est = float(c.estimate[0])
-    row.update(finding=bool(c.passed), decision=c.why, estimate=dict(zip(c.effect.params, c.estimate)),
-               interval=dict(zip(c.effect.params, c.interval)), after=c.after, relative=c.relative,
-               gain_lower=c.gain.lower, tied_with=c.tied_with, tie_notes=c.tie_notes,
-               se_stat=float(c.se_stat[0]), nominal=nominal, size=abs(est - nominal), n_blocks=d.n_blocks,
+    row.update(finding=bool(c.passed), decision=c.why, estimate={n: float(v) for n, v in zip(c.effect.params, c.estimate)},
+               interval={n: [float(a), float(b)] for n, (a, b) in zip(c.effect.params, c.interval)}, after=c.after,
+               relative=c.relative, gain_lower=c.gain.lower, tied_with=c.tied_with, tie_notes=c.tie_notes,
+               se_stat=float(c.se_stat[0]), nominal=nominal, size=abs(est - nominal), n_blocks=blocks,
                covered=bool(c.interval[0][0] <= truth <= c.interval[0][1]),
                rel_error=abs(est - truth) / abs(truth), size_error=abs(est - truth) / abs(truth - nominal))
     if effect == "slope":

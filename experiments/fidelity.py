@@ -144,11 +144,8 @@ def convergence(config: SimConfig) -> dict:
 
 
 def halved(config: SimConfig) -> SimConfig:
-    """The config whose step is half the one ``config`` runs each case at: halving the time step,
-    the lag budget and the slip budget together halves the step :meth:`SimConfig.step_for` picks."""
-    return config.replace(timestep=config.timestep / 2,
-                          lag_budget=None if config.lag_budget is None else config.lag_budget / 2,
-                          slip_budget=None if config.slip_budget is None else config.slip_budget / 2)
+    """The config whose step is half the one ``config`` runs each case at (:meth:`SimConfig.halved`)."""
+    return config.halved()
 
 
 def straight(config: SimConfig) -> list[dict]:

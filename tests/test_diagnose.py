@@ -301,7 +301,7 @@ def test_description_without_contact_length_uses_the_kinematic_baseline(icr, eff
                                  "yaw": noisy[:, 2]})
     robot = Robot.from_dict({"track_gauge": 0.4})
     d = diagnose(log, robot, baseline="surrogate", max_effects=1)
-    assert d.baseline == "kinematic" and "friction_scale" in d.skipped
+    assert d.baseline.name == "kinematic" and "friction_scale" in d.skipped
     assert d.cause == effect and d.findings[0].relative > 0.5
     if estimate is not None:
         assert d.findings[0].estimate[0] == pytest.approx(estimate, rel=0.05)
@@ -371,10 +371,12 @@ def test_gain_within_the_surrogates_resolution_is_not_named(monkeypatch):
     experiments/diagnose_transient_steps.py): the generator's faster yaw transients make
     friction_scale ~ 1.22 pass the gain test (6.2 %, bound 0.9 %), but its 95 % interval, which
     carries the absolute model-form term MODEL_ABS, holds the nominal 1: not named, and the
-    evidence says why. Without the term (MODEL_ABS emptied) it is named: a false cause."""
+    evidence says why. Without the term (the surrogate's ModelForm without MODEL_ABS) it is named: a
+    false cause."""
     from mjtrack.testing import diagnose_physics as phys
 
-    from mjtrack.diagnose import select as sel
+    from mjtrack.diagnose import surrogate_baseline as sb
+    from mjtrack.diagnose.baseline import ModelForm
 
     log, robot = phys.make_log({}, geometry="wheeled", seed=5000, duration=120, rate=10, speeds=False)
     d = _diagnose(log, robot)
@@ -383,5 +385,5 @@ def test_gain_within_the_surrogates_resolution_is_not_named(monkeypatch):
     assert r.gain.lower > 0 and r.gain.relative >= 0.03 and not r.passed
     assert r.interval[0, 0] <= 1.0 <= r.interval[0, 1]
     assert "within the surrogate's resolution" in r.why
-    monkeypatch.setattr(sel, "MODEL_ABS", {})
+    monkeypatch.setattr(sb.SurrogateBaseline, "model_form", ModelForm(sb.MODEL_REL, {}))
     assert _diagnose(log, robot).cause == "friction_scale"

@@ -9,12 +9,14 @@ every candidate (experiments/diagnose_mujoco_baseline.py --all prints the same t
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
 import pytest
 
-from mjtrack.diagnose.mujoco_baseline import _Scoring, can_build, diagnose_mujoco, write_mujoco_outputs
+from mjtrack.diagnose import diagnose, write_outputs
+from mjtrack.diagnose.mujoco_baseline import GRIDS, NOMINAL as NO_EFFECT, MujocoBaseline, can_build
 from mjtrack.errors import InputError
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
@@ -27,15 +29,16 @@ NOMINAL = Robot.from_dict({**ROBOT.to_dict(), "drive_force_limit": 600.0 / ROBOT
 def test_hidden_ground_extension_is_found_and_estimated(tmp_path):
     lg, _ = make_log("ground_anisotropy", seed=1, duration=40.0)
     test_log, _ = make_log("ground_anisotropy", seed=2, duration=20.0)
-    d = diagnose_mujoco(lg, NOMINAL, effects=["ground_anisotropy", "track_speed_scale", "cg_offset_x"],
-                        n_folds=4, test=test_log)
+    d = diagnose(lg, NOMINAL, baseline="mujoco", effects=["ground_anisotropy", "track_speed_scale", "cg_offset_x"],
+                 n_folds=4, test_log=test_log)
     assert d.cause == "ground_anisotropy"
     f = d.findings[0]
     (lo, hi), = f.interval
     assert lo <= HIDDEN["ground_anisotropy"].params["lateral_ratio"] <= hi
     assert f.estimate[0] == pytest.approx(0.5, abs=0.08)
-    assert f.relative > 0.4 and f.test["relative"] > 0.4  # cross-validated and on the second log
-    write_mujoco_outputs(d, tmp_path)
+    assert f.relative > 0.4  # fitted on the first log, scored on the second
+    assert d.starts.size == len(make_windows(test_log, 2.0))  # every scored window is the test log's
+    write_outputs(d, tmp_path)
     data = json.loads((tmp_path / "diagnosis.json").read_text())
     assert set(data) >= {"log", "samples", "duration_s", "baseline", "cause", "findings"}
     assert data["baseline"]["metric"] == "pos_err_m" and data["baseline"]["horizon_s"] == 2.0
@@ -45,6 +48,7 @@ def test_hidden_ground_extension_is_found_and_estimated(tmp_path):
     assert set(fj["estimate"]) == set(fj["interval"]) == {"lateral_ratio"}
     assert data["test_log"] == test_log.source
     assert fj["gain"]["after"] < fj["gain"]["before"]
+    assert data["baseline"]["simulator"] == "mujoco" and data["validation"]["mujoco"]["run"] is False
     assert "<table>" in (tmp_path / "report.html").read_text()
 
 
@@ -64,50 +68,55 @@ def _segmented_log(lengths_s, dt=0.05):
 def test_scoring_blocks_keep_segments_and_folds_whole():
     # short segments (one 2 s window each, as in the Marmotte log) and long ones (many windows)
     lg = _segmented_log([2.0] * 9 + [30.0, 2.0, 2.0, 20.0])
-    ws = make_windows(lg, 2.0)
+    model = MujocoBaseline(NOMINAL, lg)
+    ws = model.ws
+    assert len(ws) == len(make_windows(lg, 2.0))
+    problem = model.problem(4)
+    assert problem.valid_mask.all()  # standing still: nothing diverges
     ok = np.ones(len(ws), bool)
     ok[3] = False  # a diverged baseline window: never drawn
-    sc = _Scoring.of(lg, ws, 4, ok, seed=0)
-    for b in np.unique(sc.block):  # a block is part of one segment, or whole segments pooled
-        segs = np.unique(ws.segment[sc.block == b])
+    problem = dataclasses.replace(problem, valid=ok)
+    block, fold = problem.window_block, problem.fold
+    for b in np.unique(block):  # a block is part of one segment, or whole segments pooled
+        segs = np.unique(ws.segment[block == b])
         if segs.size > 1:
-            assert all(np.all(sc.block[ws.segment == g] == b) for g in segs)
+            assert all(np.all(block[ws.segment == g] == b) for g in segs)
     for g in np.unique(ws.segment):  # 13 segments >= 2 x 4 folds: folds are whole segments
-        assert np.unique(sc.fold[ws.segment == g]).size == 1
-    assert np.unique(sc.block[ws.segment == 9]).size >= 3  # 30 s: blocks of >= 3 horizons
-    assert np.all(np.diff(sc.fold) >= 0) and np.unique(sc.fold).size == 4
-    assert sc.n_blocks == np.unique(sc.block[ok]).size
-    assert all(3 not in d for d in sc.draws)
-    sizes = {len(d) for d in sc.draws}
+        assert np.unique(fold[ws.segment == g]).size == 1
+    assert np.unique(block[ws.segment == 9]).size >= 3  # 30 s: blocks of >= 3 horizons
+    assert np.all(np.diff(fold) >= 0) and np.unique(fold).size == 4
+    draws = model._draws(problem, model._train(problem, np.arange(4)))
+    assert all(3 not in d for d in draws)
+    sizes = {len(d) for d in draws}
     assert len(sizes) > 1  # blocks of unequal size: the replicates' sizes vary
-    again = _Scoring.of(lg, ws, 4, ok, seed=0)
-    assert all(np.array_equal(a, b) for a, b in zip(sc.draws, again.draws))  # seeded
+    again = model._draws(problem, model._train(problem, np.arange(4)))
+    assert all(np.array_equal(a, b) for a, b in zip(draws, again))  # seeded
 
 
-def test_clean_log_gives_no_cause():
+def test_clean_log_gives_no_cause(capfd):
     # the finding test must hold on a log with nothing hidden (2 candidates, 30 s, 5 folds; the
     # experiment's clean 60 s log tests every candidate)
     lg, _ = make_log(None, seed=4, duration=30.0)
-    d = diagnose_mujoco(lg, NOMINAL, effects=["friction_scale", "command_delay"])
+    capfd.readouterr()
+    d = diagnose(lg, NOMINAL, baseline="mujoco", effects=["friction_scale", "command_delay"])
+    assert capfd.readouterr().err == ""  # nothing printed per window (nor at all: no warning)
     assert d.cause == "none", d.summary()
-    assert all(not c.passed and c.gain.blocks >= 4 for c in d.candidates)
+    assert [c.effect.name for c in d.results] and all(not c.passed and c.gain.blocks >= 4 for c in d.results)
     assert "cause: none" in d.summary()
 
 
 def test_grids_extend_a_calibrated_robot():
     # a calibrated drivetrain is the "no effect" value: lag and dead time are added to it, the speed
     # scale and centre of mass are searched around it (not reset to an ideal robot's)
-    from mjtrack.diagnose.mujoco_baseline import EFFECTS
-
     cal = Robot.from_dict({**NOMINAL.to_dict(), "drive_delay": 0.42, "drive_lag": 0.08, "track_speed_scale": 0.95,
                            "cg_x": 0.03})
     lg, _ = make_log(None, seed=0, duration=4.0)
     for name, own in (("command_delay", 0.42), ("actuator_lag", 0.08), ("track_speed_scale", 0.95),
                       ("cg_offset_x", 0.03)):
-        grid, nominal = EFFECTS[name].grid(cal, lg), EFFECTS[name].nominal(cal, lg)
+        grid, nominal = GRIDS[name](cal, lg), NO_EFFECT[name](cal, lg)
         assert nominal == pytest.approx(own) and np.any(np.isclose(grid, own)), name
-    assert EFFECTS["command_delay"].grid(cal, lg).min() == pytest.approx(0.42)
-    assert EFFECTS["track_speed_scale"].grid(cal, lg).min() < 0.95 < EFFECTS["track_speed_scale"].grid(cal, lg).max()
+    assert GRIDS["command_delay"](cal, lg).min() == pytest.approx(0.42)
+    assert GRIDS["track_speed_scale"](cal, lg).min() < 0.95 < GRIDS["track_speed_scale"](cal, lg).max()
 
 
 def test_can_build_needs_the_contact_length():
@@ -120,16 +129,16 @@ def test_can_build_needs_the_contact_length():
 def test_too_few_windows_is_refused():
     lg, _ = make_log(None, seed=0, duration=6.0)
     with pytest.raises(InputError, match="windows of 2 s"):
-        diagnose_mujoco(lg, NOMINAL, effects=["cg_offset_x"])
+        diagnose(lg, NOMINAL, baseline="mujoco", effects=["cg_offset_x"])
     with pytest.raises(InputError, match="unknown effect"):
-        diagnose_mujoco(lg, NOMINAL, effects=["teleport"])
+        diagnose(lg, NOMINAL, baseline="mujoco", effects=["teleport"])
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("effect", sorted(HIDDEN))
 def test_every_hidden_effect_is_named_and_estimated(effect):
     lg, _ = make_log(effect, seed=1, duration=60.0)
-    d = diagnose_mujoco(lg, NOMINAL)  # every candidate, 5 folds (the experiment's --all run)
+    d = diagnose(lg, NOMINAL, baseline="mujoco", screen=None)  # every candidate, 5 folds (the experiment's --all run)
     found = {c.effect.name: c for c in d.findings}
     assert effect in found, f"cause {d.cause}, findings {list(found)}"
     assert d.cause == effect or d.cause in found[effect].tied_with
@@ -160,6 +169,7 @@ def test_cli_auto_falls_back_and_says_why(tmp_path):
     res = run_cli(["diagnose", path, "--out", out, "--quiet"])
     assert res.rc == 0, res.err
     data = json.loads((out / "diagnosis.json").read_text())
+    assert data["baseline"]["simulator"] == "kinematic"
     assert "track_length" in data["baseline"]["choice"] and "surrogate" in data["baseline"]["choice"]
 
 
@@ -181,7 +191,48 @@ def test_cli_auto_chooses_mujoco_when_the_robot_can_be_built(tmp_path):
     res = run_cli(["diagnose", path, "--out", out, "--quiet", "--folds", "4"])
     assert res.rc == 0, res.err
     data = json.loads((out / "diagnosis.json").read_text())
-    assert data["baseline"]["simulator"] == "mujoco" and data["baseline"]["choice"]["chosen"] == "mujoco"
+    assert data["baseline"]["simulator"] == "mujoco" and data["baseline"]["choice"].startswith("auto")
+    assert len(data["baseline"]["screened_by_surrogate"]) == 3
     assert data["cause"] == "cg_offset_x"
     assert data["findings"][0]["estimate"]["cg_offset_x"] == pytest.approx(0.05, abs=0.015)
     assert "baseline: MuJoCo robot" in res.out
+
+
+def test_mujoco_warnings_are_summarised_in_one_line(caplog, capfd):
+    # simulate_windows collects each call's warnings; an outer summary (a whole diagnosis or fit)
+    # sees them all and logs one line; nothing reaches stderr
+    import logging
+
+    import mujoco
+
+    from mjtrack.sim.rollout import collected_mujoco_warnings, summarised_mujoco_warnings
+
+    m = mujoco.MjModel.from_xml_string("<mujoco><worldbody><body><freejoint/><geom size='0.1'/></body>"
+                                       "</worldbody></mujoco>")
+    data = mujoco.MjData(m)
+    capfd.readouterr()
+    with caplog.at_level(logging.WARNING):
+        with summarised_mujoco_warnings("a fit") as outer:
+            for _ in range(3):
+                with collected_mujoco_warnings() as inner:  # as each simulate_windows call does
+                    data.qvel[:] = 1e30  # "Nan, Inf or huge value in QVEL": one warning per step
+                    mujoco.mj_step(m, data)
+                    mujoco.mj_resetData(m, data)
+                assert len(inner) == 1
+    assert len(outer) == 3
+    lines = [r.getMessage() for r in caplog.records if "MuJoCo warned" in r.getMessage()]
+    assert len(lines) == 1 and lines[0].startswith("a fit: MuJoCo warned 3 times")
+    assert capfd.readouterr().err == ""
+    assert mujoco.get_mju_user_warning() is None  # the handler before is restored
+
+
+def test_model_rel_is_the_measured_one():
+    # MODEL_REL is what experiments/diagnose_mujoco_baseline.py measured and wrote (3 decimals)
+    from pathlib import Path
+
+    from mjtrack.diagnose import mujoco_baseline as mb
+
+    path = Path(__file__).resolve().parents[1] / "experiments" / "results" / "diagnose_mujoco_baseline.json"
+    measured = json.loads(path.read_text())["summary"]["model_rel"]
+    assert mb.MODEL_REL == round(measured, 3)
+    assert mb.MODEL_FORM.rel == mb.MODEL_REL and "diagnose_mujoco_baseline.py" in mb.MODEL_FORM.measured_by

@@ -93,7 +93,8 @@ def test_json_round_trip_keeps_extra_keys(tmp_path):
 def test_marmotte_description():
     robot = read_robot(DATA / "marmotte_excerpt.json")
     assert robot.track_gauge == 0.592723 and robot.sprocket_radius == 0.116702
-    assert set(robot.extra) == {"robot", "traction", "terrain", "sample_rate_hz", "note"}
+    assert set(robot.extra) == {"robot", "terrain", "sample_rate_hz", "note"}
+    assert robot.traction == "tracks"
 
 
 # -- robot options -----------------------------------------------------------------------------

@@ -158,8 +158,9 @@ def _multistart(obj: Objective, z0: np.ndarray) -> tuple[np.ndarray, list[tuple[
     """A few starts differing in the turning-resistance and lag parameters, evaluated in one batch."""
     names = obj.names
     cands = [z0.copy()]
-    turn = [n for n in ("track_length", "lateral_ratio", "span") if n in names]
-    grid = {"track_length": (0.3, 0.5, 0.8), "lateral_ratio": (0.4, 0.7, 1.0), "span": (0.4, 0.7, 1.0)}
+    turn = [n for n in ("track_length", "wheelbase", "lateral_ratio", "span") if n in names]
+    grid = {"track_length": (0.3, 0.5, 0.8), "wheelbase": (0.3, 0.6, 1.1), "lateral_ratio": (0.4, 0.7, 1.0),
+            "span": (0.4, 0.7, 1.0)}
     for n in turn[:1]:
         i = names.index(n)
         for v in grid[n]:

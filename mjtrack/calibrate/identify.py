@@ -66,6 +66,9 @@ class Linearised:
         rows_per_window: residual components per window (window-major rows).
         specs: every parameter's spec.
         model_form: the model-form sources.
+        floors: parameter -> the least half-width the simulator allows it (a time constant or a
+            dead time is resolved to one time step at best: a lag of 2 ms and none differ by less
+            than the step's own discretisation).
     """
 
     names: list[str]
@@ -75,6 +78,7 @@ class Linearised:
     rows_per_window: int
     specs: dict[str, ParamSpec]
     model_form: list[ModelForm] = field(default_factory=list)
+    floors: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.A = self.jac.T @ self.jac
@@ -133,8 +137,9 @@ class Linearised:
         t = float(stats.t.ppf(0.975, max(G - 1, 1)))
         corr = cov / np.maximum(np.outer(sd, sd), 1e-300)
         sc = self.scales[idx]
+        floor = np.array([self.floors.get(self.names[i], 0.0) for i in idx])
         return Uncertainty(names=[self.names[i] for i in idx], sd=sd * sc, shift=shift * sc,
-                           half=(t * sd + shift) * sc, corr=corr, clusters=G, t=t,
+                           half=np.maximum((t * sd + shift) * sc, floor), corr=corr, clusters=G, t=t,
                            shifts={m.name: s * sc for m, s in zip(self.model_form, shifts)})
 
 

@@ -13,7 +13,7 @@ when the files are written.
 Robot options on every command that simulates::
 
     --robot FILE  --cg-x M  --cg-y M  --mu X  --mu-left X  --mu-right X  --mass KG
-    --track-gauge M  --track-length M
+    --track-gauge M  --track-length M  --wheelbase M
 
 :func:`robot_from_args` builds the :class:`~mjtrack.io.robot.Robot`: the ``--robot`` file if
 given, else the caller's ``base`` (a scenario's robot, a log's ``LOG.json``), else the default
@@ -50,6 +50,7 @@ ROBOT_OPTIONS: dict[str, tuple[str, str, str]] = {
     "mass": ("mass", "KG", "total mass [kg]"),
     "track_gauge": ("track_gauge", "M", "distance between the track centre lines [m]"),
     "track_length": ("track_length", "M", "length of each track's ground contact [m]"),
+    "wheelbase": ("wheelbase", "M", "front to rear axle distance of a wheeled robot [m]"),
 }
 
 
@@ -142,8 +143,8 @@ def add_robot_options(parser: argparse.ArgumentParser) -> None:
     """Add ``--robot FILE`` and the per-field overrides (all default to ``None``: not given)."""
     group = parser.add_argument_group(
         "robot", "the robot: --robot FILE (a JSON object of SI values: track_gauge [m, required], track_length, "
-        "track_width, sprocket_radius [m], mass [kg], cg_x, cg_y, cg_z [m], mu, mu_left, mu_right), then each option "
-        "below overrides one field"
+        "track_width, sprocket_radius [m], mass [kg], cg_x, cg_y, cg_z [m], mu, mu_left, mu_right; a wheeled robot: "
+        "traction \"wheels\", wheel_radius, wheelbase [m], wheels_per_side), then each option below overrides one field"
     )
     group.add_argument("--robot", metavar="FILE", type=Path, default=None,
                        help="robot description JSON (at least 'track_gauge' [m])")

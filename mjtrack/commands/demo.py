@@ -5,7 +5,9 @@ centre (cg_x = +0.05 m) driving seeded everyday manoeuvres; its ICRs; the nomina
 and MVIR models with their filters validated against the rollout and against an MPP
 analytic truth; DIR/report.html, DIR/metrics.json, DIR/video.mp4, and the rollout itself
 (DIR/rollout.csv + rollout.json, for mjtrack validate / render). --terrain runs the same
-manoeuvres on sloped, stepped, rough or patchy ground (recorded in rollout.json; the video shows it).
+manoeuvres on sloped, stepped, rough or patchy ground (recorded in rollout.json; the video shows it);
+--robot FILE (and the robot options, on top of the default robot without it) another robot, tracked
+or wheeled.
 """
 
 from __future__ import annotations
@@ -13,7 +15,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjtrack.commands._common import TERRAIN_HELP, add_output_options, check_out_dir, check_overwrite, terrain_from_args
+from mjtrack.commands._common import (ROBOT_OPTIONS, TERRAIN_HELP, add_output_options, add_robot_options,
+                                      check_out_dir, check_overwrite, robot_from_args, terrain_from_args)
 
 OUTPUTS = ("report.html", "metrics.json", "rollout.csv", "rollout.json", "video.mp4")
 
@@ -25,15 +28,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="output folder (created if missing)")
     parser.add_argument("--no-video", action="store_true", help="skip the video")
     parser.add_argument("--terrain", metavar="SPEC", default=None, help=TERRAIN_HELP + " (default flat)")
+    add_robot_options(parser)
     add_output_options(parser)
 
 
 def run(args: argparse.Namespace) -> int:
-    from mjtrack.demo import run_demo
+    from mjtrack.demo import DEMO_ROBOT, run_demo
 
     out = check_out_dir(args.out)
     check_overwrite([out / name for name in OUTPUTS], args.force)
-    res = run_demo(out, video=not args.no_video, quiet=args.quiet, terrain=terrain_from_args(args))
+    given = args.robot is not None or any(getattr(args, k, None) is not None for k in ROBOT_OPTIONS)
+    robot = robot_from_args(args, DEMO_ROBOT) if given else None
+    res = run_demo(out, video=not args.no_video, quiet=args.quiet, terrain=terrain_from_args(args), robot=robot)
     head = res.headline
     if not args.quiet:
         for truth, table in head["pos_rmse_m"].items():

@@ -1,8 +1,8 @@
 """Diagnose a measured drive log: where the nominal model departs from the measurement, the cause
 (an effect of the vocabulary -- cg_offset_x, cg_offset_y, friction_scale, friction_asymmetry,
-track_speed_scale, actuator_lag, command_delay, speed_limit, slope, icr_spread, yaw_rate_limit --
-or "none"), its estimate with an interval and the
-prediction error it removes on held-out data. Writes DIR/diagnosis.json and DIR/report.html.
+track_speed_scale, actuator_lag, command_delay, speed_limit, slope, icr_spread, yaw_rate_limit,
+and with the MuJoCo baseline ground_anisotropy, road_wheels -- or "none"), its estimate with an
+interval and the prediction error it removes on held-out data. Writes DIR/diagnosis.json and DIR/report.html.
 
 The robot is LOG.json beside the log unless --robot FILE is given; the other robot options
 override single fields. With --confirm the cause is checked in MuJoCo: the log re-simulated

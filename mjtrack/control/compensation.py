@@ -228,7 +228,7 @@ class CoulombICRMap:
                 for _ in range(self.iterations):
                     y_l, y_r, x_c = coulomb_steady_state(self.robot, *inverse_micr(key[0], key[1], y_l, y_r)).icr
                 psi = InverseICR.from_icr(y_l, y_r, x_c).params
-                if not admissible_psi(psi, self.robot.track_gauge, self.robot.track_length):
+                if not admissible_psi(psi, self.robot.track_gauge, self.robot.contact_length):
                     raise MjtrackError(f"steady ICRs (y_l, y_r, x_c) = ({y_l:.3f}, {y_r:.3f}, {x_c:.3f}) m not admissible")
             except MjtrackError as exc:
                 if not self._warned:
@@ -579,7 +579,7 @@ def run_tracking(
     check_loop(reference.duration, control_dt, config=config, terrain=terrain,
                what=f"the reference ({reference.path.length:.4g} m at {reference.profile.speed_value:g} m/s)")
     ref_map = CoulombICRMap(map_robot or robot) if reference_map == "coulomb" else None  # unused by "none"
-    comp = SlipCompensation(robot.track_gauge, compensation, track_length=robot.track_length, poles=poles,
+    comp = SlipCompensation(robot.track_gauge, compensation, track_length=robot.contact_length, poles=poles,
                             reference_map=ref_map, **(compensation_options or {}))
     ref = CorrectedReference(reference, comp)
     ctrl = TrajectoryTracker(ref, poles=poles) if controller == "tracker" else FeedForward(ref)

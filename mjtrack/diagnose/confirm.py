@@ -37,10 +37,10 @@ def simulated_twist(robot, data: rs.DriveData, speeds: np.ndarray, *, config=Non
     """Body twist (N, 3) of the MuJoCo robot driven by per-sample track speeds (N, 2), each segment
     from rest, evaluated at the middle of each log step."""
     from mjtrack.sim.builder import build_model
-    from mjtrack.sim.config import SimConfig
+    from mjtrack.sim.config import sim_config
     from mjtrack.sim.rollout import hold_commands, simulate
 
-    config = config or SimConfig()
+    config = config or sim_config(None, robot=robot)  # the simulator the description records
     model = build_model(robot, config)
     dt_sim = model.opt.timestep
     out = np.zeros((data.n, 3))
@@ -58,6 +58,8 @@ def simulated_twist(robot, data: rs.DriveData, speeds: np.ndarray, *, config=Non
 
 def confirm(diagnosis, *, config=None) -> dict:
     """MuJoCo gain of the diagnosis's cause (see module docstring); a dict for diagnosis.json."""
+    if diagnosis.baseline.name == "mujoco":
+        return {"stage": "mujoco", "run": False, "why": "the baseline is the MuJoCo robot: every number is MuJoCo's"}
     if not diagnosis.findings:
         return {"stage": "mujoco", "run": False, "why": "no cause to confirm"}
     best = diagnosis.findings[0]
@@ -71,7 +73,7 @@ def confirm(diagnosis, *, config=None) -> dict:
     estimate = dict(zip(best.effect.params, best.estimate))
     if best.effect.kind == "input":
         ext_robot = robot
-        ext_speeds = Surrogate(robot, diagnosis.baseline).inputs(data, best.effect, best.estimate)
+        ext_speeds = Surrogate(robot, diagnosis.baseline.name).inputs(data, best.effect, best.estimate)
     else:
         ext_robot, _ = extended_robot(robot, name, estimate)
         ext_speeds = speeds

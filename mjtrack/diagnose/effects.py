@@ -1,4 +1,10 @@
-"""The effect vocabulary (CONTRACTS.md §4) as extensions of the surrogate model.
+"""The effect vocabulary (CONTRACTS.md §4) and the surrogate model it extends.
+
+:data:`EFFECTS` is the one vocabulary of every baseline (:class:`Effect`: name, parameters,
+kind, meaning, signature, and the surrogate fit's bounds and start grid); what an effect changes
+is each baseline's own (``Baseline.vocabulary``): below, the surrogate's;
+``ground_anisotropy`` and ``road_wheels`` (contact models the surrogate cannot express) only the
+MuJoCo robot simulates (:mod:`mjtrack.diagnose.mujoco_baseline`).
 
 A candidate model = the baseline + one effect with its parameters. Two kinds:
 
@@ -115,6 +121,16 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "track ICR spread / modelled (effective gauge factor): more (>1) or less (<1) skid in turns",
            "yaw rate off by the same factor in all turns, straight driving exact",
            lambda r: (1.0,), lambda r: ((0.3,), (4.0,)), _grid(0.7, 0.9, 1.1, 1.4)),
+    # the MuJoCo robot's own ground extensions (:mod:`mjtrack.diagnose.mujoco_baseline`): contact
+    # models the surrogate cannot express
+    Effect("ground_anisotropy", ("lateral_ratio",), "ground",
+           "anisotropic ground: lateral / longitudinal friction of the track contact",
+           "turns skid less than the isotropic contact predicts (less lateral resistance), straight driving exact",
+           lambda r: (1.0,), lambda r: ((0.05,), (1.5,)), _grid(0.3, 0.5, 0.75, 1.0)),
+    Effect("road_wheels", ("road_wheel_span",), "ground",
+           "95 % of the load on 4 road wheels spread over this share of the contact length",
+           "the load concentrates under the wheels: turning resistance as of a shorter contact",
+           lambda r: (1.0,), lambda r: ((0.05,), (1.0,)), _grid(0.3, 0.5, 0.75, 1.0)),
 )}
 
 
@@ -146,9 +162,6 @@ class Surrogate:
             "cg_offset_y": ("cg_y", np.linspace(-lim_y, lim_y, 25)),
             "friction_asymmetry": ("friction_ratio", np.exp(np.linspace(-np.log(3.0), np.log(3.0), 25))),
         }
-
-    def testable(self, effect: Effect) -> bool:
-        return not (effect.name == "friction_scale" and self.baseline == "kinematic")
 
     def _static_q(self, name: str, value: float) -> np.ndarray:
         field, grid = self._tables[name]

@@ -1,4 +1,5 @@
-"""Parameter estimation of one candidate (baseline + effect) by nonlinear least squares.
+"""A diagnosis problem (:class:`Problem`: a log's windows, folds and blocks, the baseline and the
+effects already found) and the surrogate baselines' parameter estimation by nonlinear least squares.
 
 Objective. Ground effects (and input effects when the log has no track speeds) are fitted to
 the fixed-horizon prediction errors of the training windows: the residual of a window is its
@@ -23,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
-from mjtrack.diagnose.effects import Effect, Surrogate
+from mjtrack.diagnose.baseline import Baseline
+from mjtrack.diagnose.effects import Effect
 from mjtrack.diagnose.residuals import DriveData, window_errors
 from mjtrack.diagnose.stats import pos_rmse, sandwich  # noqa: F401  (pos_rmse: fit.pos_rmse for callers)
 
@@ -39,7 +41,8 @@ DIFF_STEP = 1e-3
 class Problem:
     """Everything a fit needs, computed once per log.
 
-    data: the drive data; surrogate: baseline + effects; horizon_s [s]; dt: (N,) hold times [s];
+    data: the drive data; baseline: the model extended by the effects (:class:`Baseline`);
+    horizon_s [s]; dt: (N,) hold times [s];
     starts, ends: (M,) windows; fold: (M,) fold of each window; sample_fold: (N,) fold of each
     sample; fit_windows: (F,) indices into the windows used for fitting (a stride of them);
     measured: (N, 2) measured track speeds with missing values replaced by the command, or None;
@@ -48,11 +51,12 @@ class Problem:
     of those already found); sample_block: (N,) block ids for the intervals
     (:func:`mjtrack.diagnose.stats.sample_blocks`), None = one block per fold; score_folds: the
     folds that are scored, each by the fit on all others (None: every fold, cross-validation;
-    (0,): a test log in fold 0, fitted on fold 1).
+    (0,): a test log in fold 0, fitted on fold 1); valid: (M,) windows whose baseline prediction
+    exists (a simulator's may diverge: those are neither fitted nor scored), None = all.
     """
 
     data: DriveData
-    surrogate: Surrogate
+    baseline: Baseline
     horizon_s: float
     dt: np.ndarray
     starts: np.ndarray
@@ -65,13 +69,19 @@ class Problem:
     base: tuple = ()
     sample_block: np.ndarray | None = None
     score_folds: tuple | None = None
+    valid: np.ndarray | None = None
+
+    @property
+    def valid_mask(self) -> np.ndarray:
+        """(M,) bool: :attr:`valid`, all True when None."""
+        return np.ones(self.starts.size, bool) if self.valid is None else self.valid
 
     @property
     def scored(self) -> np.ndarray:
-        """(M,) bool: the windows that are scored (all, or those of ``score_folds``: a test log)."""
+        """(M,) bool: the valid windows that are scored (all, or those of ``score_folds``: a test log)."""
         if self.score_folds is None:
-            return np.ones(self.starts.size, bool)
-        return np.isin(self.fold, self.score_folds)
+            return self.valid_mask
+        return np.isin(self.fold, self.score_folds) & self.valid_mask
 
     @property
     def window_block(self) -> np.ndarray:
@@ -81,7 +91,7 @@ class Problem:
 
     @property
     def yaw_scale(self) -> float:
-        return self.surrogate.robot.track_gauge / 2
+        return self.baseline.robot.track_gauge / 2
 
 
 def twist(problem: Problem, effect: Effect | None, theta, *, drive: str = "command") -> np.ndarray:
@@ -89,7 +99,7 @@ def twist(problem: Problem, effect: Effect | None, theta, *, drive: str = "comma
     input effects, if any) or, for fitting ground effects, by the measured speeds (with causal
     speed samples, :func:`mjtrack.diagnose.run.speed_timing`, step k runs at the speed sampled at
     t_k+1: the one sampled at t_k is still the previous step's)."""
-    s = problem.surrogate
+    s = problem.baseline.surrogate
     parts = ([(effect, theta)] if effect is not None else []) + list(problem.base)
     if drive == "measured" and problem.measured is not None and (effect is None or effect.kind == "ground"):
         speeds = problem.measured
@@ -117,7 +127,7 @@ def errors(problem: Problem, effect: Effect | None, theta, windows: np.ndarray, 
 def speed_residuals(problem: Problem, effect: Effect, theta, samples: np.ndarray) -> np.ndarray:
     """Transformed command minus measured track speed [m/s] on ``samples`` (boolean (N,)), flattened."""
     parts = [(e, p) for e, p in problem.base if e.kind == "input"] + [(effect, theta)]
-    v = problem.surrogate.inputs_of(problem.data, parts, instant=True)
+    v = problem.baseline.speeds(problem, parts)
     return (v[samples] - problem.data.meas[samples]).ravel()
 
 
@@ -132,7 +142,7 @@ def fit(problem: Problem, effect: Effect, train_folds: np.ndarray, *, covariance
     ``covariance`` also its block-robust covariance (P, P) (:func:`mjtrack.diagnose.stats.sandwich`,
     the blocks of :attr:`Problem.window_block`; NaN where the estimate sits on a bound). ``start``:
     one start (e.g. the full-data estimate for the fold fits) instead of the effect's start grid."""
-    robot = problem.surrogate.robot
+    robot = problem.baseline.robot
     lo, hi = (np.asarray(b, float) for b in effect.bounds(robot))
     if uses_speeds(problem, effect):
         samples = np.isin(problem.sample_fold, train_folds) & problem.speed_ok
@@ -181,7 +191,7 @@ def fit_inputs_jointly(problem: Problem, parts: list, train_folds: np.ndarray) -
     coupled effects (a scale and a limit, a lag and a delay) are not separable one at a time."""
     effects = [e for e, _ in parts]
     sizes = [len(e.params) for e in effects]
-    robot = problem.surrogate.robot
+    robot = problem.baseline.robot
     lo = np.concatenate([np.asarray(e.bounds(robot)[0], float) for e in effects])
     hi = np.concatenate([np.asarray(e.bounds(robot)[1], float) for e in effects])
     x0 = np.concatenate([np.asarray(t, float) for _, t in parts])
@@ -193,7 +203,7 @@ def fit_inputs_jointly(problem: Problem, parts: list, train_folds: np.ndarray) -
         return np.split(x, np.cumsum(sizes)[:-1])
 
     def resid(x):
-        v = problem.surrogate.inputs_of(problem.data, fixed + list(zip(effects, split(x))), instant=True)
+        v = problem.baseline.speeds(problem, fixed + list(zip(effects, split(x))))
         return (v[samples] - problem.data.meas[samples]).ravel()
 
     res = optimize.least_squares(resid, x0, bounds=(lo, hi), method="trf", x_scale="jac", diff_step=DIFF_STEP,

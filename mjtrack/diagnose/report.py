@@ -13,7 +13,6 @@ import math
 import numpy as np
 
 from mjtrack.diagnose import residuals as rs
-from mjtrack.diagnose.effects import Surrogate
 from mjtrack.diagnose.result import Diagnosis, describe, extended_robot, num
 from mjtrack.report.html import Report
 
@@ -85,14 +84,16 @@ def _symptom_figure(d: Diagnosis, turn, speed, best):
 def _icr_figure(d: Diagnosis, icr: dict):
     plt = _plt()
     fig, ax = plt.subplots(1, 3, figsize=(11, 3.4))
-    qn = Surrogate(d.robot, d.baseline).q_nominal
+    qn = d.baseline.nominal_icrs()
     for i, name in enumerate(("y_l", "y_r", "x_c")):
         ax[i].plot(icr["turn"], icr[name], ".", ms=3, alpha=0.5, label="measured (windows)")
-        ax[i].axhline(qn[i], color="C3", label="nominal model")
-        ax[i].set(xlabel="turn ratio", ylabel=f"{name} [m]", title=f"{name}")
         lo, hi = np.nanpercentile(icr[name], [2, 98]) if icr[name].size else (0, 1)
         pad = 0.2 * (hi - lo) + 0.02
-        ax[i].set_ylim(min(lo, qn[i]) - pad, max(hi, qn[i]) + pad)
+        if qn is not None:
+            ax[i].axhline(qn[i], color="C3", label="nominal model")
+            lo, hi = min(lo, qn[i]), max(hi, qn[i])
+        ax[i].set(xlabel="turn ratio", ylabel=f"{name} [m]", title=f"{name}")
+        ax[i].set_ylim(lo - pad, hi + pad)
         ax[i].grid(alpha=0.3)
     ax[0].legend(fontsize=7)
     fig.tight_layout()
@@ -178,10 +179,11 @@ def build_report(d: Diagnosis) -> Report:
         "segments": str(int(d.data.seg[-1]) + 1),
         "measured track speeds": "yes" if d.data.meas is not None else "no",
         "robot keys given": ", ".join(sorted(d.robot.provided)) if d.robot.provided is not None else "all (built in code)",
-        "baseline": d.baseline_text() + (f" (chosen: {d.baseline_choice})" if d.baseline_choice else ""),
+        "baseline": d.baseline.describe() + (f" (chosen: {d.choice['why']})" if d.choice.get("why") else ""),
         "test log": d.test_log or "none (held-out cross-validation on the log itself)",
         "metric": f"RMS position error after {d.horizon_s:g} s of open-loop prediction from every measured pose",
-        "windows": f"{d.starts.size} (cross-validation: {d.n_folds} contiguous folds)",
+        "windows": f"{d.starts.size} (cross-validation: {d.n_folds} contiguous folds)"
+                   + (f"; {d.diverged} more whose nominal simulation diverged (not scored)" if d.diverged else ""),
     })
 
     turn, speed = _window_commands(d)
@@ -204,20 +206,24 @@ def build_report(d: Diagnosis) -> Report:
         for name, m in (("left turns", icr["wz"] > 0), ("right turns", icr["wz"] < 0)):
             if m.sum() >= 3:
                 rows.append([name, int(m.sum())] + [float(np.median(icr[k][m])) for k in ("y_l", "y_r", "x_c")])
-        qn = Surrogate(d.robot, d.baseline).q_nominal
-        rows.append(["nominal model", "–", float(qn[0]), float(qn[1]), float(qn[2])])
+        qn = d.baseline.nominal_icrs()
+        if qn is not None:
+            rows.append(["nominal model", "–", float(qn[0]), float(qn[1]), float(qn[2])])
         sy.table(["ICRs (2.13), median", "windows", "y_l [m]", "y_r [m]", "x_c [m]"], rows,
                  caption=f"measured ICRs from {h_icr:g} s windows holding one command, |turn ratio| >= 0.3 "
                          f"({'measured' if d.data.meas is not None else 'commanded'} track speeds)")
-        sy.figure(_icr_figure(d, icr), "measured ICRs of the turning windows against the nominal model's")
+        sy.figure(_icr_figure(d, icr), "measured ICRs of the turning windows"
+                  + (" against the nominal model's" if qn is not None else ""))
 
     c = rep.section("Candidates" + (" (fitted on the log, scored on the test log)" if d.test_log else
                                       " (held-out cross-validation)"))
     c.paragraph("Each effect of the vocabulary extends the model; its parameters are fitted on all folds but one and "
                 "scored on the fold left out, for every fold (with a test log: fitted on the log, scored on the test "
                 "log). A finding must remove at least the gain floor, and the one-sided 95 % lower bound of its gain "
-                "(blocked bootstrap over blocks of windows) must be above zero. Intervals: 95 %, the larger of the "
-                "block-robust sandwich and the delete-one-fold jackknife.")
+                "(blocked bootstrap over blocks of windows) must be above zero. Intervals: 95 %, the larger of "
+                f"{d.baseline.interval_method()} and the delete-one-fold jackknife, with the {d.baseline.noun}'s own "
+                f"model-form error ({100 * d.baseline.model_form.rel:.1f} % of the effect's size) in quadrature. "
+                f"Every number is simulated by the {d.baseline.noun}.")
     c.table(CANDIDATE_HEADER, _candidate_rows(d.results))
     c.figure(_gain_figure(d), "held-out gain of every candidate")
     c.table(["effect", "decision"], [[r.effect.name, r.why] for r in d.results])
@@ -236,7 +242,9 @@ def build_report(d: Diagnosis) -> Report:
 
     nx = rep.section("MuJoCo confirmation")
     conf = d.confirmation
-    if best is None:
+    if d.baseline.name == "mujoco":
+        nx.paragraph("The baseline is the MuJoCo robot itself: every number above is MuJoCo's.")
+    elif best is None:
         nx.paragraph("Nothing to confirm: the nominal model is as good as any extension on this log.")
     elif conf is not None and conf.get("run"):
         nx.paragraph("The log's commands re-simulated with the MuJoCo robot, as described and extended by the cause "

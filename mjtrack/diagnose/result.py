@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mjtrack.diagnose import residuals as rs
+from mjtrack.diagnose.baseline import Baseline
 from mjtrack.diagnose.select import CandidateResult, Step, all_findings
 from mjtrack.io.robot import Robot
 
@@ -21,13 +22,21 @@ UNEXPLAINED = 0.5  # a warning when the final model keeps more than this share o
 
 @dataclass
 class Diagnosis:
-    """The result of :func:`mjtrack.diagnose.run.diagnose`; ``to_json()`` is diagnosis.json."""
+    """The result of :func:`mjtrack.diagnose.run.diagnose`, whatever the baseline; ``to_json()`` is
+    diagnosis.json.
+
+    ``baseline``: the model diagnosed (:class:`mjtrack.diagnose.baseline.Baseline`); ``choice``:
+    how it was chosen ({"requested", "chosen", "why"}; MuJoCo: also "screened_by_surrogate", the
+    candidates the surrogate diagnosis ranked best, or None);
+    ``starts``, ``ends``, ``base_errors``: the scored windows and the baseline's errors on them;
+    ``diverged``: windows whose baseline simulation diverged (neither fitted nor scored).
+    """
 
     log_path: str
     samples: int
     duration_s: float
     robot: Robot
-    baseline: str
+    baseline: Baseline
     horizon_s: float
     before: float
     steps: list[Step]
@@ -42,9 +51,14 @@ class Diagnosis:
     noise_floor: float = 0.0
     timings: dict[str, float] = field(default_factory=dict)
     confirmation: dict | None = None
-    transient: bool = False
     test_log: str | None = None
-    baseline_choice: str = ""
+    choice: dict = field(default_factory=dict)
+    diverged: int = 0
+
+    @property
+    def transient(self) -> bool:
+        """Whether the baseline models the friction-limited transient (the Coulomb surrogate)."""
+        return bool(getattr(self.baseline, "transient", False))
 
     @property
     def results(self) -> list[CandidateResult]:
@@ -88,10 +102,10 @@ class Diagnosis:
     def summary(self) -> str:
         """The lines a terminal shows: cause(s), estimates, gain, warnings."""
         where = "test-log" if self.test_log else "held-out"
+        lines = [f"baseline: {self.baseline.noun}" + (f" ({self.choice['why']})" if self.choice.get("why") else "")]
         if not self.chosen:
-            lines = [f"cause: none; nominal {self.horizon_s:g} s position RMSE {self.before:.3g} m"]
+            lines.append(f"cause: none; nominal {self.horizon_s:g} s position RMSE {self.before:.3g} m")
         else:
-            lines = []
             for i, r in enumerate(self.chosen):
                 est = ", ".join(f"{n} = {num(v)}" for n, v in zip(r.effect.params, r.estimate))
                 tied = [x.effect.name for x in self.findings if x is not r and r.effect.name in x.tied_with]
@@ -100,13 +114,6 @@ class Diagnosis:
                              + f"; {where} {self.horizon_s:g} s position RMSE {r.before:.3g} -> {r.after:.3g} m")
         lines += [f"warning: {w}" for w in self.warnings()]
         return "\n".join(lines)
-
-    def baseline_text(self) -> str:
-        if self.baseline == "coulomb":
-            return ("nominal robot, rigid-track Coulomb steady-state surrogate (quasi-static ICRs + first-order "
-                    "inertial response" + (" + friction-limited transients" if self.transient else "")
-                    + "), driven by the commanded track speeds")
-        return "nominal kinematic model (2.1), driven by the commanded track speeds"
 
     def evidence(self, r: CandidateResult) -> str:
         e = r.effect
@@ -156,8 +163,8 @@ class Diagnosis:
     def to_json(self) -> dict:
         out = {
             "log": self.log_path, "samples": self.samples, "duration_s": self.duration_s,
-            "baseline": {"model": self.baseline_text(), "metric": "pos_err_m", "horizon_s": self.horizon_s,
-                         "value": float(self.before)},
+            "baseline": {"model": self.baseline.describe(), "metric": "pos_err_m", "horizon_s": self.horizon_s,
+                         "value": float(self.before), "simulator": self.baseline.name},
             "cause": self.cause,
             "findings": [self._finding_json(r) for r in self.findings],
             "candidates": [self._candidate_json(r) for r in self.results],
@@ -177,20 +184,29 @@ class Diagnosis:
                              "tests every remaining effect on top of it, until none passes",
                 "finding": "one-sided 95 % lower bound of the held-out relative gain above zero (blocked bootstrap over "
                            "blocks of windows) and a gain of at least the floor",
-                "interval": "95 %, estimate +- t se, se the larger of the block-robust sandwich (a linearised blocked "
-                            "bootstrap over windows; the residuals carry the surrogate's own error) and the "
+                "interval": f"95 %, estimate +- t se, se the larger of {self.baseline.interval_method()} and the "
                             "delete-one-fold jackknife",
+                "model_form": {"relative": self.baseline.model_form.rel,
+                               "absolute": dict(self.baseline.model_form.absolute),
+                               "measured_by": self.baseline.model_form.measured_by},
             },
-            "validation": {"stage": "surrogate (held-out)" if not self.test_log else "surrogate (test log)",
-                           "mujoco": self.confirmation if self.confirmation is not None else
-                           {"stage": "mujoco", "run": False, "why": "not requested (mjtrack diagnose --confirm)"}},
+            "validation": {"stage": f"{self.baseline.noun} ({'test log' if self.test_log else 'held-out'})",
+                           "mujoco": self._confirmation_json()},
             "timings_s": {k: round(v, 3) for k, v in self.timings.items()},
+            "diverged_windows": self.diverged,
         }
         if self.test_log:
             out["test_log"] = self.test_log
-        if self.baseline_choice:
-            out["baseline"]["choice"] = self.baseline_choice
+        if self.choice.get("why"):
+            out["baseline"]["choice"] = self.choice["why"]
+        if self.choice.get("screened_by_surrogate") is not None:
+            out["baseline"]["screened_by_surrogate"] = list(self.choice["screened_by_surrogate"])
         return out
+
+    def _confirmation_json(self) -> dict:
+        if self.confirmation is not None:
+            return self.confirmation
+        return {"stage": "mujoco", "run": False, "why": "not requested (mjtrack diagnose --confirm)"}
 
 
 def clean(v) -> float | None:

@@ -22,15 +22,19 @@ import numpy as np
 from mjtrack.diagnose import residuals as rs
 from mjtrack.diagnose import stats as st
 from mjtrack.diagnose.confirm import confirm as confirm_mujoco
-from mjtrack.diagnose.effects import EFFECTS, Surrogate
+from mjtrack.diagnose.effects import EFFECTS
 from mjtrack.diagnose.fit import Problem
+from mjtrack.diagnose.mujoco_baseline import CHANGES as MJ_CHANGES
+from mjtrack.diagnose.mujoco_baseline import MujocoBaseline, choose_simulator
 from mjtrack.diagnose.report import build_report
 from mjtrack.diagnose.result import Diagnosis, extended_robot
 from mjtrack.diagnose.select import forward_select
+from mjtrack.diagnose.surrogate_baseline import SurrogateBaseline
 from mjtrack.errors import InputError
 from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import G, Robot
+from mjtrack.sim.rollout import summarised_mujoco_warnings
 
 log = logging.getLogger(__name__)
 
@@ -42,7 +46,7 @@ MUJOCO_SCREEN = 3  # surrogate-ranked effects the MuJoCo baseline fits (plus its
 ROBOT_KEYS = ("track_gauge", "track_length", "track_width", "mass", "cg_x", "cg_y", "cg_z", "mu", "mu_left", "mu_right")
 
 __all__ = ["Diagnosis", "diagnose", "extended_robot", "write_outputs", "choose_horizon", "make_baseline",
-           "speed_timing", "noise_floor", "BASELINES"]
+           "speed_timing", "noise_floor", "concat_logs", "BASELINES"]
 
 
 def choose_baseline(robot: Robot) -> str:
@@ -51,12 +55,12 @@ def choose_baseline(robot: Robot) -> str:
 
 
 def make_baseline(name: str, robot: Robot, data: rs.DriveData, starts: np.ndarray, ends: np.ndarray, *,
-                  transient: bool | str = "auto") -> tuple[Surrogate, str, list[str]]:
-    """The one place where the baseline is chosen: returns (model, why it was chosen, notes).
+                  transient: bool | str = "auto") -> tuple[SurrogateBaseline, str, list[str]]:
+    """The surrogate baseline of ``name``: returns (model, why it was chosen, notes).
 
     ``name``: "surrogate" (the rigid-track Coulomb surrogate when the description gives the contact
     length, else the kinematic model, said in a note), "kinematic" (the kinematic model 2.1), or
-    "auto" (today: as "surrogate"). ``transient``: see :func:`diagnose`."""
+    "auto" (the MuJoCo robot could not be built: as "surrogate"). ``transient``: see :func:`diagnose`."""
     if name not in BASELINES:
         raise InputError(f"diagnose: unknown baseline {name!r} (known: {', '.join(BASELINES)})")
     notes = []
@@ -67,16 +71,16 @@ def make_baseline(name: str, robot: Robot, data: rs.DriveData, starts: np.ndarra
         why = (f"{name}: the rigid-track Coulomb surrogate (the description gives the contact length)" if base == "coulomb"
                else f"{name}: the kinematic model (the description lacks the contact length the Coulomb surrogate needs)")
     causal = speed_timing(data)
-    surrogate = Surrogate(robot, base, transient=transient is True, causal_speeds=causal)
+    model = SurrogateBaseline(robot, base, transient=transient is True, causal_speeds=causal)
     if transient == "auto" and base == "coulomb":
-        with_tr = Surrogate(robot, base, transient=True, causal_speeds=causal)
-        rmse = [float(np.sqrt(np.mean(np.sum(rs.window_errors(s.twist(data, data.cmd), data.step_dt(), data.poses,
-                                                                  starts, ends)[:, :2] ** 2, 1))))
-                for s in (surrogate, with_tr)]
+        with_tr = SurrogateBaseline(robot, base, transient=True, causal_speeds=causal)
+        rmse = [float(np.sqrt(np.mean(np.sum(rs.window_errors(m.surrogate.twist(data, data.cmd), data.step_dt(),
+                                                                  data.poses, starts, ends)[:, :2] ** 2, 1))))
+                for m in (model, with_tr)]
         if rmse[1] < rmse[0]:
-            surrogate = with_tr
+            model = with_tr
         log.debug("diagnose: baseline without / with transients %.4g / %.4g m", *rmse)
-    if surrogate.transient:
+    if model.transient:
         notes.append("the baseline includes the friction-limited transient after speed changes (the rigid body "
                      "follows its tracks as fast as the track friction lets it, straight and in yaw)"
                      + (f": it predicts this log better than the steady-state baseline ({rmse[1]:.3g} vs {rmse[0]:.3g} m)"
@@ -86,7 +90,7 @@ def make_baseline(name: str, robot: Robot, data: rs.DriveData, starts: np.ndarra
                                                                  if robot.provided is not None and k not in robot.provided)
                      + f": the baseline is the kinematic model (2.1); ground effects use the Coulomb response of an "
                        f"assumed contact length L = {robot.track_length:g} m")
-    return surrogate, why, notes
+    return model, why, notes
 
 
 def choose_horizon(data: rs.DriveData, requested: float | str = "auto") -> tuple[float, str | None]:
@@ -124,12 +128,18 @@ def noise_floor(data: rs.DriveData) -> float:
     return 2.0 * sigma
 
 
-def _concat(a: rs.DriveData, b: rs.DriveData) -> rs.DriveData:
-    meas = None
-    if a.meas is not None or b.meas is not None:
-        meas = np.concatenate([x.meas if x.meas is not None else np.full((x.n, 2), np.nan) for x in (a, b)])
-    return rs.DriveData(t=np.concatenate([a.t, b.t]), seg=np.concatenate([a.seg, b.seg + a.seg[-1] + 1]),
-                        cmd=np.concatenate([a.cmd, b.cmd]), meas=meas, poses=np.concatenate([a.poses, b.poses]))
+def concat_logs(a: DriveLog, b: DriveLog) -> DriveLog:
+    """Log ``a`` followed by log ``b`` as one log whose segments are theirs (a column that only one
+    of them has is NaN, missing, in the other); its source is ``a``'s."""
+    cols = {}
+    for name in ("t", "v_left_cmd", "v_right_cmd", "x", "y", "yaw", "v_left", "v_right", "vx", "vy", "wz"):
+        if getattr(a, name) is None and getattr(b, name) is None:
+            continue
+        cols[name] = np.concatenate([np.full(x.n_samples, np.nan) if getattr(x, name) is None else getattr(x, name)
+                                     for x in (a, b)])
+    seg = [np.repeat(np.arange(len(x.segment_slices())), [s.stop - s.start for s in x.segment_slices()]) for x in (a, b)]
+    cols["window"] = np.concatenate([seg[0], seg[1] + seg[0][-1] + 1])
+    return DriveLog.from_columns(cols, source=a.source)
 
 
 def same_robot(a: Robot, b: Robot) -> list[str]:
@@ -165,25 +175,30 @@ def speed_timing(data: rs.DriveData) -> bool:
 
 def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n_folds: int = 5,
              min_gain: float = 0.03, baseline: str = "surrogate", effects: list[str] | None = None,
-             max_fit_windows: int = 3000, max_effects: int = 3, confirm: bool = False, quiet: bool = True,
+             max_fit_windows: int = 3000, max_effects: int | None = None, confirm: bool = False, quiet: bool = True,
              transient: bool | str = "auto", test_log: DriveLog | None = None,
-             test_robot: Robot | None = None) -> Diagnosis:
+             test_robot: Robot | None = None, screen: int | None = MUJOCO_SCREEN) -> Diagnosis:
     """Diagnose what the nominal model gets wrong on a measured log, name the cause(s) and the gain.
 
     Args:
         log_: the measured drive log (pose required; track speeds optional).
         robot: the nominal robot description.
-        horizon_s: prediction horizon [s] of the windows, or "auto" (:func:`choose_horizon`).
+        horizon_s: prediction horizon [s] of the windows, or "auto" (:func:`choose_horizon`; the
+            MuJoCo baseline: 2 s).
         n_folds: cross-validation folds (>= 3).
         min_gain: least held-out relative gain of a finding [-].
         baseline: "surrogate" (default) or "kinematic" (:func:`make_baseline`); "mujoco": the MuJoCo
-            robot itself is diagnosed (:mod:`.mujoco_baseline`, returns a ``MujocoDiagnosis``; the
-            surrogate pre-screens the candidates, see :func:`diagnose_simulation`); "auto": "mujoco"
-            whenever the description lets the MuJoCo robot be built, else "surrogate" with the reason
-            in the notes and ``baseline.choice``.
-        effects: names to test (default: all of :data:`EFFECTS`).
-        max_fit_windows: windows used per fit (a stride of them); scoring uses all windows.
-        max_effects: forward selection stops after this many effects.
+            robot itself is diagnosed (:class:`mjtrack.diagnose.mujoco_baseline.MujocoBaseline`; unless
+            ``effects`` names them, the surrogate diagnosis pre-screens the candidates: the
+            ``screen`` effects it ranks best that MuJoCo can simulate, plus the MuJoCo-only ground
+            extensions; ``screen`` None: every MuJoCo effect); "auto": "mujoco" whenever the
+            description lets the MuJoCo robot be built, else "surrogate" with the reason in the notes
+            and ``baseline.choice``.
+        effects: names to test (default: every effect of :data:`EFFECTS` the baseline can simulate).
+        max_fit_windows: windows used per surrogate fit (a stride of them); scoring uses all windows.
+        max_effects: forward selection stops after this many effects (default: the baseline's
+            ``max_effects``: 3 for the surrogates, 1 for MuJoCo, whose every step costs ~8 window
+            passes per remaining candidate).
         confirm: re-simulate with the MuJoCo robot, nominal and extended by the cause (:mod:`.confirm`).
         transient: model the friction-limited transient after speed changes (coulomb baseline;
             :func:`mjtrack.diagnose.surrogate.friction_limited`): True, False, or "auto" = whichever
@@ -192,8 +207,17 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n
             description when it has its own (refused when it is another robot).
     Raises:
         InputError: horizon longer than every segment, too little data for the folds, unknown
-            effect or baseline, a test log of another robot.
+            effect or baseline, a test log of another robot, MuJoCo requested for a robot it cannot build.
     """
+    src = log_.source or "drive log"
+    with summarised_mujoco_warnings(f"diagnose {src}", log):
+        return _diagnose(log_, robot, horizon_s=horizon_s, n_folds=n_folds, min_gain=min_gain, baseline=baseline,
+                         effects=effects, max_fit_windows=max_fit_windows, max_effects=max_effects, confirm=confirm,
+                         quiet=quiet, transient=transient, test_log=test_log, test_robot=test_robot, screen=screen)
+
+
+def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, baseline, effects, max_fit_windows,
+              max_effects, confirm, quiet, transient, test_log, test_robot, screen) -> Diagnosis:
     clock = {"start": time.perf_counter()}
     src = log_.source or "drive log"
     if n_folds < 3:
@@ -203,8 +227,7 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n
                          f"{log_.n_samples // 2}")
     if baseline not in BASELINES:
         raise InputError(f"diagnose: unknown baseline {baseline!r} (known: {', '.join(BASELINES)})")
-    names = list(EFFECTS) if effects is None else list(effects)
-    unknown = [n for n in names if n not in EFFECTS]
+    unknown = [n for n in effects or () if n not in EFFECTS]
     if unknown:
         raise InputError(f"diagnose: unknown effect(s) {', '.join(unknown)} (known: {', '.join(EFFECTS)})")
     if test_log is not None and test_robot is not None:
@@ -212,23 +235,74 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n
         if differ:
             raise InputError(f"{test_log.source or 'test log'}: another robot than {src}'s ({'; '.join(differ)}): "
                              "a test log must come from the same robot")
-    mujoco_note = None
+    requested, mujoco_note, screened = baseline, None, None
     if baseline in ("auto", "mujoco"):
-        from mjtrack.diagnose.mujoco_baseline import choose_simulator  # MuJoCo only when asked for
-
         use_mujoco, mujoco_note = choose_simulator(baseline, robot)
-        if use_mujoco:
-            return diagnose_simulation(log_, robot, horizon_s=horizon_s, n_folds=n_folds, min_gain=min_gain,
-                                       effects=effects, test_log=test_log, quiet=quiet, requested=baseline,
-                                       why=mujoco_note)
-        baseline = "surrogate"
-    data = rs.DriveData.from_log(log_)
-    train_data = data
-    horizon_s, horizon_note = choose_horizon(data, horizon_s)
+        baseline = "mujoco" if use_mujoco else "surrogate"
+    if baseline == "mujoco":
+        if effects is None and screen is not None:
+            sur = diagnose(log_, robot, horizon_s=horizon_s, n_folds=n_folds, min_gain=min_gain, baseline="surrogate",
+                           quiet=True, test_log=test_log)
+            ranked = [r.effect.name for r in sorted(sur.results, key=lambda r: r.after) if r.effect.name in MJ_CHANGES]
+            screened = ranked[:screen]
+            effects = screened + [n for n in ("ground_anisotropy", "road_wheels") if n not in screened]
+        clock["screen"] = time.perf_counter()
+        h = DEFAULT_HORIZON if horizon_s == "auto" else float(horizon_s)
+        model = MujocoBaseline(robot, log_ if test_log is None else concat_logs(log_, test_log), horizon_s=h)
+        problem = model.problem(n_folds, n_train=None if test_log is None else log_.n_samples)
+        choice = {"requested": requested, "chosen": "mujoco", "why": mujoco_note, "screened_by_surrogate": screened}
+        notes: list[str] = []
+    else:
+        problem, notes, why = _surrogate_problem(log_, robot, horizon_s=horizon_s, n_folds=n_folds, baseline=baseline,
+                                                 max_fit_windows=max_fit_windows, transient=transient,
+                                                 test_log=test_log)
+        model = problem.baseline
+        choice = {"requested": requested, "chosen": model.name, "why": why}
+        if mujoco_note is not None:
+            choice["why"] = f"{mujoco_note}; {why}"
+            notes.append(mujoco_note)
+    data = problem.data
+    n_folds_used = 2 if test_log is not None else n_folds
+    names = model.default_effects() if effects is None else list(effects)
+    skipped = _not_identifiable(names, problem)
+    if np.mean(np.abs(rs.turn_ratio(data.cmd)) > 0.05) < MIN_TURNING:
+        notes.append("no turning in the log: only the input effects (speed scale, lag, delay, limit) can be tested")
+    clock["prepare"] = time.perf_counter()
+    tested = [EFFECTS[n] for n in names if n not in skipped]
+    steps, chosen = forward_select(problem, tested, n_folds=n_folds_used, min_gain=min_gain,
+                                   max_effects=model.max_effects if max_effects is None else max_effects, quiet=quiet)
+    clock["selection"] = time.perf_counter()
+    scored = problem.scored
+    base_err = model.errors(problem, np.arange(problem.starts.size))[0][scored]
+    diag = Diagnosis(log_path=str(log_.source) if log_.source else "", samples=log_.n_samples,
+                     duration_s=float(sum(data.t[s.stop - 1] - data.t[s.start] for s in log_.segment_slices())),
+                     robot=robot, baseline=model, horizon_s=float(problem.horizon_s), before=st.pos_rmse(base_err),
+                     steps=steps, chosen=chosen, skipped=skipped, notes=notes, data=data, starts=problem.starts[scored],
+                     ends=problem.ends[scored], base_errors=base_err, n_folds=n_folds_used,
+                     noise_floor=noise_floor(data), diverged=int(np.sum(~problem.valid_mask)),
+                     test_log=(str(test_log.source) if test_log.source else "test log") if test_log is not None else None,
+                     choice=choice)
+    diag.timings = {"prepare": clock["prepare"] - clock.get("screen", clock["start"]),
+                    "selection": clock["selection"] - clock["prepare"]}
+    if "screen" in clock:
+        diag.timings["screen"] = clock["screen"] - clock["start"]
+    if confirm or model.name == "mujoco":  # (MuJoCo throughout: confirm() says so)
+        diag.confirmation = confirm_mujoco(diag)
+        diag.timings["mujoco"] = time.perf_counter() - clock["selection"]
+    log.info("diagnose %s: cause %s (%s)", src, diag.cause, diag.timings)
+    return diag
+
+
+def _surrogate_problem(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, baseline, max_fit_windows, transient,
+                       test_log) -> tuple[Problem, list[str], str]:
+    """The surrogate's problem (windows starting at every sample, folds of samples; with a test log:
+    the log fold 1, the test log fold 0), its notes and why its model was chosen."""
+    src = log_.source or "drive log"
+    train_n = log_.n_samples
+    data = rs.DriveData.from_log(log_ if test_log is None else concat_logs(log_, test_log))
+    horizon_s, horizon_note = choose_horizon(rs.DriveData.from_log(log_), horizon_s)
     if test_log is not None:
-        test_data = rs.DriveData.from_log(test_log)
-        data = _concat(data, test_data)
-        sample_fold = np.r_[np.ones(train_data.n, dtype=np.int64), np.zeros(test_data.n, dtype=np.int64)]
+        sample_fold = (np.arange(data.n) < train_n).astype(np.int64)
         n_folds_used = 2
     else:
         sample_fold = st.contiguous_folds(data.n, n_folds, data.seg)
@@ -252,101 +326,46 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n
     if data.meas is not None:
         speed_ok = np.all(np.isfinite(data.meas), axis=1)
         measured = np.where(np.isfinite(data.meas), data.meas, data.cmd)
-    surrogate, choice, notes = make_baseline(baseline, robot, data, starts, ends, transient=transient)
-    if mujoco_note is not None:
-        choice = f"{mujoco_note}; {choice}"
-        notes.append(mujoco_note)
-    base = surrogate.baseline
+    model, why, notes = make_baseline(baseline, robot, data, starts, ends, transient=transient)
     if horizon_note:
         notes.insert(0, horizon_note)
-    sample_block = st.sample_blocks(data.t, data.seg * n_folds_used + sample_fold, horizon_s)
-    problem = Problem(data=data, surrogate=surrogate, horizon_s=float(horizon_s), dt=data.step_dt(), starts=starts,
-                      ends=ends, fold=fold, sample_fold=sample_fold, fit_windows=np.arange(0, starts.size, stride),
-                      measured=measured, speed_ok=speed_ok, sample_block=sample_block,
-                      score_folds=(0,) if test_log is not None else None)
-    skipped = {}
-    turning = float(np.mean(np.abs(rs.turn_ratio(data.cmd)) > 0.05))
-    base_twist = surrogate.twist(data, data.cmd)
-    lat = float(np.max(np.abs(base_twist[:, 0] * base_twist[:, 2]))) / (robot.mu * G)
-    for n in names:
-        e = EFFECTS[n]
-        if not surrogate.testable(e):
-            skipped[n] = "acts only through the inertial response, which the kinematic baseline does not model"
-        elif e.kind == "ground" and turning < MIN_TURNING:
-            skipped[n] = (f"the log has no turning ({100 * turning:.1f} % of samples with |turn ratio| > 0.05): ground "
-                          "effects change the motion only in turns (straight driving sticks), not identifiable")
-        elif n == "friction_scale" and lat < MIN_LATERAL:
-            skipped[n] = (f"lateral acceleration at most {lat:.3f} mu g: the friction level does not change the "
-                          "motion at these speeds, not identifiable")
-        elif n == "yaw_rate_limit" and turning < MIN_TURNING:
-            skipped[n] = "the log has no turning: a yaw-rate limit cannot show"
-    if turning < MIN_TURNING:
-        notes.append("no turning in the log: only the input effects (speed scale, lag, delay, limit) can be tested")
     if data.meas is not None:
         notes.append("measured track speeds present: input effects are fitted to them and must reduce their held-out "
                      "error (an input effect they contradict is refuted), ground effects are fitted with the model "
                      "driven by them; a speed sample at t is taken as "
-                     + ("the speed just before the command of its row (causal)" if surrogate.causal_speeds else
+                     + ("the speed just before the command of its row (causal)" if model.surrogate.causal_speeds else
                         "already the response to the command of its row (it fits the speeds better)"))
-    clock["prepare"] = time.perf_counter()
-    tested = [EFFECTS[n] for n in names if n not in skipped]
-    steps, chosen = forward_select(problem, tested, n_folds=n_folds_used, min_gain=min_gain, max_effects=max_effects,
-                                   quiet=quiet)
-    clock["selection"] = time.perf_counter()
-    scored = np.isin(fold, problem.score_folds) if problem.score_folds is not None else np.ones(starts.size, bool)
-    base_err = rs.window_errors(base_twist, problem.dt, data.poses, starts, ends)[scored]
-    before = float(np.sqrt(np.mean(base_err[:, 0] ** 2 + base_err[:, 1] ** 2)))
-    diag = Diagnosis(log_path=str(log_.source) if log_.source else "", samples=train_data.n,
-                     duration_s=float(sum(data.t[s.stop - 1] - data.t[s.start] for s in log_.segment_slices())),
-                     robot=robot, baseline=base, horizon_s=float(horizon_s), before=before, steps=steps,
-                     chosen=chosen, skipped=skipped, notes=notes, data=data, starts=starts[scored],
-                     ends=ends[scored], base_errors=base_err, n_folds=n_folds_used,
-                     noise_floor=noise_floor(data), transient=surrogate.transient,
-                     test_log=(str(test_log.source) if test_log.source else "test log") if test_log is not None else None,
-                     baseline_choice=choice)
-    diag.timings = {"prepare": clock["prepare"] - clock["start"], "selection": clock["selection"] - clock["prepare"]}
-    if confirm:
-        diag.confirmation = confirm_mujoco(diag)
-        diag.timings["mujoco"] = time.perf_counter() - clock["selection"]
-    log.info("diagnose %s: cause %s (%s)", src, diag.cause, diag.timings)
-    return diag
+    sample_block = st.sample_blocks(data.t, data.seg * n_folds_used + sample_fold, horizon_s)
+    problem = Problem(data=data, baseline=model, horizon_s=float(horizon_s), dt=data.step_dt(), starts=starts,
+                      ends=ends, fold=fold, sample_fold=sample_fold, fit_windows=np.arange(0, starts.size, stride),
+                      measured=measured, speed_ok=speed_ok, sample_block=sample_block,
+                      score_folds=(0,) if test_log is not None else None)
+    return problem, notes, why
 
 
-def diagnose_simulation(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n_folds: int = 5,
-                        min_gain: float = 0.03, effects: list[str] | None = None, test_log: DriveLog | None = None,
-                        quiet: bool = True, requested: str = "mujoco", why: str = "", screen: int | None = MUJOCO_SCREEN):
-    """The MuJoCo robot diagnosed (:func:`mjtrack.diagnose.mujoco_baseline.diagnose_mujoco`).
-
-    Unless ``effects`` names them, the candidates are pre-screened by the surrogate diagnosis (the
-    ``screen`` effects it ranks best that MuJoCo can simulate) plus the MuJoCo-only ground
-    extensions (anisotropic ground, road wheels); ``screen`` None: every MuJoCo effect. Every
-    number reported is MuJoCo's."""
-    from mjtrack.diagnose.mujoco_baseline import EFFECTS as MJ_EFFECTS
-    from mjtrack.diagnose.mujoco_baseline import diagnose_mujoco
-
-    t0 = time.perf_counter()
-    screened = None
-    if effects is None and screen is not None:
-        sur = diagnose(log_, robot, horizon_s=horizon_s, n_folds=n_folds, min_gain=min_gain, baseline="surrogate",
-                       quiet=True, test_log=test_log)
-        ranked = [r.effect.name for r in sorted(sur.results, key=lambda r: r.after) if r.effect.name in MJ_EFFECTS]
-        screened = ranked[:screen]
-        effects = screened + [n for n in ("ground_anisotropy", "road_wheels") if n not in screened]
-    h = 2.0 if horizon_s == "auto" else float(horizon_s)
-    result = diagnose_mujoco(log_, robot, horizon_s=h, n_folds=n_folds, min_gain=min_gain, effects=effects,
-                             test=test_log, quiet=quiet,
-                             choice={"requested": requested, "chosen": "mujoco", "why": why,
-                                     "screened_by_surrogate": screened})
-    result.timings["screen"] = time.perf_counter() - t0 - result.timings.get("total", 0.0)
-    return result
+def _not_identifiable(names: list[str], problem: Problem) -> dict[str, str]:
+    """The effects among ``names`` that the baseline cannot test, or this log cannot identify, and why."""
+    model, data = problem.baseline, problem.data
+    skipped = {}
+    turning = float(np.mean(np.abs(rs.turn_ratio(data.cmd)) > 0.05))
+    lat = model.lateral_acceleration(problem) if "friction_scale" in names else None
+    for n in names:
+        e = EFFECTS[n]
+        if n in model.untestable or n not in model.vocabulary:
+            skipped[n] = model.untestable.get(n, f"the {model.noun} cannot simulate it")
+        elif e.kind == "ground" and turning < MIN_TURNING:
+            skipped[n] = (f"the log has no turning ({100 * turning:.1f} % of samples with |turn ratio| > 0.05): ground "
+                          "effects change the motion only in turns (straight driving sticks), not identifiable")
+        elif n == "friction_scale" and lat is not None and lat / (model.robot.mu * G) < MIN_LATERAL:
+            skipped[n] = (f"lateral acceleration at most {lat / (model.robot.mu * G):.3f} mu g: the friction level does "
+                          "not change the motion at these speeds, not identifiable")
+        elif n == "yaw_rate_limit" and turning < MIN_TURNING:
+            skipped[n] = "the log has no turning: a yaw-rate limit cannot show"
+    return skipped
 
 
 def write_outputs(diagnosis: Diagnosis, out_dir: str | os.PathLike) -> None:
-    """Write DIR/diagnosis.json and DIR/report.html (each atomically)."""
-    from mjtrack.diagnose.mujoco_baseline import MujocoDiagnosis, write_mujoco_outputs
-
-    if isinstance(diagnosis, MujocoDiagnosis):
-        return write_mujoco_outputs(diagnosis, out_dir)
+    """Write DIR/diagnosis.json and DIR/report.html (each atomically), whatever the baseline."""
     t0 = time.perf_counter()
     out = Path(out_dir)
     report = build_report(diagnosis)  # everything is built before anything is written

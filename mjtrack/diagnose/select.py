@@ -1,5 +1,9 @@
 """Cross-validated scoring of the candidates, forward selection, ties, and the "none" decision.
 
+The one decision rule of every baseline (:class:`mjtrack.diagnose.baseline.Baseline`): the
+baseline simulates the windows and fits an effect's parameters; everything below is the same
+whichever it is.
+
 Folds. The log is cut into K contiguous blocks (whole segments when there are at least 2K of
 them, else equal blocks of samples; windows never cross a block). For every candidate and fold
 k the parameters are fitted on the other K-1 folds and the candidate predicts the windows of
@@ -38,18 +42,26 @@ whatever the gains, when the physics says the log cannot separate them
 two tracks under Coulomb friction). Among tied findings the one with fewer parameters goes first
 (one-standard-error rule), then the larger gain.
 
-Intervals: 95 %, estimate +- t x se with se the larger of the block-robust sandwich
-(:func:`mjtrack.diagnose.stats.sandwich`, a linearised block bootstrap over windows whose
-residuals carry the surrogate's own error) and the delete-one-fold jackknife of the fold fits,
-with, in quadrature, the surrogate's own error on the effect's size (:data:`MODEL_REL`, measured
-on an independent physics: MuJoCo), which no resampling of one log can show: a systematic error
-is the same in every block, and the optimiser's resolution (its relative finite-difference step
-:data:`mjtrack.diagnose.fit.DIFF_STEP`: an optimum at a kink of the cost, e.g. a dead time
-fitted to sampled track speeds, is located no better; the resampling terms are near zero there).
-Two effects carry, besides, an absolute model-form term (:data:`MODEL_ABS`: how far two independent
-physics of one robot description lie apart, which does not shrink with the effect's size), and a
-finding of these must in addition have a 95 % interval that excludes the nominal value; a
-candidate failing only that is reported as within the surrogate's resolution and not named.
+Intervals: 95 %, estimate +- t x se with se the larger of the covariance the baseline's fit
+gives (the surrogate's least squares: the block-robust sandwich
+:func:`mjtrack.diagnose.stats.sandwich`, a linearised block bootstrap over windows whose
+residuals carry the surrogate's own error; MuJoCo's grid fit: a blocked bootstrap of its error
+curves) and the delete-one-fold jackknife of the fold fits, with, in quadrature, the baseline's
+own error on the effect's size (:class:`mjtrack.diagnose.baseline.ModelForm`, measured on logs
+whose truth is known), which no resampling of one log can show: a systematic error
+is the same in every block, and the fit's own resolution (:meth:`Baseline.resolution`: for the
+least-squares fit its relative finite-difference step :data:`mjtrack.diagnose.fit.DIFF_STEP`: an
+optimum at a kink of the cost, e.g. a dead time fitted to sampled track speeds, is located no
+better; the resampling terms are near zero there). The model-form term is the baseline's
+(:class:`mjtrack.diagnose.baseline.ModelForm`); an effect whose baseline carries, besides, an
+absolute model-form term (how far two independent physics of one robot description lie apart,
+which does not shrink with the effect's size) must in addition have a 95 % interval that
+excludes the nominal value; a candidate failing only that is reported as within the baseline's
+resolution and not named.
+
+Divergence. A simulator's window may diverge (NaN errors): a window whose baseline diverged is
+neither fitted nor scored (:attr:`mjtrack.diagnose.fit.Problem.valid`); a candidate that diverges
+on a held-out window is not a finding.
 """
 
 from __future__ import annotations
@@ -81,7 +93,9 @@ class CandidateResult:
     its test; passed: beats the baseline beyond noise; why: one line on the decision; tied_with:
     names of findings it cannot be told apart from; tie_notes: the physics of a tie, what would
     separate it; held_out_errors: (M, 3) window errors, each from the fit that did not see it;
-    on_top_of: names of the effects already in the baseline of this step.
+    on_top_of: names of the effects already in the baseline of this step; se: (P,) the
+    interval's standard error, se_stat its statistical part, se_model the model-form and
+    resolution part; nominal: (P,) the effect's no-effect values in the baseline.
     """
 
     effect: Effect
@@ -107,6 +121,9 @@ class CandidateResult:
     se: np.ndarray | None = None
     speed_errors: np.ndarray | None = None
     below_floor: str | None = None
+    se_stat: np.ndarray | None = None
+    se_model: np.ndarray | None = None
+    nominal: np.ndarray | None = None
 
     @property
     def relative(self) -> float:
@@ -135,58 +152,20 @@ def _jackknife_se(folds: np.ndarray, angular: np.ndarray) -> np.ndarray:
     return np.sqrt((k - 1) / k * np.sum(dev**2, 0))
 
 
-# The surrogate's own error on an effect's size, 1 sigma, as a share of the size |theta - nominal|:
-# the RMS relative error of the 16 estimates of last round's MuJoCo matrix (an independent physics,
-# experiments/results/diagnose_mujoco_effects.json; python experiments/diagnose_benchmark.py prints it).
-MODEL_REL = 0.065
-
-# The surrogate's ABSOLUTE model-form error, 1 sigma, in the effect's own units: how far apart two
-# independent physics of ONE robot description lie on a clean log, which does not shrink with the
-# effect's size. 1 sigma = the RMS of the measured gaps (as MODEL_REL is an RMS), taken over every
-# geometry and manoeuvre measured (the gaps are one-signed biases; the RMS carries mean and spread):
-# - icr_spread: the benchmark's generator (mjtrack/testing/diagnose_physics.py, at its settings) turns with a
-#   wider steady ICR spread than the Coulomb reference of the description the surrogate's q0 come
-#   from: +3.68 +3.68 +1.69 / +3.27 +3.28 +1.60 / +1.84 +1.85 +1.85 % (small / large / wheeled x 3
-#   commands; python experiments/generator_spread.py prints the RMS): 0.0267.
-# - friction_scale: the generator's yaw transients are faster than the Coulomb rollout's (the
-#   surrogate's rigid-body reference); friction_scale shortens every transient as 1/fs, so a dead
-#   time ratio r = generator / coulomb reads as fs = 1/r: r = 0.890 0.935 0.887 0.938 (small),
-#   0.900 0.954 0.918 0.951 (large), 0.806 0.856 0.907 0.930 (wheeled as a 0.97 m track) over the 4
-#   distinct steps (python experiments/diagnose_transient_steps.py --skip-logs), 1/r - 1 = 0.05-0.24:
-#   RMS 0.118 (python experiments/diagnose_transient_steps.py prints it).
-# - every other effect: 0 (speed effects are fitted to measured speeds, an exact transform; the
-#   others' truth is transformed exactly by both physics).
-MODEL_ABS = {"icr_spread": 0.0267, "friction_scale": 0.118}
-
-
-def _nominal(eff: Effect, problem: fitmod.Problem) -> np.ndarray:
-    """The effect's nominal parameter values (P,) for this robot and log."""
-    robot, data = problem.surrogate.robot, problem.data
-    nominal = np.array(eff.nominal(robot), float)
-    if eff.name == "speed_limit":
-        nominal = np.array([np.max(np.abs(data.cmd))])
-    elif eff.name == "yaw_rate_limit":
-        nominal = np.array([np.max(np.abs(data.cmd[:, 1] - data.cmd[:, 0])) / robot.track_gauge])
-    return nominal
-
-
 def model_se(eff: Effect, theta: np.ndarray, problem: fitmod.Problem) -> np.ndarray:
-    """Standard error (P,) of the surrogate's own approximation: :data:`MODEL_REL` of the effect's
-    size and :data:`MODEL_ABS` in quadrature; zero for an input effect fitted to measured track
-    speeds (an exact transform)."""
+    """Standard error (P,) of the baseline's own approximation (its
+    :class:`mjtrack.diagnose.baseline.ModelForm`); zero for an input effect fitted to measured
+    track speeds (an exact transform)."""
     if fitmod.uses_speeds(problem, eff):
         return np.zeros(len(eff.params))
-    size = np.abs(np.asarray(theta, float) - _nominal(eff, problem))
-    if eff.name == "slope":
-        size = np.array([abs(float(theta[0])), 1.0])  # the direction: MODEL_REL rad
-    rel = MODEL_REL * np.where(np.isfinite(size), size, 0.0)
-    return np.hypot(rel, MODEL_ABS.get(eff.name, 0.0))
+    bl = problem.baseline
+    return bl.model_form.se(eff.name, theta, bl.nominal(eff, problem))
 
 
 def interval(full: np.ndarray, fold_estimates: np.ndarray, cov: np.ndarray, angular: np.ndarray,
              n_blocks: int, se_model: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """95 % interval (P, 2) and its standard error (P,): the larger of the block-robust sandwich
-    and the delete-one-fold jackknife, and the surrogate's own error in quadrature (module docstring)."""
+    and the delete-one-fold jackknife, and the baseline's own error in quadrature (module docstring)."""
     se_j = _jackknife_se(fold_estimates, angular)
     se_s = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     se = np.where(np.isfinite(se_s), np.maximum(se_s, se_j), se_j)
@@ -199,6 +178,7 @@ def interval(full: np.ndarray, fold_estimates: np.ndarray, cov: np.ndarray, angu
 def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float, base_err: np.ndarray,
           speed_base: np.ndarray | None = None, bar=None) -> CandidateResult:
     """Fit ``eff`` on every K-1 folds, score it on the fold left out, test the gain (module docstring)."""
+    bl = problem.baseline
     folds = np.arange(n_folds)
     score_folds = folds if problem.score_folds is None else np.array(problem.score_folds)
     allw = np.arange(problem.starts.size)
@@ -210,15 +190,15 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
     if speeds:
         speed_res = np.full(problem.data.n, np.nan)
     train = folds if problem.score_folds is None else folds[~np.isin(folds, score_folds)]
-    full, cov = fitmod.fit(problem, eff, train, covariance=True)
+    full, cov = bl.fit(problem, eff, train, covariance=True)
     if bar is not None:
         bar.update()
     for k in score_folds:
         # each fold fit starts from the full-data estimate (the start grid is searched once)
-        p = full if problem.score_folds is not None else fitmod.fit(problem, eff, folds[folds != k], start=full)
+        p = full if problem.score_folds is not None else bl.fit(problem, eff, folds[folds != k], start=full)
         ests.append(p)
         w = allw[problem.fold == k]
-        after_err[w] = fitmod.errors(problem, eff, p, w)
+        after_err[w] = bl.errors(problem, w, eff, [p])[0]
         if speeds:
             sm = (problem.sample_fold == k) & problem.speed_ok
             r = fitmod.speed_residuals(problem, eff, p, sm).reshape(-1, 2)
@@ -227,30 +207,34 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
             bar.update()
     ests = np.array(ests)
     angular = np.array([n == "slope_direction" for n in eff.params])
-    fold_before = np.array([fitmod.pos_rmse(base_err[problem.fold == k]) for k in score_folds])
-    fold_after = np.array([fitmod.pos_rmse(after_err[problem.fold == k]) for k in score_folds])
+    valid = problem.valid_mask
+    fold_before = np.array([fitmod.pos_rmse(base_err[(problem.fold == k) & valid]) for k in score_folds])
+    fold_after = np.array([fitmod.pos_rmse(after_err[(problem.fold == k) & valid]) for k in score_folds])
     base_err, after_err = base_err[scored], after_err[scored]
     sq_b = np.sum(base_err[:, :2] ** 2, 1)
     sq_a = np.sum(after_err[:, :2] ** 2, 1)
     before, after = fitmod.pos_rmse(base_err), fitmod.pos_rmse(after_err)
     gt = st.gain_test(sq_b, sq_a, wblock)
-    # the optimiser resolves the estimate to its finite-difference step (an optimum at a kink of the
-    # cost, e.g. a dead time fitted to sampled speeds, is located no better): in quadrature
-    se_fit = np.hypot(model_se(eff, full, problem), fitmod.DIFF_STEP * np.maximum(np.abs(full), 1e-12))
-    se_fit[angular] = model_se(eff, full, problem)[angular]
+    # the fit resolves the estimate only so far (an optimum at a kink of the cost, e.g. a dead time
+    # fitted to sampled speeds, is located no better): in quadrature with the model-form term
+    se_fit = np.hypot(model_se(eff, full, problem), bl.resolution(eff, full))
     ivl, se = interval(full, ests, cov, angular, gt.blocks, se_fit)
+    se_stat = interval(full, ests, cov, angular, gt.blocks)[1]
+    nominal = bl.nominal(eff, problem)
     passed = gt.lower > 0.0 and gt.relative >= min_gain
     why = (f"held-out position RMSE {before:.3g} -> {after:.3g} m ({100 * gt.relative:.1f} %, one-sided 95 % bound "
            f"{100 * gt.lower:.1f} % by blocked bootstrap over {gt.blocks} blocks of windows; gain floor "
            f"{100 * min_gain:.0f} %)")
-    resolution = MODEL_ABS.get(eff.name, 0.0)
+    if not np.isfinite(after):
+        bad = int(np.sum(~np.isfinite(sq_a)))
+        why = f"the {bl.noun} diverged on {bad} of {sq_a.size} held-out windows"
+    resolution = bl.model_form.absolute.get(eff.name, 0.0)
     if passed and resolution > 0.0 and not fitmod.uses_speeds(problem, eff):
-        nominal = _nominal(eff, problem)
         if np.any((ivl[:, 0] <= nominal) & (nominal <= ivl[:, 1])):
             # the gain is real, but a second physics of the same description differs by as much
             passed = False
             why += (f"; its 95 % interval [{', '.join(f'{a:.4g}, {b:.4g}' for a, b in ivl)}] holds the nominal "
-                    f"{', '.join(f'{v:.4g}' for v in nominal)}: within the surrogate's resolution "
+                    f"{', '.join(f'{v:.4g}' for v in nominal)}: within the {bl.noun}'s resolution "
                     f"(+-{st.t_quantile(gt.blocks) * resolution:.3g}: the spread between independent physics "
                     f"of one description); not named")
     sb = sa = stt = sg = below_floor = None
@@ -285,7 +269,8 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
     return CandidateResult(eff, full, ests, ivl, fold_before, fold_after, before, after,
                            paired_t(fold_before, fold_after), sb, sa, stt, passed, why, after_err, gain=gt,
                            speed_gain=sg, on_top_of=tuple(e.name for e, _ in problem.base), se=se,
-                           speed_errors=speed_res, below_floor=below_floor)
+                           speed_errors=speed_res, below_floor=below_floor, se_stat=se_stat, se_model=se_fit,
+                           nominal=nominal)
 
 
 def min_active_blocks(n_blocks: int, level: float = 0.95) -> int:
@@ -332,7 +317,7 @@ def _contradiction(problem: fitmod.Problem, eff: Effect, theta) -> str | None:
         beyond = over & (np.abs(meas) > 1.05 * theta[0])
         unit = "m/s"
     else:
-        T = problem.surrogate.robot.track_gauge
+        T = problem.baseline.robot.track_gauge
         over = np.abs(cmd[:, 1] - cmd[:, 0]) / T > theta[0]
         beyond = over & (np.abs(meas[:, 1] - meas[:, 0]) / T > 1.05 * theta[0])
         unit = "rad/s"
@@ -457,7 +442,7 @@ def _speed_base(problem: fitmod.Problem) -> np.ndarray | None:
     """(N,) squared track-speed errors of the problem's baseline (NaN where not measured), or None."""
     if problem.speed_ok is None or not problem.speed_ok.any():
         return None
-    v = problem.surrogate.inputs_of(problem.data, list(problem.base), instant=True)
+    v = problem.baseline.speeds(problem, list(problem.base))
     return np.where(problem.speed_ok, np.sum((v - problem.data.meas) ** 2, 1), np.nan)
 
 
@@ -466,14 +451,14 @@ def evaluate(problem: fitmod.Problem, effects: list[Effect], *, n_folds: int, mi
     """Score every effect against the problem's baseline; returns (baseline summary, results
     ordered as findings first, ties marked)."""
     allw = np.arange(problem.starts.size)
-    base_err = fitmod.errors(problem, None, (), allw)
+    base_err = problem.baseline.errors(problem, allw)[0]
     speed_base = _speed_base(problem)
     results = []
     with Progress(total=len(effects) * (n_folds + 1), label="candidates", quiet=quiet) as bar:
         for eff in effects:
             results.append(score(problem, eff, n_folds=n_folds, min_gain=min_gain, base_err=base_err,
                                  speed_base=speed_base, bar=bar))
-    found = _rank([r for r in results if r.passed], problem.surrogate.robot, problem, base_err, min_gain)
+    found = _rank([r for r in results if r.passed], problem.baseline.robot, problem, base_err, min_gain)
     rest = sorted([r for r in results if not r.passed], key=lambda r: r.after)
     return {"before": fitmod.pos_rmse(base_err[problem.scored]), "errors": base_err}, found + rest
 
@@ -508,7 +493,7 @@ def forward_select(problem: fitmod.Problem, effects: list[Effect], *, n_folds: i
             for i, r in enumerate(chosen):
                 others = tuple((c.effect, c.estimate) for j, c in enumerate(chosen) if j != i)
                 p = dataclasses.replace(problem, base=others)
-                base_err = fitmod.errors(p, None, (), np.arange(p.starts.size))
+                base_err = p.baseline.errors(p, np.arange(p.starts.size))[0]
                 new = score(p, r.effect, n_folds=n_folds, min_gain=min_gain, base_err=base_err,
                             speed_base=_speed_base(p))
                 new.tied_with, new.tie_notes = r.tied_with, r.tie_notes

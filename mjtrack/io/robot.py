@@ -1,4 +1,5 @@
-"""Robot description (CONTRACTS.md §2): the geometry, mass and friction of a tracked robot.
+"""Robot description: the geometry, mass and friction of a skid-steer robot,
+on two tracks or on wheels (``traction``).
 
 A :class:`Robot` is what every simulating command takes, what ``simulate`` writes beside
 its log (``LOG.json``) and what ``diagnose`` reads. SI units; angles in radians.
@@ -42,14 +43,17 @@ _warned: set[tuple[str, tuple[str, ...]]] = set()  # (source, keys) already list
 G = 9.81  # [m/s^2] gravity used throughout the package
 MAX_DRIVE_TIME = 10.0  # [s] largest accepted drive_lag / drive_delay (beyond: a unit error)
 MAX_SPEED_SCALE = 10.0  # [-] largest accepted track_speed_scale
-NULLABLE = ("mu_left", "mu_right", "drive_force_limit")  # keys that may be JSON null
+NULLABLE = ("mu_left", "mu_right", "drive_force_limit", "wheelbase")  # keys that may be JSON null
+TRACTIONS = ("tracks", "wheels")
+MAX_WHEELS_PER_SIDE = 10
 
 # Physical plausibility of a description: (low, high) inclusive. Beyond these a value is a unit
 # mix-up or a corrupt file (a 1 mm to 100 m track, a 1 g to 10 000 t robot, friction up to 10),
 # and the simulator would fail on it with a cryptic message, so it is refused up front.
 PLAUSIBLE_ROBOT: dict[str, tuple[float, float, str]] = {
     "track_gauge": (1e-3, 100.0, "m"), "track_length": (1e-3, 100.0, "m"), "track_width": (1e-3, 100.0, "m"),
-    "sprocket_radius": (1e-3, 100.0, "m"), "mass": (1e-3, 1e7, "kg"), "cg_z": (-100.0, 100.0, "m"),
+    "sprocket_radius": (1e-3, 100.0, "m"), "wheelbase": (1e-3, 100.0, "m"), "mass": (1e-3, 1e7, "kg"),
+    "cg_z": (-100.0, 100.0, "m"),
     "mu": (0.0, 10.0, "-"), "mu_left": (0.0, 10.0, "-"), "mu_right": (0.0, 10.0, "-"),  # > 0 checked above;
     # a track with friction 1e-12 is how the diagnosis isolates the other track's effect
 }
@@ -152,16 +156,25 @@ class Ground:
 
 @dataclass(frozen=True)
 class Robot:
-    """Geometry, mass and friction of a two-track robot.
+    """Geometry, mass and friction of a skid-steer robot on two tracks or on wheels.
 
     Frame: x forward, y left, z up, origin at the geometric centre of the two track
-    contact patches on the ground plane.
+    contact patches (or of the wheels' contact points) on the ground plane.
+
+    A wheeled robot (``traction="wheels"``: Husky, Warthog, Jackal) has ``wheels_per_side``
+    wheels on each side, their axles evenly spaced over ``wheelbase`` (front to rear axle) and
+    centred on the origin; ``track_gauge`` is the distance between the left and right wheel
+    centre lines, ``sprocket_radius`` the wheel radius (also read from the key ``wheel_radius``),
+    ``track_width`` the tyre width; ``track_length`` is not used. The wheels of one side turn
+    together (one drive per side, like a track) and touch the ground at one point each, under
+    their axles. Every other field means the same for both tractions.
 
     Attributes:
-        track_gauge: T, distance between the track centre lines [m].
-        track_length: L, length of each track's ground contact [m].
-        track_width: width of each track's ground contact [m].
-        sprocket_radius: radius that converts sprocket speed to track speed [m].
+        track_gauge: T, distance between the track (wheel) centre lines [m].
+        track_length: L, length of each track's ground contact [m] (tracks only).
+        track_width: width of each track's ground contact (of each tyre) [m].
+        sprocket_radius: radius that converts sprocket (wheel) speed to track (wheel surface)
+            speed [m].
         mass: total mass [kg].
         cg_x, cg_y: centre of mass relative to the geometric centre (+x forward, +y left) [m].
         cg_z: height of the centre of mass above the ground [m].
@@ -178,7 +191,13 @@ class Robot:
         track_speed_scale: actual / commanded track speed, both tracks [-] (multiplies the
             commands before lag, delay and force limit).
         ground: the ground model and its parameters (:class:`Ground`; default rigid-track
-            isotropic Coulomb). A dict or a model name is accepted and converted.
+            isotropic Coulomb). A dict or a model name is accepted and converted. A wheeled
+            robot takes ``coulomb`` or ``anisotropic`` (``road_wheels`` spreads a track's load).
+        traction: ``"tracks"`` (default) or ``"wheels"``.
+        wheelbase: B, distance from the front to the rear axle [m] (wheels only; None on
+            tracks); a wheeled robot built without one gets the track gauge (a square footprint).
+        wheels_per_side: wheels on each side, axles evenly spaced over the wheelbase (wheels
+            only; 2 to 10) [-].
         extra: project-specific keys read from a description file, kept for round trips.
         provided: the contract keys that a description file actually gave (the others took
             their defaults), or None for a robot built in code. Diagnosis uses it to tell
@@ -201,6 +220,9 @@ class Robot:
     drive_force_limit: float | None = None
     track_speed_scale: float = 1.0
     ground: Ground = field(default_factory=Ground)
+    traction: str = "tracks"
+    wheelbase: float | None = None
+    wheels_per_side: int = 2
     extra: dict[str, Any] = field(default_factory=dict, compare=False)
     provided: frozenset[str] | None = field(default=None, compare=False, repr=False)
 
@@ -211,6 +233,7 @@ class Robot:
             value = getattr(self, name)
             if not _is_finite_number(value) or value <= 0:
                 raise InputError(f"robot: '{name}' must be a positive number, got {value!r}")
+        self._check_traction()
         for name in ("cg_x", "cg_y", "cg_z"):
             value = getattr(self, name)
             if not _is_finite_number(value):
@@ -238,10 +261,11 @@ class Robot:
         if self.track_width >= self.track_gauge:
             raise InputError(f"robot: 'track_width' = {self.track_width} is not less than 'track_gauge' = "
                              f"{self.track_gauge}: the two tracks would overlap")
-        if abs(self.cg_x) >= self.track_length / 2:
+        if abs(self.cg_x) >= self.contact_length / 2:
+            length = "track_length" if self.traction == "tracks" else "wheelbase"
             raise InputError(
-                f"robot: 'cg_x' = {self.cg_x} puts the centre of mass outside the tracks "
-                f"(|cg_x| must be < track_length/2 = {self.track_length / 2})"
+                f"robot: 'cg_x' = {self.cg_x} puts the centre of mass outside the {self.traction} "
+                f"(|cg_x| must be < {length}/2 = {self.contact_length / 2})"
             )
         if abs(self.cg_y) >= self.track_gauge / 2:
             raise InputError(
@@ -249,7 +273,49 @@ class Robot:
                 f"(|cg_y| must be < track_gauge/2 = {self.track_gauge / 2})"
             )
 
+    def _check_traction(self) -> None:
+        """The wheeled keys: a known traction, an integer wheel count, a plausible wheelbase."""
+        if self.traction not in TRACTIONS:
+            raise InputError(f"robot: 'traction' must be one of {list(TRACTIONS)}, got {self.traction!r}")
+        n = self.wheels_per_side
+        if not _is_finite_number(n) or n != int(n) or not 2 <= n <= MAX_WHEELS_PER_SIDE:
+            raise InputError(f"robot: 'wheels_per_side' must be a whole number from 2 to {MAX_WHEELS_PER_SIDE}, "
+                             f"got {n!r}")
+        object.__setattr__(self, "wheels_per_side", int(n))
+        if self.wheelbase is not None and (not _is_finite_number(self.wheelbase) or self.wheelbase <= 0):
+            raise InputError(f"robot: 'wheelbase' must be a positive number or null, got {self.wheelbase!r}")
+        if self.traction == "tracks":
+            if self.wheelbase is not None or self.wheels_per_side != 2:
+                raise InputError("robot: 'wheelbase' and 'wheels_per_side' describe a wheeled robot; "
+                                 "set 'traction' to \"wheels\"")
+        elif self.wheelbase is None:  # a square footprint: B = T
+            object.__setattr__(self, "wheelbase", float(self.track_gauge))
+        if self.traction == "wheels" and self.ground.model == "road_wheels":
+            raise InputError("robot: ground model 'road_wheels' spreads a track's load over its road wheels; "
+                             "a wheeled robot carries its load at its axles (use 'coulomb' or 'anisotropic')")
+
     # -- derived quantities -------------------------------------------------------------
+    @property
+    def wheel_radius(self) -> float:
+        """Wheel radius [m] of a wheeled robot: :attr:`sprocket_radius` (the same conversion from
+        wheel speed to surface speed)."""
+        return self.sprocket_radius
+
+    @property
+    def contact_length(self) -> float:
+        """Length of a side's ground contact along x [m]: ``track_length`` on tracks; on wheels
+        the distance from the front to the rear contact point, ``wheelbase``."""
+        return self.track_length if self.traction == "tracks" else float(self.wheelbase)
+
+    def axle_positions(self):
+        """x of the wheel axles of a wheeled robot, front last, (wheels_per_side,) [m]: evenly
+        spaced from -B/2 to B/2 (B = :attr:`contact_length`). InputError on tracks."""
+        import numpy as np
+
+        if self.traction != "wheels":
+            raise InputError("robot: a tracked robot has no axles (traction is 'tracks')")
+        return np.linspace(-self.contact_length / 2, self.contact_length / 2, self.wheels_per_side)
+
     @property
     def friction_left(self) -> float:
         """Friction coefficient of the left track [-]."""
@@ -272,14 +338,20 @@ class Robot:
 
     # -- serialisation --------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in ("extra", "provided")}
+        """The full description: every field; the wheeled keys (and ``wheel_radius``, the alias
+        of ``sprocket_radius``) only for a wheeled robot, so that tracked descriptions keep their keys."""
+        skip = ("extra", "provided") + (WHEEL_KEYS if self.traction == "tracks" else ())
+        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in skip}
         d["ground"] = self.ground.to_dict()
+        if self.traction == "wheels":
+            d["wheel_radius"] = self.wheel_radius
         return {**self.extra, **d}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], *, source: str = "robot description") -> "Robot":
         if not isinstance(data, dict):
             raise InputError(f"{source}: expected a JSON object, got {type(data).__name__}")
+        data = _wheel_radius_alias(data, source)
         names = {f.name for f in dataclasses.fields(cls)} - {"extra", "provided"}
         known = {k: v for k, v in data.items() if k in names}
         extra = {k: v for k, v in data.items() if k not in names}
@@ -289,6 +361,10 @@ class Robot:
         for k, v in known.items():
             if k == "ground":
                 known[k] = Ground.from_value(v, source=source)
+                continue
+            if k == "traction":
+                if v not in TRACTIONS:
+                    raise InputError(f"{source}: key 'traction' must be one of {list(TRACTIONS)}, got {v!r}")
                 continue
             if v is None and k in NULLABLE:
                 continue
@@ -317,6 +393,22 @@ def _check_extra_keys(extra: dict[str, Any], names: set[str], source: str) -> No
     if unknown and (source, tuple(unknown)) not in _warned:
         _warned.add((source, tuple(unknown)))
         logger.warning("%s: key(s) %s not used by mjtrack; kept in the description", source, ", ".join(unknown))
+
+
+WHEEL_KEYS = ("traction", "wheelbase", "wheels_per_side")  # fields written for wheeled robots only
+
+
+def _wheel_radius_alias(data: dict[str, Any], source: str) -> dict[str, Any]:
+    """``wheel_radius`` read as ``sprocket_radius`` (its alias); both given must agree."""
+    if "wheel_radius" not in data:
+        return data
+    out = {k: v for k, v in data.items() if k != "wheel_radius"}
+    radius = data["wheel_radius"]
+    if "sprocket_radius" in data and data["sprocket_radius"] != radius:
+        raise InputError(f"{source}: 'wheel_radius' = {radius!r} and its alias 'sprocket_radius' = "
+                         f"{data['sprocket_radius']!r} differ; give one of them")
+    out["sprocket_radius"] = radius
+    return out
 
 
 def _is_finite_number(value: Any) -> bool:

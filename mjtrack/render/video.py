@@ -121,6 +121,19 @@ def track_travel_from_speeds(times: np.ndarray, v_left: np.ndarray, v_right: np.
     return out
 
 
+def turn_wheels(model: mujoco.MjModel, qpos_traj: np.ndarray, track_travel: np.ndarray, radius: float) -> np.ndarray:
+    """Configurations (N, nq): ``qpos_traj`` with every rolling hinge ``roll_<side>_<i>`` at its side's
+    travel (N, 2) [m] over ``radius`` [m], so that the wheels of a wheeled robot (or the rollers)
+    turn as the log's track speeds say."""
+    out = np.array(qpos_traj, dtype=float)
+    for j in range(model.njnt):
+        name = model.joint(j).name
+        for k, side in enumerate(("left", "right")):
+            if name.startswith(f"roll_{side}_") and model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
+                out[:, model.jnt_qposadr[j]] = np.asarray(track_travel, dtype=float)[:, k] / radius
+    return out
+
+
 def clock_text(t: float, speed: float, label: str = "") -> str:
     """The text drawn on a frame: simulated time and playback speed, e.g. ``t = 12.3 s   x1.0``."""
     speed_txt = f"{speed:.2f}".rstrip("0").rstrip(".") if speed != int(speed) else f"{speed:.1f}"

@@ -289,6 +289,14 @@ class SimConfig:
             return 1
         return max(1, math.ceil(mu * G * self.timestep / (self.slip_budget * end_slip) * (1 - 1e-12)))
 
+    def halved(self) -> "SimConfig":
+        """The config whose step is half the one this config runs each case at (a convergence
+        check): halving the time step, the lag budget and the slip budget together halves the step
+        :meth:`step_for` picks."""
+        return self.replace(timestep=self.timestep / 2,
+                            lag_budget=None if self.lag_budget is None else self.lag_budget / 2,
+                            slip_budget=None if self.slip_budget is None else self.slip_budget / 2)
+
     def replace(self, **changes: Any) -> "SimConfig":
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)

@@ -39,6 +39,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_commands
+from mjtrack.sim.scene import ELEMENT_KINDS
 from mjtrack.sim.surfacevel import TrackDrive
 from mjtrack.sim.terrain import Terrain, timestep_for
 
@@ -75,7 +76,7 @@ class SensorMap:
             track_speed=(int(model.sensor("track_speed_left").adr[0]), int(model.sensor("track_speed_right").adr[0])),
             ground_left=int(model.sensor("ground_left").adr[0]), ground_right=int(model.sensor("ground_right").adr[0]),
             elements=sum(1 for g in range(model.ngeom)
-                         if model.geom(g).name.startswith(("roller_left_", "track_left_"))),
+                         if model.geom(g).name.startswith(tuple(f"{k}_left_" for k in ELEMENT_KINDS))),
         )
 
 
@@ -84,14 +85,34 @@ def collected_mujoco_warnings():
     """Collect MuJoCo's warnings in a list (yielded) instead of printing them to stderr; the
     previous handler is restored. A diverging rollout prints one "Nan, Inf or huge value in QACC"
     per window, thousands in a calibration whose line search tries extreme values; the callers
-    count diverged windows themselves and log one summary line."""
+    count diverged windows themselves and log one summary line. Nested collections all see a
+    warning (an outer one, e.g. :func:`summarised_mujoco_warnings` around a whole fit, counts what
+    each inner one collects)."""
     messages: list[str] = []
     previous = mujoco.get_mju_user_warning()
-    mujoco.set_mju_user_warning(messages.append)
+    forward = previous if getattr(previous, "_collects_mujoco_warnings", False) else None
+
+    def collect(message: str) -> None:
+        messages.append(message)
+        if forward is not None:
+            forward(message)
+
+    collect._collects_mujoco_warnings = True  # type: ignore[attr-defined]
+    mujoco.set_mju_user_warning(collect)
     try:
         yield messages
     finally:
         mujoco.set_mju_user_warning(previous)
+
+
+@contextlib.contextmanager
+def summarised_mujoco_warnings(what: str, log: logging.Logger | None = None):
+    """MuJoCo's warnings during ``what`` (e.g. "diagnose run.csv") collected and, when there were
+    any, logged as one warning line at the end: how many and the first. Yields the list of messages."""
+    with collected_mujoco_warnings() as messages:
+        yield messages
+    if messages:
+        (log or logger).warning("%s: MuJoCo warned %d times (first: %s)", what, len(messages), messages[0].strip())
 
 
 def initial_state(model: mujoco.MjModel) -> np.ndarray:

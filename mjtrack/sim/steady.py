@@ -86,10 +86,10 @@ def steady_batch(
 ) -> list[SteadyResult]:
     """Steady states of robots[i] under commands[i] = (V_L, V_R) [m/s]; (nbatch, 2) commands.
 
-    All robots must give models of the same size (same ``config``), e.g. differ in cg,
-    friction, mass or geometry. Each case runs at the step :meth:`SimConfig.step_for` gives
-    for its own robot and command (cases that share a step share a rollout), so that a case's
-    result does not depend on the batch it is in.
+    The robots may differ in cg, friction, mass or geometry, and in traction and wheel count.
+    Each case runs at the step :meth:`SimConfig.step_for` gives for its own robot and command
+    (cases that share a step and a model structure share a rollout), so that a case's result does
+    not depend on the batch it is in.
     """
     config = config or SimConfig()
     commands = np.atleast_2d(np.asarray(commands, dtype=float))
@@ -97,19 +97,20 @@ def steady_batch(
     config = config.replace(timestep=timestep_for(config.timestep, terrain))  # smaller on edges
     if config.track_model == "surfacevel":
         return [_surfacevel(r, c, config, settle_s, window_s, terrain) for r, c in zip(robots, commands)]
-    groups: dict[float, list[int]] = {}
+    groups: dict[tuple, list[int]] = {}
     capped = 0
     for i, (r, c) in enumerate(zip(robots, commands)):
-        groups.setdefault(case_timestep(config, r, c), []).append(i)
+        # one rollout per step and model size (a wheel count changes the model's size)
+        groups.setdefault((case_timestep(config, r, c), r.traction, r.wheels_per_side), []).append(i)
         _, turn_rate, mu = _turn(r, c)
-        capped += config.slip_divisions(r.track_length, turn_rate, mu) > MAX_STEP_DIVISIONS
+        capped += config.slip_divisions(r.contact_length, turn_rate, mu) > MAX_STEP_DIVISIONS
     if capped:
         logger.warning("%d of %d steady case(s) turn so gently that the slip budget asks for more than %d "
                        "divisions of the %g s step; they run at %g s and their ICRs may move when dt is halved "
                        "(SimConfig.slip_budget)", capped, len(robots), MAX_STEP_DIVISIONS, config.timestep,
                        config.timestep / MAX_STEP_DIVISIONS)
     out: list[SteadyResult] = [None] * len(robots)  # type: ignore[list-item]
-    for step, idx in groups.items():
+    for (step, _, _), idx in groups.items():
         for i, res in zip(idx, _steady_rollout([robots[i] for i in idx], commands[idx], config.replace(timestep=step),
                                                settle_s, window_s, nthread, terrain)):
             out[i] = res
@@ -151,11 +152,11 @@ def _turn(robot: Robot, command) -> tuple[np.ndarray, float, float]:
 
 
 def case_timestep(config: SimConfig, robot: Robot, command) -> float:
-    """The step [s] a steady case runs at (flat ground): ``config.step_for`` for the robot's track
-    length, the larger commanded track speed, the nominal turn rate (V_R - V_L) / T and the larger
+    """The step [s] a steady case runs at (flat ground): ``config.step_for`` for the robot's contact
+    length (track length, or wheelbase), the larger commanded track speed, the nominal turn rate (V_R - V_L) / T and the larger
     track friction, after the robot's speed scale."""
     v, turn_rate, mu = _turn(robot, command)
-    return config.step_for(robot.track_length, float(np.max(np.abs(v))), turn_rate, mu).timestep
+    return config.step_for(robot.contact_length, float(np.max(np.abs(v))), turn_rate, mu).timestep
 
 
 def _steady_rollout(robots: Sequence[Robot], commands: np.ndarray, config: SimConfig, settle_s: float,

@@ -12,8 +12,9 @@ varies fastest):
     the robot away from this nominal turn.
 * robot keys (any number of them): ``track_gauge``, ``track_length``, ``track_width``,
   ``sprocket_radius``, ``mass``, ``cg_x``, ``cg_y``, ``cg_z``, ``mu``, ``mu_left``, ``mu_right``,
-  and the drivetrain keys ``drive_lag``, ``drive_delay``, ``drive_force_limit``, ``track_speed_scale``;
-  each case's robot is the base robot with these fields replaced.
+  the drivetrain keys ``drive_lag``, ``drive_delay``, ``drive_force_limit``, ``track_speed_scale``
+  and, for a wheeled base robot, ``wheelbase`` and ``wheels_per_side``; each case's robot is the
+  base robot with these fields replaced.
 
 Every value is a list (a single value is a list of one: ``[0.5]``). Bad grids raise
 :class:`~mjtrack.errors.InputError` naming the file, the key and the bad entry, before any work;
@@ -37,7 +38,7 @@ COMMAND_FORMS: tuple[tuple[str, str], ...] = (("v_left_cmd", "v_right_cmd"), ("s
 ROBOT_KEYS: tuple[str, ...] = (
     "track_gauge", "track_length", "track_width", "sprocket_radius", "mass",
     "cg_x", "cg_y", "cg_z", "mu", "mu_left", "mu_right",
-    "drive_lag", "drive_delay", "drive_force_limit", "track_speed_scale",
+    "drive_lag", "drive_delay", "drive_force_limit", "track_speed_scale", "wheelbase", "wheels_per_side",
 )
 MAX_SPEED = 100.0  # [m/s] a track speed above this is not a ground robot (same bound as drive logs)
 MAX_RADIUS = 1e6  # [m] coordinate bound of drive logs; use null for straight driving

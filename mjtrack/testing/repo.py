@@ -21,6 +21,8 @@ BENCHMARKS = ROOT / "experiments"
 """The benchmark scripts: each one writes its result files under :data:`RESULTS`."""
 RESULTS = BENCHMARKS / "results"
 """The stored result files the documentation's results pages are generated from."""
+MEASUREMENTS = ROOT / "benchmarks"
+"""Measurement scripts of the wheeled robot; their result files are in ``MEASUREMENTS / "results"``."""
 DOCS = ROOT / "docs"
 """The documentation sources; ``docs/_ext`` holds the generators of its CLI and results pages."""
 

@@ -1,0 +1,113 @@
+"""The Baseline interface (mjtrack.diagnose.baseline): every baseline -- the Coulomb surrogate,
+the kinematic model, the MuJoCo robot -- speaks the one effect vocabulary, simulates many
+parameter values in one call with the same result as one at a time, reduces to its nominal
+prediction at an effect's no-effect value, and carries its model-form error by one definition.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from mjtrack.diagnose.baseline import Baseline, ModelForm
+from mjtrack.diagnose.effects import EFFECTS
+from mjtrack.diagnose.mujoco_baseline import MujocoBaseline, _spec
+from mjtrack.diagnose.run import _surrogate_problem
+from mjtrack.io.robot import Robot
+from mjtrack.testing.mujoco_effects import ROBOT, make_log
+
+NOMINAL = Robot.from_dict({**ROBOT.to_dict(), "drive_force_limit": 600.0 / ROBOT.sprocket_radius})
+
+
+@pytest.fixture(scope="module")
+def mujoco_problem():
+    lg, _ = make_log("cg_offset_x", seed=0, duration=8.0)
+    model = MujocoBaseline(NOMINAL, lg)
+    return model.problem(3, n_train=int(np.searchsorted(lg.t, 4.0)))
+
+
+@pytest.fixture(scope="module", params=["coulomb", "kinematic"])
+def surrogate_problem(request):
+    lg, _ = make_log("cg_offset_x", seed=0, duration=30.0)
+    problem, _, _ = _surrogate_problem(lg, NOMINAL, horizon_s=1.0, n_folds=3,
+                                       baseline="kinematic" if request.param == "kinematic" else "surrogate",
+                                       max_fit_windows=3000, transient=False, test_log=None)
+    assert problem.baseline.name == request.param
+    return problem
+
+
+def test_model_form_is_one_definition():
+    mf = ModelForm(0.1, {"icr_spread": 0.03})
+    # relative to the size |theta - nominal|, the absolute term in quadrature
+    assert mf.se("cg_offset_x", [0.05], [0.01]) == pytest.approx([0.004])
+    assert mf.se("icr_spread", [1.4], [1.0]) == pytest.approx([math.hypot(0.04, 0.03)])
+    # a slope's size is its angle; its direction carries rel x 1 rad
+    assert mf.se("slope", [0.2, 2.0], [0.0, 0.0]) == pytest.approx([0.02, 0.1])
+    assert mf.se("speed_limit", [0.5], [np.inf]) == pytest.approx([0.0])  # a limit from infinity: no size
+
+
+def test_baselines_speak_the_one_vocabulary(surrogate_problem, mujoco_problem):
+    for problem in (surrogate_problem, mujoco_problem):
+        bl = problem.baseline
+        assert isinstance(bl, Baseline)
+        assert set(bl.vocabulary) <= set(EFFECTS) and set(bl.untestable) <= set(EFFECTS)
+        assert not set(bl.vocabulary) & set(bl.untestable)
+        assert all(isinstance(v, str) and v for v in bl.vocabulary.values())
+        assert bl.default_effects() == [n for n in EFFECTS if n in bl.vocabulary or n in bl.untestable]
+        assert bl.model_form.rel > 0 and bl.model_form.measured_by
+        assert bl.describe()
+    assert "ground_anisotropy" in mujoco_problem.baseline.vocabulary
+    assert "ground_anisotropy" not in surrogate_problem.baseline.vocabulary
+    if surrogate_problem.baseline.name == "kinematic":
+        assert "friction_scale" in surrogate_problem.baseline.untestable
+
+
+def _check_batched_and_nominal(problem, names, windows):
+    bl = problem.baseline
+    nominal = bl.errors(problem, windows)
+    assert nominal.shape == (1, windows.size, 3)
+    for name in names:
+        eff = EFFECTS[name]
+        no = bl.nominal(eff, problem)
+        size = 0.2 * max(abs(float(no[0])), 0.2)
+        values = np.array([no, no + size])
+        both = bl.errors(problem, windows, eff, values)
+        assert both.shape == (2, windows.size, 3)
+        # at its no-effect value an effect is the nominal model
+        np.testing.assert_allclose(both[0], nominal[0], atol=1e-9, err_msg=name)
+        # many values in one call: the same as one at a time
+        np.testing.assert_allclose(both[1], bl.errors(problem, windows, eff, values[1:])[0], atol=1e-12, err_msg=name)
+        assert np.max(np.abs(both[1] - both[0])) > 1e-6, name  # and the effect does change the prediction
+
+
+def test_surrogate_errors_batched_and_nominal(surrogate_problem):
+    names = ["track_speed_scale", "command_delay", "cg_offset_x", "friction_asymmetry"]
+    _check_batched_and_nominal(surrogate_problem, names, np.arange(0, surrogate_problem.starts.size, 7))
+
+
+def test_mujoco_errors_batched_and_nominal(mujoco_problem):
+    windows = np.arange(mujoco_problem.starts.size)
+    _check_batched_and_nominal(mujoco_problem, ["cg_offset_x", "track_speed_scale"], windows)
+
+
+def test_mujoco_test_split_and_combined_effects(mujoco_problem):
+    p = mujoco_problem
+    assert p.score_folds == (0,) and set(np.unique(p.fold)) == {0, 1}
+    assert np.all(p.fold[p.fit_windows] == 1)  # fitted on the first log only
+    assert np.all(p.starts[p.fold == 0] >= np.searchsorted(p.data.t, 4.0))
+    # effects already found combine with the candidate: friction scale x asymmetry, clip, slope
+    r = p.baseline.robot
+    parts = [(EFFECTS["friction_scale"], [0.5]), (EFFECTS["friction_asymmetry"], [2.0]),
+             (EFFECTS["speed_limit"], [0.4]), (EFFECTS["slope"], [0.1, 0.0]), (EFFECTS["cg_offset_x"], [0.02])]
+    kind, variant, clip = _spec(r, parts)
+    assert kind == "base" and clip == 0.4
+    assert variant == pytest.approx({"mu_left": r.friction_right * 2.0 * 0.5, "mu_right": r.friction_right * 0.5,
+                                     "cg_x": 0.02, "slope_x": math.sin(0.1), "slope_y": 0.0})
+    with_base = dataclasses.replace(p, base=((EFFECTS["friction_scale"], np.array([0.5])),))
+    w = np.arange(2)
+    one = p.baseline.errors(with_base, w, EFFECTS["cg_offset_x"], [[0.03]])[0]
+    joint = p.baseline._run(w, [_spec(r, [(EFFECTS["friction_scale"], [0.5]), (EFFECTS["cg_offset_x"], [0.03])])])[0]
+    np.testing.assert_allclose(one, joint, atol=1e-12)
