@@ -82,6 +82,7 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
              quiet: bool = False, terrain=None, robot: Robot | None = None) -> DemoResult:
     """Run the demo into ``out_dir`` (created); see the module docstring. ``robot``: the robot
     simulated (default :data:`DEMO_ROBOT`)."""
+    from mjtrack.io.atomic import make_output_dir
     from mjtrack.io.logs import robot_path_for, write_log
     from mjtrack.io.robot import write_robot
     from mjtrack.progress import Progress
@@ -93,7 +94,7 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
 
     start = time.perf_counter()
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    make_output_dir(out)
     terrain = terrain or Terrain()
     given = robot is not None
     robot = with_terrain(robot if given else DEMO_ROBOT, terrain)

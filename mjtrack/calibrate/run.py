@@ -37,7 +37,7 @@ from mjtrack.calibrate.params import described_values, parse_names, specs_for, s
 from mjtrack.diagnose import residuals as rs
 from mjtrack.errors import InputError
 from mjtrack.geometry import _sinc_terms, relative_pose
-from mjtrack.io.atomic import atomic_write_text
+from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.config import SimConfig, sim_config
@@ -506,7 +506,7 @@ def write_outputs(cal: Calibration, out: str | os.PathLike) -> None:
 
     out = Path(out)
     report = build_report(cal)  # built first: a failure here leaves nothing half-written
-    out.mkdir(parents=True, exist_ok=True)
+    make_output_dir(out)
     atomic_write_text(out / "robot.json", json.dumps(_clean(cal.calibrated.to_dict()), indent=2, sort_keys=True) + "\n")
     atomic_write_text(out / "calibration.json", json.dumps(_clean(cal.to_json()), indent=2) + "\n")
     report.write(out / "report.html")

@@ -26,8 +26,8 @@ import argparse
 import json
 from pathlib import Path
 
-from mjtrack.commands._common import (TERRAIN_HELP, add_output_options, add_robot_options, check_out_dir, finite_float,
-                                      robot_from_args, terrain_from_args)
+from mjtrack.commands._common import (TERRAIN_HELP, add_output_options, add_robot_options, bounded, check_out_dir,
+                                      check_overwrite, robot_from_args, terrain_from_args)
 
 HELP = "slip-compensated trajectory tracking on the MuJoCo robot -> tracking.json + tracking.png"
 
@@ -48,12 +48,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "the description first)")
     parser.add_argument("--controller", choices=["tracker", "feedforward"], default="tracker",
                         help="tracker: feed-forward + state feedback (default); feedforward: open loop")
-    parser.add_argument("--speed", metavar="M/S", type=finite_float, default=None, help="reference speed [m/s] (default 0.5)")
-    parser.add_argument("--laps", metavar="N", type=finite_float, default=None, help="laps / turns of the path")
-    parser.add_argument("--control-rate", metavar="HZ", type=finite_float, default=25.0,
+    parser.add_argument("--speed", metavar="M/S", type=bounded("reference_speed"), default=None,
+                        help="reference speed [m/s] (default 0.5)")
+    parser.add_argument("--laps", metavar="N", type=bounded("laps"), default=None, help="laps / turns of the path")
+    parser.add_argument("--control-rate", metavar="HZ", type=bounded("control_rate"), default=25.0,
                         help="controller rate [Hz]; its period must be a multiple of the simulation time step "
                              "(default 25)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the measurement noise (default 0)")
+    parser.add_argument("--seed", type=bounded("seed"), default=0, help="seed of the measurement noise (default 0)")
     parser.add_argument("--no-noise", action="store_true", help="exact pose and twist measurements")
     parser.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder")
     parser.add_argument("--terrain", metavar="SPEC", default=None,
@@ -104,12 +105,10 @@ def write_figure(result, path: Path) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mjtrack.control.compensation import run_tracking
-    from mjtrack.errors import InputError
     from mjtrack.io.atomic import atomic_write_text
 
     out = check_out_dir(args.out)
-    if not args.control_rate > 0:
-        raise InputError(f"--control-rate must be positive, got {args.control_rate}")
+    check_overwrite([out / "tracking.json", out / "tracking.png"], args.force)
     robot = robot_from_args(args)
     terrain = terrain_from_args(args)
     noise = {} if not args.no_noise else {"pose_noise": (0.0, 0.0, 0.0), "twist_noise": (0.0, 0.0, 0.0)}
@@ -121,7 +120,6 @@ def run(args: argparse.Namespace) -> int:
     doc["settings"] = result.settings
     doc["robot"] = robot.to_dict()
     doc["final_icr_estimate"] = None if not len(hist) else dict(zip(("y_l", "y_r", "x_c"), map(float, hist[-1, 1:])))
-    out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "tracking.json", json.dumps(doc, indent=2) + "\n")
     write_figure(result, out / "tracking.png")
     if not args.quiet:

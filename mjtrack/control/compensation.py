@@ -565,7 +565,7 @@ def run_tracking(
         :class:`TrackingResult`.
     """
     from mjtrack.control.feedforward import FeedForward
-    from mjtrack.control.mujoco_plant import run_mujoco_loop
+    from mjtrack.control.mujoco_plant import check_loop, run_mujoco_loop
     from mjtrack.control.tracking import TrajectoryTracker
 
     if controller not in ("tracker", "feedforward"):
@@ -576,6 +576,8 @@ def run_tracking(
         raise InputError("reference_map 'coulomb' is the steady state on flat ground; it does not model "
                          f"terrain {terrain.spec!r}")
     reference = scenario_reference(scenario, speed=speed, laps=laps)
+    check_loop(reference.duration, control_dt, config=config, terrain=terrain,
+               what=f"the reference ({reference.path.length:.4g} m at {reference.profile.speed_value:g} m/s)")
     ref_map = CoulombICRMap(map_robot or robot) if reference_map == "coulomb" else None  # unused by "none"
     comp = SlipCompensation(robot.track_gauge, compensation, track_length=robot.contact_length, poles=poles,
                             reference_map=ref_map, **(compensation_options or {}))

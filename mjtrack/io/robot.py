@@ -3,13 +3,21 @@ on two tracks or on wheels (``traction``).
 
 A :class:`Robot` is what every simulating command takes, what ``simulate`` writes beside
 its log (``LOG.json``) and what ``diagnose`` reads. SI units; angles in radians.
-Keys beyond the contract's are kept in ``extra`` so that a description round-trips.
+
+Keys beyond the fields: a key close to a known one (``drive_lags``) is refused as a typo, with
+the known key it resembles; the wheeled robot keys (:data:`WHEELED_KEYS`) and the keys mjtrack writes
+itself (:data:`RECORD_KEYS`: ``terrain``, ``simulator``) are known; any other key (a data set's metadata such as ``robot``, ``note``,
+``sample_rate_hz``) is kept in ``extra``, so that a description round-trips, and listed once in a
+warning. A description file is at most :data:`MAX_FILE_BYTES` and nested at most
+:data:`MAX_DEPTH` deep (:func:`mjtrack.io.jsonfile.read_json`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import json
+import logging
 import math
 import os
 from dataclasses import dataclass, field
@@ -17,6 +25,20 @@ from pathlib import Path
 from typing import Any
 
 from mjtrack.errors import InputError
+from mjtrack.io.jsonfile import read_json
+
+logger = logging.getLogger(__name__)
+
+MAX_FILE_BYTES = 1 << 20  # [bytes] a description is a few hundred bytes; a megabyte is not a robot
+MAX_DEPTH = 6  # nesting: description > terrain > patches > patch (LOG.json of a run on terrain) is 4
+# keys of wheeled robots (traction "tracks" | "wheels", wheel_radius = sprocket_radius's alias,
+# wheelbase, wheels_per_side): known, never a typo of each other or of the track keys
+WHEELED_KEYS = ("traction", "wheel_radius", "wheelbase", "wheels_per_side")
+# written by mjtrack itself: "terrain" beside a simulated log (the terrain it ran on; text in some
+# data sets), "simulator" by calibrate (the simulator settings the parameters were fitted with)
+RECORD_KEYS = ("terrain", "simulator")
+TYPO_CUTOFF = 0.8  # difflib similarity at which an unknown key is taken for a misspelt known key
+_warned: set[tuple[str, tuple[str, ...]]] = set()  # (source, keys) already listed in a warning
 
 G = 9.81  # [m/s^2] gravity used throughout the package
 MAX_DRIVE_TIME = 10.0  # [s] largest accepted drive_lag / drive_delay (beyond: a unit error)
@@ -329,12 +351,13 @@ class Robot:
     def from_dict(cls, data: dict[str, Any], *, source: str = "robot description") -> "Robot":
         if not isinstance(data, dict):
             raise InputError(f"{source}: expected a JSON object, got {type(data).__name__}")
-        if "track_gauge" not in data:
-            raise InputError(f"{source}: missing required key 'track_gauge'")
         data = _wheel_radius_alias(data, source)
         names = {f.name for f in dataclasses.fields(cls)} - {"extra", "provided"}
         known = {k: v for k, v in data.items() if k in names}
         extra = {k: v for k, v in data.items() if k not in names}
+        _check_extra_keys(extra, names, source)
+        if "track_gauge" not in data:
+            raise InputError(f"{source}: missing required key 'track_gauge'")
         for k, v in known.items():
             if k == "ground":
                 known[k] = Ground.from_value(v, source=source)
@@ -352,6 +375,24 @@ class Robot:
             return cls(**known, extra=extra, provided=frozenset(known))
         except InputError as exc:
             raise InputError(f"{source}: {str(exc).removeprefix('robot: ')}") from None
+
+
+def _check_extra_keys(extra: dict[str, Any], names: set[str], source: str) -> None:
+    """Refuse a key that looks like a misspelt known key; warn once about the other unknown keys."""
+    targets = sorted(names | set(WHEELED_KEYS) | set(RECORD_KEYS))
+    lowered = {t.lower(): t for t in targets}
+    unknown = []
+    for key in extra:
+        if key in targets:
+            continue
+        close = difflib.get_close_matches(str(key).lower(), list(lowered), n=1, cutoff=TYPO_CUTOFF)
+        if close:
+            raise InputError(f"{source}: key {key!r}: did you mean {lowered[close[0]]!r}? (a misspelt key would "
+                             "be ignored)")
+        unknown.append(str(key))
+    if unknown and (source, tuple(unknown)) not in _warned:
+        _warned.add((source, tuple(unknown)))
+        logger.warning("%s: key(s) %s not used by mjtrack; kept in the description", source, ", ".join(unknown))
 
 
 WHEEL_KEYS = ("traction", "wheelbase", "wheels_per_side")  # fields written for wheeled robots only
@@ -377,14 +418,7 @@ def _is_finite_number(value: Any) -> bool:
 def read_robot(path: str | os.PathLike) -> Robot:
     """Read a robot description JSON file; bad input raises :class:`InputError`."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read robot description ({exc.strerror})") from None
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: not valid JSON (line {exc.lineno}: {exc.msg})") from None
+    data = read_json(path, what="robot description", max_bytes=MAX_FILE_BYTES, max_depth=MAX_DEPTH)
     return Robot.from_dict(data, source=str(path))
 
 
