@@ -37,6 +37,8 @@ WHEELED_KEYS = ("traction", "wheel_radius", "wheelbase", "wheels_per_side")
 # written by mjtrack itself: "terrain" beside a simulated log (the terrain it ran on; text in some
 # data sets), "simulator" by calibrate (the simulator settings the parameters were fitted with)
 RECORD_KEYS = ("terrain", "simulator")
+# "source_<key>": where a value of the description comes from (calibrate lists it under "assumed")
+SOURCE_PREFIX = "source_"
 TYPO_CUTOFF = 0.8  # difflib similarity at which an unknown key is taken for a misspelt known key
 _warned: set[tuple[str, tuple[str, ...]]] = set()  # (source, keys) already listed in a warning
 
@@ -383,7 +385,7 @@ def _check_extra_keys(extra: dict[str, Any], names: set[str], source: str) -> No
     lowered = {t.lower(): t for t in targets}
     unknown = []
     for key in extra:
-        if key in targets:
+        if key in targets or str(key).startswith(SOURCE_PREFIX):
             continue
         close = difflib.get_close_matches(str(key).lower(), list(lowered), n=1, cutoff=TYPO_CUTOFF)
         if close:
