@@ -58,7 +58,7 @@ def test_steady_on_wheels_agrees_with_the_point_contact_reference(robot_file):
 
 def test_sweep_over_wheelbase_and_wheel_count(robot_file, tmp_path):
     grid = tmp_path / "grid.json"
-    grid.write_text(json.dumps({"speed": 0.5, "turn_radius": [1.0], "wheelbase": [0.4, 0.6], "wheels_per_side": [2, 3]}))
+    grid.write_text(json.dumps({"speed": [0.5], "turn_radius": [1.0], "wheelbase": [0.4, 0.6], "wheels_per_side": [2, 3]}))
     res = run_cli(["sweep", "--grid", grid, "--robot", robot_file, "--out", tmp_path / "s", "--workers", "1", "-q"])
     assert res.rc == 0, res.err
     with open(tmp_path / "s" / "sweep.csv") as f:
@@ -108,7 +108,7 @@ def test_cli_demo_with_a_wheeled_robot_file(robot_file, tmp_path):
 @pytest.mark.parametrize("argv, match", [
     (["steady", "--v-left", "0.3", "--v-right", "0.8", "--track-model", "surfacevel"], "has wheels, not the 'surfacevel'"),
     (["steady", "--v-left", "0.3", "--v-right", "0.8", "--cg-x", "0.3"], "outside the wheels"),
-    (["steady", "--v-left", "0.3", "--v-right", "0.8", "--wheelbase", "-1"], "'wheelbase' must be a positive"),
+    (["steady", "--v-left", "0.3", "--v-right", "0.8", "--wheelbase", "-1"], "--wheelbase: -1 is out of range"),
 ])
 def test_bad_wheeled_input_exits_2_in_one_line(robot_file, argv, match):
     assert_usage_error(run_cli([*argv, "--robot", robot_file]), match)
