@@ -46,8 +46,8 @@ from mjtrack.sim.chassis import build_robot_model
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.rollout import STATE_SPEC, settled_state
 from mjtrack.sim.steady import case_timestep
+from mjtrack.testing.repo import RESULTS
 
-RESULTS = Path(__file__).resolve().parent / "results"
 HUSKY = Robot(traction="wheels", track_gauge=0.555, wheelbase=0.512, sprocket_radius=0.165, track_width=0.11,
               mass=50.0, cg_z=0.2)
 WARTHOG = Robot(traction="wheels", track_gauge=1.08, wheelbase=1.1, sprocket_radius=0.3, track_width=0.25,

@@ -46,8 +46,8 @@ from mjtrack.io.robot import Robot
 from mjtrack.models.coulomb import steady_state as coulomb_steady
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.steady import case_timestep, steady_batch
+from mjtrack.testing.repo import RESULTS
 
-RESULTS = Path(__file__).resolve().parent / "results"
 
 
 def wheeled(**keys) -> Robot:

@@ -38,8 +38,8 @@ from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.rollout import hold_commands, run_batch, settled_state, simulate
 from mjtrack.sim.scenarios import scenario_commands
+from mjtrack.testing.repo import RESULTS
 
-RESULTS = Path(__file__).resolve().parent / "results"
 HUSKY = Robot(traction="wheels", track_gauge=0.555, wheelbase=0.512, sprocket_radius=0.165, track_width=0.11,
               mass=50.0, cg_z=0.2)
 TARGET = 100.0  # [x real time] on one core

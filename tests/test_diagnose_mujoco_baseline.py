@@ -232,7 +232,7 @@ def test_model_rel_is_the_measured_one():
 
     from mjtrack.diagnose import mujoco_baseline as mb
 
-    path = Path(__file__).resolve().parents[1] / "experiments" / "results" / "diagnose_mujoco_baseline.json"
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "diagnose_mujoco_baseline.json"
     measured = json.loads(path.read_text())["summary"]["model_rel"]
     assert mb.MODEL_REL == round(measured, 3)
     assert mb.MODEL_FORM.rel == mb.MODEL_REL and "diagnose_mujoco_baseline.py" in mb.MODEL_FORM.measured_by

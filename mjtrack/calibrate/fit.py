@@ -51,7 +51,7 @@ FD_EPS = 0.05  # finite-difference step in units of a parameter's typical change
 # direction: cg_y against a short contact) was rejected 30 times in a row, each rejection a full
 # pass, while mu crept up to 1e-3. Damping of 1e-3 of the scaled Hessian's order (the cost is a
 # mean over windows in m^2, parameters in units of their typical change) and x10 per rejection
-# (the classic Levenberg-Marquardt factor) reach it in 2-3 passes. experiments/bench_calibrate.py.
+# (the classic Levenberg-Marquardt factor) reach it in 2-3 passes. benchmarks/bench_calibrate.py.
 LM_MU_MIN = 1e-3
 LM_MU_FACTOR = 10.0
 

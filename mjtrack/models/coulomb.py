@@ -30,7 +30,7 @@ contact), the plane then minimising the springs' energy less the weight's work (
 problem, solved by semismooth Newton). Before session 6 each track had its own Wong
 distribution with centroid c_x, N_i = m g (1/2 +- c_y/T) w_i(c_x): a twist term
 proportional to c_x c_y x_i y_i that a rigid chassis cannot carry (0.06 T/2 on the ICRs of a
-150 kg robot with cg 0.05 T aside and 0.1 L ahead at R 2 m, 2 m/s; experiments/fidelity.py --wide).
+150 kg robot with cg 0.05 T aside and 0.1 L ahead at R 2 m, 2 m/s; benchmarks/fidelity.py --wide).
 
 Wheels (``robot.traction == "wheels"``). A wheel touches the ground at one point under its
 axle, so each side is ``wheels_per_side`` points at the axle positions x_j evenly spaced over

@@ -20,7 +20,7 @@ Derivation of the shared part (``assets/README.md`` gives the measurements):
   unsprung elements (at height r, centred on the patch) and the chassis (above, offset the other
   way) made I_xz = m_el,total cg_x (cg_z - r) M / m_chassis, and a spinning robot felt a
   centrifugal pitch moment w^2 I_xz that no description of it has: 0.05 T/2 on the ICRs of a
-  2 m/s pivot of a 5 kg robot with cg 0.1 L forward (experiments/gentle_turns.py, section 9).
+  2 m/s pivot of a 5 kg robot with cg 0.1 L forward (benchmarks/gentle_turns.py, section 9).
   A visual hull (no contact, no mass).
 * **Tracks**: each track (``left`` at y = T/2, ``right`` at y = -T/2, its μ) is N contact
   elements at the midpoints x_i = -L/2 + (i + 1/2) L/N (:func:`element_positions`: the N point
@@ -258,7 +258,7 @@ def add_contact_sensor(spec: mujoco.MjSpec, side: str) -> None:
 
     One sensor per track, not one per element: a contact sensor scans the whole contact list, so
     N per-element sensors cost N x ncon per step (3 % of the default robot's step, 5 % at 40
-    rollers per track; experiments/bench_sim.py). The per-element mean in contact is the count / N.
+    rollers per track; benchmarks/bench_sim.py). The per-element mean in contact is the count / N.
     """
     spec.add_sensor(name=f"ground_{side}", type=mujoco.mjtSensor.mjSENS_CONTACT,
                     objtype=mujoco.mjtObj.mjOBJ_XBODY, objname=f"{side}_track", intprm=[1, 0, 1])

@@ -139,7 +139,7 @@ def auto_chunk_size(n_cases: int, slots: int) -> int:
     A task costs the scheduler round trip (about 10 ms here) beside its cases (about 60 ms each
     for the default 5 s steady state), so small chunks waste time on a small grid, while fewer
     than two tasks per thread leaves a thread idle when case costs differ. Measured on the
-    24-case benchmark, 2 workers (experiments/bench_sweep.py): 4 per chunk 0.82 s, 6 per chunk
+    24-case benchmark, 2 workers (benchmarks/bench_sweep.py): 4 per chunk 0.82 s, 6 per chunk
     0.81 s, 1 per chunk 0.89 s; results do not depend on it.
     """
     return max(1, min(MAX_CHUNK, math.ceil(n_cases / (2 * max(1, slots)))))
