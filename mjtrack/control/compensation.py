@@ -566,7 +566,7 @@ def run_tracking(
     terrain=None,
     reference_map: str = "nominal",
     map_robot=None,
-    line_sensors: dict | None = None,
+    controller_options: dict | None = None,
 ) -> TrackingResult:
     """Track a scenario's reference with the MuJoCo robot (:mod:`mjtrack.control.mujoco_plant`).
 
@@ -587,8 +587,8 @@ def run_tracking(
             (from the Coulomb reference's steady ICRs of the description, :class:`CoulombICRMap`).
         map_robot: the description the "coulomb" map is computed from (default ``robot``; another
             one to study a mis-described robot).
-        line_sensors: the line follower's sensor settings that differ from the default
-            (:func:`~mjtrack.control.path_controllers.path_controller`).
+        controller_options: set-up constants of a thesis controller that differ from the defaults
+            (``options`` of :func:`~mjtrack.control.path_controllers.path_controller`).
     Returns:
         :class:`TrackingResult`.
     """
@@ -611,7 +611,7 @@ def run_tracking(
                             reference_map=ref_map, **(compensation_options or {}))
     ref = CorrectedReference(reference, comp)
     setup = path_controller("pole_placement" if controller == "tracker" else controller,
-                            ref if controller in COMPENSABLE else reference, poles=poles, line_sensors=line_sensors)
+                            ref if controller in COMPENSABLE else reference, poles=poles, options=controller_options)
     ctrl = setup.controller
     ctrl.reset()
 
@@ -651,7 +651,7 @@ def run_kinematic_tracking(
     control_dt: float = 0.04,
     speed: float | None = None,
     laps: float | None = None,
-    line_sensors: dict | None = None,
+    controller_options: dict | None = None,
 ) -> TrackingResult:
     """A thesis controller on the robot's no-slip kinematic model, for comparison with
     :func:`run_tracking` on the MuJoCo robot: the same reference, start pose, controller set-up,
@@ -665,7 +665,7 @@ def run_kinematic_tracking(
     Args:
         robot: :class:`~mjtrack.io.robot.Robot`.
         controller: one of :data:`~mjtrack.control.path_controllers.THESIS_CONTROLLERS` or "tracker".
-        line_sensors: as :func:`run_tracking`.
+        controller_options: as :func:`run_tracking`.
     Returns:
         :class:`TrackingResult` whose ``loop`` is a :class:`~mjtrack.control.interface.ClosedLoopResult`.
     """
@@ -681,7 +681,7 @@ def run_kinematic_tracking(
         raise InputError(f"control_dt must be positive, got {control_dt!r}")
     reference = scenario_reference(scenario, speed=speed, laps=laps)
     setup = path_controller("pole_placement" if controller == "tracker" else controller, reference, poles=poles,
-                            line_sensors=line_sensors)
+                            options=controller_options)
     if robot.traction == "wheels":
         model = DiffDriveKinematic(track=robot.track_gauge, wheel_radius=robot.sprocket_radius)
     else:
