@@ -10,12 +10,12 @@ import functools
 
 import pytest
 
-from mjtrack.testing.repo import MEASUREMENTS, load_file
+from mjtrack.testing.repo import BENCHMARKS, load_file
 
 
 @functools.lru_cache(maxsize=2)
 def _grid(quick: bool):
-    bench = load_file(MEASUREMENTS / "wheeled_fidelity.py", "wheeled_fidelity")
+    bench = load_file(BENCHMARKS / "wheeled_fidelity.py", "wheeled_fidelity")
     return bench, bench.run(quick)
 
 

@@ -32,7 +32,7 @@ costs a pass over the windows:
   training windows, the same fit on each) around the estimate.
 
 A window whose nominal simulation diverged is neither fitted nor scored. Costs (measured by
-experiments/diagnose_mujoco_baseline.py): about 8 passes over the windows per effect.
+benchmarks/diagnose_mujoco_baseline.py): about 8 passes over the windows per effect.
 """
 
 from __future__ import annotations
@@ -57,14 +57,14 @@ from mjtrack.sim.windows import WARMUP_S, WindowSim, drive_params, make_windows,
 N_BOOT = 1000  # blocked bootstrap replicates of the estimates (the gain test draws its own, stats.N_BOOT)
 # The MuJoCo baseline's own error on an effect's size, 1 sigma, as a share of the size |theta - nominal|
 # (slope direction: MODEL_REL rad): the RMS relative error of its estimates of the ten hidden effects of
-# experiments/diagnose_mujoco_baseline.py (60 s MuJoCo logs, seed 1, windows warmed up as here), which
-# writes it to experiments/results/diagnose_mujoco_baseline.json ("summary": "model_rel"; a
+# benchmarks/diagnose_mujoco_baseline.py (60 s MuJoCo logs, seed 1, windows warmed up as here), which
+# writes it to benchmarks/results/diagnose_mujoco_baseline.json ("summary": "model_rel"; a
 # test holds the two equal to 3 decimals) and checks the intervals with the value measured on the
 # other nine effects. A systematic error of the window simulation (e.g. the start state from noisy
 # poses) is the same in every block: no resampling shows it.
 MODEL_REL = 0.070
-MODEL_FORM = ModelForm(MODEL_REL, {}, measured_by="python experiments/diagnose_mujoco_baseline.py "
-                                                  "(experiments/results/diagnose_mujoco_baseline.json)")
+MODEL_FORM = ModelForm(MODEL_REL, {}, measured_by="python benchmarks/diagnose_mujoco_baseline.py "
+                                                  "(benchmarks/results/diagnose_mujoco_baseline.json)")
 SLOPE_STEP = math.sin(0.08)  # central-difference step of the slope's in-plane gravity a = sin(s) u
 
 
