@@ -179,7 +179,7 @@ class Verdict:
         return out
 
 
-def _fmt(v: float, unit: str) -> str:
+def fmt_value(v: float, unit: str) -> str:
     return f"{v:.3g} {unit}" if unit not in ("–", "-") else f"{v:.3g}"
 
 
@@ -233,14 +233,14 @@ def select(lin: Linearised, described: dict[str, float]) -> Selection:
             j, c = max(partners, key=lambda p: abs(p[1]))
             other = lin.names[j]
             reason = (f"trades with {other} (correlation {c:+.2f}): the log determines their combination, not "
-                      f"each one; {name} stays at its described value {_fmt(described[name], spec.unit)} and "
+                      f"each one; {name} stays at its described value {fmt_value(described[name], spec.unit)} and "
                       f"{other} carries the combination")
             ties.setdefault(other, []).append(name)
             tied = [other]
         else:
-            reason = (f"not determined by this log: its 95 % interval would be +-{_fmt(u.half[k], spec.unit)}, "
-                      f"wider than the +-{_fmt(spec.resolution, spec.unit)} that matters; it stays at its "
-                      f"described value {_fmt(described[name], spec.unit)}")
+            reason = (f"not determined by this log: its 95 % interval would be +-{fmt_value(u.half[k], spec.unit)}, "
+                      f"wider than the +-{fmt_value(spec.resolution, spec.unit)} that matters; it stays at its "
+                      f"described value {fmt_value(described[name], spec.unit)}")
             tied = []
         verdicts[name] = Verdict(name, False, False, described[name], described[name], None, reason, tied)
         revert(i)
@@ -259,7 +259,7 @@ def select(lin: Linearised, described: dict[str, float]) -> Selection:
         v = theta[i] * spec.scale
         lo, hi = max(spec.lo, v - u.half[k]), min(spec.hi, v + u.half[k])
         verdicts[name] = Verdict(name, name not in ties, False, described[name], described[name], (lo, hi),
-                                 f"consistent with the description: {_fmt(described[name], spec.unit)} lies in the "
+                                 f"consistent with the description: {fmt_value(described[name], spec.unit)} lies in the "
                                  f"95 % interval [{lo:.4g}, {hi:.4g}] of the fit; kept", ties.get(name, []))
         revert(i)
         idx.remove(i)
@@ -289,16 +289,16 @@ def final_verdicts(lin: Linearised, described: dict[str, float], ties: dict[str,
         changed = has_changed(v, described[name])
         if tied:
             reason = (f"carries its combination with {', '.join(tied)}, which the log cannot tell apart: "
-                      f"{_fmt(v, spec.unit)} [{lo:.4g}, {hi:.4g}] holds only with "
+                      f"{fmt_value(v, spec.unit)} [{lo:.4g}, {hi:.4g}] holds only with "
                       f"{', '.join(tied)} at the described value")
         elif half > spec.resolution:
-            reason = (f"moved but barely determined: 95 % interval +-{_fmt(half, spec.unit)} is wider than the "
-                      f"+-{_fmt(spec.resolution, spec.unit)} that matters")
+            reason = (f"moved but barely determined: 95 % interval +-{fmt_value(half, spec.unit)} is wider than the "
+                      f"+-{fmt_value(spec.resolution, spec.unit)} that matters")
         else:
             unit = "" if spec.unit in ("–", "-") else f" {spec.unit}"
             reason = (f"determined: 95 % interval [{lo:.4g}, {hi:.4g}]{unit} (statistical "
-                      f"+-{_fmt(u.t * u.sd[k], spec.unit)} over {u.clusters} clusters of windows, model form "
-                      f"+-{_fmt(u.shift[k], spec.unit)}, optimiser +-{_fmt(rest[k], spec.unit)})")
+                      f"+-{fmt_value(u.t * u.sd[k], spec.unit)} over {u.clusters} clusters of windows, model form "
+                      f"+-{fmt_value(u.shift[k], spec.unit)}, optimiser +-{fmt_value(rest[k], spec.unit)})")
             if not changed:
                 reason += "; equal to the description"
         out[name] = Verdict(name, bool(not tied and half <= spec.resolution), changed, v, described[name], (lo, hi),

@@ -32,8 +32,8 @@ import numpy as np
 
 from mjtrack.calibrate.causes import Cause, find_causes, summary
 from mjtrack.calibrate.fit import FitResult, central_jacobian, fit, objective
-from mjtrack.calibrate.identify import Linearised, ModelForm, Verdict, final_verdicts, select
-from mjtrack.calibrate.params import described_values, parse_names, specs_for, start_values, window_params
+from mjtrack.calibrate.identify import Linearised, ModelForm, Verdict, final_verdicts, fmt_value, select
+from mjtrack.calibrate.params import described_values, parse_names, start_values, window_params
 from mjtrack.diagnose import residuals as rs
 from mjtrack.errors import InputError
 from mjtrack.geometry import _sinc_terms, relative_pose
@@ -411,6 +411,15 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
         # last fit stands as fitted)
         kept = [] if not sel.free else free
         verdicts: dict[str, Verdict] = {n: v for n, v in sel.verdicts.items() if n not in kept}
+        # the rounds ran out while the last decision freed a parameter the last fit had not moved:
+        # it is determined, but no fit reached its value, so it stays at its description and says so
+        for n in sel.free:
+            if n not in kept:
+                s = specs[n]
+                verdicts[n] = Verdict(n, True, False, described[n], described[n], None,
+                                      f"the log points at {fmt_value(sel.values[n], s.unit)} (linearised), but the "
+                                      f"fit did not settle within {MAX_ROUNDS} rounds; it stays at its described "
+                                      f"value {fmt_value(described[n], s.unit)}")
         ties = {k: v for k, v in sel.ties.items() if k in kept}
         values = {**described}
         model_form: dict[str, dict] = {}
