@@ -282,7 +282,92 @@ def _wheeled() -> Page:
         [fid, speed], [table, tol, rt, load])
 
 
-PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _filters, _speed, _wheeled)
+WHEELED_MODEL_NAMES = {"kinematic": "kinematic", "dynamic1": "dynamic 1", "dynamic2": "dynamic 2",
+                       "skidsteer4": "four-wheel skid steer"}
+AGREE = 0.02  # relative difference below which two ratios are said to agree "within two per cent"
+
+
+def _ordinal(i: int, n: int) -> str:
+    """Words for the i-th of n horizons, shortest first."""
+    return "shortest" if i == 0 else "longest" if i == n - 1 else ("second", "third", "fourth", "fifth")[i - 1]
+
+
+def _wheeled_models_intro(src: Source) -> str:
+    """The page's "where and why", every statement computed from the result file."""
+    cases = src.data["cases"]
+    names = WHEELED_MODEL_NAMES
+    hs = [f"{h:g}" for h in src.data["horizons_s"]]
+    longest = hs[-1]
+    best = {(c, h, what): v["wheeled_models"]["best"][h][what] for c, v in cases.items() for h in hs
+            for what in ("position", "heading", "position_worst")}
+    text = ["The wheeled-robot thesis's four models (kinematic differential drive, dynamic models 1 and 2, "
+            "four-wheel skid steer) predict the wheeled MuJoCo robot's motion from the logged state at each window "
+            "start (`mjtrack validate` on a wheeled robot). Where:"]
+    for what, words in (("position", "median position error"), ("heading", "median heading error"),
+                        ("position_worst", "worst position error")):
+        won = [best[k] for k in best if k[2] == what]
+        top = max(set(won), key=won.count)
+        others = [f"{c} at the {_ordinal(i, len(hs))} horizon ({names.get(best[(c, h, what)], 'none')})"
+                  for c in cases for i, h in enumerate(hs) if best[(c, h, what)] != top]
+        text.append(f"the {names.get(top, 'none')} has the lowest {words} in every case at every horizon"
+                    + (f" except {', '.join(others)};" if others else ";"))
+    order = "; ".join(f"{c}: " + ", ".join(names[k] for k in sorted(
+        v["wheeled_models"]["models"], key=lambda k: v["wheeled_models"]["models"][k]["horizons"][longest]["pos_median_m"]))
+        for c, v in cases.items())
+    text.append(f"at the longest horizon the order by median position error is {order}.")
+    agree = all(abs(v["yaw_rate_over_no_slip_median"] - v["skid_steer_slow_spin_ratio"])
+                <= AGREE * v["skid_steer_slow_spin_ratio"] for v in cases.values())
+    grows = all(all(a < b for a, b in zip(seq, seq[1:])) for v in cases.values()
+                for k in ("kinematic", "dynamic1", "dynamic2")
+                for seq in [[v["wheeled_models"]["models"][k]["horizons"][h]["yaw_median_deg"] for h in hs]])
+    text.append("Why: in a turn the logged robot's yaw rate is a fraction of the no-slip rate (V_R − V_L)/T "
+                "(last table), " + ("within two per cent of" if agree else "not everywhere close to") +
+                " the four-wheel model's slow-spin ratio b²/(a² + b²): both axles' wheels skid sideways. The "
+                "kinematic model and dynamic models 1 and 2 have two wheels on one axle and no wheelbase, so in a "
+                "steady turn they turn at, or close to, the no-slip rate" + (
+                    ", and their median heading error grows with the horizon in every case." if grows else "."))
+    return " ".join(text)
+
+
+def _wheeled_models() -> Page:
+    src = Source(RESULTS / "wheeled_models.json")
+    hs = [f"{h:g}" for h in src.data["horizons_s"]]
+    names = WHEELED_MODEL_NAMES
+    tables = []
+    for case, v in src.data["cases"].items():
+        t = Table(f"{case}: prediction error of each model against the horizon, median and worst over the windows "
+                  "(position at the robot's geometric centre).",
+                  ["model", "horizon [s]", "position median [m]", "position worst [m]", "heading median [deg]",
+                   "heading worst [deg]", "windows"])
+        for key in v["wheeled_models"]["models"]:
+            for i, h in enumerate(hs):
+                q = f"/cases/{case}/wheeled_models/models/{key}/horizons/{h}"
+                t.add(names[key], number(src, f"/horizons_s/{i}"), number(src, q + "/pos_median_m"),
+                      number(src, q + "/pos_max_m"), number(src, q + "/yaw_median_deg"), number(src, q + "/yaw_max_deg"),
+                      number(src, q + "/n"))
+        tables.append(t)
+    rank = Table("The best model per case and horizon (lowest median position, median heading, worst position "
+                 "error).", ["case", "horizon [s]", "median position", "median heading", "worst position"])
+    for case, v in src.data["cases"].items():
+        for i, h in enumerate(hs):
+            b = v["wheeled_models"]["best"][h]
+            rank.add(case, number(src, f"/horizons_s/{i}"), names.get(b["position"], "none"),
+                     names.get(b["heading"], "none"), names.get(b["position_worst"], "none"))
+    why = Table("Yaw rate of the log over the no-slip rate (V_R − V_L)/T (median over the turning samples) and "
+                "the four-wheel skid steer's slow-spin ratio b²/(a² + b²) (a wheelbase, b gauge).",
+                ["case", "log: yaw rate / no-slip rate", "b²/(a² + b²)", "duration [s]"])
+    for case in src.data["cases"]:
+        why.add(case, number(src, f"/cases/{case}/yaw_rate_over_no_slip_median"),
+                number(src, f"/cases/{case}/skid_steer_slow_spin_ratio"), number(src, f"/cases/{case}/duration_s"))
+    load = Table("Machine load during the run (one-minute load average; the errors do not depend on it).",
+                 ["when", "load"])
+    load.add("before", number(src, "/load_average_before/0"))
+    load.add("after", number(src, "/load_average_after/0"))
+    return Page("wheeled_models", "Wheeled-robot models against the wheeled robot", _wheeled_models_intro(src),
+                [src], [rank, *tables, why, load])
+
+
+PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _filters, _speed, _wheeled, _wheeled_models)
 
 
 # -- writing -----------------------------------------------------------------------------------
