@@ -282,7 +282,38 @@ def _wheeled() -> Page:
         [fid, speed], [table, tol, rt, load])
 
 
-PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _filters, _speed, _wheeled)
+def _controllers() -> Page:
+    src = Source(RESULTS / "controllers.json")
+    tables = []
+    for robot, data in src.data["figure_eight"].items():
+        t = Table(f"Figure-eight, {robot} MuJoCo robot against the same controller on the kinematic model: cross-track "
+                  "error [m] (RMS and maximum); MuJoCo with exact measurements, and with measurement noise (mean of "
+                  "the RMS and worst maximum over the noise seeds).",
+                  ["controller", "kinematic RMS", "kinematic max", "MuJoCo RMS", "MuJoCo max", "noisy mean RMS",
+                   "noisy worst max"])
+        for name in data["controllers"]:
+            q = f"/figure_eight/{robot}/controllers/{name}"
+            kin = ([number(src, q + "/kinematic/rms_cross_track_m"), number(src, q + "/kinematic/max_cross_track_m")]
+                   if "kinematic" in data["controllers"][name] else ["–", "–"])  # the tracker has no kinematic run
+            t.add(name, *kin,
+                  number(src, q + "/mujoco_exact/rms_cross_track_m"), number(src, q + "/mujoco_exact/max_cross_track_m"),
+                  number(src, q + "/mujoco_noisy_summary/mean_rms_cross_track_m"),
+                  number(src, q + "/mujoco_noisy_summary/worst_max_cross_track_m"))
+        tables.append(t)
+    load = Table("Machine load during the run (one-minute load average) and its wall time [s].", ["when", "value"])
+    load.add("load before", number(src, "/load_average_before/0"))
+    load.add("load after", number(src, "/load_average_after/0"))
+    load.add("wall time [s]", number(src, "/wall_s"))
+    return Page(
+        "controllers", "Path controllers",
+        "The thesis's five path controllers (feed-forward, pole placement, reactive, posture, line following) and the "
+        "slip-compensated tracker drive a figure-eight through `mjtrack track`, on the tracked and on the wheeled "
+        "MuJoCo robot, and on the kinematic model they were designed for. The feed-forward controller is open loop: "
+        "on the MuJoCo robot, whose tracks slip, nothing corrects its drift.",
+        [src], [*tables, load])
+
+
+PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _filters, _speed, _wheeled, _controllers)
 
 
 # -- writing -----------------------------------------------------------------------------------
