@@ -18,7 +18,7 @@ In ψ, which stays finite for either sign of y_l − y_r: ΔV = V_R − V_L = w/
 V̄ = (V_L + V_R)/2 = v − ψ_y ΔV (:func:`track_speeds_from_psi`). The lateral drift
 v_y = −x_c w cannot be commanded.
 
-**Why the first "icr" mode was worse than none** (issue 14: +65–91 % RMS on a circle with the
+**Why the first "icr" mode was worse than none** (measured: +65–91 % RMS on a circle with the
 centre of gravity 5 cm behind, μ 0.8, 1 m/s). The tracker's error dynamics with a plant that
 moves δ = (δv_x, δy, δω) off what the controller expects settle at e* = (A − B K − d k₂ᵀ)⁻¹ δ
 (:func:`static_error_map`, checked against the simulated closed loop). Uncompensated, the robot
@@ -78,7 +78,7 @@ REFERENCE_MAPS = ("nominal", "coulomb")
 # estimate far off (with the batch filters' (2, 2, 4) psi_y reached 12 within 0.1 s).
 PSI_STD0 = (0.2, 0.2, 0.5)
 # Inflation of the estimator's psi std in the trust weight: the pose-fed ICR EKF is
-# over-confident on MuJoCo data (parameter NEES 22.6 for 3 states, issue 14: sqrt(22.6/3) = 2.7).
+# over-confident on MuJoCo data (parameter NEES 22.6 for 3 states: sqrt(22.6/3) = 2.7).
 TRUST_SCALE = 1.0
 # Physically admissible ICRs of a tracked robot, in units of the gauge T and the track length L:
 # T <= y_l - y_r (slip only moves the track ICRs outwards; 0.8 T leaves room for estimator noise),
@@ -167,7 +167,7 @@ def trust_weight(psi, psi_cov, psi_nominal, v_d: float, w_d: float, *, poles=(-1
     for an over-confident filter). To first order a blend along the whole correction never
     raises the predicted error above none's ((1 − λ) |E₀| <= |E₀|); correcting one part alone
     can — with the centre of gravity behind, the yaw deficit (outwards) and the sideways drift
-    (inwards) partly cancel, and correcting the yaw alone leaves the drift (issue 14). Beyond
+    (inwards) partly cancel, and correcting the yaw alone leaves the drift. Beyond
     first order (δ is nonlinear in ψ) a partial blend can also be worse where E₀ ≈ 0 through
     such a cancellation; there λ ≈ 0.
     λ is evaluated at the reference's (v_d, w_d) with |w_d| floored at 0.1 rad/s (all δ scale

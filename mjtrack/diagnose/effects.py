@@ -1,4 +1,4 @@
-"""The effect vocabulary (CONTRACTS.md §4) and the surrogate model it extends.
+"""The effect vocabulary (docs/reference/formats/diagnosis-json.md) and the surrogate model it extends.
 
 :data:`EFFECTS` is the one vocabulary of every baseline (:class:`Effect`: name, parameters,
 kind, meaning, signature, and the surrogate fit's bounds and start grid); what an effect changes

@@ -6,7 +6,7 @@ measured state at its start (pose, twist, moving tracks; the states a log does n
 up over the log's last :data:`mjtrack.sim.windows.WARMUP_S` before it, as calibration does;
 :mod:`mjtrack.sim.windows`) under the logged commands, with the simulator settings the robot
 description records (a calibrated robot's, :func:`mjtrack.sim.config.sim_config`). The metric is the RMS position error at the window's end, in the measured
-start frame (CONTRACTS ``pos_err_m``). Every candidate effect is an *extension of the MuJoCo
+start frame (``pos_err_m`` of diagnosis.json). Every candidate effect is an *extension of the MuJoCo
 robot* (:data:`CHANGES`): a model field (friction, centre of mass, drive lag, lateral friction of
 the anisotropic ground), a rebuilt model (road-wheel load), the world (gravity of an inclined
 plane) or the drive's input (speed scale, dead time, saturation). Effects already found are

@@ -49,10 +49,10 @@ ground effects are visible only when the robot turns.
    (V, V) -> (V, 0): the outer track holds, f_L = ((kappa - 1) f_R - kappa m)/(1 + kappa) with
    f_R = -b, m = -r, and d ramps at only kappa (f_R - f_L + r) = -0.27 mu g: the yaw reaches
    the new rate with 0.070 s of dead time (MuJoCo 0.062 s, rigid Coulomb rollout 0.047 s; 0.053 s
-   before session 7 solved its load transfer to convergence), where the mode-wise mu g ramp of
+   with a load transfer of one fixed-point step instead of solved to convergence), where the mode-wise mu g ramp of
    :func:`accel_limited` gave 0.019 s. The steady resistance from the first instant is what makes
    the turn entries slow (+49 % here): at that instant the contacts slip along the tracks and the
-   lateral friction that makes the resistance is still zero (issue 12). Spin reversal +-0.5 m/s:
+   lateral friction that makes the resistance is still zero. Spin reversal +-0.5 m/s:
    0.042 s (Coulomb 0.044 s, MuJoCo 0.067 s); turn reversal (0.6, 0) -> (0, 0.6): 0.025 s
    (Coulomb 0.026 s, MuJoCo 0.043 s). ``python benchmarks/diagnose_mujoco_effects.py --steps``
    prints the step responses; tests/test_diagnose_units.py checks the closed forms and the

@@ -1,4 +1,4 @@
-"""Parameter estimation for the kinematic models (THESIS.md Part 2): slip, ICR and virtual-robot filters."""
+"""Parameter estimation for the kinematic models (the tracked-robot thesis, Mendaluk 2019; docs/theory/tracked.md): slip, ICR and virtual-robot filters."""
 
 from mjtrack.estimation.common import FilterInputs as FilterInputs
 from mjtrack.estimation.common import FilterResult as FilterResult

@@ -100,7 +100,7 @@ def chassis_mass_properties(robot: Robot, config: SimConfig, tracks: "TrackModel
         second += m * np.outer(d, d)
     ly, lz = T + w, CHASSIS_HEIGHT
     box = m_chassis / 12 * np.array([ly**2 + lz**2, L**2 + lz**2, L**2 + ly**2])
-    if not config.principal_axes:  # a plain box (before session 6)
+    if not config.principal_axes:  # a plain box (the earlier form, kept as an option)
         return m_chassis, ipos, np.array([*box, 0.0, 0.0, 0.0])
     # products of inertia are -sum m d_a d_b; the chassis takes +sum m d_a d_b to cancel them
     full = np.array([*box, second[0, 1], second[0, 2], second[1, 2]])

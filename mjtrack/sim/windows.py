@@ -1,7 +1,7 @@
 """The MuJoCo robot on many windows of a drive log, each started from the measured state.
 
 A long open-loop rollout of a real log drifts away after a few seconds, and any fit to it
-stalls (issue 10: a whole-log fit of a pushed box stopped at mu 0.665 for a truth of 0.55;
+stalls (measured: a whole-log fit of a pushed box stopped at mu 0.665 for a truth of 0.55;
 the same fit over windows started from the measured state found the truth). So the robot is
 simulated over short windows of the log (default 2 s), each one:
 
@@ -449,7 +449,7 @@ class WindowResult:
         return np.hypot(self.errors[..., 0], self.errors[..., 1])
 
     def rms(self) -> np.ndarray:
-        """(P,) RMS horizon position error over the windows [m] (CONTRACTS' pos_err_m)."""
+        """(P,) RMS horizon position error over the windows [m] (``pos_err_m`` of docs/reference/formats/calibration-json.md)."""
         return np.sqrt(np.mean(self.pos_err() ** 2, axis=1))
 
 

@@ -1,11 +1,11 @@
-"""GENERATOR of MuJoCo drive logs with one hidden effect, for the diagnosis tests (issue 6).
+"""GENERATOR of MuJoCo drive logs with one hidden effect, for the diagnosis tests.
 
 Kept apart from the diagnosis code on purpose: nothing here comes from ``mjtrack.diagnose``
 (the diagnosis must not know which effect was injected, nor reuse the generator's transforms).
 The ground truth is the MuJoCo tracked robot (``mjtrack.sim``): its contacts, suspension, drive
 servos and inertia, not the Coulomb surrogate the diagnosis fits.
 
-How each effect of CONTRACTS.md §4 is injected (``HIDDEN`` holds the injected values):
+How each effect of docs/reference/formats/diagnosis-json.md is injected (``HIDDEN`` holds the injected values):
 
 * ground effects change the simulated robot or its world:
   ``cg_offset_x`` / ``cg_offset_y``: Robot.cg_x / cg_y;  ``friction_scale`` k: Robot.mu = k mu;
@@ -57,7 +57,7 @@ DRIVES = SimConfig(torque_limit=600.0)
 
 @dataclass(frozen=True)
 class Hidden:
-    """One injected effect: its CONTRACTS.md §4 name, kind and parameter values."""
+    """One injected effect: its name in diagnosis.json, kind and parameter values."""
 
     name: str
     kind: str  # "ground" or "input"
