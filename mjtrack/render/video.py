@@ -229,21 +229,15 @@ def render_video(
             under it); ``False``: one fixed camera framing the whole path.
         distance: camera distance [m]; default: fit the body's subtree (following) or the path.
         azimuth, elevation: camera direction [deg], MuJoCo free-camera convention.
-        grid: spacing [m] of grid lines drawn on the z = 0 ground, ``None`` for none (terrain
-            geoms above z = 0, e.g. a step or an incline, hide it there; the terrain itself is
-            drawn: every geom group MuJoCo shows by default is left visible).
-        trail: draw the body's path so far, at the body origin's height (on the ground for a
-            robot whose origin is its contact centre).
+        grid: spacing [m] of grid lines on the z = 0 ground (terrain above it hides them); ``None``: none.
+        trail: draw the body's path so far, at the body origin's height.
         icr: optional world-frame points (N, 2|3) or (N, K, 2|3) [m] drawn as markers (NaN: none).
-        track_travel: (N, 2) belt travel [m] of the left and right tracks (∫ track speed dt,
-            :func:`track_travel_from_speeds`): the grousers of the belts move by it.
-        belts: draw a belt round each side's rollers (``True``: :func:`decor.belt_geometry` with
-            its defaults; or the (left, right) :class:`decor.BeltGeometry`) and hide the rollers;
-            the belts stand still without ``track_travel``.
+        track_travel: (N, 2) belt travel [m] of the left and right tracks; the grousers move by it.
+        belts: draw a belt round each side's rollers instead of them (``True``: default geometry,
+            or the (left, right) :class:`decor.BeltGeometry`).
         clock: write "t = … s   x… playback" (and the segment) in the top-left corner.
-        segment_starts: sample indices where a new segment begins (a log of several
-            windows): the segments are shown one after the other, each with its own trail;
-            times increase within a segment only.
+        segment_starts: sample indices where a new segment begins: the segments are shown one
+            after the other, each with its own trail.
         shadows: render shadows (about 3-5x slower with Mesa's software rasteriser).
         progress: show a progress line on a terminal (or update the given :class:`Progress`).
 

@@ -20,16 +20,7 @@ simulated over short windows of the log (default 2 s), each one:
   a segment shorter than the horizon but at least ``min_fraction`` of it still gives one window
   that ends at its last sample (the Marmotte log is 432 segments of 1.90-2.06 s).
 
-Parameters per world: :func:`simulate_windows` takes a list of parameter sets and runs every
-window under each of them in one batch of ``mujoco.rollout`` (threads); the parameters that
-are fields of the compiled model (friction per track, centre of mass, drive lag and force
-limit) are set on a copy of one compiled model -- no rebuild -- and each variant is settled
-at rest once for its initial height and pitch. Geometry (track length, a wheeled robot's
-wheelbase, gauge, mass) changes the model's structure and needs a new :class:`WindowSim` (one
-build per distinct geometry).
-
-Errors are those of :mod:`mjtrack.diagnose.residuals`: the predicted pose at the window's last
-sample against the measured one, in the frame of the measured start pose (along, across, yaw).
+Derivation and measurements: docs/theory/simulator.md, "Windows of a log".
 """
 
 from __future__ import annotations

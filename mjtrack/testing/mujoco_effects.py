@@ -25,10 +25,7 @@ How each effect of docs/reference/formats/diagnosis-json.md is injected (``HIDDE
   ``command_delay`` d: V shifted by round(d/dt) steps, zero before (at rest);
   ``speed_limit`` v: clip(V, -v, v).
 
-Commands: seeded random steps held 1.5-3 s, |V| <= 0.8 m/s: straight runs, turns of varied
-curvature both ways and spins, forward and backward (:func:`commands`). Logged at 20 Hz with
-white pose noise (1 cm in x, y; 0.3 deg in yaw) and, in the ``speeds=True`` variant, the
-simulated track speeds with 0.01 m/s noise. The body-twist columns (vx, vy, wz) are never logged.
+Derivation and measurements: docs/theory/diagnosis.md, "Test logs with a hidden effect".
 """
 
 from __future__ import annotations
