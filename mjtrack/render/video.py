@@ -211,6 +211,7 @@ def render_video(
     grid: float | None = 0.5,
     trail: bool = True,
     icr: np.ndarray | None = None,
+    icr_labels: Sequence[str] | None = None,
     track_travel: np.ndarray | None = None,
     belts: bool | Sequence[decor.BeltGeometry] = True,
     clock: bool = True,
@@ -232,6 +233,7 @@ def render_video(
         grid: spacing [m] of grid lines on the z = 0 ground (terrain above it hides them); ``None``: none.
         trail: draw the body's path so far, at the body origin's height.
         icr: optional world-frame points (N, 2|3) or (N, K, 2|3) [m] drawn as markers (NaN: none).
+        icr_labels: names of the K points, shown in a legend in the top-right corner (e.g. ``ICR_LABELS``).
         track_travel: (N, 2) belt travel [m] of the left and right tracks; the grousers move by it.
         belts: draw a belt round each side's rollers instead of them (``True``: default geometry,
             or the (left, right) :class:`decor.BeltGeometry`).
@@ -286,6 +288,7 @@ def render_video(
     size = max(decor.subtree_radius(model, data, body_id), 0.05)
     trail_stride = max(1, int(np.ceil(max(len(seg[0]) for seg in segments) / MAX_TRAIL_POINTS)))
 
+    legend = None if icr is None or not icr_labels else decor.legend_image(icr_labels, height_px=height)
     bar = progress if isinstance(progress, Progress) else Progress(n_frames, label="render", quiet=not progress)
     render_s = 0.0
     with OffscreenRenderer(model, width=width, height=height) as renderer, atomic_path(out_path) as tmp:
@@ -326,6 +329,8 @@ def render_video(
                         decor.draw_belt(renderer, belt, data.xpos[body_id], data.xmat[body_id],
                                         0.0 if travel is None else float(travel[k, i]))
                     frame = renderer.render(clock_text(float(t_frames[k]), speed, label) if clock else None)
+                    if legend is not None:
+                        frame = decor.blend_top_right(frame, legend)
                     render_s += time.perf_counter() - tic
                     writer.append_data(frame)
                     bar.update()
