@@ -1,7 +1,8 @@
 """The MuJoCo robot calibrated on three real robots' logs: Marmotte (tracked), Husky and Warthog
 (wheeled skid-steer), from the DRIVE data in ../shared/data/ (BSD-3; see each folder's README).
 
-    python benchmarks/real_robots.py [--robots marmotte,husky,warthog] [--rollers 6]
+    python benchmarks/real_robots.py [--robots marmotte,husky,warthog] [--rollers 6] [--diagnose]
+    python benchmarks/real_robots.py --diagnose-only        # diagnose the stored calibrated robots
 
 For each robot: its log's description plus the public specification of what the log does not give
 (every such value named, with its source, under ``assumed`` in calibration.json), calibrated with
@@ -11,8 +12,10 @@ Warthog train on the first 70 % and test on the remaining 30 % of what the share
 Writes benchmarks/results/real_robots.json: per robot the held-out 2 s position error before and
 after, the steady-turn yaw ratio measured and simulated (before, after) on the test part, every
 candidate's value, interval and whether the log determines it, the causes and the summary; the
-calibrated robot.json and calibration.json go to benchmarks/results/real_robots/. Prints the same
-and the machine's load.
+calibrated robot.json and calibration.json go to benchmarks/results/real_robots/. With
+``--diagnose`` the test part then goes through ``diagnose --baseline mujoco`` against the calibrated
+robot (what the calibrated simulation still gets wrong), recorded under ``diagnose``. Prints the
+same and the machine's load.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ import numpy as np
 
 from mjtrack.calibrate.run import calibrate, write_outputs
 from mjtrack.io import read_log_with_robot
-from mjtrack.io.robot import Robot
+from mjtrack.io.robot import Robot, read_robot
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[1] / "shared" / "data"
@@ -109,10 +112,28 @@ def run_robot(name: str, spec: dict, *, rollers: int) -> dict:
             "assumed": cj["assumed"], "seconds": wall}
 
 
+def diagnose_robot(name: str, spec: dict) -> dict:
+    """``diagnose --baseline mujoco`` of the test part against the stored calibrated robot."""
+    from mjtrack.diagnose import diagnose
+
+    log, _ = read_log_with_robot(spec["log"])
+    _, test = split(log, *spec["split"])
+    robot = read_robot(OUTPUTS / name / "robot.json")
+    t0 = time.time()
+    d = diagnose(test, robot, baseline="mujoco", quiet=not sys.stderr.isatty())
+    return {"cause": d.cause, "findings": [{"effect": f.effect.name, "estimate": [float(v) for v in f.estimate],
+                                            "interval": [[float(a), float(b)] for a, b in f.interval],
+                                            "tied_with": list(f.tied_with), "relative_gain": float(f.relative)}
+                                           for f in d.findings],
+            "seconds": time.time() - t0}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--robots", default=",".join(ROBOTS))
     ap.add_argument("--rollers", type=int, default=6, help="contact rollers per track (tracked robots; default 6)")
+    ap.add_argument("--diagnose", action="store_true", help="then diagnose the test part against the calibrated robot")
+    ap.add_argument("--diagnose-only", action="store_true", help="only diagnose the stored calibrated robots")
     args = ap.parse_args(argv)
     load0 = os.getloadavg()
     old = json.loads(RESULT.read_text()) if RESULT.exists() else {}
@@ -122,8 +143,18 @@ def main(argv=None) -> int:
         if not spec["log"].exists():
             print(f"{spec['log']} not found (the shared data); skipped")
             continue
-        r = run_robot(name, spec, rollers=args.rollers)
+        if args.diagnose_only:
+            r = robots[name]
+        else:
+            r = run_robot(name, spec, rollers=args.rollers)
+        if args.diagnose or args.diagnose_only:
+            r["diagnose"] = diagnose_robot(name, spec)
+            print(f"== {name}: diagnose --baseline mujoco on the test part against the calibrated robot: "
+                  f"{r['diagnose']['cause']} ({r['diagnose']['seconds']:.0f} s)")
         robots[name] = r
+        if args.diagnose_only:
+            _write(robots, args, load0)
+            continue
         t, y = r["test"], r["yaw_ratio"]
         print(f"\n== {name}: {r['windows']['train']} training windows, {r['windows']['test']} test windows, "
               f"{r['seconds']:.0f} s")
@@ -135,11 +166,16 @@ def main(argv=None) -> int:
                   f"{'' if iv is None else f'[{iv[0]:.4g}, {iv[1]:.4g}]':24s} "
                   f"{'determined' if v['determined'] else 'NOT determined'}, {'changed' if v['changed'] else 'kept'}")
         print(f"  {r['summary']}")
-        RESULT.parent.mkdir(parents=True, exist_ok=True)
-        RESULT.write_text(json.dumps({"robots": robots, "rollers": args.rollers, "load_before": load0,
-                                      "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
+        _write(robots, args, load0)
     print(f"\nload average before {load0}, after {os.getloadavg()} ({os.cpu_count()} cores)")
     return 0
+
+
+def _write(robots: dict, args, load0) -> None:
+    RESULT.parent.mkdir(parents=True, exist_ok=True)
+    RESULT.write_text(json.dumps({"command": "python benchmarks/real_robots.py " + " ".join(sys.argv[1:]),
+                                  "robots": robots, "rollers": args.rollers, "load_before": load0,
+                                  "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
 
 
 def _plain(o):

@@ -282,7 +282,96 @@ def _wheeled() -> Page:
         [fid, speed], [table, tol, rt, load])
 
 
-PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _filters, _speed, _wheeled)
+def _controllers() -> Page:
+    src = Source(RESULTS / "controllers.json")
+    tables = []
+    for robot, data in src.data["figure_eight"].items():
+        t = Table(f"Figure-eight, {robot} MuJoCo robot against the same controller on the kinematic model: cross-track "
+                  "error [m] (RMS and maximum); MuJoCo with exact measurements, and with measurement noise (mean of "
+                  "the RMS and worst maximum over the noise seeds).",
+                  ["controller", "kinematic RMS", "kinematic max", "MuJoCo RMS", "MuJoCo max", "noisy mean RMS",
+                   "noisy worst max"])
+        for name in data["controllers"]:
+            q = f"/figure_eight/{robot}/controllers/{name}"
+            kin = ([number(src, q + "/kinematic/rms_cross_track_m"), number(src, q + "/kinematic/max_cross_track_m")]
+                   if "kinematic" in data["controllers"][name] else ["–", "–"])  # the tracker has no kinematic run
+            t.add(name, *kin,
+                  number(src, q + "/mujoco_exact/rms_cross_track_m"), number(src, q + "/mujoco_exact/max_cross_track_m"),
+                  number(src, q + "/mujoco_noisy_summary/mean_rms_cross_track_m"),
+                  number(src, q + "/mujoco_noisy_summary/worst_max_cross_track_m"))
+        tables.append(t)
+    load = Table("Machine load during the run (one-minute load average) and its wall time [s].", ["when", "value"])
+    load.add("load before", number(src, "/load_average_before/0"))
+    load.add("load after", number(src, "/load_average_after/0"))
+    load.add("wall time [s]", number(src, "/wall_s"))
+    return Page(
+        "controllers", "Path controllers",
+        "The thesis's five path controllers (feed-forward, pole placement, reactive, posture, line following) and the "
+        "slip-compensated tracker drive a figure-eight through `mjtrack track`, on the tracked and on the wheeled "
+        "MuJoCo robot, and on the kinematic model they were designed for. The feed-forward controller is open loop: "
+        "on the MuJoCo robot, whose tracks slip, nothing corrects its drift.",
+        [src], [*tables, load])
+
+
+def _calibration() -> Page:
+    bat = Source(RESULTS / "calibration_battery.json")
+    real = Source(RESULTS / "real_robots.json")
+    cases = Table("The self-consistency battery: MuJoCo logs with one known change each (60 s of random steps; train "
+                  "seed 11, test seed 12), calibrated from the description without the change. Causes: the parameter "
+                  "groups named, largest first; covered: determined parameters whose 95 % interval holds the truth; "
+                  "held-out 2 s position error [m] before and after; the cause `diagnose --baseline mujoco` names "
+                  "against the description and against the calibrated robot.",
+                  ["case", "causes named", "true cause first", "covered", "determined", "test before", "test after",
+                   "diagnose, described", "diagnose, calibrated"])
+    rows = Table("Every candidate of every battery case: truth, calibrated value (the described value where kept), "
+                 "95 % interval, whether the log determines it and whether the interval covers the truth.",
+                 ["case", "parameter", "truth", "value", "interval low", "interval high", "determined", "covered"])
+    for name, c in bat.data["cases"].items():
+        q = f"/cases/{name.replace('~', '~0').replace('/', '~1')}"
+        det = [x for x in c["rows"] if x["determined"]]
+        covered = sum(1 for x in det if x["covered"])
+        cases.add(name, "; ".join("+".join(g["parameters"]) for g in c["causes"]) or "none",
+                  number(bat, q + "/cause_ok"), str(covered), str(len(det)), number(bat, q + "/test/0"),
+                  number(bat, q + "/test/1"), c.get("diagnose", {}).get("cause", "–"),
+                  c.get("diagnose_calibrated", {}).get("cause", "–"))
+        for i, x in enumerate(c["rows"]):
+            r = f"{q}/rows/{i}"
+            iv = ([number(bat, r + "/interval/0"), number(bat, r + "/interval/1")] if x.get("interval") else ["–", "–"])
+            rows.add(name, x["parameter"], number(bat, r + "/truth"), number(bat, r + "/estimate"), *iv,
+                     number(bat, r + "/determined"), number(bat, r + "/covered"))
+    robots = Table("Three real robots, calibrated on the first part of their log and scored on the next part: held-out "
+                   "2 s position error [m] before and after, its relative drop, and the steady-turn yaw ratio "
+                   "(yaw rate over the ideal (v_R - v_L)/T) measured and simulated on the test part.",
+                   ["robot", "train windows", "test windows", "test before", "test after", "drop", "yaw ratio measured",
+                    "simulated before", "simulated after"])
+    params = Table("Every candidate of the real-robot calibrations: described value, calibrated value, 95 % interval, "
+                   "whether the log determines it and whether calibration changed it.",
+                   ["robot", "parameter", "described", "calibrated", "interval low", "interval high", "determined",
+                    "changed"])
+    summaries = Table("What each calibration says, and what `diagnose --baseline mujoco` still finds on the test part "
+                      "against the calibrated robot.", ["robot", "summary", "diagnosis of the calibrated robot"])
+    for name, r in real.data["robots"].items():
+        q = f"/robots/{name}"
+        robots.add(name, number(real, q + "/windows/train"), number(real, q + "/windows/test"),
+                   number(real, q + "/test/before"), number(real, q + "/test/after"), number(real, q + "/test/relative"),
+                   number(real, q + "/yaw_ratio/measured"), number(real, q + "/yaw_ratio/before"),
+                   number(real, q + "/yaw_ratio/after"))
+        for n in r["determined"]:
+            iv = ([number(real, f"{q}/intervals/{n}/0"), number(real, f"{q}/intervals/{n}/1")]
+                  if r["intervals"].get(n) else ["–", "–"])
+            params.add(name, n, number(real, f"{q}/described/{n}"), number(real, f"{q}/parameters/{n}"), *iv,
+                       number(real, f"{q}/determined/{n}/determined"), number(real, f"{q}/determined/{n}/changed"))
+        summaries.add(name, r["summary"], r["diagnose"]["cause"] if "diagnose" in r else "not run")
+    return Page(
+        "calibration", "Calibration",
+        "What `mjtrack calibrate` finds on logs whose truth is known (the MuJoCo robot's own logs, one change each), "
+        "and on three real robots: Marmotte (tracked), Husky and Warthog (wheeled skid-steer), from the DRIVE data. "
+        "A parameter the log does not determine keeps its described value and is marked so; intervals carry the "
+        "correlation of a log's windows and the measured model-form error of simulating a window from a logged "
+        "state.", [bat, real], [cases, rows, robots, params, summaries])
+
+
+PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _filters, _speed, _wheeled, _controllers, _calibration)
 
 
 # -- writing -----------------------------------------------------------------------------------
