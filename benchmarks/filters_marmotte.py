@@ -56,7 +56,8 @@ def main(argv=None) -> int:
         print(f"{args.log} not found: the Marmotte data is not in the repository (../shared/data/marmotte/)")
         return 2
     print(f"load average {os.getloadavg()}")
-    for label, carry, adaptive, est in (("restart per window, single EKF, default R (earlier procedure)", False, None, False),
+    for label, carry, adaptive, est in (("restart per window, single EKF, default R (earlier procedure)",
+                                         False, None, False),
                                         ("carried across windows, IMM, default R", True, "imm", False),
                                         ("carried across windows, IMM, R estimated from the log (validate now)", True,
                                          "imm", True)):

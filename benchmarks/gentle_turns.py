@@ -67,7 +67,8 @@ load transfer at those speeds):
    and the chassis above them made I_xz != 0, and a spin w gave a pitch moment w^2 I_xz that the
    Coulomb reference (a rigid body with principal axes on the body axes) does not have. And the
    150 kg long robot (cg_y 0.05 T, cg_x -0.1 L) at R 2 m, 2 m/s reversing against the reference
-   with the rigid-plate loads (default) and with the per-track Wong loads of an earlier form (a c_x c_y x y twist term that a rigid chassis on springs cannot carry; this script
+   with the rigid-plate loads (default) and with the per-track Wong loads of an earlier form
+   (a c_x c_y x y twist term that a rigid chassis on springs cannot carry; this script
    only), with cg_y 0.05 T and 0.
 
 6. **A log's twist against its poses.** Semi-implicit Euler moves the pose with the step's new

@@ -1,6 +1,7 @@
 """Instantaneous centres of rotation (ICRs), the virtual wheeled robot, slip ratios.
 
-Conventions (as in the tracked-robot thesis, Mendaluk 2019; docs/theory/tracked.md): robot frame x forward, y left; left track at y = +T/2, right at
+Conventions (as in the tracked-robot thesis, Mendaluk 2019; docs/theory/tracked.md): robot
+frame x forward, y left; left track at y = +T/2, right at
 y = -T/2; V_L, V_R the track surface speeds relative to the body (positive forward);
 body twist (vx, vy, wz) of the geometric centre.
 

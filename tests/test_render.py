@@ -18,7 +18,8 @@ from mjtrack.errors import InputError
 from mjtrack.render import gl
 from mjtrack.icr import icr_from_twist
 from mjtrack.render.animation import animate_paths, footprint_corners
-from mjtrack.render.decor import ICR_LABELS, ICR_RGBA, BeltGeometry, belt_geometry, icr_markers, legend_image, roller_geoms
+from mjtrack.render.decor import (ICR_LABELS, ICR_RGBA, BeltGeometry, belt_geometry, icr_markers, legend_image,
+                                  roller_geoms)
 from mjtrack.render.video import (
     clock_text,
     frame_times,

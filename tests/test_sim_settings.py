@@ -132,7 +132,8 @@ def test_wide_quick_grid_passes_everywhere():
     """The wide quick grid (112 turns: 4 robots of 5-150 kg, L/T 0.6-2, pivot and R 1-10 m at
     0.2 and 2 m/s, both directions, cg +-0.1 L) with the default settings: every turn within
     0.05 T/2 and 0.02 L of the Coulomb reference with load transfer (independent code), dt
-    halving < 0.02 T/2, contact >= 99 %. Without the belt, principal axes and slip budget, 100 of 112: fast pivots of the 5 kg
+    halving < 0.02 T/2, contact >= 99 %. Without the belt, principal axes and slip budget,
+    100 of 112: fast pivots of the 5 kg
     long robot (0.053 T/2, principal axes), R 10 m at 0.2 m/s (drive compliance: belt; the
     friction time constant: slip budget)."""
     fidelity, rows = _wide_rows()

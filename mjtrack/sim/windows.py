@@ -440,7 +440,7 @@ class WindowResult:
         return np.hypot(self.errors[..., 0], self.errors[..., 1])
 
     def rms(self) -> np.ndarray:
-        """(P,) RMS horizon position error over the windows [m] (``pos_err_m`` of docs/reference/formats/calibration-json.md)."""
+        """(P,) RMS horizon position error over the windows [m] (``pos_err_m`` of calibration.json)."""
         return np.sqrt(np.mean(self.pos_err() ** 2, axis=1))
 
 
