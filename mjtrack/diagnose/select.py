@@ -19,49 +19,7 @@ reduce the held-out track-speed error by the same test over the same blocks (the
 whether the actuators are the cause); an input effect the speeds contradict is refuted even
 when it helps the pose error.
 
-Below the floor. An effect that acts in k of B blocks cannot pass the blocked bootstrap unless
-(1 - k/B)^B < 5 % (:func:`min_active_blocks`), however large its gain there: no test that takes
-only the blocks as independent can do better. Such a candidate is not reported as a cause, but
-when its point gain reaches the floor and fewer blocks than that show it, the verdict warns and
-names it (``below_floor``): read off the measured track speeds for an input effect when the log
-has them, else off the pose.
-
-Forward selection (:func:`forward_select`). Step 1 scores every effect against the baseline;
-the best finding is added to the baseline at its estimate, and step 2 scores every remaining
-effect (either kind) on top of it, and so on until no candidate passes (at most
-``max_effects``). With two or more effects found, each is then refitted and scored with the
-others fixed at their estimates (two rounds), which removes the bias a missed second effect
-gives the first; its reported gain is then its own on top of all the others. An effect that no
-longer passes on top of the others is dropped (backward elimination; e.g. a speed scale found
-first as a stand-in for a speed limit found later) and the rest refitted.
-
-Ties. Two findings of one step are tied when the blocked bootstrap interval of their difference
-(as a share of the baseline RMSE) contains zero or the difference is below the gain floor; and,
-whatever the gains, when the physics says the log cannot separate them
-(:func:`physical_tie`: cg_offset_y and friction_asymmetry both set the traction ratio of the
-two tracks under Coulomb friction). Among tied findings the one with fewer parameters goes first
-(one-standard-error rule), then the larger gain.
-
-Intervals: 95 %, estimate +- t x se with se the larger of the covariance the baseline's fit
-gives (the surrogate's least squares: the block-robust sandwich
-:func:`mjtrack.diagnose.stats.sandwich`, a linearised block bootstrap over windows whose
-residuals carry the surrogate's own error; MuJoCo's grid fit: a blocked bootstrap of its error
-curves) and the delete-one-fold jackknife of the fold fits, with, in quadrature, the baseline's
-own error on the effect's size (:class:`mjtrack.diagnose.baseline.ModelForm`, measured on logs
-whose truth is known), which no resampling of one log can show: a systematic error
-is the same in every block, and the fit's own resolution (:meth:`Baseline.resolution`: for the
-least-squares fit its relative finite-difference step :data:`mjtrack.diagnose.fit.DIFF_STEP`: an
-optimum at a kink of the cost, e.g. a dead time fitted to sampled track speeds, is located no
-better; the resampling terms are near zero there). The model-form term is the baseline's
-(:class:`mjtrack.diagnose.baseline.ModelForm`); an effect whose baseline carries, besides, an
-absolute model-form term (how far two independent physics of one robot description lie apart,
-which does not shrink with the effect's size) must in addition have a 95 % interval that
-excludes the nominal value; a candidate failing only that is reported as within the baseline's
-resolution and not named.
-
-Divergence. A simulator's window may diverge (NaN errors): a window whose baseline diverged is
-neither fitted nor scored (:attr:`mjtrack.diagnose.fit.Problem.valid`); a candidate that diverges
-on a held-out window is not a finding.
+Derivation and measurements: docs/theory/diagnosis.md, "Selection rules".
 """
 
 from __future__ import annotations
