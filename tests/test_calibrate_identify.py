@@ -110,3 +110,16 @@ def test_the_gauss_newton_step_respects_a_bound_the_gradient_pushes_against():
     assert d[0] == 0.0
     b_only = np.linalg.lstsq(J[:, [1]], y, rcond=None)[0][0]  # b's optimum with a held at its bound
     assert abs(d[1] - b_only) < 1e-9
+
+
+def test_summary_names_no_cause_when_the_changes_do_not_lower_the_error():
+    from mjtrack.calibrate.causes import Cause, summary
+
+    c = Cause(parameters=["cg_y"], changed={"cg_y": (0.0, 0.046)}, tied=[], share=0.0, gain_alone=-0.04,
+              sentence="its centre of mass is 0.046 m left of the centre line")
+    worse = summary([c], (0.46, 0.474), where="held-out", yaw=None)
+    assert worse.startswith("No candidate explains the error") and "erred mostly because" not in worse
+    assert "cg_y" in worse and "0.46 m to 0.474 m" in worse
+    better = summary([Cause(["cg_y"], {"cg_y": (0.0, 0.05)}, [], 1.0, 0.99, "its centre of mass is 0.05 m left")],
+                     (0.04, 0.001), where="held-out", yaw=None)
+    assert better.startswith("The described MuJoCo robot erred mostly because its centre of mass")

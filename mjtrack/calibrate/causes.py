@@ -159,6 +159,12 @@ def summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: t
                 f"({where} 2 s position error {before:.3g} m); no parameter differs from its description by more "
                 "than its interval.")
     first = causes[0]
+    if after >= before or (first.share <= 0 and first.gain_alone <= 0):
+        # the fit moved something, but nothing it moved lowers the error: no candidate is the cause
+        return (f"No candidate explains the error: calibration changed "
+                f"{', '.join(p for c in causes for p in c.changed)} ({first.sentence}), but the {where} 2 s "
+                f"position error went from {before:.3g} m to {after:.3g} m. The simulation errs for a reason none "
+                "of the candidates describes; do not read the changed values as the robot's.")
     text = f"The described MuJoCo robot erred mostly because {first.sentence}"
     text += f" ({100 * first.share:.0f} % of the improvement; alone it removes {100 * first.gain_alone:.0f} % of the error)"
     more = [c for c in causes[1:] if c.share >= 0.1]
