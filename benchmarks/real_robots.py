@@ -185,7 +185,9 @@ def main(argv=None) -> int:
         print(f"  drives follow: {r['drive_input']} speeds; measured vs commanded once settled: RMS difference "
               f"{cf['mean_speed']:.2f} of the mean speed, {cf['speed_difference']:.2f} of the speed difference")
         print(f"  test 2 s position RMSE {t['before']:.4f} -> {t['after']:.4f} m ({100 * t['relative']:.1f} % lower)")
-        print(f"  test yaw ratio: measured {y['measured']:.3f}, simulated {y['before']:.3f} -> {y['after']:.3f}")
+        f3 = lambda v: "n/a" if v is None else f"{v:.3f}"
+        print(f"  test yaw ratio: measured {f3(y['measured'])}, simulated {f3(y['before'])} -> {f3(y['after'])} "
+              f"({y['windows']} steady-turn windows)")
         for n, v in r["determined"].items():
             iv = r["intervals"].get(n)
             print(f"  {n:18s} {r['described'][n]:8.4g} -> {r['parameters'][n]:8.4g} "

@@ -147,7 +147,7 @@ def test_calibration_recovers_drivetrain_and_contact_length(tmp_path):
 def test_measured_drive_input_drives_with_the_measured_speeds_and_refuses_drive_keys():
     import dataclasses
 
-    from mjtrack.calibrate.run import measured_drive_log
+    from mjtrack.calibrate.run import commanded_log, measured_drive_log
     from mjtrack.errors import InputError
 
     n = 50
@@ -158,6 +158,8 @@ def test_measured_drive_input_drives_with_the_measured_speeds_and_refuses_drive_
     assert np.all(m.v_left_cmd == 0.2)
     # a track without a measured speed on a row keeps its command there
     assert np.all(m.v_right_cmd[t < 1.0] == lg.v_right_cmd[t < 1.0]) and np.all(m.v_right_cmd[t >= 1.0] == 0.4)
+    # which windows are steady turns still follows the logged commands
+    assert np.array_equal(commanded_log(m).v_right_cmd, lg.v_right_cmd)
     with pytest.raises(InputError, match="measured track speeds"):
         measured_drive_log(_bare_log(t), "log")
     robot = Robot(track_gauge=0.4)

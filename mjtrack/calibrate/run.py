@@ -192,7 +192,7 @@ def turn_measures(lg: DriveLog, ws: WindowSet, robot: Robot, poses: np.ndarray, 
     tw = _chord_twist(p0, p1, dur)
     v = np.array([np.nanmean(speeds[j, :n[j] + 1], axis=0) for j in range(M)])
     wnom = (v[:, 1] - v[:, 0]) / robot.track_gauge
-    steady = steady_mask(lg, ws)
+    steady = steady_mask(commanded_log(lg), ws)
     use = steady & (np.abs(wnom) >= STEADY_MIN_WZ)
     ratio = float(np.median(tw[use, 2] / wnom[use])) if use.any() else float("nan")
     turn = rs.turn_ratio(v)
@@ -363,7 +363,20 @@ def measured_drive_log(lg: DriveLog, name: str) -> DriveLog:
         raise InputError(f"{name}: measured track speeds on only {100 * ok.mean():.0f} % of the rows; "
                          f"--drive-input measured needs them on most rows")
     return dataclasses.replace(lg, v_left_cmd=np.where(np.isfinite(lg.v_left), lg.v_left, lg.v_left_cmd),
-                               v_right_cmd=np.where(np.isfinite(lg.v_right), lg.v_right, lg.v_right_cmd))
+                               v_right_cmd=np.where(np.isfinite(lg.v_right), lg.v_right, lg.v_right_cmd),
+                               extra={**lg.extra, LOGGED_COMMANDS[0]: lg.v_left_cmd,
+                                      LOGGED_COMMANDS[1]: lg.v_right_cmd})
+
+
+LOGGED_COMMANDS = ("logged_v_left_cmd", "logged_v_right_cmd")  # where measured_drive_log keeps the commands
+
+
+def commanded_log(lg: DriveLog) -> DriveLog:
+    """The log with its logged commands (undoes :func:`measured_drive_log`): which windows are
+    steady turns is a property of the commands."""
+    if LOGGED_COMMANDS[0] not in lg.extra:
+        return lg
+    return dataclasses.replace(lg, v_left_cmd=lg.extra[LOGGED_COMMANDS[0]], v_right_cmd=lg.extra[LOGGED_COMMANDS[1]])
 
 
 def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, quiet,
