@@ -123,3 +123,13 @@ def test_summary_names_no_cause_when_the_changes_do_not_lower_the_error():
     better = summary([Cause(["cg_y"], {"cg_y": (0.0, 0.05)}, [], 1.0, 0.99, "its centre of mass is 0.05 m left")],
                      (0.04, 0.001), where="held-out", yaw=None)
     assert better.startswith("The described MuJoCo robot erred mostly because its centre of mass")
+
+
+def test_summary_says_what_the_log_does_not_determine():
+    from mjtrack.calibrate.causes import summary
+
+    text = summary([], (0.327, 0.327), where="held-out", yaw=(0.45, 0.53), undetermined=["mu", "wheelbase"])
+    assert text.startswith("Nothing the log determines needs to change. It does not determine mu, wheelbase")
+    assert "measured 0.45, described robot 0.53" in text
+    clean = summary([], (0.004, 0.004), where="held-out", yaw=None, undetermined=[])
+    assert clean.startswith("Nothing needs to change")

@@ -534,7 +534,8 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     m, tb, _ = meas_by[part]
     rms = (test_before.rms, test_after.rms) if test is not None else (before.rms, after.rms)
     sentence = summary(causes, rms, where="held-out" if test is not None else "training",
-                       yaw=(m["yaw_ratio"], tb["yaw_ratio"]))
+                       yaw=(m["yaw_ratio"], tb["yaw_ratio"]),
+                       undetermined=[n for n in names if not verdicts[n].determined])
     timings["total"] = time.perf_counter() - t0
     return Calibration(
         train_path=str(train_path or train.source), test_path=None if test is None else str(test_path or test.source),
