@@ -133,3 +133,20 @@ def test_summary_says_what_the_log_does_not_determine():
     assert "measured 0.45, described robot 0.53" in text
     clean = summary([], (0.004, 0.004), where="held-out", yaw=None, undetermined=[])
     assert clean.startswith("Nothing needs to change")
+
+
+def test_a_large_change_with_a_wide_interval_is_determined_and_changed():
+    """A parameter whose interval is wider than its resolution but far from the description (the
+    log says it must change, and by about how much) stays fitted, with its interval; one whose
+    equally wide interval reaches the description is not determined."""
+    rng = np.random.default_rng(5)
+    M = 40
+    J = rng.normal(size=(M * ROWS, 2)) * np.array([0.05, 0.05])  # weakly determined: sd ~ 0.05 each
+    J_, theta, resid = _problem(J, np.array([2.0, 0.03]), 6, noise=0.01, shared=0.01)
+    lin = _lin(["far", "near"], J_, theta, resid, specs={"far": _spec("far", 0.01), "near": _spec("near", 0.01)})
+    half = lin.uncertainty([0, 1]).half
+    assert np.all(half > 0.01)  # both wider than the resolution
+    sel = select(lin, {"far": 0.0, "near": 0.0})
+    assert sel.free == ["far"]
+    assert abs(sel.values["far"] - 2.0) < 3 * half[0]
+    assert not sel.verdicts["near"].determined and "not determined" in sel.verdicts["near"].reason
