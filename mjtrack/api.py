@@ -294,7 +294,8 @@ def diagnose_log(log: "DriveLog", robot: "Robot", *, baseline: str = "auto", tes
 
 def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | None" = None,
                     params: list[str] | None = None, horizon_s: float = 2.0, max_iter: int = 8,
-                    out_dir: str | os.PathLike | None = None, quiet: bool = True) -> "Calibration":
+                    out_dir: str | os.PathLike | None = None, quiet: bool = True,
+                    drive_input: str = "commanded") -> "Calibration":
     """Fit the MuJoCo robot's description to a measured log.
 
     The Python form of ``mjtrack calibrate``: windows of ``horizon_s`` simulated from the measured
@@ -310,7 +311,7 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
         horizon_s: window length [s].
         max_iter: optimiser iterations.
         out_dir: when given, ``robot.json``, ``calibration.json`` and ``report.html`` are written.
-        quiet: no progress display.
+        quiet: no progress display. drive_input: ``"commanded"`` or ``"measured"`` (``--drive-input``).
 
     Returns:
         The calibration: ``calibrated`` (the fitted :class:`~mjtrack.io.robot.Robot`),
@@ -329,7 +330,7 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
     from mjtrack.calibrate.run import calibrate, write_outputs
 
     cal = calibrate(log, robot, test=test_log, names=None if params is None else ",".join(params), horizon_s=horizon_s,
-                    max_iter=max_iter, quiet=quiet, train_path=log.source or "train log",
+                    max_iter=max_iter, quiet=quiet, train_path=log.source or "train log", drive_input=drive_input,
                     test_path=None if test_log is None else test_log.source or "test log")
     if out_dir is not None:
         write_outputs(cal, out_dir)
