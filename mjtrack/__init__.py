@@ -5,34 +5,37 @@ rigid-track Coulomb reference, simplified dynamics, wheeled robots), ``mjtrack.e
 (slip, ICR and virtual-robot filters), ``mjtrack.validate``, ``mjtrack.diagnose``,
 ``mjtrack.calibrate``, ``mjtrack.control``, ``mjtrack.render``, ``mjtrack.thesis``,
 ``mjtrack.io``. The names below are the public API (:mod:`mjtrack.api` holds the functions that
-do a whole job); importing this package does not load MuJoCo.
+do a whole job). They load on first use (``mjtrack.Robot``), so importing this package loads
+nothing heavy (not NumPy, not MuJoCo) and the command line can take Ctrl-C from its first moment.
 """
 
-from mjtrack.api import calibrate_robot as calibrate_robot
-from mjtrack.api import coulomb_steady_state as coulomb_steady_state
-from mjtrack.api import diagnose_log as diagnose_log
-from mjtrack.api import log_icrs as log_icrs
-from mjtrack.api import mujoco_steady_state as mujoco_steady_state
-from mjtrack.api import simulate_log as simulate_log
-from mjtrack.api import validate_models as validate_models
 from mjtrack.errors import InputError as InputError
 from mjtrack.errors import MjtrackError as MjtrackError
 from mjtrack.errors import SingularMotionError as SingularMotionError
-from mjtrack.icr import ICR as ICR
-from mjtrack.icr import icr_from_twist as icr_from_twist
-from mjtrack.icr import twist_from_icr as twist_from_icr
-from mjtrack.icr import virtual_robot_from_twist as virtual_robot_from_twist
-from mjtrack.io import DriveLog as DriveLog
-from mjtrack.io import Robot as Robot
-from mjtrack.io import read_log as read_log
-from mjtrack.io import read_log_with_robot as read_log_with_robot
-from mjtrack.io import read_robot as read_robot
-from mjtrack.io import write_log as write_log
-from mjtrack.io import write_robot as write_robot
-from mjtrack.models.kinematic import MICR as MICR
-from mjtrack.models.kinematic import MPP as MPP
-from mjtrack.models.kinematic import MVIR as MVIR
-from mjtrack.models.kinematic import Nominal as Nominal
-from mjtrack.models.kinematic import integrate as integrate
+
+# name -> module it comes from (loaded on first access, PEP 562)
+_LAZY = {
+    **dict.fromkeys(("calibrate_robot", "coulomb_steady_state", "diagnose_log", "log_icrs", "mujoco_steady_state",
+                     "simulate_log", "validate_models"), "mjtrack.api"),
+    **dict.fromkeys(("ICR", "icr_from_twist", "twist_from_icr", "virtual_robot_from_twist"), "mjtrack.icr"),
+    **dict.fromkeys(("DriveLog", "Robot", "read_log", "read_log_with_robot", "read_robot", "write_log",
+                     "write_robot"), "mjtrack.io"),
+    **dict.fromkeys(("MICR", "MPP", "MVIR", "Nominal", "integrate"), "mjtrack.models.kinematic"),
+}
 
 __version__ = "0.1.0"
+__all__ = ["InputError", "MjtrackError", "SingularMotionError", *_LAZY, "__version__"]
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'mjtrack' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

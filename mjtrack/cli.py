@@ -2,8 +2,10 @@
 
 The CLI is a thin layer. Each command lives in ``mjtrack/commands/<name>.py`` and
 defines ``HELP`` (one line), ``add_arguments(parser)`` and ``run(args) -> int``;
-the library does the work. Exit status: 0 success, 2 bad input or usage,
-1 internal failure.
+the library does the work. Exit status: 0 success, 2 bad input or usage (one line),
+1 internal failure, 130 / 143 interrupted by SIGINT (Ctrl-C) / SIGTERM (one line; the outputs
+the command had written are removed again, except what a resume needs:
+:mod:`mjtrack.interrupts`, :func:`mjtrack.io.atomic.transaction`).
 """
 
 from __future__ import annotations
@@ -11,8 +13,12 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
+import re
+import signal
 import sys
 
+from mjtrack import interrupts
 from mjtrack.errors import InputError, MjtrackError
 
 # Command name -> module under mjtrack.commands. Order is the order of ``--help``.
@@ -32,8 +38,31 @@ COMMANDS: dict[str, str] = {
 }
 
 
+# a value that starts with "-" is a negative number, not an option: -1e300, -.5, -inf (argparse's own
+# rule knows only -1 and -1.5, so "--v-left -1e300" was a usage error about a missing argument)
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse with usage errors on one line (the usage itself is in ``--help``)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = _NEGATIVE_NUMBER
+
+    def _get_values(self, action, arg_strings):
+        # argparse drops a "--" value (``--settle=--``) and hands an option of one value an empty list,
+        # past its type check
+        if action.nargs is None and action.option_strings and arg_strings == ["--"]:
+            self.error(f"argument {'/'.join(action.option_strings)}: expected one value, got '--'")
+        return super()._get_values(action, arg_strings)
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="mjtrack",
         description=(
             "Tracked-robot testbed: MuJoCo skid-steer physics, kinematic slip models "
@@ -46,7 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
         module = importlib.import_module(f"mjtrack.commands.{module_name}")
         p = sub.add_parser(name, help=module.HELP, description=module.__doc__)
         module.add_arguments(p)
-        p.set_defaults(_run=module.run)
+        p.set_defaults(_run=module.run, _on_interrupt=getattr(module, "ON_INTERRUPT", ""))
     return parser
 
 
@@ -57,29 +86,78 @@ def one_line(text: object) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    program = argv is None  # run as the mjtrack program (not called from Python code)
+    words = sys.argv[1:] if argv is None else [str(a) for a in argv]
+    # the handlers go in first: building the parser imports every command (seconds on a busy machine)
+    state = {"command": next((w for w in words if w in COMMANDS), None), "hint": ""}
+
+    def interrupted(signum: int) -> str:
+        who = f"mjtrack {state['command']}" if state["command"] else "mjtrack"
+        hint = f"; {state['hint']}" if state["hint"] else ""
+        return f"{who}: interrupted by {signal.Signals(signum).name}{hint}"
+
     try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:  # argparse exits 2 on usage errors, 0 on --help
-        return int(exc.code or 0)
-    logging.basicConfig(
-        level=logging.DEBUG if args.verbose else logging.WARNING,
-        format="%(levelname)s %(name)s: %(message)s",
-    )
-    if not getattr(args, "command", None):
-        parser.print_help()
-        return 2
+        # run as a program, the signals are ignored once the block ends: the result is decided and
+        # printed inside it, a late signal must not turn it into a death without a word
+        with interrupts.handling(message=interrupted, then_ignore=program):
+            return _run(argv, state, program, interrupted)
+    except interrupts.Interrupted as exc:  # while the handlers were being installed
+        return _end_interrupted(interrupted(exc.signum), exc.exit_status, program=program)
+
+
+def _run(argv: list[str] | None, state: dict, program: bool, interrupted) -> int:
+    """Parse and run one command inside the interrupt handling of :func:`main`; every outcome is
+    printed here (one line on stderr unless it succeeds)."""
     try:
-        return int(args._run(args) or 0)
-    except InputError as exc:
-        print(f"mjtrack {args.command}: error: {one_line(exc)}", file=sys.stderr)
-        return 2
-    except MjtrackError as exc:
-        print(f"mjtrack {args.command}: failed: {one_line(exc)}", file=sys.stderr)
-        return 1
-    except OSError as exc:  # disk full, permission denied, ...: one line, not a traceback
-        print(f"mjtrack {args.command}: failed: {one_line(exc)}", file=sys.stderr)
-        return 1
+        from mjtrack.io import atomic
+
+        interrupts.add_emergency_cleanup(atomic.emergency_cleanup)
+        parser = build_parser()
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:  # argparse exits 2 on usage errors, 0 on --help
+            return int(exc.code or 0)
+        logging.basicConfig(
+            level=logging.DEBUG if args.verbose else logging.WARNING,
+            format="%(levelname)s %(name)s: %(message)s",
+        )
+        if not getattr(args, "command", None):
+            parser.print_help()
+            return 2
+        state["command"], state["hint"] = args.command, args._on_interrupt
+        with atomic.transaction(force=bool(getattr(args, "force", False))):
+            return int(args._run(args) or 0)
+    except interrupts.Interrupted as exc:
+        return _end_interrupted(interrupted(exc.signum), exc.exit_status, program=program)
+    except Exception as exc:
+        signum = interrupts.received()
+        if signum is not None:  # a failure the interrupt caused (a pipe to a killed child, a cancelled task)
+            return _end_interrupted(interrupted(signum), 128 + signum, program=program)
+        if isinstance(exc, InputError):
+            print(f"mjtrack {state['command']}: error: {one_line(exc)}", file=sys.stderr)
+            return 2
+        if isinstance(exc, (MjtrackError, OSError)):  # OSError: disk full, permission denied, ...
+            print(f"mjtrack {state['command']}: failed: {one_line(exc)}", file=sys.stderr)
+            return 1
+        if isinstance(exc, MemoryError):  # the work estimates should have refused it before
+            print(f"mjtrack {state['command']}: failed: out of memory", file=sys.stderr)
+            return 1
+        raise
+
+
+def _end_interrupted(line: str, status: int, *, program: bool) -> int:
+    """Print the interrupt's one line. Run as a program (``argv`` None), end the process at once:
+    the outputs are already rolled back, and the exit handlers of half-started libraries (a dask
+    cluster cut short while it started) would only add tracebacks after the line."""
+    print(line, file=sys.stderr)
+    if program:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        os._exit(status)
+    return status
 
 
 if __name__ == "__main__":  # pragma: no cover

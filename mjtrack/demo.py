@@ -13,6 +13,7 @@ Stages (each timed, :class:`DemoResult` ``stage_s``):
    path trail and ICRs on the ground (skipped with a warning where no offscreen OpenGL
    exists: :class:`~mjtrack.render.RenderUnavailableError`).
 
+``robot`` (default :data:`DEMO_ROBOT`) runs the demo on another robot, tracked or wheeled.
 ``terrain`` (a :class:`~mjtrack.sim.terrain.Terrain`, default flat) runs the same manoeuvres on
 other ground; it is recorded in ``rollout.json`` (key ``terrain``) and drawn in the video. The
 kinematic models stay planar: on a slope or steps the validation shows how far they get.
@@ -78,8 +79,10 @@ def demo_commands(robot: Robot, *, duration: float = DEMO_DURATION, seed: int = 
 
 def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, seed: int = 0, video: bool = True,
              video_size: tuple[int, int] = (640, 480), fps: float = 25.0, speed: float = 2.0,
-             quiet: bool = False, terrain=None) -> DemoResult:
-    """Run the demo into ``out_dir`` (created); see the module docstring."""
+             quiet: bool = False, terrain=None, robot: Robot | None = None) -> DemoResult:
+    """Run the demo into ``out_dir`` (created); see the module docstring. ``robot``: the robot
+    simulated (default :data:`DEMO_ROBOT`)."""
+    from mjtrack.io.atomic import make_output_dir
     from mjtrack.io.logs import robot_path_for, write_log
     from mjtrack.io.robot import write_robot
     from mjtrack.progress import Progress
@@ -91,9 +94,10 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
 
     start = time.perf_counter()
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    make_output_dir(out)
     terrain = terrain or Terrain()
-    robot = with_terrain(DEMO_ROBOT, terrain)
+    given = robot is not None
+    robot = with_terrain(robot if given else DEMO_ROBOT, terrain)
     stage_s = {}
 
     tic = time.perf_counter()
@@ -107,8 +111,9 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
 
     tic = time.perf_counter()
     ground = "" if terrain.is_flat else f" on terrain {terrain.spec}"
-    source = (f"MuJoCo rollout of the default robot with cg_x = +{robot.cg_x:g} m{ground}: seeded everyday manoeuvres "
-              f"(seed {seed}, {duration:g} s; mjtrack demo)")
+    which = (f"the given robot on {robot.traction} (T {robot.track_gauge:g} m, {robot.mass:g} kg, cg_x {robot.cg_x:+g} m)"
+             if given else f"the default robot with cg_x = +{robot.cg_x:g} m")
+    source = f"MuJoCo rollout of {which}{ground}: seeded everyday manoeuvres (seed {seed}, {duration:g} s; mjtrack demo)"
     val = validate(drive.replace(source=str(log_path)), robot, out, source=source, seed=seed, quiet=quiet)
     stage_s["validate"] = time.perf_counter() - tic
 

@@ -12,7 +12,7 @@ from mjtrack.io.logs import read_log_with_robot
 
 imageio = pytest.importorskip("imageio.v2")
 
-DURATION = 8.0  # [s] a short demo: the full one is timed by experiments/bench_demo.py
+DURATION = 8.0  # [s] a short demo: the full one is timed by benchmarks/bench_demo.py
 FPS, SPEED = 10.0, 2.0
 SIZE = (160, 120)
 

@@ -368,7 +368,7 @@ def test_selection_does_not_flip_with_the_fold_count():
 
 def test_gain_within_the_surrogates_resolution_is_not_named(monkeypatch):
     """A clean wheeled continuous log (10 Hz, 120 s, no speeds; seed 5000 of
-    experiments/diagnose_transient_steps.py): the generator's faster yaw transients make
+    benchmarks/diagnose_transient_steps.py): the generator's faster yaw transients make
     friction_scale ~ 1.22 pass the gain test (6.2 %, bound 0.9 %), but its 95 % interval, which
     carries the absolute model-form term MODEL_ABS, holds the nominal 1: not named, and the
     evidence says why. Without the term (the surrogate's ModelForm without MODEL_ABS) it is named: a

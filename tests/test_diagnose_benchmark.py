@@ -1,8 +1,8 @@
-"""The fast subset of experiments/diagnose_benchmark.py (the short logs: a slope on the large
+"""The fast subset of benchmarks/diagnose_benchmark.py (the short logs: a slope on the large
 robot, a near-noise command delay, a clean 30 s log at 50 Hz; and the wheeled robot's DRIVE-layout
 logs, clean and command delay + speed scale, whose body transient carries on across the window
 starts), run by the default test run; the whole benchmark (41 logs) is
-``python experiments/diagnose_benchmark.py`` and ``-m slow`` here."""
+``python benchmarks/diagnose_benchmark.py`` and ``-m slow`` here."""
 
 from __future__ import annotations
 

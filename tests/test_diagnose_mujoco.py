@@ -6,7 +6,7 @@ mjtrack.sim with one effect of CONTRACTS.md §4 hidden, pose noise 1 cm / 0.3 de
 pose only or with the simulated track speeds. The diagnosis gets the log and the nominal robot
 only. The default run checks a few effects on 120 s logs; the full matrix (every effect x
 {pose only, with speeds} + clean) is ``-m slow``. Known failures would be strict xfails with the
-measured reason (none at present; ``experiments/diagnose_mujoco_effects.py`` prints the whole table).
+measured reason (none at present; ``benchmarks/diagnose_mujoco_effects.py`` prints the whole table).
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ def test_clean_mujoco_log_with_track_speeds_gives_none():
 
 
 # -- full matrix ------------------------------------------------------------------------------
-# (effect, speeds) -> why it fails, measured by experiments/diagnose_mujoco_effects.py; empty since the
+# (effect, speeds) -> why it fails, measured by benchmarks/diagnose_mujoco_effects.py; empty since the
 # baseline's transient models the yaw (surrogate.friction_limited): the clean pose-only logs (an actuator
 # lag was fitted to the slow turn entry), friction_scale (pose only: cause actuator_lag; with speeds
 # estimated +27 %) and cg_offset_y with speeds (friction_asymmetry 4 % better) were strict xfails before.
@@ -78,7 +78,7 @@ CLEAN_KNOWN: dict[bool, str] = {}
 
 
 def _matrix():
-    # the surrogate's vocabulary, as experiments/diagnose_mujoco_effects.py runs it: the MuJoCo-only
+    # the surrogate's vocabulary, as benchmarks/diagnose_mujoco_effects.py runs it: the MuJoCo-only
     # grounds (kind "model", e.g. ground_anisotropy) are not effects of the surrogate baseline
     # (they need --baseline mujoco: tests/test_diagnose_mujoco_baseline.py); listing them here made the
     # slow matrix fail with StopIteration since session 4 added the anisotropic ground

@@ -4,7 +4,7 @@ The logs come from mjtrack/testing/mujoco_effects.py (no code shared with mjtrac
 ground is its own implementation, not mjtrack.sim.ground). Default: the hidden ground extension
 among three candidates on a 40 s log (~30 s on a loaded 2-core machine), the blocks of the
 finding test on a segmented log, and a clean log (no cause); slow: every hidden effect against
-every candidate (experiments/diagnose_mujoco_baseline.py --all prints the same table).
+every candidate (benchmarks/diagnose_mujoco_baseline.py --all prints the same table).
 """
 
 from __future__ import annotations
@@ -227,12 +227,12 @@ def test_mujoco_warnings_are_summarised_in_one_line(caplog, capfd):
 
 
 def test_model_rel_is_the_measured_one():
-    # MODEL_REL is what experiments/diagnose_mujoco_baseline.py measured and wrote (3 decimals)
+    # MODEL_REL is what benchmarks/diagnose_mujoco_baseline.py measured and wrote (3 decimals)
     from pathlib import Path
 
     from mjtrack.diagnose import mujoco_baseline as mb
 
-    path = Path(__file__).resolve().parents[1] / "experiments" / "results" / "diagnose_mujoco_baseline.json"
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "diagnose_mujoco_baseline.json"
     measured = json.loads(path.read_text())["summary"]["model_rel"]
     assert mb.MODEL_REL == round(measured, 3)
     assert mb.MODEL_FORM.rel == mb.MODEL_REL and "diagnose_mujoco_baseline.py" in mb.MODEL_FORM.measured_by

@@ -1,6 +1,6 @@
 """Issue 4, MuJoCo part: the filters against the (2.13) ICRs of a MuJoCo rollout (short run).
 
-The experiment ``experiments/filters_on_mujoco.py`` holds the procedure (noise, reference
+The experiment ``benchmarks/filters_on_mujoco.py`` holds the procedure (noise, reference
 ICRs, causal 2 s predictions); this test runs it on one left and one right 10 s turn of the
 robot with the centre of gravity 0.05 m forward (about 2 s of CPU).
 """

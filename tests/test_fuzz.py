@@ -31,11 +31,15 @@ from mjtrack.io.robot import read_robot  # noqa: E402
 from mjtrack.sweep import read_grid  # noqa: E402
 
 
-def fuzz(n: int):
-    """Bounded, derandomized and seeded: the same examples on every run."""
+def fuzz(n: int, *, shrink: bool = True):
+    """Bounded, derandomized and seeded: the same examples on every run. ``shrink`` False: a failing
+    example is reported as drawn (shrinking costs minutes where each example is a process run)."""
+    phases = list(hypothesis.Phase) if shrink else [hypothesis.Phase.explicit, hypothesis.Phase.generate]
+
     def wrap(test):
         return hypothesis.seed(20261123)(settings(max_examples=n, deadline=None, derandomize=True, database=None,
-                                                  print_blob=False, suppress_health_check=list(HealthCheck))(test))
+                                                  print_blob=False, suppress_health_check=list(HealthCheck),
+                                                  phases=phases)(test))
     return wrap
 
 
@@ -367,3 +371,187 @@ def test_terrain_specs(case):
             assert err.startswith("mjtrack simulate: failed: simulation diverged") and err.count("\n") == 1, err
             rc = 0
         check_refusal(rc, err, d, set(files))
+
+
+# -- command lines: every option of every command, random and extreme values, interrupts --------
+# Each generated command line runs as a real process forked from a warm one (mjtrack.testing.cli.Forker)
+# under a 4 GB address-space cap. A run still going after LIMIT_S gets SIGINT, as a user would
+# stop it; some runs get SIGINT or SIGTERM at a random moment. Properties: no hang (the process
+# ends within GRACE_S of a signal), no traceback, no death by a signal or by memory, exit 0, 1, 2
+# (one line) or 130 / 143 (one line), and the output is complete (exit 0) or absent (anything
+# else; a sweep interrupted or failed in its work keeps only its resume state), with no temporary
+# file left.
+import shutil  # noqa: E402
+import signal as _signal  # noqa: E402
+
+LIMIT_S = 1.5  # [s] a run still going then is interrupted (valid long work is fine: it must stop)
+GRACE_S = 4.0  # [s] from a signal to the end of the process, at most (measured under 0.5 s; slack for load)
+EXTREME = ["1e300", "-1e300", "1e-300", "-1e-300", "nan", "inf", "-inf", "0", "-0", "-1", "1e308", "99999999999999999999",
+           "abc", "", "0x10", "1_0", " 1", "1e", "--", "\u0661"]
+PATHS = ["log.csv", "log.json", "cmds.csv", "robot.json", "grid.json", "patches.json", "terrain.json", "h.npy",
+         "missing.csv", "", ".", "sub/", "/dev/null", "deep.json"]
+TERRAINS = ["flat", "incline:0.1", "incline:0.1:1.5", "step:0.03:0.5", "hfield:h.npy:2:2:0.05", "patches:patches.json",
+            "terrain.json", "incline:1e300", "incline:nan", "step:-1:0", "hfield:h.npy:1e9:1e9:0.1", "hfield:missing.npy:1:1:1",
+            "patches:deep.json", "bogus:1", "deep.json", ""]
+OUT = {"simulate": "o.csv", "import-bag": "o.csv", "export": "o.tum", "render": "o.mp4"}  # others: folder "O"
+EXPECTED = {  # files a successful run leaves (besides what the inputs were)
+    "simulate": ["o.csv", "o.json"], "import-bag": ["o.csv", "o.json"], "export": ["o.tum"], "render": ["o.mp4"],
+    "demo": ["O/report.html", "O/metrics.json", "O/rollout.csv", "O/rollout.json"],
+    "validate": ["O/report.html", "O/metrics.json"], "diagnose": ["O/diagnosis.json", "O/report.html"],
+    "calibrate": ["O/robot.json", "O/calibration.json", "O/report.html"], "track": ["O/tracking.json", "O/tracking.png"],
+    "thesis": ["O/thesis.json"], "sweep": ["O/sweep.csv", "O/sweep.json", "O/icr_map.png"], "steady": [],
+}
+RESUME_STATE = {"sweep": {"O", "O/sweep.partial.csv", "O/sweep.partial.json"}}
+
+
+def _parsers() -> dict:
+    import argparse
+
+    from mjtrack.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    return sub.choices
+
+
+def _values(action) -> st.SearchStrategy:
+    """Values for one option: from its bounds (edges, just outside, typical), its choices, files."""
+    from mjtrack.commands._common import OPTION_BOUNDS
+
+    kind = getattr(action.type, "__name__", "")
+    if action.choices:
+        return st.sampled_from([*map(str, action.choices), "bogus"])
+    if action.dest == "terrain":
+        return st.sampled_from(TERRAINS)
+    if kind in OPTION_BOUNDS or kind == "_horizon":
+        b = OPTION_BOUNDS.get(kind) or OPTION_BOUNDS["horizon"]
+        lo, hi = b.low, b.high
+        edges = [lo, hi, hi + 1, lo - 1, (lo + hi) / 2, lo + (hi - lo) * 1e-3]
+        typical = [0.05, 0.1, 0.3, 1, 2, 3, 5, 16, 32, 640, 480]
+        numbers = st.one_of(st.sampled_from(edges + typical),
+                            st.floats(lo, min(hi, lo + 10), allow_nan=False, allow_infinity=False))
+        text = numbers.map(lambda v: str(int(v)) if b.integer and float(v).is_integer() else repr(v))
+        return st.one_of(text, text, st.sampled_from(EXTREME + (["auto"] if kind == "_horizon" else [])))
+    return st.one_of(st.sampled_from(PATHS), st.text(max_size=6))
+
+
+@st.composite
+def command_line(draw, commands=None) -> tuple[str, list[str], tuple[int, float] | None]:
+    """(command, argv, interrupt): the required arguments mostly sensible, 0-4 other options with
+    random or extreme values, sometimes a signal after a random delay."""
+    parsers = _parsers()
+    name = draw(st.sampled_from(sorted(commands or parsers)))
+    p = parsers[name]
+    argv = [name]
+    for action in p._actions:  # positionals
+        if not action.option_strings and action.dest not in ("help",) and action.nargs != 0:
+            if action.nargs == "?" and draw(st.booleans()):
+                continue
+            argv.append(draw(st.sampled_from(["log.csv"] * 6 + ["cmds.csv", "missing.csv", "robot.json", ""])))
+    if name == "simulate":
+        argv += draw(st.sampled_from([["--scenario", "straight"], ["--scenario", "random_steps"],
+                                      ["--commands", "cmds.csv"], []]))
+    if name in ("validate", "render") and "log.csv" not in argv and draw(st.booleans()):
+        argv += ["--scenario", "circle"]
+    if name == "export":
+        argv += ["--format", "tum"]
+    if name == "sweep":
+        argv += ["--grid", draw(st.sampled_from(["grid.json"] * 4 + ["deep.json", "robot.json", "missing.json"]))]
+    if name != "steady" and draw(st.integers(0, 9)):
+        argv += ["--out", OUT.get(name, "O")]
+    if name == "steady":
+        argv += ["--v-left", "0.3", "--v-right", "0.5"]
+    optional = [a for a in p._actions if a.option_strings and a.dest not in ("help", "out", "grid", "format")]
+    for action in draw(st.lists(st.sampled_from(optional), max_size=4, unique_by=lambda a: a.dest)):
+        flag = draw(st.sampled_from(action.option_strings))
+        if action.nargs == 0:
+            argv.append(flag)
+        else:
+            value = draw(_values(action))
+            argv += [f"{flag}={value}"] if value.startswith("-") else [flag, value]
+    if name in ("validate", "render", "calibrate", "diagnose", "demo", "thesis", "track"):
+        argv.append("-q")
+    interrupt = draw(st.one_of(st.none(), st.none(), st.tuples(st.sampled_from([_signal.SIGINT, _signal.SIGTERM]),
+                                                                  st.floats(0.1, LIMIT_S))))
+    return name, argv, interrupt
+
+
+@pytest.fixture(scope="module")
+def forker():
+    from mjtrack.testing.cli import Forker
+
+    with Forker() as fk:
+        yield fk
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    """The files command lines name: a short simulated log of a robot with a contact length, a
+    command table, a robot, a 2-case grid, terrain files, a nested JSON."""
+    import numpy as np
+
+    d = tmp_path_factory.mktemp("fuzz-inputs")
+    rc, err = run(["simulate", "--scenario", "random_steps", "--duration", "6", "--track-length", "0.5",
+                   "--out", d / "log.csv", "-q"])
+    assert rc == 0, err
+    (d / "cmds.csv").write_text("t,v_left_cmd,v_right_cmd\n0,0.2,0.4\n0.5,-0.3,0.3\n")
+    (d / "robot.json").write_text(json.dumps({"track_gauge": 0.4, "track_length": 0.5, "note": "fuzz"}))
+    (d / "grid.json").write_text(json.dumps({"v_left_cmd": [0.3], "v_right_cmd": [0.4, 0.5]}))
+    (d / "patches.json").write_text(json.dumps({"patches": [{"x": 1, "y": 0, "size_x": 1, "size_y": 1, "mu": 0.4}]}))
+    (d / "terrain.json").write_text(json.dumps({"incline": {"angle": 0.05}, "steps": [{"height": 0.02, "x": 1.0}]}))
+    np.save(d / "h.npy", np.random.default_rng(0).uniform(size=(20, 20)))
+    (d / "deep.json").write_text("[" * 50_000)
+    return d
+
+
+def _listing(d: Path) -> set[str]:
+    return {str(p.relative_to(d)) for p in d.rglob("*")}
+
+
+def check_command_line(forker, inputs: Path, case, *, limit_s: float = LIMIT_S) -> tuple[str, int]:
+    name, argv, interrupt = case
+    with workdir() as d:
+        for p in inputs.iterdir():
+            shutil.copy(p, d / p.name)
+        before = _listing(d)
+        res = forker.run(argv, cwd=d, signal=interrupt, limit_s=limit_s, grace_s=GRACE_S)
+        what = f"{argv} interrupt={interrupt}: rc {res.rc}, {res.seconds:.2f} s, stderr {res.err[-1500:]!r}"
+        assert not res.killed, "hang: " + what
+        assert res.rc in (0, 1, 2, 130, 143), what  # negative: died of a signal (a crash, the memory cap)
+        assert "Traceback" not in res.err and "MemoryError" not in res.err, what
+        lines = [ln for ln in res.err.splitlines() if ln.strip() and not ln.startswith("WARNING ")]
+        if res.rc != 0:
+            assert len(lines) == 1 and lines[0].startswith("mjtrack"), what
+            kind = {1: ": failed: ", 2: ": error: "}.get(res.rc, ": interrupted by SIG")
+            assert kind in lines[0], what
+        if res.signalled_at is not None and res.rc in (130, 143):
+            assert res.after_signal_s < GRACE_S, what
+        new = _listing(d) - before
+        assert not [n for n in new if n.endswith(".tmp") or "/." in "/" + n], "temporary file left: " + what
+        if res.rc == 0:
+            assert set(EXPECTED[name]) <= new, f"incomplete output {sorted(new)}: " + what
+        elif res.rc in (1, 130, 143):  # interrupted or failed in the work: at most what a resume needs
+            assert new <= RESUME_STATE.get(name, set()), f"partial output {sorted(new)}: " + what
+        else:
+            assert not new, f"output left by a refused run {sorted(new)}: " + what
+        return name, res.rc
+
+
+@fuzz(10, shrink=False)
+@given(case=command_line(commands=["simulate", "steady", "export", "track", "diagnose", "render"]))
+def test_command_lines_fast(forker, inputs, case):
+    """The default run's sample: a few command lines of the quick commands (< 60 s)."""
+    check_command_line(forker, inputs, case, limit_s=1.5)
+
+
+FUZZ_COUNTS: dict[tuple[str, int], int] = {}
+
+
+@pytest.mark.slow
+@fuzz(int(os.environ.get("MJTRACK_FUZZ_LINES", "2000")), shrink=False)
+@given(case=command_line())
+def test_command_lines(forker, inputs, case):
+    """2000 command lines over every command and option (MJTRACK_FUZZ_LINES sets another count)."""
+    key = check_command_line(forker, inputs, case)
+    FUZZ_COUNTS[key] = FUZZ_COUNTS.get(key, 0) + 1
+    if sum(FUZZ_COUNTS.values()) % 100 == 0:
+        print(f"\n{sum(FUZZ_COUNTS.values())} command lines: {dict(sorted(FUZZ_COUNTS.items()))}", flush=True)

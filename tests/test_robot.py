@@ -93,7 +93,8 @@ def test_json_round_trip_keeps_extra_keys(tmp_path):
 def test_marmotte_description():
     robot = read_robot(DATA / "marmotte_excerpt.json")
     assert robot.track_gauge == 0.592723 and robot.sprocket_radius == 0.116702
-    assert set(robot.extra) == {"robot", "traction", "terrain", "sample_rate_hz", "note"}
+    assert set(robot.extra) == {"robot", "terrain", "sample_rate_hz", "note"}
+    assert robot.traction == "tracks"
 
 
 # -- robot options -----------------------------------------------------------------------------
@@ -134,9 +135,13 @@ def test_override_checked_with_the_rest(tmp_path):
         robot_from_args(args)
 
 
-def test_invalid_option_value():
-    with pytest.raises(InputError, match=r"^robot: 'mu' must be a positive number, got -1\.0 \(options: --mu -1\.0\)$"):
-        robot_from_args(parser().parse_args(["--mu", "-1"]))
+def test_invalid_option_value_is_refused_at_parsing(capsys):
+    """A robot option beyond the robot reader's plausibility table is a usage error naming the
+    option, the value and the range (before any robot is built)."""
+    with pytest.raises(SystemExit) as info:
+        parser().parse_args(["--mu", "-1"])
+    assert info.value.code == 2
+    assert "argument --mu: -1 is out of range: a robot's mu in (0, 10]" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("value", ["abc", "nan", "inf"])

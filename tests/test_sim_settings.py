@@ -66,7 +66,7 @@ def test_straight_driving_speed_equals_the_track_speed():
     """No slip in straight driving, so the body moves at the belt speed. Without the rest margins
     it fell 0.10 % short at every speed (MuJoCo puts the contact point half-way into the rest
     penetration, at r - d/2); with them it matches to 5e-8, and with the belt of session 6 to
-    about 1e-5 at 0.3 m/s and 2e-6 at 2 m/s (experiments/fidelity.py: the strain the belt keeps
+    about 1e-5 at 0.3 m/s and 2e-6 at 2 m/s (benchmarks/fidelity.py: the strain the belt keeps
     from the start holds tangential forces at the sticking contacts, which creep by that much). The margin-less check runs
     at the fixed 5 ms step: at 2 m/s the lag budget halves the step, and d (~ tc^2) with it falls 4x."""
     from mjtrack.sim.rollout import drive_log
@@ -146,7 +146,7 @@ def test_wide_quick_grid_passes_everywhere():
 def test_wide_grid_x_c_error_is_the_friction_horizon_offset_v_dt():
     """The friction rows' reference acceleration -v_slip/dt makes the noslip friction oppose the
     slip predicted one step ahead, which the turn has rotated by w dt, so the steady x_c lies
-    v_x dt ahead of the Coulomb one (derivation and checks: assets/README.md, experiments/
+    v_x dt ahead of the Coulomb one (derivation and checks: assets/README.md, benchmarks/
     gentle_turns.py: RK4 gives the same offset, a longer friction time constant a longer one).
     The lag budget picks each case's step so that v dt <= 0.01 L: every turn of the quick grid
     but R = 10 m at 0.2 m/s is then within 0.02 L, and stays so less the offset v_x dt at the
@@ -204,7 +204,7 @@ def test_lag_budget_step_rule():
 def test_lag_budget_removes_the_friction_lag_offset_of_x_c():
     """A 0.18 m track at 2 m/s in a 5 m turn (the wide grid's worst x_c): the steady x_c sits v dt
     off the Coulomb reference with load transfer (independent code), the noslip friction's one-step
-    lag (experiments/gentle_turns.py section 5). Measured: 10.0 mm = 0.056 L at the fixed 5 ms,
+    lag (benchmarks/gentle_turns.py section 5). Measured: 10.0 mm = 0.056 L at the fixed 5 ms,
     1.78 mm = 0.0099 L at the 0.83 ms the budget picks (v dt = 1.67 mm)."""
     robot = Robot(track_gauge=0.3, track_length=0.18, track_width=0.08, mass=5.0, cg_z=0.045, cg_y=0.015)
     v, w = 2.0, 2.0 / 5.0
@@ -272,7 +272,7 @@ def _roller_surface_speeds(model, data, side: str, n: int, r: float) -> np.ndarr
 def test_belt_makes_the_rollers_of_a_track_run_at_one_speed():
     """SimConfig.belt_timeconst: in a gentle turn (80 kg issue-11 robot, cg 0.1 L ahead, R 10 m at
     0.2 m/s) the servos alone let the roller surface speeds of a track spread by F_i/(kv/N), mm/s
-    like the slips, and x_c then missed Coulomb by 0.03 L (experiments/gentle_turns.py, section 5);
+    like the slips, and x_c then missed Coulomb by 0.03 L (benchmarks/gentle_turns.py, section 5);
     with the belt every roller runs at the track speed and x_c is within 0.005 L (measured 0.0017).
     The Coulomb reference is independent code (models.coulomb)."""
     import mujoco

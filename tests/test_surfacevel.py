@@ -149,7 +149,7 @@ def test_ground_contact_lookup_matches_ids_and_sensors():
     np.testing.assert_array_equal(ground_contact(d, ids), [False, False])
 
 
-# The worst cases of the issue-3 grid for this model (python experiments/fidelity.py
+# The worst cases of the issue-3 grid for this model (python benchmarks/fidelity.py
 # --track-model surfacevel: largest err_x on the default robot 0.0106 L, largest err_y on the long
 # robot 0.031 T/2) and low-friction cases of the long robot with the cg at -0.1 L. Commands: v 0.8 m/s.
 LONG = Robot(track_gauge=0.6, track_length=0.9, mass=60.0, cg_z=0.2)

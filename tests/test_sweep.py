@@ -126,9 +126,9 @@ def test_sweep_resumes_from_a_cut_file(swept, cluster, capsys):
     lines = full.splitlines(keepends=True)
     out = swept / "resumed"
     out.mkdir()
-    (out / "sweep.json").write_text((swept / "a" / "sweep.json").read_text())  # a killed run left both
+    (out / "sweep.partial.json").write_text((swept / "a" / "sweep.json").read_text())  # a killed run left both
     # completion order is arbitrary: keep rows 7, 2, 9, 0, 11 and half of row 4
-    (out / "sweep.csv").write_text(lines[0] + "".join(lines[1 + k] for k in (7, 2, 9, 0, 11)) + lines[5][:30])
+    (out / "sweep.partial.csv").write_text(lines[0] + "".join(lines[1 + k] for k in (7, 2, 9, 0, 11)) + lines[5][:30])
     capsys.readouterr()
 
     class Terminal(io.StringIO):
@@ -143,14 +143,15 @@ def test_sweep_resumes_from_a_cut_file(swept, cluster, capsys):
     said = capsys.readouterr().out
     assert "12 cases (7 run on 2 workers" in said and "5 kept from an earlier run" in said
     assert (out / "sweep.csv").read_text() == full
+    assert sorted(p.name for p in out.iterdir()) == ["icr_map.png", "sweep.csv", "sweep.json"]  # resume state gone
 
 
 def test_resume_refuses_a_file_of_another_grid(swept, cluster, capsys):
     out = swept / "other"
     out.mkdir()
-    (out / "sweep.json").write_text((swept / "a" / "sweep.json").read_text())
+    (out / "sweep.partial.json").write_text((swept / "a" / "sweep.json").read_text())
     text = (swept / "a" / "sweep.csv").read_text().replace("\n0,0.4,0.5,0.5,", "\n0,0.4,0.5,0.7,", 1)
-    (out / "sweep.csv").write_text(text)
+    (out / "sweep.partial.csv").write_text(text)
     assert main(["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--workers", "1", *SHORT]) == 2
     assert "case 0 was run with other grid values" in capsys.readouterr().err
 
@@ -160,12 +161,32 @@ def test_resume_refuses_other_settings(swept, capsys):
     out = swept / "settings"
     out.mkdir()
     for name in ("sweep.csv", "sweep.json"):
-        (out / name).write_text((swept / "a" / name).read_text())
-    before = (out / "sweep.csv").read_bytes()
+        (out / name.replace(".", ".partial.")).write_text((swept / "a" / name).read_text())
+    before = (out / "sweep.partial.csv").read_bytes()
     assert main(["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--workers", "1",
                  "--settle", "0.3", "--window", "0.4"]) == 2
     assert "other settings (window_s)" in capsys.readouterr().err
-    assert (out / "sweep.csv").read_bytes() == before
+    assert (out / "sweep.partial.csv").read_bytes() == before
+
+
+def test_a_finished_sweep_is_replaced_only_with_force(swept, cluster, capsys):
+    """The overwrite rule: a folder holding a finished sweep is refused; --force replaces it, and
+    discards a partial sweep of other settings instead of refusing it (a clean restart)."""
+    out = swept / "done"
+    out.mkdir()
+    for name in ("sweep.csv", "sweep.json", "icr_map.png"):
+        (out / name).write_bytes((swept / "a" / name).read_bytes())
+    args = ["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--scheduler", cluster.scheduler_address, "-q",
+            *SHORT]
+    assert main(args) == 2
+    assert f"{out / 'sweep.csv'}: exists; pass --force to replace it" in capsys.readouterr().err
+    (out / "sweep.partial.json").write_text((swept / "a" / "sweep.json").read_text().replace('"window_s": 0.2',
+                                                                                              '"window_s": 0.9'))
+    (out / "sweep.partial.csv").write_text((swept / "a" / "sweep.csv").read_text())
+    assert main([*args, "--force"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["icr_map.png", "sweep.csv", "sweep.json"]
+    assert (out / "sweep.csv").read_bytes() == (swept / "a" / "sweep.csv").read_bytes()
+    assert "12 cases (12 run" in capsys.readouterr().out  # nothing kept from the other settings
 
 
 def test_resume_refuses_a_sweep_from_other_simulator_settings(swept, capsys):
@@ -177,12 +198,12 @@ def test_resume_refuses_a_sweep_from_other_simulator_settings(swept, capsys):
     config = doc.pop("sim_config")
     assert config["lag_budget"] == 0.01 and config["belt_timeconst"] == 0.01 and config["principal_axes"] is True
     doc["lag_budget"] = 0.01  # what a session-5 sweep recorded
-    (out / "sweep.json").write_text(json.dumps(doc))
-    (out / "sweep.csv").write_text((swept / "a" / "sweep.csv").read_text())
-    before = (out / "sweep.csv").read_bytes()
+    (out / "sweep.partial.json").write_text(json.dumps(doc))
+    (out / "sweep.partial.csv").write_text((swept / "a" / "sweep.csv").read_text())
+    before = (out / "sweep.partial.csv").read_bytes()
     assert main(["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--workers", "1", *SHORT]) == 2
     assert "other settings (sim_config)" in capsys.readouterr().err
-    assert (out / "sweep.csv").read_bytes() == before
+    assert (out / "sweep.partial.csv").read_bytes() == before
 
 
 def test_sweep_on_terrain_is_steady_on_terrain(tmp_path, cluster, capsys):
@@ -208,6 +229,7 @@ def test_unreachable_scheduler_is_an_input_error(tmp_path, capsys, monkeypatch):
     rc = main(["sweep", "--grid", str(tmp_path / "g.json"), "--out", str(tmp_path / "o"),
                "--scheduler", "tcp://127.0.0.1:9", *SHORT])
     assert rc == 2 and "cannot reach a dask scheduler" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()  # refused before anything, the resume state included, is written
 
 
 @pytest.mark.slow
@@ -219,7 +241,7 @@ def test_sweep_killed_mid_run_resumes(tmp_path):
     cmd = [sys.executable, "-m", "mjtrack", "sweep", "--grid", str(tmp_path / "g.json"), "--workers", "1", "-q",
            "--settle", "1", "--window", "1"]
     proc = subprocess.Popen([*cmd, "--out", str(tmp_path / "k")], start_new_session=True)
-    csv_path = tmp_path / "k" / "sweep.csv"
+    csv_path = tmp_path / "k" / "sweep.partial.csv"
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline and (not csv_path.exists() or csv_path.read_text().count("\n") < 3):
         time.sleep(0.2)
@@ -229,7 +251,7 @@ def test_sweep_killed_mid_run_resumes(tmp_path):
     assert 2 <= n_before < 12
     assert subprocess.run([*cmd, "--out", str(tmp_path / "k")], capture_output=True).returncode == 0
     assert subprocess.run([*cmd, "--out", str(tmp_path / "full")], capture_output=True).returncode == 0
-    assert csv_path.read_bytes() == (tmp_path / "full" / "sweep.csv").read_bytes()
+    assert (tmp_path / "k" / "sweep.csv").read_bytes() == (tmp_path / "full" / "sweep.csv").read_bytes()
 
 
 def test_auto_chunk_size_gives_every_thread_two_tasks_and_caps_the_chunk():

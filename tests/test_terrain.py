@@ -236,7 +236,7 @@ def test_coulomb_plane_world_round_trip():
 
 
 def test_mujoco_turn_on_an_incline_matches_coulomb():
-    """Done-when (short version of experiments/terrain_checks.py, which runs 12 s): on a 0.2 rad
+    """Done-when (short version of benchmarks/terrain_checks.py, which runs 12 s): on a 0.2 rad
     incline a turning robot's path matches the Coulomb reference fed the measured track speeds
     within 6 % of the distance travelled."""
     from mjtrack.models.coulomb import plane_to_world, rollout, world_to_plane

@@ -84,7 +84,8 @@ def number(src: Source, pointer: str, *, reduce: str | None = None, field_name: 
         return Cell("n/a", {**prov, "kind": "null"})
     if isinstance(value, bool):
         return Cell("yes" if value else "no", {**prov, "kind": "bool"})
-    value = value * scale
+    if scale != 1.0:
+        value = value * scale
     if isinstance(value, int):
         return Cell(str(value), {**prov, "kind": "number"})
     if not math.isfinite(value):
@@ -181,7 +182,7 @@ def _diagnosis() -> Page:
         "diagnosis-benchmark", "Diagnosis benchmark",
         "Logs from the independent physics generator of the tests (`mjtrack.testing.diagnose_physics`: its own "
         "rigid-body simulation, sharing no code with the diagnosis), each with hidden effects of known size, "
-        "diagnosed with the surrogate baseline. Written by `python experiments/diagnose_benchmark.py` "
+        "diagnosed with the surrogate baseline. Written by `python benchmarks/diagnose_benchmark.py` "
         "(`--seed 1000` for the second column).",
         [src for _, src in runs], [table])
 
@@ -205,7 +206,7 @@ def _filters() -> Page:
         "filter-consistency", "Filter consistency",
         "The three parameter filters (slip EKF, ICR EKF, virtual-robot filter), each as a plain random walk and with "
         "adaptive process noise (`_imm`), run on MuJoCo logs with seeded measurement noise. Written by "
-        "`python experiments/filter_consistency.py`.",
+        "`python benchmarks/filter_consistency.py`.",
         [src], [table, bands])
 
 
@@ -239,7 +240,49 @@ def _speed() -> Page:
         [src], [rt, prof, rollers, other])
 
 
-PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _filters, _speed)
+def _wheeled() -> Page:
+    fid = Source(RESULTS / "wheeled_fidelity.json")
+    speed = Source(RESULTS / "wheeled_speed.json")
+    table = Table("Steady turns of the wheeled MuJoCo robot against the point-contact Coulomb reference, every robot "
+                  "of the grid. Errors: ICR distance over half the gauge T/2.", ["quantity", "value"])
+    p = "/summary"
+    for key, label in (("cases", "cases"), ("passed", "passed (every check within the file's tolerances)"),
+                       ("no_reference", "cases without a reference steady state"),
+                       ("worst_err_y_l", "worst |Δy_l| / (T/2)"), ("median_err_y_l", "median |Δy_l| / (T/2)"),
+                       ("worst_err_y_r", "worst |Δy_r| / (T/2)"), ("median_err_y_r", "median |Δy_r| / (T/2)"),
+                       ("worst_err_x_c", "worst |Δx_c| / (T/2)"), ("median_err_x_c", "median |Δx_c| / (T/2)"),
+                       ("worst_err_x_c_horizon", "worst |Δx_c| / (T/2) less the friction rows' horizon v_x dt"),
+                       ("median_dt_err", "median change when the time step is halved, / (T/2)"),
+                       ("min_contact", "least fraction of steps with every wheel on the ground"),
+                       ("unsteady", "cases not steady in their window")):
+        table.add(label, number(fid, f"{p}/{key}"))
+    table.add("worst change when the time step is halved, / (T/2)", number(fid, f"{p}/worst_dt_err/value"))
+    tol = Table("Tolerances of the grid, as stored with the results.", ["tolerance", "value"])
+    for key in fid.data["tolerances"]:
+        tol.add(key, number(fid, f"/tolerances/{key}"))
+    rt = Table("Real-time factor of one wheeled robot and of the default tracked robot, random steps, one thread "
+               "(per CPU second of the process, and per wall second).",
+               ["robot", "path", "time step [s]", "contacts", "per CPU second", "per wall second"])
+    for robot in speed.data["results"]:
+        for path in ("rollout", "simulate", "mj_step"):
+            q = f"/results/{robot}/{path}"
+            if path in speed.data["results"][robot]:
+                rt.add(robot, path, number(speed, f"/results/{robot}/timestep"),
+                       number(speed, f"/results/{robot}/contacts"), number(speed, q + "/realtime_factor_cpu"),
+                       number(speed, q + "/realtime_factor_wall"))
+    load = Table("Machine load during the speed run (one-minute load average).", ["when", "load"])
+    load.add("before", number(speed, "/load_average_before/0"))
+    load.add("after", number(speed, "/load_average_after/0"))
+    return Page(
+        "wheeled", "Wheeled robots",
+        "The wheeled skid-steer robot (robot key `traction`: `wheels`) against the Coulomb reference that puts one "
+        "point contact under each axle and knows that wheels can roll without slipping, and its speed. The grid "
+        "covers robots with two and three wheels a side, light to heavy, with centre-of-mass offsets and split "
+        "friction, pivots to gentle turns, slow to fast, both directions, forward and reverse.",
+        [fid, speed], [table, tol, rt, load])
+
+
+PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _filters, _speed, _wheeled)
 
 
 # -- writing -----------------------------------------------------------------------------------

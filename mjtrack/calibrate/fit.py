@@ -51,7 +51,7 @@ FD_EPS = 0.05  # finite-difference step in units of a parameter's typical change
 # direction: cg_y against a short contact) was rejected 30 times in a row, each rejection a full
 # pass, while mu crept up to 1e-3. Damping of 1e-3 of the scaled Hessian's order (the cost is a
 # mean over windows in m^2, parameters in units of their typical change) and x10 per rejection
-# (the classic Levenberg-Marquardt factor) reach it in 2-3 passes. experiments/bench_calibrate.py.
+# (the classic Levenberg-Marquardt factor) reach it in 2-3 passes. benchmarks/bench_calibrate.py.
 LM_MU_MIN = 1e-3
 LM_MU_FACTOR = 10.0
 
@@ -158,8 +158,9 @@ def _multistart(obj: Objective, z0: np.ndarray) -> tuple[np.ndarray, list[tuple[
     """A few starts differing in the turning-resistance and lag parameters, evaluated in one batch."""
     names = obj.names
     cands = [z0.copy()]
-    turn = [n for n in ("track_length", "lateral_ratio", "span") if n in names]
-    grid = {"track_length": (0.3, 0.5, 0.8), "lateral_ratio": (0.4, 0.7, 1.0), "span": (0.4, 0.7, 1.0)}
+    turn = [n for n in ("track_length", "wheelbase", "lateral_ratio", "span") if n in names]
+    grid = {"track_length": (0.3, 0.5, 0.8), "wheelbase": (0.3, 0.6, 1.1), "lateral_ratio": (0.4, 0.7, 1.0),
+            "span": (0.4, 0.7, 1.0)}
     for n in turn[:1]:
         i = names.index(n)
         for v in grid[n]:

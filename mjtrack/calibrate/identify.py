@@ -66,6 +66,9 @@ class Linearised:
         rows_per_window: residual components per window (window-major rows).
         specs: every parameter's spec.
         model_form: the model-form sources.
+        floors: parameter -> the least half-width the simulator allows it (a time constant or a
+            dead time is resolved to one time step at best: a lag of 2 ms and none differ by less
+            than the step's own discretisation).
     """
 
     names: list[str]
@@ -75,6 +78,7 @@ class Linearised:
     rows_per_window: int
     specs: dict[str, ParamSpec]
     model_form: list[ModelForm] = field(default_factory=list)
+    floors: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.A = self.jac.T @ self.jac
@@ -133,8 +137,9 @@ class Linearised:
         t = float(stats.t.ppf(0.975, max(G - 1, 1)))
         corr = cov / np.maximum(np.outer(sd, sd), 1e-300)
         sc = self.scales[idx]
+        floor = np.array([self.floors.get(self.names[i], 0.0) for i in idx])
         return Uncertainty(names=[self.names[i] for i in idx], sd=sd * sc, shift=shift * sc,
-                           half=(t * sd + shift) * sc, corr=corr, clusters=G, t=t,
+                           half=np.maximum((t * sd + shift) * sc, floor), corr=corr, clusters=G, t=t,
                            shifts={m.name: s * sc for m, s in zip(self.model_form, shifts)})
 
 
@@ -174,7 +179,7 @@ class Verdict:
         return out
 
 
-def _fmt(v: float, unit: str) -> str:
+def fmt_value(v: float, unit: str) -> str:
     return f"{v:.3g} {unit}" if unit not in ("–", "-") else f"{v:.3g}"
 
 
@@ -228,14 +233,14 @@ def select(lin: Linearised, described: dict[str, float]) -> Selection:
             j, c = max(partners, key=lambda p: abs(p[1]))
             other = lin.names[j]
             reason = (f"trades with {other} (correlation {c:+.2f}): the log determines their combination, not "
-                      f"each one; {name} stays at its described value {_fmt(described[name], spec.unit)} and "
+                      f"each one; {name} stays at its described value {fmt_value(described[name], spec.unit)} and "
                       f"{other} carries the combination")
             ties.setdefault(other, []).append(name)
             tied = [other]
         else:
-            reason = (f"not determined by this log: its 95 % interval would be +-{_fmt(u.half[k], spec.unit)}, "
-                      f"wider than the +-{_fmt(spec.resolution, spec.unit)} that matters; it stays at its "
-                      f"described value {_fmt(described[name], spec.unit)}")
+            reason = (f"not determined by this log: its 95 % interval would be +-{fmt_value(u.half[k], spec.unit)}, "
+                      f"wider than the +-{fmt_value(spec.resolution, spec.unit)} that matters; it stays at its "
+                      f"described value {fmt_value(described[name], spec.unit)}")
             tied = []
         verdicts[name] = Verdict(name, False, False, described[name], described[name], None, reason, tied)
         revert(i)
@@ -254,7 +259,7 @@ def select(lin: Linearised, described: dict[str, float]) -> Selection:
         v = theta[i] * spec.scale
         lo, hi = max(spec.lo, v - u.half[k]), min(spec.hi, v + u.half[k])
         verdicts[name] = Verdict(name, name not in ties, False, described[name], described[name], (lo, hi),
-                                 f"consistent with the description: {_fmt(described[name], spec.unit)} lies in the "
+                                 f"consistent with the description: {fmt_value(described[name], spec.unit)} lies in the "
                                  f"95 % interval [{lo:.4g}, {hi:.4g}] of the fit; kept", ties.get(name, []))
         revert(i)
         idx.remove(i)
@@ -284,16 +289,16 @@ def final_verdicts(lin: Linearised, described: dict[str, float], ties: dict[str,
         changed = has_changed(v, described[name])
         if tied:
             reason = (f"carries its combination with {', '.join(tied)}, which the log cannot tell apart: "
-                      f"{_fmt(v, spec.unit)} [{lo:.4g}, {hi:.4g}] holds only with "
+                      f"{fmt_value(v, spec.unit)} [{lo:.4g}, {hi:.4g}] holds only with "
                       f"{', '.join(tied)} at the described value")
         elif half > spec.resolution:
-            reason = (f"moved but barely determined: 95 % interval +-{_fmt(half, spec.unit)} is wider than the "
-                      f"+-{_fmt(spec.resolution, spec.unit)} that matters")
+            reason = (f"moved but barely determined: 95 % interval +-{fmt_value(half, spec.unit)} is wider than the "
+                      f"+-{fmt_value(spec.resolution, spec.unit)} that matters")
         else:
             unit = "" if spec.unit in ("–", "-") else f" {spec.unit}"
             reason = (f"determined: 95 % interval [{lo:.4g}, {hi:.4g}]{unit} (statistical "
-                      f"+-{_fmt(u.t * u.sd[k], spec.unit)} over {u.clusters} clusters of windows, model form "
-                      f"+-{_fmt(u.shift[k], spec.unit)}, optimiser +-{_fmt(rest[k], spec.unit)})")
+                      f"+-{fmt_value(u.t * u.sd[k], spec.unit)} over {u.clusters} clusters of windows, model form "
+                      f"+-{fmt_value(u.shift[k], spec.unit)}, optimiser +-{fmt_value(rest[k], spec.unit)})")
             if not changed:
                 reason += "; equal to the description"
         out[name] = Verdict(name, bool(not tied and half <= spec.resolution), changed, v, described[name], (lo, hi),

@@ -54,7 +54,7 @@ class ParamSpec:
 
 
 def _specs(robot: Robot) -> dict[str, ParamSpec]:
-    L, T = robot.track_length, robot.track_gauge
+    L, T = robot.contact_length, robot.track_gauge  # (a wheeled robot's contact length is its wheelbase)
     # cg bounds: a quarter of the half-length / half-gauge; the roller chain's explicit-Euler step
     # diverged at cg_x = 0.4 L/2 in some transients (tests/test_windows.py)
     cgx, cgy = 0.25 * L / 2, 0.25 * T / 2
@@ -66,6 +66,7 @@ def _specs(robot: Robot) -> dict[str, ParamSpec]:
         ParamSpec("cg_x", -cgx, cgx, 0.02, 0.02 * L, "m", "mass", "centre of mass ahead of the geometric centre"),
         ParamSpec("cg_y", -cgy, cgy, 0.02, 0.02 * T, "m", "mass", "centre of mass left of the geometric centre"),
         ParamSpec("track_length", 0.15, 1.6, 0.1, 0.05 * L, "m", "contact", "track contact length"),
+        ParamSpec("wheelbase", 0.1, 3.0, 0.1, 0.05 * L, "m", "contact", "front to rear axle distance (wheeled robot)"),
         ParamSpec("drive_lag", 0.0, 1.5, 0.1, 0.02, "s", "drive", "first-order time constant from command to track speed"),
         # scale 0.01 s: the optimiser's forward difference (FD_EPS of it, 0.5 ms) stays inside one 5 ms
         # time step, across which the residuals have kinks in the delay (mjtrack.calibrate.fit)
@@ -95,6 +96,11 @@ def specs_for(robot: Robot) -> dict[str, ParamSpec]:
     return _specs(robot)
 
 
+def geometry_name(robot: Robot) -> str:
+    """The robot key of its contact length: ``track_length``, or a wheeled robot's ``wheelbase``."""
+    return "wheelbase" if robot.traction == "wheels" else "track_length"
+
+
 def one_frame(log: DriveLog) -> bool:
     """Whether the log's segments share one world frame (a slope there means something): False when
     every segment starts at the origin with zero heading (each window in its own frame, as the
@@ -108,7 +114,7 @@ def one_frame(log: DriveLog) -> bool:
 
 def default_names(robot: Robot, log: DriveLog | None = None) -> list[str]:
     """The parameters fitted when none are named."""
-    names = list(DEFAULT_PARAMS)
+    names = [geometry_name(robot) if n == "track_length" else n for n in DEFAULT_PARAMS]
     if log is not None and one_frame(log):
         names.extend(SLOPE_PARAMS)
     names.extend(GROUND_PARAMS.get(robot.ground.model, ()))
@@ -126,6 +132,9 @@ def parse_names(text: str | None, robot: Robot, log: DriveLog | None = None) -> 
     for n in names:
         if n not in specs:
             raise InputError(f"--params: unknown parameter {n!r}; known: {', '.join(specs)}")
+        if n in ("track_length", "wheelbase") and n != geometry_name(robot):
+            raise InputError(f"--params: {n!r} is not the contact length of a robot on {robot.traction}; "
+                             f"fit {geometry_name(robot)!r}")
         for model, ps in GROUND_PARAMS.items():
             if n in ps and robot.ground.model != model:
                 raise InputError(f"--params: {n!r} belongs to the {model!r} ground; the robot's ground is "

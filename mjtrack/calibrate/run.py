@@ -32,12 +32,12 @@ import numpy as np
 
 from mjtrack.calibrate.causes import Cause, find_causes, summary
 from mjtrack.calibrate.fit import FitResult, central_jacobian, fit, objective
-from mjtrack.calibrate.identify import Linearised, ModelForm, Verdict, final_verdicts, select
-from mjtrack.calibrate.params import described_values, parse_names, specs_for, start_values, window_params
+from mjtrack.calibrate.identify import Linearised, ModelForm, Verdict, final_verdicts, fmt_value, select
+from mjtrack.calibrate.params import described_values, parse_names, start_values, window_params
 from mjtrack.diagnose import residuals as rs
 from mjtrack.errors import InputError
 from mjtrack.geometry import _sinc_terms, relative_pose
-from mjtrack.io.atomic import atomic_write_text
+from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.config import SimConfig, sim_config
@@ -320,6 +320,17 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
         nthread: rollout threads (results do not depend on it).
         warmup_s: history [s] over which each window's hidden states are warmed up (0: none).
     """
+    from mjtrack.sim.rollout import summarised_mujoco_warnings
+
+    src = train_path or train.source or "train log"
+    with summarised_mujoco_warnings(f"calibrate {src}", log):  # one line, not one per diverged window
+        return _calibrate(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
+                          max_iter=max_iter, nthread=nthread, quiet=quiet, train_path=train_path,
+                          test_path=test_path, warmup_s=warmup_s)
+
+
+def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, quiet,
+               train_path, test_path, warmup_s) -> Calibration:
     from mjtrack.progress import Progress
 
     timings: dict[str, float] = {}
@@ -364,6 +375,7 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
     t2 = time.perf_counter()
     obj = objective(sim, train, ws, names, nthread=nthread, warmup_s=warmup_s)
     specs = obj.specs
+    floors = {n: sim.dt for n in ("drive_lag", "drive_delay")}  # timing is resolved to one step at best
     refit_iter = max(3, max_iter // 2)
     with Progress(total=max_iter + MAX_ROUNDS * refit_iter, label="calibrate", quiet=quiet) as bar:
         result = fit(obj, start, max_iter=max_iter, on_iter=lambda i, c: bar.update())
@@ -376,12 +388,12 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
             sources, size = model_form_sources(obj, point, resid, jac, config)
             theta = np.array([point[n] / specs[n].scale for n in names])
             lin = Linearised(names=list(names), theta=theta, jac=jac, resid=resid,
-                             rows_per_window=obj.rows_per_window, specs=specs, model_form=sources)
+                             rows_per_window=obj.rows_per_window, specs=specs, model_form=sources, floors=floors)
             fidx = [names.index(n) for n in free]
             rest = np.abs(lin.step(fidx)[fidx]) * lin.scales[fidx]
             converged = bool(np.all(rest <= STEP_TOL * lin.uncertainty(fidx).half))
             ahead = Linearised(names=list(names), theta=theta, jac=jac, resid=resid,
-                               rows_per_window=obj.rows_per_window, specs=specs, model_form=sources)
+                               rows_per_window=obj.rows_per_window, specs=specs, model_form=sources, floors=floors)
             ahead.advance()
             sel = select(ahead, described)
             if (sel.free == free and converged) or not sel.free or round_ == MAX_ROUNDS:
@@ -399,6 +411,15 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
         # last fit stands as fitted)
         kept = [] if not sel.free else free
         verdicts: dict[str, Verdict] = {n: v for n, v in sel.verdicts.items() if n not in kept}
+        # the rounds ran out while the last decision freed a parameter the last fit had not moved:
+        # it is determined, but no fit reached its value, so it stays at its description and says so
+        for n in sel.free:
+            if n not in kept:
+                s = specs[n]
+                verdicts[n] = Verdict(n, True, False, described[n], described[n], None,
+                                      f"the log points at {fmt_value(sel.values[n], s.unit)} (linearised), but the "
+                                      f"fit did not settle within {MAX_ROUNDS} rounds; it stays at its described "
+                                      f"value {fmt_value(described[n], s.unit)}")
         ties = {k: v for k, v in sel.ties.items() if k in kept}
         values = {**described}
         model_form: dict[str, dict] = {}
@@ -407,7 +428,7 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
             kidx = [names.index(n) for n in kept]
             klin = Linearised(names=list(kept), theta=theta[kidx], jac=jac[:, kidx], resid=resid,
                               rows_per_window=obj.rows_per_window, specs=specs,
-                              model_form=[ModelForm(m.name, m.g[kidx]) for m in sources])
+                              model_form=[ModelForm(m.name, m.g[kidx]) for m in sources], floors=floors)
             final, u, rest = final_verdicts(klin, described, ties)
             verdicts.update(final)
             values.update({n: point[n] for n in kept})
@@ -494,7 +515,7 @@ def write_outputs(cal: Calibration, out: str | os.PathLike) -> None:
 
     out = Path(out)
     report = build_report(cal)  # built first: a failure here leaves nothing half-written
-    out.mkdir(parents=True, exist_ok=True)
+    make_output_dir(out)
     atomic_write_text(out / "robot.json", json.dumps(_clean(cal.calibrated.to_dict()), indent=2, sort_keys=True) + "\n")
     atomic_write_text(out / "calibration.json", json.dumps(_clean(cal.to_json()), indent=2) + "\n")
     report.write(out / "report.html")

@@ -1,9 +1,19 @@
-"""Command-line pieces shared by the commands: robot options, ``--quiet``, ``--out`` checks.
+"""Command-line pieces shared by the commands: option bounds, robot options, ``--quiet``,
+``--force``, ``--out`` checks.
+
+Every numeric option is bounded at parsing, before any work, by :data:`OPTION_BOUNDS` (one table:
+speeds and robot values reuse the plausibility limits of the drive-log and robot readers); a value
+outside is a usage error, exit 2, one line naming the option, its value and the range.
+
+Overwrites, one rule for every command: an output that already exists is not replaced unless
+``--force`` is given (exit 2, one line naming the file and the flag, before any work;
+:func:`check_overwrite`). :class:`mjtrack.io.atomic.OutputTransaction` guards the same rule
+when the files are written.
 
 Robot options on every command that simulates::
 
     --robot FILE  --cg-x M  --cg-y M  --mu X  --mu-left X  --mu-right X  --mass KG
-    --track-gauge M  --track-length M
+    --track-gauge M  --track-length M  --wheelbase M
 
 :func:`robot_from_args` builds the :class:`~mjtrack.io.robot.Robot`: the ``--robot`` file if
 given, else the caller's ``base`` (a scenario's robot, a log's ``LOG.json``), else the default
@@ -24,9 +34,11 @@ import tempfile
 from pathlib import Path
 from typing import Iterable
 
+from dataclasses import dataclass
+
 from mjtrack.errors import InputError
-from mjtrack.io.logs import read_log, read_log_with_robot, robot_path_for
-from mjtrack.io.robot import Robot, read_robot
+from mjtrack.io.logs import PLAUSIBLE, read_log, read_log_with_robot, robot_path_for
+from mjtrack.io.robot import PLAUSIBLE_ROBOT, Robot, read_robot
 
 # option dest -> (Robot field, metavar, help)
 ROBOT_OPTIONS: dict[str, tuple[str, str, str]] = {
@@ -38,7 +50,82 @@ ROBOT_OPTIONS: dict[str, tuple[str, str, str]] = {
     "mass": ("mass", "KG", "total mass [kg]"),
     "track_gauge": ("track_gauge", "M", "distance between the track centre lines [m]"),
     "track_length": ("track_length", "M", "length of each track's ground contact [m]"),
+    "wheelbase": ("wheelbase", "M", "front to rear axle distance of a wheeled robot [m]"),
 }
+
+
+@dataclass(frozen=True)
+class Bound:
+    """The allowed range of an option: low <= value <= high (low < value when ``low_open``)."""
+
+    low: float
+    high: float
+    unit: str
+    what: str
+    low_open: bool = False
+    integer: bool = False
+    even: bool = False
+
+    def text(self) -> str:
+        lo = "(" if self.low_open else "["
+        return f"{lo}{self.low:g}, {self.high:g}]{' ' + self.unit if self.unit else ''}"
+
+
+_SPEED = PLAUSIBLE["v_left_cmd"][0]  # [m/s] the drive-log bound of a track speed
+_COORD = 100.0  # [m] the robot reader's bound of a centre-of-mass height, used for cg_x, cg_y too
+DAY_S = 86_400.0  # [s] longest simulated time an option takes (the rollout's step budget still applies)
+
+#: kind -> bound; the one table behind every numeric option of every command
+OPTION_BOUNDS: dict[str, Bound] = {
+    "speed": Bound(-_SPEED, _SPEED, "m/s", "a track speed (the drive-log bound)"),
+    "reference_speed": Bound(0.0, _SPEED, "m/s", "a reference speed", low_open=True),
+    "duration": Bound(0.0, DAY_S, "s", "a simulated time", low_open=True),
+    "settle": Bound(0.0, DAY_S, "s", "a settling time"),
+    "window": Bound(0.0, DAY_S, "s", "an averaging window", low_open=True),
+    "horizon": Bound(0.0, 60.0, "s", "a prediction horizon", low_open=True),  # 48 windows of 60 s: ~0.7 GB a rollout call
+    "timestep": Bound(1e-5, 0.05, "s", "a simulation time step"),
+    "log_rate": Bound(0.0, 10_000.0, "Hz", "a log rate", low_open=True),
+    "control_rate": Bound(0.0, 1_000.0, "Hz", "a control rate", low_open=True),
+    "laps": Bound(0.0, 1_000.0, "", "laps", low_open=True),
+    "seed": Bound(0, 2**32 - 1, "", "a seed", integer=True),
+    "noise_scale": Bound(0.0, 100.0, "", "a noise scale"),
+    "fps": Bound(0.0, 240.0, "frames/s", "a frame rate", low_open=True),
+    "playback": Bound(0.01, 1_000.0, "", "a playback speed"),
+    "width": Bound(16, 7680, "px", "an even image width", integer=True, even=True),
+    "height": Bound(16, 4320, "px", "an even image height", integer=True, even=True),
+    "folds": Bound(3, 1_000, "", "a number of folds", integer=True),
+    "iterations": Bound(1, 1_000, "", "a number of iterations", integer=True),
+    "rollers": Bound(2, 200, "", "rollers per track", integer=True),  # a robot file's simulator n_rollers too
+    "threads": Bound(1, 64, "", "a number of threads", integer=True),
+    "workers": Bound(1, 64, "", "a number of worker processes", integer=True),
+    # robot options: the robot reader's plausibility table
+    **{name: Bound(lo, hi, "" if unit == "-" else unit, f"a robot's {name}", low_open=lo == 0.0)
+       for name, (lo, hi, unit) in PLAUSIBLE_ROBOT.items()},
+    "cg_x": Bound(-_COORD, _COORD, "m", "a centre-of-mass offset"),
+    "cg_y": Bound(-_COORD, _COORD, "m", "a centre-of-mass offset"),
+}
+
+
+def bounded(kind: str):
+    """argparse ``type=``: a number within ``OPTION_BOUNDS[kind]`` (else a usage error, exit 2,
+    naming the value and the range; argparse adds the option's name)."""
+    bound = OPTION_BOUNDS[kind]
+
+    def parse(text: str):
+        if bound.integer:
+            try:
+                value = int(text)
+            except ValueError:
+                raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+        else:
+            value = finite_float(text)
+        below = value <= bound.low if bound.low_open else value < bound.low
+        if below or value > bound.high or (bound.even and value % 2):
+            raise argparse.ArgumentTypeError(f"{text} is out of range: {bound.what} in {bound.text()}")
+        return value
+
+    parse.__name__ = kind  # argparse names the type in some messages
+    return parse
 
 
 def finite_float(text: str) -> float:
@@ -52,43 +139,18 @@ def finite_float(text: str) -> float:
     return value
 
 
-def int_at_least(minimum: int):
-    """argparse ``type=``: an integer >= ``minimum`` (anything else is a usage error, exit 2)."""
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {text!r}")
-        return value
-
-    return parse
-
-
-def positive_float(text: str) -> float:
-    """argparse ``type=``: a finite float > 0."""
-    value = finite_float(text)
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
-    return value
-
-
-positive_int = int_at_least(1)  # argparse ``type=``: an integer >= 1
-
-
 def add_robot_options(parser: argparse.ArgumentParser) -> None:
     """Add ``--robot FILE`` and the per-field overrides (all default to ``None``: not given)."""
     group = parser.add_argument_group(
         "robot", "the robot: --robot FILE (a JSON object of SI values: track_gauge [m, required], track_length, "
-        "track_width, sprocket_radius [m], mass [kg], cg_x, cg_y, cg_z [m], mu, mu_left, mu_right), then each option "
-        "below overrides one field"
+        "track_width, sprocket_radius [m], mass [kg], cg_x, cg_y, cg_z [m], mu, mu_left, mu_right; a wheeled robot: "
+        "traction \"wheels\", wheel_radius, wheelbase [m], wheels_per_side), then each option below overrides one field"
     )
     group.add_argument("--robot", metavar="FILE", type=Path, default=None,
                        help="robot description JSON (at least 'track_gauge' [m])")
     for dest, (_, metavar, text) in ROBOT_OPTIONS.items():
         group.add_argument("--" + dest.replace("_", "-"), dest=dest, metavar=metavar,
-                           type=finite_float, default=None, help=text)
+                           type=bounded(dest), default=None, help=f"{text}, in {OPTION_BOUNDS[dest].text()}")
 
 
 def robot_from_args(args: argparse.Namespace, base: Robot | None = None) -> Robot:
@@ -144,10 +206,30 @@ def terrain_from_args(args: argparse.Namespace, scenario: str | None = None):
     return SCENARIOS[scenario].terrain if scenario in SCENARIOS else Terrain()
 
 
-def add_output_options(parser: argparse.ArgumentParser) -> None:
-    """Add ``-q/--quiet`` (no progress display)."""
+def add_output_options(parser: argparse.ArgumentParser, *, force: bool = True) -> None:
+    """Add ``-q/--quiet`` (no progress display) and, unless ``force`` is False, ``--force``."""
     parser.add_argument("-q", "--quiet", action="store_true",
                         help="no progress display (it is also off when stderr is not a terminal)")
+    if force:
+        add_force_option(parser)
+
+
+FORCE_HELP = ("replace outputs that already exist (without it an existing output is refused: exit 2, "
+              "nothing written)")
+
+
+def add_force_option(parser: argparse.ArgumentParser) -> None:
+    """Add ``--force`` (replace existing outputs; :func:`check_overwrite`)."""
+    parser.add_argument("--force", action="store_true", help=FORCE_HELP)
+
+
+def check_overwrite(paths: Iterable[str | os.PathLike], force: bool) -> None:
+    """Refuse, before any work, to replace any of ``paths`` that exists, unless ``force``."""
+    if force:
+        return
+    for path in paths:
+        if os.path.lexists(path):
+            raise InputError(f"{path}: exists; pass --force to replace it")
 
 
 _TMP_EXTRA = 16  # characters atomic writes add to a name (".NAME.xxxxxxxx.tmp")

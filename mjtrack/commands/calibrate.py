@@ -29,9 +29,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjtrack.commands._common import (add_output_options, add_robot_options, check_out_dir, log_and_robot,
-                                      positive_float, positive_int, test_log_and_robot)
+from mjtrack.commands._common import (add_output_options, add_robot_options, bounded, check_out_dir, check_overwrite,
+                                      log_and_robot, test_log_and_robot)
 
+OUTPUTS = ("robot.json", "calibration.json", "report.html")
 HELP = "fit the MuJoCo robot to a measured log (windows from the measured state): robot.json + calibration.json + report.html"
 
 
@@ -41,12 +42,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="held-out log of the same robot, scored but never fitted")
     parser.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder (created if needed)")
     parser.add_argument("--params", metavar="NAMES", default=None, help="parameters to fit, comma separated")
-    parser.add_argument("--horizon", metavar="S", type=positive_float, default=2.0, help="window length [s] (default 2)")
-    parser.add_argument("--max-iter", metavar="N", type=positive_int, default=8, help="optimiser iterations (default 8)")
-    parser.add_argument("--rollers", metavar="N", type=positive_int, default=None,
+    parser.add_argument("--horizon", metavar="S", type=bounded("horizon"), default=2.0, help="window length [s] (default 2)")
+    parser.add_argument("--max-iter", metavar="N", type=bounded("iterations"), default=8, help="optimiser iterations (default 8)")
+    parser.add_argument("--rollers", metavar="N", type=bounded("rollers"), default=None,
                         help="contact rollers per track in the simulation (default: the robot file's simulator "
                              "setting, else 10; 6 is ~2x faster); recorded in robot.json")
-    parser.add_argument("--threads", metavar="N", type=positive_int, default=2, help="rollout threads (default 2)")
+    parser.add_argument("--threads", metavar="N", type=bounded("threads"), default=2, help="rollout threads (default 2)")
     add_robot_options(parser)
     add_output_options(parser)
 
@@ -55,6 +56,7 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.calibrate.run import calibrate, check_same_robot, write_outputs
 
     out = check_out_dir(args.out)
+    check_overwrite([out / name for name in OUTPUTS], args.force)
     train, robot = log_and_robot(args)
     test, test_robot = test_log_and_robot(args.test)
     if test_robot is not None:

@@ -1,11 +1,13 @@
-"""The main job on built-in defaults, end to end (about 30 s on 2 cores: experiments/bench_demo.py).
+"""The main job on built-in defaults, end to end (about 30 s on 2 cores: benchmarks/bench_demo.py).
 
 A MuJoCo rollout of the default robot with its centre of gravity 5 cm ahead of the geometric
 centre (cg_x = +0.05 m) driving seeded everyday manoeuvres; its ICRs; the nominal, MPP, MICR
 and MVIR models with their filters validated against the rollout and against an MPP
 analytic truth; DIR/report.html, DIR/metrics.json, DIR/video.mp4, and the rollout itself
 (DIR/rollout.csv + rollout.json, for mjtrack validate / render). --terrain runs the same
-manoeuvres on sloped, stepped, rough or patchy ground (recorded in rollout.json; the video shows it).
+manoeuvres on sloped, stepped, rough or patchy ground (recorded in rollout.json; the video shows it);
+--robot FILE (and the robot options, on top of the default robot without it) another robot, tracked
+or wheeled.
 """
 
 from __future__ import annotations
@@ -13,7 +15,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjtrack.commands._common import TERRAIN_HELP, add_output_options, check_out_dir, terrain_from_args
+from mjtrack.commands._common import (ROBOT_OPTIONS, TERRAIN_HELP, add_output_options, add_robot_options,
+                                      check_out_dir, check_overwrite, robot_from_args, terrain_from_args)
+
+OUTPUTS = ("report.html", "metrics.json", "rollout.csv", "rollout.json", "video.mp4")
 
 HELP = "the main job on defaults: MuJoCo rollout, all models and filters validated, report, video"
 
@@ -23,14 +28,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="output folder (created if missing)")
     parser.add_argument("--no-video", action="store_true", help="skip the video")
     parser.add_argument("--terrain", metavar="SPEC", default=None, help=TERRAIN_HELP + " (default flat)")
+    add_robot_options(parser)
     add_output_options(parser)
 
 
 def run(args: argparse.Namespace) -> int:
-    from mjtrack.demo import run_demo
+    from mjtrack.demo import DEMO_ROBOT, run_demo
 
     out = check_out_dir(args.out)
-    res = run_demo(out, video=not args.no_video, quiet=args.quiet, terrain=terrain_from_args(args))
+    check_overwrite([out / name for name in OUTPUTS], args.force)
+    given = args.robot is not None or any(getattr(args, k, None) is not None for k in ROBOT_OPTIONS)
+    robot = robot_from_args(args, DEMO_ROBOT) if given else None
+    res = run_demo(out, video=not args.no_video, quiet=args.quiet, terrain=terrain_from_args(args), robot=robot)
     head = res.headline
     if not args.quiet:
         for truth, table in head["pos_rmse_m"].items():

@@ -19,24 +19,14 @@ import argparse
 import sys
 from pathlib import Path
 
-from mjtrack.commands._common import (add_output_options, add_robot_options, check_out_dir, finite_float, int_at_least,
+from mjtrack.commands._common import (add_output_options, add_robot_options, bounded, check_out_dir, check_overwrite,
                                       log_and_robot, test_log_and_robot)
 
 HELP = "what the nominal model gets wrong on a measured log, the cause and its gain: report.html + diagnosis.json"
 
 
-def _positive(text: str) -> float:
-    value = finite_float(text)
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
-    return value
-
-
-_folds = int_at_least(3)
-
-
 def _horizon(text: str):
-    return "auto" if text == "auto" else _positive(text)
+    return "auto" if text == "auto" else bounded("horizon")(text)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -47,7 +37,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--horizon", metavar="S", type=_horizon, default="auto",
                         help="prediction horizon of the windows [s], or 'auto' (default): 2 s, or the longest the "
                              "log's segments allow (3/4 of the median segment) when they are shorter, with a note")
-    parser.add_argument("--folds", metavar="K", type=_folds, default=5, help="cross-validation folds (default 5)")
+    parser.add_argument("--folds", metavar="K", type=bounded("folds"), default=5,
+                        help="cross-validation folds, at most half the log's samples (default 5)")
     parser.add_argument("--confirm", action="store_true",
                         help="re-simulate the log with the MuJoCo robot, nominal and extended by the cause "
                              "(surrogate and kinematic baselines; the mujoco baseline is MuJoCo throughout)")
@@ -71,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.diagnose import diagnose, write_outputs
 
     out = check_out_dir(args.out)
+    check_overwrite([out / "diagnosis.json", out / "report.html"], args.force)
     drive_log, robot = log_and_robot(args)
     test_log, test_robot = test_log_and_robot(args.test)
     result = diagnose(drive_log, robot, horizon_s=args.horizon, n_folds=args.folds, confirm=args.confirm,

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from mjtrack.commands._common import check_out_file
+from mjtrack.commands._common import add_force_option, check_out_file, check_overwrite
 
 HELP = "export a drive log's poses for other tools (tum: 't x y z qx qy qz qw', as evo reads)"
 
@@ -19,6 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("log", metavar="LOG.csv", help="drive log (CSV: t, v_left_cmd, v_right_cmd, x, y, yaw, ...)")
     parser.add_argument("--format", choices=["tum"], required=True, help="output format")
     parser.add_argument("--out", metavar="FILE", required=True, help="output file (written atomically)")
+    add_force_option(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -26,5 +27,6 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.io.tum import write_tum
 
     out = check_out_file(args.out, inputs=[args.log])
+    check_overwrite([out], args.force)
     write_tum(read_log(args.log), out)
     return 0

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import argparse
 
-from mjtrack.commands._common import add_robot_options, check_out_file, robot_from_args
+from mjtrack.commands._common import add_force_option, add_robot_options, check_out_file, check_overwrite, robot_from_args
 
 HELP = "import a ROS 2 bag (odometry, velocity commands, joint states) as a drive log CSV"
 
@@ -28,6 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--joints", metavar="TOPIC", default=None,
                         help="joint state topic for measured track speeds (default: the one JointState topic, if any)")
     add_robot_options(parser)
+    add_force_option(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -37,6 +38,7 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.io.robot import write_robot
 
     out = check_out_file(args.out, suffixes=[".csv"], inputs=[args.bag])
+    check_overwrite([out, robot_path_for(out)], args.force)
     if args.robot is None and args.track_gauge is None:
         raise InputError("import-bag needs the robot's track gauge: --robot FILE or --track-gauge M")
     robot = robot_from_args(args)

@@ -16,30 +16,22 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjtrack.commands._common import add_output_options, check_out_file, finite_float
+from mjtrack.commands._common import OPTION_BOUNDS, add_output_options, bounded, check_out_file, check_overwrite
 from mjtrack.commands.validate import add_source_arguments, source_from_args
-from mjtrack.errors import InputError
 
 HELP = "offscreen MuJoCo video (MP4) of a log or scenario, with path trail and ICRs; optional GIF of model paths"
-
-
-def _even_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 16 or value % 2:
-        raise argparse.ArgumentTypeError(f"must be an even number of pixels >= 16, got {value}")
-    return value
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_source_arguments(parser)
     parser.add_argument("--out", metavar="FILE.mp4", type=Path, required=True, help="output video")
-    parser.add_argument("--width", type=_even_int, default=640, help="frame width [px], even (default 640)")
-    parser.add_argument("--height", type=_even_int, default=480, help="frame height [px], even (default 480)")
-    parser.add_argument("--fps", type=finite_float, default=30.0, help="frames per second (default 30)")
-    parser.add_argument("--speed", type=finite_float, default=1.0, help="playback speed, 1 = real time, 2 = twice as fast; shown on every frame (default 1)")
+    parser.add_argument("--width", type=bounded("width"), default=640,
+                        help=f"frame width [px], even, in {OPTION_BOUNDS['width'].text()} (default 640)")
+    parser.add_argument("--height", type=bounded("height"), default=480,
+                        help=f"frame height [px], even, in {OPTION_BOUNDS['height'].text()} (default 480)")
+    parser.add_argument("--fps", type=bounded("fps"), default=30.0, help="frames per second (default 30)")
+    parser.add_argument("--speed", type=bounded("playback"), default=1.0,
+                        help="playback speed, 1 = real time, 2 = twice as fast; shown on every frame (default 1)")
     parser.add_argument("--gif", metavar="FILE.gif", type=Path, default=None,
                         help="also write an animated plot of the true and model paths")
     add_output_options(parser)
@@ -48,12 +40,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from mjtrack.validate.video import animate_log, render_log
 
-    if not (args.fps > 0 and args.speed > 0):
-        raise InputError(f"--fps and --speed must be > 0, got {args.fps:g} and {args.speed:g}")
     inputs = [args.log] if args.log else []
     out = check_out_file(args.out, suffixes=(".mp4",), inputs=inputs)
     gif = check_out_file(args.gif, suffixes=(".gif",), inputs=inputs) if args.gif else None
-    drive, robot, _, _ = source_from_args(args)
+    check_overwrite([out, *([gif] if gif else [])], args.force)
+    from mjtrack.render.video import check_frames
+
+    def frames(duration: float) -> None:  # a video too long is refused before the scenario is simulated
+        check_frames([[0.0, duration]], fps=args.fps, speed=args.speed)
+
+    drive, robot, _, _ = source_from_args(args, before_rollout=frames)
     stats = render_log(drive, robot, out, width=args.width, height=args.height, fps=args.fps, speed=args.speed,
                        quiet=args.quiet)
     print(f"wrote {out} ({stats.frames} frames, {stats.duration:.1f} s, {stats.width}x{stats.height})")

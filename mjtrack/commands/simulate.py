@@ -19,8 +19,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, check_out_file,
-                                      finite_float, robot_from_args, terrain_from_args)
+from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, bounded,
+                                      check_out_file, check_overwrite, robot_from_args, terrain_from_args)
 
 HELP = "headless MuJoCo rollout: scenario or command CSV -> drive log CSV + robot JSON"
 
@@ -31,12 +31,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--scenario", choices=list(SCENARIOS), help="a built-in scenario")
     src.add_argument("--commands", metavar="CSV", type=Path, help="command table: t, v_left_cmd, v_right_cmd")
-    parser.add_argument("--duration", metavar="S", type=finite_float, default=None,
+    parser.add_argument("--duration", metavar="S", type=bounded("duration"), default=None,
                         help="simulated time [s] (default: the scenario's; the last command time + 1 s for a CSV)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of random scenarios (default 0)")
-    parser.add_argument("--log-rate", metavar="HZ", type=finite_float, default=50.0,
+    parser.add_argument("--seed", type=bounded("seed"), default=0, help="seed of random scenarios (default 0)")
+    parser.add_argument("--log-rate", metavar="HZ", type=bounded("log_rate"), default=50.0,
                         help="log sample rate [Hz], a divisor of the simulation rate (default 50)")
-    parser.add_argument("--timestep", metavar="S", type=finite_float, default=None,
+    parser.add_argument("--timestep", metavar="S", type=bounded("timestep"), default=None,
                         help="simulation time step [s] (default 5 ms; see above for fast commands on short tracks)")
     parser.add_argument("--track-model", choices=["rollers", "surfacevel"], default="rollers",
                         help="MuJoCo track model: sprung roller chain (default) or surfacevel row")
@@ -56,6 +56,7 @@ def run(args: argparse.Namespace) -> int:
 
     inputs = [args.commands] if args.commands else []
     out = check_out_file(args.out, suffixes=(".csv",), inputs=inputs)
+    check_overwrite([out, robot_path_for(out)], args.force)
     robot = robot_from_args(args)
     terrain = terrain_from_args(args, args.scenario)
     config = sim_config(args.track_model, timestep=args.timestep)

@@ -18,17 +18,16 @@ from __future__ import annotations
 import argparse
 import json
 
-from mjtrack.commands._common import (add_robot_options, add_terrain_option, finite_float, robot_from_args,
-                                      terrain_from_args)
+from mjtrack.commands._common import add_robot_options, add_terrain_option, bounded, robot_from_args, terrain_from_args
 
 HELP = "steady-state twist and ICRs of the MuJoCo robot under constant track speeds (JSON)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--v-left", metavar="A", type=finite_float, required=True, help="left track speed [m/s]")
-    parser.add_argument("--v-right", metavar="B", type=finite_float, required=True, help="right track speed [m/s]")
-    parser.add_argument("--settle", metavar="S", type=finite_float, default=3.0, help="transient time [s] (default 3)")
-    parser.add_argument("--window", metavar="S", type=finite_float, default=2.0, help="averaging window [s] (default 2)")
+    parser.add_argument("--v-left", metavar="A", type=bounded("speed"), required=True, help="left track speed [m/s]")
+    parser.add_argument("--v-right", metavar="B", type=bounded("speed"), required=True, help="right track speed [m/s]")
+    parser.add_argument("--settle", metavar="S", type=bounded("settle"), default=3.0, help="transient time [s] (default 3)")
+    parser.add_argument("--window", metavar="S", type=bounded("window"), default=2.0, help="averaging window [s] (default 2)")
     parser.add_argument("--track-model", choices=["rollers", "surfacevel"], default="rollers",
                         help="MuJoCo track model: sprung roller chain (default) or surfacevel row")
     parser.add_argument("--json", action="store_true", help="print JSON (the only output format; accepted for clarity)")
@@ -37,12 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mjtrack.errors import InputError
-    from mjtrack.sim.steady import steady_state
-
-    if args.settle < 0 or args.window <= 0:
-        raise InputError("--settle must be >= 0 and --window > 0 seconds")
     from mjtrack.sim.config import sim_config
+    from mjtrack.sim.steady import steady_state
 
     robot = robot_from_args(args)
     result = steady_state(robot, args.v_left, args.v_right, config=sim_config(args.track_model),

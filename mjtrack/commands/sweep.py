@@ -12,31 +12,36 @@ Every case runs on the --terrain ground (default flat). Each case is held for --
 `mjtrack steady` does. Writes DIR/sweep.csv (one row per case: case index, grid values,
 v_left_cmd, v_right_cmd, measured v_left, v_right, vx, vy, wz, ..., y_l, y_r, x_c, ...; an
 empty cell where an ICR is undefined because the robot does not turn), DIR/sweep.json (the
-same rows, null for undefined) and DIR/icr_map.png. Rows are appended as cases finish: run
-the same command again after an interruption and only the missing cases run. The numbers
-do not depend on the number of workers.
+same rows, null for undefined) and DIR/icr_map.png, all three at the end. Rows are appended
+to DIR/sweep.partial.csv as cases finish (settings in DIR/sweep.partial.json): run the same
+command again after an interruption and only the missing cases run; the partial files go when
+the outputs are written. Existing outputs are replaced only with --force (which also starts
+over from a partial sweep of other settings). The numbers do not depend on the number of
+workers.
 """
 
 from __future__ import annotations
 
 import argparse
 
-from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, check_out_dir,
-                                      finite_float, int_at_least, robot_from_args, terrain_from_args)
+from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, bounded, check_out_dir,
+                                      check_overwrite, robot_from_args, terrain_from_args)
 
+ON_INTERRUPT = "the finished cases are kept: run the same command again to resume"
 HELP = "steady states over a grid of commands and robots on a dask cluster: sweep.csv, sweep.json, icr_map.png"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--grid", metavar="GRID.json", required=True, help="the grid (see above)")
-    parser.add_argument("--out", metavar="DIR", required=True, help="output folder (created; resumed if it holds a sweep.csv)")
+    parser.add_argument("--out", metavar="DIR", required=True,
+                        help="output folder (created; resumed if it holds a sweep.partial.csv)")
     where = parser.add_mutually_exclusive_group()
-    where.add_argument("--workers", metavar="N", type=int_at_least(1), default=None,
+    where.add_argument("--workers", metavar="N", type=bounded("workers"), default=None,
                        help="start a local dask cluster of N worker processes, one thread each (default: CPU count)")
     where.add_argument("--scheduler", metavar="ADDRESS", default=None,
                        help="run on an existing dask cluster, e.g. tcp://10.0.0.5:8786")
-    parser.add_argument("--settle", metavar="S", type=finite_float, default=3.0, help="transient time [s] (default 3)")
-    parser.add_argument("--window", metavar="S", type=finite_float, default=2.0, help="averaging window [s] (default 2)")
+    parser.add_argument("--settle", metavar="S", type=bounded("settle"), default=3.0, help="transient time [s] (default 3)")
+    parser.add_argument("--window", metavar="S", type=bounded("window"), default=2.0, help="averaging window [s] (default 2)")
     parser.add_argument("--track-model", choices=["rollers", "surfacevel"], default="rollers",
                         help="MuJoCo track model: sprung roller chain (default) or surfacevel row")
     add_terrain_option(parser)
@@ -46,11 +51,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mjtrack.sweep import read_grid, run_sweep
+    from mjtrack.sweep.run import OUTPUTS
 
     out = check_out_dir(args.out)
+    check_overwrite([out / name for name in OUTPUTS], args.force)
     grid = read_grid(args.grid, base=robot_from_args(args))
     s = run_sweep(grid, out, workers=args.workers, scheduler=args.scheduler, track_model=args.track_model,
-                  settle_s=args.settle, window_s=args.window, terrain=terrain_from_args(args), quiet=args.quiet)
+                  settle_s=args.settle, window_s=args.window, terrain=terrain_from_args(args), quiet=args.quiet,
+                  restart=args.force)
     resumed = f", {s.resumed} kept from an earlier run" if s.resumed else ""
     print(f"{s.cases} cases ({s.ran} run on {s.workers} workers in {s.seconds:.1f} s{resumed}): {out}/sweep.csv, "
           f"sweep.json, icr_map.png")

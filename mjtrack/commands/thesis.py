@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjtrack.commands._common import add_output_options, check_out_dir
+from mjtrack.commands._common import add_output_options, check_out_dir, check_overwrite
 
 HELP = "reproduce the source thesis's chapter-4 experiments (figures + thesis.json)"
 
@@ -28,6 +28,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     out = check_out_dir(args.out)
     from mjtrack.thesis.run import JSON_NAME, run_thesis  # matplotlib only when the command runs
+
+    check_overwrite([out / JSON_NAME], args.force)
 
     doc = run_thesis(out, quiet=args.quiet)
     if not args.quiet:

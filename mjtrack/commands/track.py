@@ -1,21 +1,29 @@
 """Slip-compensated trajectory tracking with the MuJoCo tracked robot.
 
-Drives the MuJoCo robot along a tracking scenario's reference (figure_eight: lemniscate of
-Gerono, A = 1.5 m, 2 laps; circle: radius 1 m, 1.5 turns; lane_change: 1.5 m straight, a 1 m
-shift to the left over 3 m with continuous curvature, 1.5 m straight; all at 0.5 m/s unless
---speed) with a controller (tracker: feed-forward + pole-placement feedback; feedforward: open
-loop) whose body commands (v, w) go to the tracks through a compensation: none (nominal
-V_L,R = v -+ w T/2), icr (inverse ICR map of the online estimate for the feed-forward, feedback
+Drives the MuJoCo robot, tracked or wheeled (--robot FILE), along a tracking scenario's reference
+(figure_eight: lemniscate of Gerono, A = 1.5 m, 2 laps; circle: radius 1 m, 1.5 turns;
+lane_change: 1.5 m straight, a 1 m shift to the left over 3 m with continuous curvature, 1.5 m
+straight; all at 0.5 m/s unless --speed) with a controller: tracker (feed-forward + pole-placement
+feedback, slip-compensated) or one of the wheeled-robot thesis's five, set up to follow the path
+(mjtrack.control.path_controllers): feedforward (open loop), pole_placement (the tracker's law,
+uncompensated by default), reactive (chasing a goal that runs ahead on the path), posture (the
+polar law chasing a goal pose ahead on the path), line_following (two sensors on the path as a
+line). Their body commands (v, w) go to the tracks or wheel sides through a compensation: none
+(nominal V_L,R = v -+ w T/2: the thesis's adapter), icr (inverse ICR map of the online estimate for the feed-forward, feedback
 on the body point that does not drift sideways) or vir (the same map plus the virtual-robot
 heading correction 2.21). The estimate is applied with a trust weight in [0, 1]: 0 while it is
 unconverged, physically impossible, or no better than the nominal map at explaining the
 measured motion; so compensation fades out where it cannot help. Same controller and gains for
-all compensations. --reference-map coulomb starts the compensation from the Coulomb reference's
+all compensations; only the controllers with a feed-forward from the reference (tracker,
+feedforward, pole_placement) can be compensated, and the default is vir for tracker and
+feedforward, none for the others. --reference-map coulomb starts the compensation from the Coulomb reference's
 steady ICRs of the robot's description at each reference command instead of the nominal map
 (large gains where slip is large; worse than none on some paths with the centre of gravity
 behind the centre, see README). Writes DIR/tracking.json (rms_cross_track_m, max_cross_track_m,
 final_pos_err_m, mean_trust_weight, the settings, the robot, the final ICR estimate) and
-DIR/tracking.png (path vs reference, cross-track error over time). --terrain puts the robot on
+DIR/tracking.png (path vs reference, cross-track error over time). The cross-track error is the
+distance to the path near where the robot should be: the reference's s(t), or the robot's own
+progress for the line follower, which has no clock. --terrain puts the robot on
 sloped, stepped, rough or patchy ground (the reference is followed in the horizontal plane;
 steps and height fields are simulated at 2.5 ms, so --control-rate must divide into that).
 """
@@ -26,34 +34,40 @@ import argparse
 import json
 from pathlib import Path
 
-from mjtrack.commands._common import (TERRAIN_HELP, add_output_options, add_robot_options, check_out_dir, finite_float,
-                                      robot_from_args, terrain_from_args)
+from mjtrack.commands._common import (TERRAIN_HELP, add_output_options, add_robot_options, bounded, check_out_dir,
+                                      check_overwrite, robot_from_args, terrain_from_args)
 
-HELP = "slip-compensated trajectory tracking on the MuJoCo robot -> tracking.json + tracking.png"
+HELP = ("closed-loop path tracking on the MuJoCo robot, tracked or wheeled (the slip-compensated tracker or the "
+        "thesis's five controllers) -> tracking.json + tracking.png")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from mjtrack.control.compensation import MODES, TRACK_SCENARIOS
+    from mjtrack.control.compensation import CONTROLLERS, MODES, TRACK_SCENARIOS
+    from mjtrack.control.path_controllers import DESCRIPTIONS
 
     parser.add_argument("--scenario", choices=list(TRACK_SCENARIOS), default="figure_eight",
                         help="reference path (default figure_eight)")
-    parser.add_argument("--compensation", choices=list(MODES), default="vir",
+    parser.add_argument("--compensation", choices=list(MODES), default=None,
                         help="slip compensation: none, icr (inverse ICR map + drift-free control point), vir (inverse ICR map + "
-                             "heading correction 2.21); default vir")
+                             "heading correction 2.21); default vir for tracker and feedforward, none for the others "
+                             "(which, but for pole_placement, have no feed-forward to compensate)")
     parser.add_argument("--reference-map", choices=["nominal", "coulomb"], default="nominal",
                         help="the map the compensation starts from and blends its online estimate against: nominal "
                              "ICRs (default) or the Coulomb reference's steady ICRs of the robot description, flat ground "
                              "only (median error to none 0.43 -> 0.23-0.29 on README's grid, but worse than none on some "
                              "paths with the CG behind, and up to 6x with a description whose CG is 3 cm off: calibrate "
                              "the description first)")
-    parser.add_argument("--controller", choices=["tracker", "feedforward"], default="tracker",
-                        help="tracker: feed-forward + state feedback (default); feedforward: open loop")
-    parser.add_argument("--speed", metavar="M/S", type=finite_float, default=None, help="reference speed [m/s] (default 0.5)")
-    parser.add_argument("--laps", metavar="N", type=finite_float, default=None, help="laps / turns of the path")
-    parser.add_argument("--control-rate", metavar="HZ", type=finite_float, default=25.0,
+    parser.add_argument("--controller", choices=list(CONTROLLERS), default="tracker",
+                        help="tracker: feed-forward + pole-placement state feedback with the slip compensation (default); "
+                             + "; ".join(f"{k}: {v}" for k, v in DESCRIPTIONS.items())
+                             + ". The thesis's controllers were designed for a wheeled robot's model; here they drive the "
+                               "MuJoCo robot through the same track-speed (wheel-side speed) interface")
+    parser.add_argument("--speed", metavar="M/S", type=bounded("reference_speed"), default=None, help="reference speed [m/s] (default 0.5)")
+    parser.add_argument("--laps", metavar="N", type=bounded("laps"), default=None, help="laps / turns of the path")
+    parser.add_argument("--control-rate", metavar="HZ", type=bounded("control_rate"), default=25.0,
                         help="controller rate [Hz]; its period must be a multiple of the simulation time step "
                              "(default 25)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the measurement noise (default 0)")
+    parser.add_argument("--seed", type=bounded("seed"), default=0, help="seed of the measurement noise (default 0)")
     parser.add_argument("--no-noise", action="store_true", help="exact pose and twist measurements")
     parser.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder")
     parser.add_argument("--terrain", metavar="SPEC", default=None,
@@ -104,16 +118,15 @@ def write_figure(result, path: Path) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mjtrack.control.compensation import run_tracking
-    from mjtrack.errors import InputError
     from mjtrack.io.atomic import atomic_write_text
 
     out = check_out_dir(args.out)
-    if not args.control_rate > 0:
-        raise InputError(f"--control-rate must be positive, got {args.control_rate}")
+    check_overwrite([out / "tracking.json", out / "tracking.png"], args.force)
+    compensation = args.compensation or ("vir" if args.controller in ("tracker", "feedforward") else "none")
     robot = robot_from_args(args)
     terrain = terrain_from_args(args)
     noise = {} if not args.no_noise else {"pose_noise": (0.0, 0.0, 0.0), "twist_noise": (0.0, 0.0, 0.0)}
-    result = run_tracking(robot, scenario=args.scenario, compensation=args.compensation, controller=args.controller,
+    result = run_tracking(robot, scenario=args.scenario, compensation=compensation, controller=args.controller,
                           control_dt=1.0 / args.control_rate, speed=args.speed, laps=args.laps, seed=args.seed,
                           terrain=terrain, reference_map=args.reference_map, **noise)
     hist = result.icr_history
@@ -121,12 +134,11 @@ def run(args: argparse.Namespace) -> int:
     doc["settings"] = result.settings
     doc["robot"] = robot.to_dict()
     doc["final_icr_estimate"] = None if not len(hist) else dict(zip(("y_l", "y_r", "x_c"), map(float, hist[-1, 1:])))
-    out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "tracking.json", json.dumps(doc, indent=2) + "\n")
     write_figure(result, out / "tracking.png")
     if not args.quiet:
         m = result.metrics
-        print(f"{args.scenario} ({args.controller}, compensation {args.compensation}): RMS cross-track "
+        print(f"{args.scenario} ({args.controller}, compensation {compensation}): RMS cross-track "
               f"{m['rms_cross_track_m']:.4f} m, max {m['max_cross_track_m']:.4f} m, final {m['final_pos_err_m']:.4f} m; "
               f"wrote {out / 'tracking.json'} and {out / 'tracking.png'}")
     return 0

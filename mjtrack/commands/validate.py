@@ -20,8 +20,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, check_out_dir,
-                                      finite_float, robot_from_args, terrain_from_args)
+from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, bounded, check_out_dir,
+                                      check_overwrite, robot_from_args, terrain_from_args)
 from mjtrack.errors import InputError
 
 HELP = "model-vs-physics validation of the kinematic models and filters: report.html + metrics.json"
@@ -36,15 +36,19 @@ def add_source_arguments(parser: argparse.ArgumentParser) -> None:
                              "beside it or --robot FILE")
     parser.add_argument("--scenario", choices=list(SCENARIOS), default=None,
                         help="instead of a log: a MuJoCo rollout of this built-in scenario")
-    parser.add_argument("--duration", metavar="S", type=finite_float, default=None,
+    parser.add_argument("--duration", metavar="S", type=bounded("duration"), default=None,
                         help="scenario duration [s] (default: the scenario's)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of random scenarios and of the noise (default 0)")
+    parser.add_argument("--seed", type=bounded("seed"), default=0,
+                        help="seed of random scenarios and of the noise (default 0)")
     add_robot_options(parser)
     add_terrain_option(parser)
 
 
-def source_from_args(args: argparse.Namespace):
-    """(DriveLog, Robot, words, truth title) from ``LOG.csv`` or ``--scenario``; bad combinations raise InputError."""
+def source_from_args(args: argparse.Namespace, *, before_rollout=None):
+    """(DriveLog, Robot, words, truth title) from ``LOG.csv`` or ``--scenario``; bad combinations raise InputError.
+
+    ``before_rollout(duration)``: called with a scenario's duration [s] before it is simulated
+    (a caller's own work estimate, so that it refuses before the rollout is spent)."""
     from mjtrack.io.logs import read_log, robot_path_for
     from mjtrack.io.robot import read_robot
 
@@ -58,6 +62,8 @@ def source_from_args(args: argparse.Namespace):
         table, duration = scenario_commands(args.scenario, robot, duration=args.duration, seed=args.seed)
         words = f"MuJoCo rollout of the scenario '{args.scenario}' ({duration:g} s, seed {args.seed})"
         terrain = terrain_from_args(args, args.scenario)
+        if before_rollout is not None:
+            before_rollout(duration)
         if not terrain.is_flat:
             words += f" on terrain {terrain.spec}"
         return drive_log(robot, table, duration=duration, terrain=terrain), robot, words, "MuJoCo rollout"
@@ -79,7 +85,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--speeds", choices=["auto", "measured", "cmd"], default="auto",
                         help="track speeds that drive the models: measured (logged v_left, v_right), commanded, "
                              "or auto = measured when the log has them (default)")
-    parser.add_argument("--noise-scale", metavar="X", type=finite_float, default=1.0,
+    parser.add_argument("--noise-scale", metavar="X", type=bounded("noise_scale"), default=1.0,
                         help="scale of the seeded measurement noise given to the filters (1 = σ 1 cm, 0.5°, "
                              "0.02 m/s, 0.01 rad/s; 0 = none; default 1)")
     parser.add_argument("--out", metavar="DIR", type=Path, required=True,
@@ -89,8 +95,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mjtrack.validate import Noise, validate
+    from mjtrack.validate.run import METRICS_NAME, REPORT_NAME
 
     out = check_out_dir(args.out)
+    check_overwrite([out / REPORT_NAME, out / METRICS_NAME], args.force)
     noise = Noise(scale=args.noise_scale)
     drive, robot, words, title = source_from_args(args)
     val = validate(drive, robot, out, source=words, truth_title=title, noise=noise, seed=args.seed, speeds=args.speeds,

@@ -69,6 +69,9 @@ from mjtrack.models.coulomb import steady_state as coulomb_steady_state
 log = logging.getLogger(__name__)
 
 MODES = ("none", "icr", "vir")
+# the controllers run_tracking drives: the project's slip-compensated tracker and the thesis's five
+CONTROLLERS = ("tracker", "feedforward", "pole_placement", "reactive", "posture", "line_following")
+COMPENSABLE = ("tracker", "feedforward", "pole_placement")  # those with a feed-forward from the reference
 REFERENCE_MAPS = ("nominal", "coulomb")
 # Prior std of psi around the nominal robot (0, 0, 1/T): informative, so that the start of a
 # run (the robot accelerating from rest, which no kinematic model describes) cannot throw the
@@ -228,7 +231,7 @@ class CoulombICRMap:
                 for _ in range(self.iterations):
                     y_l, y_r, x_c = coulomb_steady_state(self.robot, *inverse_micr(key[0], key[1], y_l, y_r)).icr
                 psi = InverseICR.from_icr(y_l, y_r, x_c).params
-                if not admissible_psi(psi, self.robot.track_gauge, self.robot.track_length):
+                if not admissible_psi(psi, self.robot.track_gauge, self.robot.contact_length):
                     raise MjtrackError(f"steady ICRs (y_l, y_r, x_c) = ({y_l:.3f}, {y_r:.3f}, {x_c:.3f}) m not admissible")
             except MjtrackError as exc:
                 if not self._warned:
@@ -469,19 +472,24 @@ def scenario_reference(name: str, *, speed: float | None = None, laps: float | N
     return Reference(path, ConstantSpeedProfile(path.length, speed))
 
 
-def cross_track_errors(reference: Reference, positions: np.ndarray, *, t=None, window_m: float = 1.5,
-                       spacing_m: float = 1e-3) -> np.ndarray:
+def cross_track_errors(reference: Reference, positions: np.ndarray, *, t=None, progress: bool = False,
+                       window_m: float = 1.5, spacing_m: float = 1e-3) -> np.ndarray:
     """(N,) distance [m] of each position (N, 2+) to the reference path.
 
     The path is sampled every ``spacing_m`` of arc length (distance error <= spacing²/(8 R)) and
     continued along its end tangents for ``window_m`` beyond both ends.
-    Without ``t``: the nearest point of the whole path. With ``t`` (N,) [s]: the nearest point
-    whose arc length is within ``window_m`` of the reference's s(t) — on a self-crossing path
-    (figure-eight) the other branch near the crossing is then not mistaken for the path being
-    followed (it would make the error drop to 0 there).
+    Without ``t`` or ``progress``: the nearest point of the whole path. With ``t`` (N,) [s]: the
+    nearest point whose arc length is within ``window_m`` of the reference's s(t) — on a
+    self-crossing path (figure-eight) the other branch near the crossing is then not mistaken for
+    the path being followed (it would make the error drop to 0 there). With ``progress``: the
+    same, within ``window_m`` of the robot's own progress, the arc length of the previous
+    position's nearest point (from the path's start), for a controller without a clock (a line
+    follower falls behind the reference's s(t)); the positions must be consecutive samples.
     """
     from scipy.spatial import cKDTree
 
+    if progress and t is not None:
+        raise InputError("cross_track_errors: give t or progress, not both")
     path = reference.path
     s = np.linspace(0.0, path.length, max(2, int(math.ceil(path.length / spacing_m)) + 1))
     pts = path.point(path.u_at(s))
@@ -495,16 +503,30 @@ def cross_track_errors(reference: Reference, positions: np.ndarray, *, t=None, w
     pts = np.concatenate([pre, pts, post])
     s = np.concatenate([-ext[::-1], s, path.length + ext])
     xy = np.asarray(positions, float)[:, :2]
-    if t is None:
+    if t is None and not progress:
         return cKDTree(pts).query(xy)[0]
-    s_ref = np.array([reference.profile.distance(float(tk)) for tk in np.asarray(t, float)])
-    lo = np.searchsorted(s, s_ref - window_m)
-    hi = np.searchsorted(s, s_ref + window_m, side="right")
+    s_ref = None if progress else np.array([reference.profile.distance(float(tk)) for tk in np.asarray(t, float)])
     out = np.empty(len(xy))
+    at = 0.0
     for k in range(len(xy)):
-        d = pts[lo[k]:hi[k]] - xy[k]
-        out[k] = np.sqrt(np.min(np.einsum("ij,ij->i", d, d)))
+        centre = at if progress else s_ref[k]
+        lo, hi = np.searchsorted(s, centre - window_m), np.searchsorted(s, centre + window_m, side="right")
+        d = pts[lo:hi] - xy[k]
+        d2 = np.einsum("ij,ij->i", d, d)
+        j = int(np.argmin(d2))
+        out[k] = math.sqrt(d2[j])
+        at = float(s[lo + j])
     return out
+
+
+def tracking_metrics(reference: Reference, t: np.ndarray, poses: np.ndarray, *, clocked: bool = True) -> dict:
+    """rms_cross_track_m, max_cross_track_m (:func:`cross_track_errors` near the reference's s(t),
+    or near the robot's own progress when not ``clocked``) and final_pos_err_m (distance to the
+    reference's end position at the last sample) of a run: times t (N,) [s], poses (N, 3)."""
+    ct = cross_track_errors(reference, poses, t=t) if clocked else cross_track_errors(reference, poses, progress=True)
+    end = reference.at(reference.duration).pose
+    return {"rms_cross_track_m": float(np.sqrt(np.mean(ct**2))), "max_cross_track_m": float(np.max(ct)),
+            "final_pos_err_m": float(math.hypot(poses[-1, 0] - end[0], poses[-1, 1] - end[1]))}
 
 
 @dataclass(frozen=True, eq=False)
@@ -544,15 +566,19 @@ def run_tracking(
     terrain=None,
     reference_map: str = "nominal",
     map_robot=None,
+    controller_options: dict | None = None,
 ) -> TrackingResult:
     """Track a scenario's reference with the MuJoCo robot (:mod:`mjtrack.control.mujoco_plant`).
 
     Args:
         robot: :class:`~mjtrack.io.robot.Robot`.
         compensation: "none", "icr" or "vir" (module docstring); the controller and its gains
-            are the same for all three.
+            are the same for all three. Only controllers with a feed-forward from the reference
+            ("tracker", "feedforward", "pole_placement") can be compensated.
         controller: "tracker" (feed-forward + pole-placement feedback, (3.11)-(3.21), ``poles``)
-            or "feedforward" (open loop: the reference's (v_d, w_d) only).
+            or one of the thesis's five (:data:`~mjtrack.control.path_controllers.THESIS_CONTROLLERS`,
+            set up by :func:`~mjtrack.control.path_controllers.path_controller`; "pole_placement"
+            is the same law as "tracker", "feedforward" the open loop: the reference's (v_d, w_d)).
         control_dt: control period [s]; pose_noise / twist_noise: seeded measurement noise std
             seen by the controller and the estimator.
         terrain: :class:`~mjtrack.sim.terrain.Terrain` under the robot (default flat); the
@@ -561,26 +587,34 @@ def run_tracking(
             (from the Coulomb reference's steady ICRs of the description, :class:`CoulombICRMap`).
         map_robot: the description the "coulomb" map is computed from (default ``robot``; another
             one to study a mis-described robot).
+        controller_options: set-up constants of a thesis controller that differ from the defaults
+            (``options`` of :func:`~mjtrack.control.path_controllers.path_controller`).
     Returns:
         :class:`TrackingResult`.
     """
-    from mjtrack.control.feedforward import FeedForward
-    from mjtrack.control.mujoco_plant import run_mujoco_loop
-    from mjtrack.control.tracking import TrajectoryTracker
+    from mjtrack.control.mujoco_plant import check_loop, run_mujoco_loop
+    from mjtrack.control.path_controllers import path_controller
 
-    if controller not in ("tracker", "feedforward"):
-        raise InputError(f"controller must be 'tracker' or 'feedforward', got {controller!r}")
+    if controller not in CONTROLLERS:
+        raise InputError(f"controller must be one of {', '.join(CONTROLLERS)}, got {controller!r}")
+    if compensation != "none" and controller not in COMPENSABLE:
+        raise InputError(f"controller {controller!r} has no feed-forward from the reference to compensate; "
+                         f"compensation must be 'none' (got {compensation!r})")
     if reference_map not in REFERENCE_MAPS:
         raise InputError(f"reference_map must be one of {', '.join(REFERENCE_MAPS)}, got {reference_map!r}")
     if reference_map == "coulomb" and terrain is not None and not terrain.is_flat:
         raise InputError("reference_map 'coulomb' is the steady state on flat ground; it does not model "
                          f"terrain {terrain.spec!r}")
     reference = scenario_reference(scenario, speed=speed, laps=laps)
+    check_loop(reference.duration, control_dt, config=config, terrain=terrain,
+               what=f"the reference ({reference.path.length:.4g} m at {reference.profile.speed_value:g} m/s)")
     ref_map = CoulombICRMap(map_robot or robot) if reference_map == "coulomb" else None  # unused by "none"
-    comp = SlipCompensation(robot.track_gauge, compensation, track_length=robot.track_length, poles=poles,
+    comp = SlipCompensation(robot.track_gauge, compensation, track_length=robot.contact_length, poles=poles,
                             reference_map=ref_map, **(compensation_options or {}))
     ref = CorrectedReference(reference, comp)
-    ctrl = TrajectoryTracker(ref, poles=poles) if controller == "tracker" else FeedForward(ref)
+    setup = path_controller("pole_placement" if controller == "tracker" else controller,
+                            ref if controller in COMPENSABLE else reference, poles=poles, options=controller_options)
+    ctrl = setup.controller
     ctrl.reset()
 
     def policy(t, pose, twist, u_prev, track_speed):
@@ -593,13 +627,7 @@ def run_tracking(
     loop = run_mujoco_loop(robot, policy, duration, control_dt=control_dt, pose0=reference.start_pose(), config=config,
                            pose_noise=tuple(pose_noise), twist_noise=tuple(twist_noise),
                            track_speed_noise=track_speed_noise, seed=seed, terrain=terrain)
-    ct = cross_track_errors(reference, loop.poses, t=loop.t)
-    end = reference.at(duration).pose
-    metrics = {
-        "rms_cross_track_m": float(np.sqrt(np.mean(ct**2))),
-        "max_cross_track_m": float(np.max(ct)),
-        "final_pos_err_m": float(math.hypot(loop.poses[-1, 0] - end[0], loop.poses[-1, 1] - end[1])),
-    }
+    metrics = tracking_metrics(reference, loop.t, loop.poses, clocked=setup.clocked)
     if comp.weight_history:
         metrics["mean_trust_weight"] = float(np.mean([wgt for _, wgt in comp.weight_history]))
     hist = np.array(comp.history, float).reshape(-1, 4)
@@ -610,5 +638,61 @@ def run_tracking(
                 "pose_noise": list(pose_noise), "twist_noise": list(twist_noise),
                 "track_speed_noise": track_speed_noise, "seed": seed, "compensation_options": dict(compensation_options or {}),
                 "reference_map": reference_map if compensation != "none" else "nominal",
+                "controller_settings": setup.settings,
+                "cross_track_near": "reference s(t)" if setup.clocked else "own progress",
                 "terrain": "flat" if terrain is None or terrain.is_flat else terrain.spec}
     return TrackingResult(loop, reference, metrics, hist, settings, applied)
+
+
+def run_kinematic_tracking(
+    robot,
+    *,
+    scenario: str = "figure_eight",
+    controller: str = "pole_placement",
+    poles=(-1.0, -2.0, -4.0),
+    control_dt: float = 0.04,
+    speed: float | None = None,
+    laps: float | None = None,
+    controller_options: dict | None = None,
+) -> TrackingResult:
+    """A thesis controller on the robot's no-slip kinematic model, for comparison with
+    :func:`run_tracking` on the MuJoCo robot: the same reference, start pose, controller set-up,
+    control period (zero-order hold) and cross-track error; exact measurements.
+
+    The model: a wheeled robot's is the thesis's differential drive (1.1)-(1.4) with its gauge and
+    wheel radius (:class:`~mjtrack.models.wheeled.DiffDriveKinematic`, wheel-speed adapter), a
+    tracked robot's the nominal model (2.1) (:class:`~mjtrack.control.tracked.TrackedKinematic`,
+    track-speed adapter); both move as a unicycle.
+
+    Args:
+        robot: :class:`~mjtrack.io.robot.Robot`.
+        controller: one of :data:`~mjtrack.control.path_controllers.THESIS_CONTROLLERS` or "tracker".
+        controller_options: as :func:`run_tracking`.
+    Returns:
+        :class:`TrackingResult` whose ``loop`` is a :class:`~mjtrack.control.interface.ClosedLoopResult`.
+    """
+    from mjtrack.control.interface import Plant, run_closed_loop
+    from mjtrack.control.path_controllers import path_controller
+    from mjtrack.control.tracked import TrackedKinematic
+    from mjtrack.models.kinematic import Nominal
+    from mjtrack.models.wheeled import DiffDriveKinematic
+
+    if controller not in CONTROLLERS:
+        raise InputError(f"controller must be one of {', '.join(CONTROLLERS)}, got {controller!r}")
+    if not control_dt > 0:
+        raise InputError(f"control_dt must be positive, got {control_dt!r}")
+    reference = scenario_reference(scenario, speed=speed, laps=laps)
+    setup = path_controller("pole_placement" if controller == "tracker" else controller, reference, poles=poles,
+                            options=controller_options)
+    if robot.traction == "wheels":
+        model = DiffDriveKinematic(track=robot.track_gauge, wheel_radius=robot.sprocket_radius)
+    else:
+        model = TrackedKinematic(Nominal(robot.track_gauge), robot.track_gauge)
+    loop = run_closed_loop(Plant.of(model), setup.controller, reference.duration, control_dt,
+                           pose0=reference.start_pose())
+    settings = {"scenario": scenario, "controller": controller, "plant": type(model).__name__,
+                "control_dt": control_dt, "duration_s": reference.duration, "speed_m_s": reference.profile.speed_value,
+                "path_length_m": reference.path.length, "controller_settings": setup.settings,
+                "cross_track_near": "reference s(t)" if setup.clocked else "own progress"}
+    return TrackingResult(loop, reference, tracking_metrics(reference, loop.t, loop.poses, clocked=setup.clocked),
+                          np.zeros((0, 4)), settings)

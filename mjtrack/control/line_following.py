@@ -14,6 +14,12 @@ car use W = v tan(theta_max)/l: the adapter then steers theta_max (bang-bang ste
 the thesis).  A smaller spacing c follows the line more closely but decides the side later
 (thesis fig. 3.20).  The robot stops (v = w = 0) when the sensors' midpoint has reached the
 end of the line.
+
+A line that crosses or retraces itself (a figure-eight, several laps) is ambiguous to a sensor
+model that reads the side of the *nearest* line: near the crossing the other branch is
+nearest.  With a finite ``search_window`` the follower keeps the arc length its sensors have
+reached (from the line's start) and reads only the part of the line within the window of it,
+as a real sensor sees only the tape under it.
 """
 
 from __future__ import annotations
@@ -34,7 +40,9 @@ class LineFollower:
     Attributes:
         line: the path on the floor.
         speed: v [m/s]; turn_rate: W [rad/s]; sensor_ahead: d [m]; sensor_spacing: c [m];
-        line_width: [m] (0: infinitely thin).
+        line_width: [m] (0: infinitely thin);
+        search_window: [m] of arc length around the progress within which the line is read
+            (default: the whole line, as the thesis).
     """
 
     line: Polyline
@@ -44,14 +52,17 @@ class LineFollower:
     sensor_ahead: float = 0.04
     sensor_spacing: float = 0.02
     line_width: float = 0.0
+    search_window: float = math.inf
 
     def __post_init__(self) -> None:
         if not (self.speed > 0 and self.turn_rate > 0 and self.sensor_ahead >= 0 and self.sensor_spacing > 0
-                and self.line_width >= 0):
-            raise InputError("LineFollower: need speed, turn_rate, sensor_spacing > 0 and sensor_ahead, line_width >= 0")
+                and self.line_width >= 0 and self.search_window > 0):
+            raise InputError("LineFollower: need speed, turn_rate, sensor_spacing, search_window > 0 and "
+                             "sensor_ahead, line_width >= 0")
+        self.reset()
 
     def reset(self) -> None:
-        pass
+        self._progress = 0.0  # arc length [m] of the sensors' midpoint's foot point
 
     def sensor_points(self, pose) -> np.ndarray:
         """(2, 2) world positions of the left and right sensors [m]."""
@@ -65,13 +76,14 @@ class LineFollower:
         """Sensor readings (s_L, s_R), each in {-1, 0, +1}."""
         out = []
         for p in self.sensor_points(pose):
-            dist = self.line.closest(p)[0]
+            dist = self.line.closest(p, near=self._progress, window=self.search_window)[0]
             out.append(0 if abs(dist) <= 0.5 * self.line_width else (1 if dist > 0 else -1))
         return out[0], out[1]
 
     def command(self, t: float, pose, twist=None) -> tuple[float, float]:
         mid = self.sensor_points(pose).mean(axis=0)
-        if self.line.closest(mid)[1] >= self.line.length - 1e-9:
+        self._progress = self.line.closest(mid, near=self._progress, window=self.search_window)[1]
+        if self._progress >= self.line.length - 1e-9:
             return 0.0, 0.0
         s_left, s_right = self.read(pose)
         if (s_left, s_right) == (-1, 1):

@@ -37,7 +37,7 @@ from mjtrack.geometry import compose, relative_pose
 from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
-from mjtrack.sim.rollout import STATE_SPEC, SensorMap, settled_state, yaw_of
+from mjtrack.sim.rollout import MAX_STEPS, STATE_SPEC, SensorMap, settled_state, yaw_of
 from mjtrack.sim.terrain import Terrain, timestep_for
 
 log = logging.getLogger(__name__)
@@ -137,6 +137,24 @@ class MujocoTrackedPlant:
             raise MjtrackError("simulation diverged (non-finite state); reduce the time step")
 
 
+MIN_CONTROL_PERIODS = 10  # a closed loop shorter than this has nothing to show
+
+
+def check_loop(duration: float, control_dt: float, *, config: SimConfig | None = None, terrain: Terrain | None = None,
+               what: str = "the run") -> None:
+    """Refuse, before any work, a closed-loop run shorter than :data:`MIN_CONTROL_PERIODS` control
+    periods or longer than :data:`~mjtrack.sim.rollout.MAX_STEPS` time steps (``what`` names it)."""
+    if not (math.isfinite(duration) and math.isfinite(control_dt) and duration > 0 and control_dt > 0):
+        raise InputError(f"{what}: need a duration > 0 and a control period > 0, got {duration}, {control_dt}")
+    if duration < MIN_CONTROL_PERIODS * control_dt:
+        raise InputError(f"{what} lasts {duration:.3g} s, less than {MIN_CONTROL_PERIODS} control periods of "
+                         f"{control_dt:g} s")
+    dt = timestep_for((config or SimConfig()).timestep, terrain)
+    if duration / dt > MAX_STEPS:
+        raise InputError(f"{what} lasts {duration:.6g} s, {duration / dt:.3g} time steps of {dt:g} s; at most "
+                         f"{MAX_STEPS:.3g} ({MAX_STEPS * dt:.6g} s)")
+
+
 def run_mujoco_loop(
     robot: Robot,
     policy: Policy,
@@ -165,8 +183,7 @@ def run_mujoco_loop(
     Returns:
         :class:`MujocoLoopResult` with N = round(duration / control_dt) + 1 samples.
     """
-    if not (duration > 0 and control_dt > 0):
-        raise InputError(f"run_mujoco_loop: need duration > 0 and control_dt > 0, got {duration}, {control_dt}")
+    check_loop(duration, control_dt, config=config, terrain=terrain, what="run_mujoco_loop: the run")
     plant = MujocoTrackedPlant(robot, config=config, pose0=pose0, terrain=terrain)
     rng = np.random.default_rng(seed)
     n = int(round(duration / control_dt))

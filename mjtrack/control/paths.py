@@ -82,6 +82,26 @@ class ParametricPath:
         """Inverse of s(u): the parameter at arc length s [m] (clipped to the path)."""
         return np.interp(s, self._s_table, self._u_table)
 
+    def pose_at(self, s: float) -> np.ndarray:
+        """(x [m], y [m], heading [rad]) at arc length ``s`` [m]; before the start and past the end
+        the path is continued along its end tangents (a goal that runs ahead of the robot on the
+        path does not stop short of the end)."""
+        s = float(s)
+        edge = min(max(s, 0.0), self.length)
+        u = float(self.u_at(edge))
+        x, y = self.point(u)
+        h = float(self.heading(u))
+        extra = s - edge
+        return np.array([x + extra * math.cos(h), y + extra * math.sin(h), h])
+
+    def polyline(self, *, spacing: float = 0.01) -> Polyline:
+        """The path as a :class:`Polyline` with vertices every ``spacing`` [m] of arc length (a
+        chord of a circle of radius R then lies spacing^2/(8 R) inside it)."""
+        if not spacing > 0:
+            raise InputError(f"ParametricPath.polyline: spacing must be positive, got {spacing}")
+        s = np.linspace(0.0, self.length, max(2, int(math.ceil(self.length / spacing)) + 1))
+        return Polyline(self.point(self.u_at(s)))
+
 
 def circle_path(*, centre=(0.0, 0.0), radius: float = 1.0, start_angle: float = -math.pi / 2,
                 turns: float = 1.0, ccw: bool = True) -> ParametricPath:
@@ -159,10 +179,13 @@ class Polyline:
             raise InputError("Polyline: two consecutive vertices coincide")
         object.__setattr__(self, "points", pts)
 
-    def closest(self, p) -> tuple[float, float, int]:
+    def closest(self, p, *, near: float | None = None, window: float = math.inf) -> tuple[float, float, int]:
         """(signed distance [m], arc length at the foot point [m], segment index) of point p.
 
         Sign: positive when p lies to the left of the line's direction of travel.
+        With ``near`` [m], only the segments that reach within ``window`` [m] of that arc length
+        are searched: on a line that crosses or retraces itself (a figure-eight, several laps)
+        the part being followed is then not confused with another one passing close by.
         """
         p = np.asarray(p, dtype=float)
         a, b = self.points[:-1], self.points[1:]
@@ -171,10 +194,15 @@ class Polyline:
         lam = np.clip(np.sum((p - a) * d, axis=1) / seg_len2, 0.0, 1.0)
         foot = a + lam[:, None] * d
         dist = np.hypot(*(p - foot).T)
+        seg_start = np.concatenate([[0.0], np.cumsum(np.sqrt(seg_len2))[:-1]])
+        if near is not None and math.isfinite(window):
+            outside = (seg_start + np.sqrt(seg_len2) < near - window) | (seg_start > near + window)
+            if not np.all(outside):
+                dist = np.where(outside, np.inf, dist)
         i = int(np.argmin(dist))
         cross = d[i, 0] * (p[1] - a[i, 1]) - d[i, 1] * (p[0] - a[i, 0])
-        s_before = float(np.sum(np.sqrt(seg_len2[:i])))
-        return math.copysign(float(dist[i]), cross if cross != 0 else 1.0), s_before + lam[i] * math.sqrt(seg_len2[i]), i
+        return (math.copysign(float(dist[i]), cross if cross != 0 else 1.0),
+                float(seg_start[i] + lam[i] * math.sqrt(seg_len2[i])), i)
 
     @property
     def length(self) -> float:

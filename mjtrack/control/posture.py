@@ -15,12 +15,17 @@ v' = -v, w' = w, whose goal heading is gamma' = gamma + pi; its coordinates are
 alpha' = wrap(alpha + pi), beta' = wrap(gamma' - theta' - alpha') = wrap(beta + pi), so the
 command is v = -k_rho rho, w = k_alpha alpha' + k_beta beta'.  The direction is chosen once,
 at the first command after :meth:`reset` (switching it while moving would chatter).
+
+Moving goal: ``goal`` may be a function t -> (x, y, gamma), a pose that moves along a path
+(the thesis applies the law to a static goal only).  The law is unchanged; the robot then trails
+the goal by the distance at which v = k_rho rho equals the goal's speed, and it does not stop.
 """
 
 from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from dataclasses import KW_ONLY, dataclass
 
 from mjtrack.errors import InputError
@@ -43,7 +48,7 @@ class PolarPostureController:
     """Polar-coordinate posture controller (3.9); see the module docstring.
 
     Attributes:
-        goal: (x, y, gamma) [m, m, rad].
+        goal: (x, y, gamma) [m, m, rad], or a function t -> (x, y, gamma) for a moving goal.
         k_rho [1/s], k_alpha [1/s], k_beta [1/s]: gains.  Default: Siegwart's (3, 8, -1.5).
             The thesis prints k_alpha = 8 and k_beta = -?.5 (Siegwart's) but k_rho = "?.6" with
             digits lost; k_rho = 0.6 would leave a slow closed-loop pole (the (alpha, beta)
@@ -54,7 +59,7 @@ class PolarPostureController:
         position_tol [m], heading_tol [rad]: inside both the command is (0, 0).
     """
 
-    goal: tuple[float, float, float]
+    goal: tuple[float, float, float] | Callable[[float], tuple[float, float, float]]
     _: KW_ONLY
     k_rho: float = 3.0
     k_alpha: float = 8.0
@@ -77,9 +82,15 @@ class PolarPostureController:
     def reset(self) -> None:
         self._reverse: bool | None = None
 
+    def goal_at(self, t: float) -> tuple[float, float, float]:
+        """The goal pose at time t [s]."""
+        return tuple(self.goal(t)) if callable(self.goal) else self.goal
+
     def command(self, t: float, pose, twist=None) -> tuple[float, float]:
-        rho, alpha, beta = polar_error(pose, self.goal)
-        if rho < self.position_tol and abs(wrap(self.goal[2] - pose[2])) < self.heading_tol:
+        goal = self.goal_at(t)
+        rho, alpha, beta = polar_error(pose, goal)
+        if (not callable(self.goal) and rho < self.position_tol
+                and abs(wrap(goal[2] - pose[2])) < self.heading_tol):
             return 0.0, 0.0
         if self._reverse is None:
             self._reverse = self.allow_reverse and not (-0.5 * math.pi < alpha <= 0.5 * math.pi)

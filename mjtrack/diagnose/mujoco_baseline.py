@@ -32,7 +32,7 @@ costs a pass over the windows:
   training windows, the same fit on each) around the estimate.
 
 A window whose nominal simulation diverged is neither fitted nor scored. Costs (measured by
-experiments/diagnose_mujoco_baseline.py): about 8 passes over the windows per effect.
+benchmarks/diagnose_mujoco_baseline.py): about 8 passes over the windows per effect.
 """
 
 from __future__ import annotations
@@ -57,14 +57,14 @@ from mjtrack.sim.windows import WARMUP_S, WindowSim, drive_params, make_windows,
 N_BOOT = 1000  # blocked bootstrap replicates of the estimates (the gain test draws its own, stats.N_BOOT)
 # The MuJoCo baseline's own error on an effect's size, 1 sigma, as a share of the size |theta - nominal|
 # (slope direction: MODEL_REL rad): the RMS relative error of its estimates of the ten hidden effects of
-# experiments/diagnose_mujoco_baseline.py (60 s MuJoCo logs, seed 1, windows warmed up as here), which
-# writes it to experiments/results/diagnose_mujoco_baseline.json ("summary": "model_rel"; a
+# benchmarks/diagnose_mujoco_baseline.py (60 s MuJoCo logs, seed 1, windows warmed up as here), which
+# writes it to benchmarks/results/diagnose_mujoco_baseline.json ("summary": "model_rel"; a
 # test holds the two equal to 3 decimals) and checks the intervals with the value measured on the
 # other nine effects. A systematic error of the window simulation (e.g. the start state from noisy
 # poses) is the same in every block: no resampling shows it.
 MODEL_REL = 0.070
-MODEL_FORM = ModelForm(MODEL_REL, {}, measured_by="python experiments/diagnose_mujoco_baseline.py "
-                                                  "(experiments/results/diagnose_mujoco_baseline.json)")
+MODEL_FORM = ModelForm(MODEL_REL, {}, measured_by="python benchmarks/diagnose_mujoco_baseline.py "
+                                                  "(benchmarks/results/diagnose_mujoco_baseline.json)")
 SLOPE_STEP = math.sin(0.08)  # central-difference step of the slope's in-plane gravity a = sin(s) u
 
 
@@ -111,7 +111,7 @@ NOMINAL: dict[str, Callable[[Robot, DriveLog], float]] = {
 }
 # the fit's grid of each one-parameter effect (module docstring)
 GRIDS: dict[str, Callable[[Robot, DriveLog], np.ndarray]] = {
-    "cg_offset_x": lambda r, lg: r.cg_x + r.track_length * np.linspace(-0.15, 0.15, 7),
+    "cg_offset_x": lambda r, lg: r.cg_x + r.contact_length * np.linspace(-0.15, 0.15, 7),
     "cg_offset_y": lambda r, lg: r.cg_y + r.track_gauge * np.linspace(-0.15, 0.15, 7),
     "friction_scale": lambda r, lg: np.geomspace(0.35, 1.6, 7),
     "friction_asymmetry": lambda r, lg: r.friction_left / r.friction_right * np.geomspace(0.4, 2.5, 7),
@@ -129,10 +129,11 @@ def can_build(robot: Robot) -> tuple[bool, str]:
     """Whether the MuJoCo robot can be built from the description without assuming its geometry."""
     if robot.provided is None:
         return True, "the robot was given in full (built in code)"
-    if "track_length" in robot.provided:
-        return True, "the robot description gives the track contact length, so the MuJoCo robot can be built"
-    return False, ("the robot description has no 'track_length' (contact length): the MuJoCo robot would rest "
-                   "on an assumed geometry; run 'mjtrack calibrate' and pass its robot.json, or give track_length")
+    key = "wheelbase" if robot.traction == "wheels" else "track_length"
+    if key in robot.provided:
+        return True, f"the robot description gives the contact length ({key}), so the MuJoCo robot can be built"
+    return False, (f"the robot description has no '{key}' (contact length): the MuJoCo robot would rest "
+                   f"on an assumed geometry; run 'mjtrack calibrate' and pass its robot.json, or give {key}")
 
 
 def choose_simulator(requested: str, robot: Robot) -> tuple[bool, str]:
@@ -246,6 +247,9 @@ class MujocoBaseline(Baseline):
     def __init__(self, robot: Robot, log: DriveLog, *, horizon_s: float = 2.0, config: SimConfig | None = None,
                  nthread: int = 2, seed: int = 0) -> None:
         self.robot, self.log = robot, log
+        if robot.traction == "wheels":  # the road-wheel ground spreads a track's load; a wheel's is at its axle
+            self.untestable = {**UNTESTABLE, "road_wheels": "a wheeled robot carries its load at its axles"}
+            self.vocabulary = {n: c for n, c in CHANGES.items() if n != "road_wheels"}
         self.config = config or sim_config(None, robot=robot)
         self.nthread, self.seed = nthread, seed
         self.ws = make_windows(log, horizon_s)
@@ -288,7 +292,10 @@ class MujocoBaseline(Baseline):
     # -- Baseline -----------------------------------------------------------------------------------
     def describe(self) -> str:
         r = self.robot
-        return (f"MuJoCo roller-chain robot as described (T {r.track_gauge:g} m, L {r.track_length:g} m, "
+        body = (f"wheeled robot as described ({r.wheels_per_side} wheels a side, T {r.track_gauge:g} m, "
+                f"wheelbase {r.contact_length:g} m, " if r.traction == "wheels" else
+                f"roller-chain robot as described (T {r.track_gauge:g} m, L {r.track_length:g} m, ")
+        return (f"MuJoCo {body}"
                 f"{r.mass:g} kg, mu {r.mu:g}, ground {r.ground.to_dict()['model']}), each {self.horizon_s:g} s window "
                 "simulated from the measured state under the logged commands")
 

@@ -31,7 +31,7 @@ from mjtrack.diagnose.result import Diagnosis, extended_robot
 from mjtrack.diagnose.select import forward_select
 from mjtrack.diagnose.surrogate_baseline import SurrogateBaseline
 from mjtrack.errors import InputError
-from mjtrack.io.atomic import atomic_write_text
+from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import G, Robot
 from mjtrack.sim.rollout import summarised_mujoco_warnings
@@ -222,6 +222,9 @@ def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, bas
     src = log_.source or "drive log"
     if n_folds < 3:
         raise InputError(f"diagnose: need at least 3 folds, got {n_folds}")
+    if n_folds > log_.n_samples // 2:  # each fold needs a window of two samples at least; checked before any work
+        raise InputError(f"{src}: {n_folds} folds: the log's {log_.n_samples} samples make at most "
+                         f"{log_.n_samples // 2}")
     if baseline not in BASELINES:
         raise InputError(f"diagnose: unknown baseline {baseline!r} (known: {', '.join(BASELINES)})")
     unknown = [n for n in effects or () if n not in EFFECTS]
@@ -369,6 +372,6 @@ def write_outputs(diagnosis: Diagnosis, out_dir: str | os.PathLike) -> None:
     diagnosis.timings["report"] = time.perf_counter() - t0
     text = json.dumps(diagnosis.to_json(), indent=2, allow_nan=False) + "\n"
     html = report.to_html()
-    out.mkdir(parents=True, exist_ok=True)
+    make_output_dir(out)
     atomic_write_text(out / "report.html", html)
     atomic_write_text(out / "diagnosis.json", text)

@@ -54,7 +54,7 @@ ground effects are visible only when the robot turns.
    the turn entries slow (+49 % here): at that instant the contacts slip along the tracks and the
    lateral friction that makes the resistance is still zero (issue 12). Spin reversal +-0.5 m/s:
    0.042 s (Coulomb 0.044 s, MuJoCo 0.067 s); turn reversal (0.6, 0) -> (0, 0.6): 0.025 s
-   (Coulomb 0.026 s, MuJoCo 0.043 s). ``python experiments/diagnose_mujoco_effects.py --steps``
+   (Coulomb 0.026 s, MuJoCo 0.043 s). ``python benchmarks/diagnose_mujoco_effects.py --steps``
    prints the step responses; tests/test_diagnose_units.py checks the closed forms and the
    Coulomb rollout.
 """

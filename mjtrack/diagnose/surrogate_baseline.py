@@ -18,7 +18,7 @@ from mjtrack.io.robot import Robot
 
 # The surrogate's own error on an effect's size, 1 sigma, as a share of the size |theta - nominal|:
 # the RMS relative error of the 16 estimates of last round's MuJoCo matrix (an independent physics,
-# experiments/results/diagnose_mujoco_effects.json; python experiments/diagnose_benchmark.py prints it).
+# benchmarks/results/diagnose_mujoco_effects.json; python benchmarks/diagnose_benchmark.py prints it).
 MODEL_REL = 0.065
 
 # The surrogate's ABSOLUTE model-form error, 1 sigma, in the effect's own units: how far apart two
@@ -28,22 +28,22 @@ MODEL_REL = 0.065
 # - icr_spread: the benchmark's generator (mjtrack/testing/diagnose_physics.py, at its settings) turns with a
 #   wider steady ICR spread than the Coulomb reference of the description the surrogate's q0 come
 #   from: +3.68 +3.68 +1.69 / +3.27 +3.28 +1.60 / +1.84 +1.85 +1.85 % (small / large / wheeled x 3
-#   commands; python experiments/generator_spread.py prints the RMS): 0.0267.
+#   commands; python benchmarks/generator_spread.py prints the RMS): 0.0267.
 # - friction_scale: the generator's yaw transients are faster than the Coulomb rollout's (the
 #   surrogate's rigid-body reference); friction_scale shortens every transient as 1/fs, so a dead
 #   time ratio r = generator / coulomb reads as fs = 1/r: r = 0.890 0.935 0.887 0.938 (small),
 #   0.900 0.954 0.918 0.951 (large), 0.806 0.856 0.907 0.930 (wheeled as a 0.97 m track) over the 4
-#   distinct steps (python experiments/diagnose_transient_steps.py --skip-logs), 1/r - 1 = 0.05-0.24:
-#   RMS 0.118 (python experiments/diagnose_transient_steps.py prints it).
+#   distinct steps (python benchmarks/diagnose_transient_steps.py --skip-logs), 1/r - 1 = 0.05-0.24:
+#   RMS 0.118 (python benchmarks/diagnose_transient_steps.py prints it).
 # - every other effect: 0 (speed effects are fitted to measured speeds, an exact transform; the
 #   others' truth is transformed exactly by both physics).
 MODEL_ABS = {"icr_spread": 0.0267, "friction_scale": 0.118}
 
 MODEL_FORM = ModelForm(MODEL_REL, MODEL_ABS,
-                       measured_by="python experiments/diagnose_benchmark.py (rel, from "
-                                   "experiments/results/diagnose_mujoco_effects.json); python "
-                                   "experiments/generator_spread.py (icr_spread); python "
-                                   "experiments/diagnose_transient_steps.py (friction_scale)")
+                       measured_by="python benchmarks/diagnose_benchmark.py (rel, from "
+                                   "benchmarks/results/diagnose_mujoco_effects.json); python "
+                                   "benchmarks/generator_spread.py (icr_spread); python "
+                                   "benchmarks/diagnose_transient_steps.py (friction_scale)")
 
 # what each effect changes in the surrogate (:mod:`mjtrack.diagnose.effects`)
 CHANGES = {

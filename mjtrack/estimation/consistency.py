@@ -10,7 +10,7 @@ A filter is consistent when its errors are as large as its covariances say:
 
 ``band95`` is the two-sided 95 % band of a *single step's* value (χ² quantiles): the band the
 report draws around NIS over time. Averages over many correlated steps have no simple band;
-the acceptance used by ``experiments/filter_consistency.py`` is nis/dof in [0.5, 2] and
+the acceptance used by ``benchmarks/filter_consistency.py`` is nis/dof in [0.5, 2] and
 nees/dof in [1/3, 3].
 
 **True parameters of a physical truth** (a MuJoCo rollout, or any noise-free twist with the
@@ -24,7 +24,7 @@ not act on the motion there). MPP's own slips: u_L,R = v_x ∓ ωT/2 are the act
 s = 1 − u/V, tan α = −v_y/v_x (:func:`own_slips`), undefined where |V_L|, |V_R| or |v_x| is small.
 Per sample these carry the drives' transient after each change of command (the twist and the
 track speeds respond at different rates), which no kinematic model describes. As in
-``experiments/filters_on_mujoco.py``, the truth of a constant-command stretch is therefore the
+``benchmarks/filters_on_mujoco.py``, the truth of a constant-command stretch is therefore the
 *mean* of the per-sample own values over its steady part (from ``settle_s`` after the command
 changed to the next change), and NEES is evaluated on those steady parts only
 (:func:`steady_truth`).

@@ -56,8 +56,8 @@ S = Σ_j c̄_j (S_j + (h_j − ẑ)(h_j − ẑ)ᵀ); the recorded innovation is
 The recorded gain is Σ_j μ_j K_j (for plotting only: the IMM's update is not linear in ε).
 
 **Choice of the settings** (:class:`IMMSettings`; chosen on the default robot of
-``experiments/filters_on_mujoco.py`` only — random steps and a circle — and checked on robots it
-was not tuned on by ``experiments/filter_consistency.py``): c = 300 on ψ (slow 1e-3, fast 0.3 /√s:
+``benchmarks/filters_on_mujoco.py`` only — random steps and a circle — and checked on robots it
+was not tuned on by ``benchmarks/filter_consistency.py``): c = 300 on ψ (slow 1e-3, fast 0.3 /√s:
 ψ moves by its whole range in about a second) and r = 2 (the kinematic model describes the
 motion less well while the parameters move); τ_s = 1000 s, u_c = 0.2 m/s (a typical step of the
 command is 0.5–1 m/s: it triggers the fast mode; the time term only matters while the command is

@@ -7,7 +7,7 @@ command they jump by amounts that have no fixed scale (s = 1 − u/V is a ratio:
 at a few cm/s jumps by O(1); MPP's slip angle α = −atan(v_y/v_x) swings by a radian when a spin
 turn starts with the centre of gravity off the geometric centre). Then the filter's covariance
 says "σ_α = 0.08 rad" while the error is 1 rad and the twist innovations sit at −10σ for a
-second (experiments/filter_consistency.py, ``tuning`` case, t = 46.6 s): NIS/dof ≈ 2 and
+second (benchmarks/filter_consistency.py, ``tuning`` case, t = 46.6 s): NIS/dof ≈ 2 and
 parameter NEES/dof ≈ 3–5.
 
 **Model.** The parameter block P_pp of the predicted covariance is right up to an unknown factor
@@ -79,14 +79,14 @@ parameters, which over-states what the pose and the parameters know together; no
 **Where it does harm: a measurement noise far below the real one.** The gate then stays open
 (the innovations exceed S because R is wrong, not because the parameters moved), and the slips'
 covariance sits at its cap: on the real Marmotte log with validate's *default* noise (σ 1 cm,
-0.02 m/s, far below the log's differenced twist, 0.3 m/s; experiments/filters_marmotte.py,
+0.02 m/s, far below the log's differenced twist, 0.3 m/s; benchmarks/filters_marmotte.py,
 carried across windows, IMM) the slip EKF's NIS/dof fell from 264 to 64 but its 2-s predictions
 got worse, 0.68 → 1.37 m (nominal: 0.24 m); with the noise estimated from the log, as validate
 does now, nothing changed (0.243 m, NIS/dof 0.73). Restricting the matching to innovations with
 a significant mean (a bias test on the EW mean of ε/√S, z = 2 or 3) was tried and rejected: on
 the ``tuning`` cases NIS/dof rose to 1.7–2.0 and the circle's NEES/dof fell to 0.30.
 
-Rejected (measured on the ``tuning`` case of experiments/filter_consistency.py, slip EKF with
+Rejected (measured on the ``tuning`` case of benchmarks/filter_consistency.py, slip EKF with
 its IMM, three noise seeds): matching the *measurement* noise instead (R_ii scaled by the excess
 of ⟨ε_i²⟩ with a long-run factor for its correlation, Myers & Tapley 1976) made the parameter
 NEES/dof 8–15 instead of 2.6–3.1: a larger twist noise moves the misfit into the pose innovations

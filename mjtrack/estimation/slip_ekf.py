@@ -39,7 +39,7 @@ from mjtrack.models import MPP
 
 PARAM_NAMES = MPP.param_names  # ("s_left", "s_right", "alpha")
 ALPHA_MAX = np.radians(85.0)  # [rad] bound of the slip angle estimate (MPP is undefined at 90 deg)
-# IMM pair for adaptive="imm" (tuned on the default robot only, experiments/filter_consistency.py):
+# IMM pair for adaptive="imm" (tuned on the default robot only, benchmarks/filter_consistency.py):
 # the slips' fast mode is 100x the slow intensity (0.1 /sqrt(s), 5 deg/sqrt(s) on alpha at the
 # defaults) with 3x the measurement std, and the pose process noise is smaller than the single
 # EKF's (the fast mode, not the pose, absorbs what MPP does not describe)
@@ -47,7 +47,7 @@ SLIP_IMM = IMMSettings(fast_factor=100.0, fast_meas_factor=3.0)
 Q_POSE_STD = (0.005, 0.005, 0.002)  # [m/sqrt(s), m/sqrt(s), rad/sqrt(s)] single EKF
 Q_POSE_STD_IMM = (0.002, 0.002, 0.0008)  # with adaptive="imm"
 # model-error term with adaptive="imm" (mjtrack.estimation.model_error; chosen on the two
-# 'tuning' cases of experiments/filter_consistency.py only): the slips' covariance is matched to
+# 'tuning' cases of benchmarks/filter_consistency.py only): the slips' covariance is matched to
 # the twist innovations (0.5-s average, acting when the average NIS is 2.33 sigma above its mean),
 # and when that gate stays open for 0.5 s the parameters restart from the inverse of the mean
 # twist of the last 0.2 s (mpp_from_twist; tuning case NEES/dof 2.0-2.8 -> 1.2-1.5);

@@ -435,8 +435,15 @@ def log_to_csv_text(log_: DriveLog) -> str:
 
 # -- log + robot -------------------------------------------------------------------------
 def robot_path_for(log_path: str | os.PathLike) -> Path:
-    """``LOG.json`` beside ``LOG.csv``: the robot description that goes with a log."""
-    return Path(log_path).with_suffix(".json")
+    """``LOG.json`` beside ``LOG.csv``: the robot description that goes with a log.
+
+    Raises:
+        InputError: ``log_path`` names no file (empty, ``.``, a path ending in ``/``).
+    """
+    path = Path(log_path)
+    if not path.name or str(log_path).endswith(os.sep):
+        raise InputError(f"{str(log_path)!r}: not a file name")
+    return path.with_suffix(".json")
 
 
 def read_log_with_robot(

@@ -1,14 +1,23 @@
-"""Robot description (CONTRACTS.md §2): the geometry, mass and friction of a tracked robot.
+"""Robot description: the geometry, mass and friction of a skid-steer robot,
+on two tracks or on wheels (``traction``).
 
 A :class:`Robot` is what every simulating command takes, what ``simulate`` writes beside
 its log (``LOG.json``) and what ``diagnose`` reads. SI units; angles in radians.
-Keys beyond the contract's are kept in ``extra`` so that a description round-trips.
+
+Keys beyond the fields: a key close to a known one (``drive_lags``) is refused as a typo, with
+the known key it resembles; the wheeled robot keys (:data:`WHEELED_KEYS`) and the keys mjtrack writes
+itself (:data:`RECORD_KEYS`: ``terrain``, ``simulator``) are known; any other key (a data set's metadata such as ``robot``, ``note``,
+``sample_rate_hz``) is kept in ``extra``, so that a description round-trips, and listed once in a
+warning. A description file is at most :data:`MAX_FILE_BYTES` and nested at most
+:data:`MAX_DEPTH` deep (:func:`mjtrack.io.jsonfile.read_json`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import json
+import logging
 import math
 import os
 from dataclasses import dataclass, field
@@ -16,18 +25,37 @@ from pathlib import Path
 from typing import Any
 
 from mjtrack.errors import InputError
+from mjtrack.io.jsonfile import read_json
+
+logger = logging.getLogger(__name__)
+
+MAX_FILE_BYTES = 1 << 20  # [bytes] a description is a few hundred bytes; a megabyte is not a robot
+MAX_DEPTH = 6  # nesting: description > terrain > patches > patch (LOG.json of a run on terrain) is 4
+# keys of wheeled robots (traction "tracks" | "wheels", wheel_radius = sprocket_radius's alias,
+# wheelbase, wheels_per_side): known, never a typo of each other or of the track keys
+WHEELED_KEYS = ("traction", "wheel_radius", "wheelbase", "wheels_per_side")
+# written by mjtrack itself: "terrain" beside a simulated log (the terrain it ran on; text in some
+# data sets), "simulator" by calibrate (the simulator settings the parameters were fitted with)
+RECORD_KEYS = ("terrain", "simulator")
+# "source_<key>": where a value of the description comes from (calibrate lists it under "assumed")
+SOURCE_PREFIX = "source_"
+TYPO_CUTOFF = 0.8  # difflib similarity at which an unknown key is taken for a misspelt known key
+_warned: set[tuple[str, tuple[str, ...]]] = set()  # (source, keys) already listed in a warning
 
 G = 9.81  # [m/s^2] gravity used throughout the package
 MAX_DRIVE_TIME = 10.0  # [s] largest accepted drive_lag / drive_delay (beyond: a unit error)
 MAX_SPEED_SCALE = 10.0  # [-] largest accepted track_speed_scale
-NULLABLE = ("mu_left", "mu_right", "drive_force_limit")  # keys that may be JSON null
+NULLABLE = ("mu_left", "mu_right", "drive_force_limit", "wheelbase")  # keys that may be JSON null
+TRACTIONS = ("tracks", "wheels")
+MAX_WHEELS_PER_SIDE = 10
 
 # Physical plausibility of a description: (low, high) inclusive. Beyond these a value is a unit
 # mix-up or a corrupt file (a 1 mm to 100 m track, a 1 g to 10 000 t robot, friction up to 10),
 # and the simulator would fail on it with a cryptic message, so it is refused up front.
 PLAUSIBLE_ROBOT: dict[str, tuple[float, float, str]] = {
     "track_gauge": (1e-3, 100.0, "m"), "track_length": (1e-3, 100.0, "m"), "track_width": (1e-3, 100.0, "m"),
-    "sprocket_radius": (1e-3, 100.0, "m"), "mass": (1e-3, 1e7, "kg"), "cg_z": (-100.0, 100.0, "m"),
+    "sprocket_radius": (1e-3, 100.0, "m"), "wheelbase": (1e-3, 100.0, "m"), "mass": (1e-3, 1e7, "kg"),
+    "cg_z": (-100.0, 100.0, "m"),
     "mu": (0.0, 10.0, "-"), "mu_left": (0.0, 10.0, "-"), "mu_right": (0.0, 10.0, "-"),  # > 0 checked above;
     # a track with friction 1e-12 is how the diagnosis isolates the other track's effect
 }
@@ -130,16 +158,25 @@ class Ground:
 
 @dataclass(frozen=True)
 class Robot:
-    """Geometry, mass and friction of a two-track robot.
+    """Geometry, mass and friction of a skid-steer robot on two tracks or on wheels.
 
     Frame: x forward, y left, z up, origin at the geometric centre of the two track
-    contact patches on the ground plane.
+    contact patches (or of the wheels' contact points) on the ground plane.
+
+    A wheeled robot (``traction="wheels"``: Husky, Warthog, Jackal) has ``wheels_per_side``
+    wheels on each side, their axles evenly spaced over ``wheelbase`` (front to rear axle) and
+    centred on the origin; ``track_gauge`` is the distance between the left and right wheel
+    centre lines, ``sprocket_radius`` the wheel radius (also read from the key ``wheel_radius``),
+    ``track_width`` the tyre width; ``track_length`` is not used. The wheels of one side turn
+    together (one drive per side, like a track) and touch the ground at one point each, under
+    their axles. Every other field means the same for both tractions.
 
     Attributes:
-        track_gauge: T, distance between the track centre lines [m].
-        track_length: L, length of each track's ground contact [m].
-        track_width: width of each track's ground contact [m].
-        sprocket_radius: radius that converts sprocket speed to track speed [m].
+        track_gauge: T, distance between the track (wheel) centre lines [m].
+        track_length: L, length of each track's ground contact [m] (tracks only).
+        track_width: width of each track's ground contact (of each tyre) [m].
+        sprocket_radius: radius that converts sprocket (wheel) speed to track (wheel surface)
+            speed [m].
         mass: total mass [kg].
         cg_x, cg_y: centre of mass relative to the geometric centre (+x forward, +y left) [m].
         cg_z: height of the centre of mass above the ground [m].
@@ -156,7 +193,13 @@ class Robot:
         track_speed_scale: actual / commanded track speed, both tracks [-] (multiplies the
             commands before lag, delay and force limit).
         ground: the ground model and its parameters (:class:`Ground`; default rigid-track
-            isotropic Coulomb). A dict or a model name is accepted and converted.
+            isotropic Coulomb). A dict or a model name is accepted and converted. A wheeled
+            robot takes ``coulomb`` or ``anisotropic`` (``road_wheels`` spreads a track's load).
+        traction: ``"tracks"`` (default) or ``"wheels"``.
+        wheelbase: B, distance from the front to the rear axle [m] (wheels only; None on
+            tracks); a wheeled robot built without one gets the track gauge (a square footprint).
+        wheels_per_side: wheels on each side, axles evenly spaced over the wheelbase (wheels
+            only; 2 to 10) [-].
         extra: project-specific keys read from a description file, kept for round trips.
         provided: the contract keys that a description file actually gave (the others took
             their defaults), or None for a robot built in code. Diagnosis uses it to tell
@@ -179,6 +222,9 @@ class Robot:
     drive_force_limit: float | None = None
     track_speed_scale: float = 1.0
     ground: Ground = field(default_factory=Ground)
+    traction: str = "tracks"
+    wheelbase: float | None = None
+    wheels_per_side: int = 2
     extra: dict[str, Any] = field(default_factory=dict, compare=False)
     provided: frozenset[str] | None = field(default=None, compare=False, repr=False)
 
@@ -189,6 +235,7 @@ class Robot:
             value = getattr(self, name)
             if not _is_finite_number(value) or value <= 0:
                 raise InputError(f"robot: '{name}' must be a positive number, got {value!r}")
+        self._check_traction()
         for name in ("cg_x", "cg_y", "cg_z"):
             value = getattr(self, name)
             if not _is_finite_number(value):
@@ -216,10 +263,11 @@ class Robot:
         if self.track_width >= self.track_gauge:
             raise InputError(f"robot: 'track_width' = {self.track_width} is not less than 'track_gauge' = "
                              f"{self.track_gauge}: the two tracks would overlap")
-        if abs(self.cg_x) >= self.track_length / 2:
+        if abs(self.cg_x) >= self.contact_length / 2:
+            length = "track_length" if self.traction == "tracks" else "wheelbase"
             raise InputError(
-                f"robot: 'cg_x' = {self.cg_x} puts the centre of mass outside the tracks "
-                f"(|cg_x| must be < track_length/2 = {self.track_length / 2})"
+                f"robot: 'cg_x' = {self.cg_x} puts the centre of mass outside the {self.traction} "
+                f"(|cg_x| must be < {length}/2 = {self.contact_length / 2})"
             )
         if abs(self.cg_y) >= self.track_gauge / 2:
             raise InputError(
@@ -227,7 +275,49 @@ class Robot:
                 f"(|cg_y| must be < track_gauge/2 = {self.track_gauge / 2})"
             )
 
+    def _check_traction(self) -> None:
+        """The wheeled keys: a known traction, an integer wheel count, a plausible wheelbase."""
+        if self.traction not in TRACTIONS:
+            raise InputError(f"robot: 'traction' must be one of {list(TRACTIONS)}, got {self.traction!r}")
+        n = self.wheels_per_side
+        if not _is_finite_number(n) or n != int(n) or not 2 <= n <= MAX_WHEELS_PER_SIDE:
+            raise InputError(f"robot: 'wheels_per_side' must be a whole number from 2 to {MAX_WHEELS_PER_SIDE}, "
+                             f"got {n!r}")
+        object.__setattr__(self, "wheels_per_side", int(n))
+        if self.wheelbase is not None and (not _is_finite_number(self.wheelbase) or self.wheelbase <= 0):
+            raise InputError(f"robot: 'wheelbase' must be a positive number or null, got {self.wheelbase!r}")
+        if self.traction == "tracks":
+            if self.wheelbase is not None or self.wheels_per_side != 2:
+                raise InputError("robot: 'wheelbase' and 'wheels_per_side' describe a wheeled robot; "
+                                 "set 'traction' to \"wheels\"")
+        elif self.wheelbase is None:  # a square footprint: B = T
+            object.__setattr__(self, "wheelbase", float(self.track_gauge))
+        if self.traction == "wheels" and self.ground.model == "road_wheels":
+            raise InputError("robot: ground model 'road_wheels' spreads a track's load over its road wheels; "
+                             "a wheeled robot carries its load at its axles (use 'coulomb' or 'anisotropic')")
+
     # -- derived quantities -------------------------------------------------------------
+    @property
+    def wheel_radius(self) -> float:
+        """Wheel radius [m] of a wheeled robot: :attr:`sprocket_radius` (the same conversion from
+        wheel speed to surface speed)."""
+        return self.sprocket_radius
+
+    @property
+    def contact_length(self) -> float:
+        """Length of a side's ground contact along x [m]: ``track_length`` on tracks; on wheels
+        the distance from the front to the rear contact point, ``wheelbase``."""
+        return self.track_length if self.traction == "tracks" else float(self.wheelbase)
+
+    def axle_positions(self):
+        """x of the wheel axles of a wheeled robot, front last, (wheels_per_side,) [m]: evenly
+        spaced from -B/2 to B/2 (B = :attr:`contact_length`). InputError on tracks."""
+        import numpy as np
+
+        if self.traction != "wheels":
+            raise InputError("robot: a tracked robot has no axles (traction is 'tracks')")
+        return np.linspace(-self.contact_length / 2, self.contact_length / 2, self.wheels_per_side)
+
     @property
     def friction_left(self) -> float:
         """Friction coefficient of the left track [-]."""
@@ -250,22 +340,33 @@ class Robot:
 
     # -- serialisation --------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in ("extra", "provided")}
+        """The full description: every field; the wheeled keys (and ``wheel_radius``, the alias
+        of ``sprocket_radius``) only for a wheeled robot, so that tracked descriptions keep their keys."""
+        skip = ("extra", "provided") + (WHEEL_KEYS if self.traction == "tracks" else ())
+        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in skip}
         d["ground"] = self.ground.to_dict()
+        if self.traction == "wheels":
+            d["wheel_radius"] = self.wheel_radius
         return {**self.extra, **d}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], *, source: str = "robot description") -> "Robot":
         if not isinstance(data, dict):
             raise InputError(f"{source}: expected a JSON object, got {type(data).__name__}")
-        if "track_gauge" not in data:
-            raise InputError(f"{source}: missing required key 'track_gauge'")
+        data = _wheel_radius_alias(data, source)
         names = {f.name for f in dataclasses.fields(cls)} - {"extra", "provided"}
         known = {k: v for k, v in data.items() if k in names}
         extra = {k: v for k, v in data.items() if k not in names}
+        _check_extra_keys(extra, names, source)
+        if "track_gauge" not in data:
+            raise InputError(f"{source}: missing required key 'track_gauge'")
         for k, v in known.items():
             if k == "ground":
                 known[k] = Ground.from_value(v, source=source)
+                continue
+            if k == "traction":
+                if v not in TRACTIONS:
+                    raise InputError(f"{source}: key 'traction' must be one of {list(TRACTIONS)}, got {v!r}")
                 continue
             if v is None and k in NULLABLE:
                 continue
@@ -278,6 +379,40 @@ class Robot:
             raise InputError(f"{source}: {str(exc).removeprefix('robot: ')}") from None
 
 
+def _check_extra_keys(extra: dict[str, Any], names: set[str], source: str) -> None:
+    """Refuse a key that looks like a misspelt known key; warn once about the other unknown keys."""
+    targets = sorted(names | set(WHEELED_KEYS) | set(RECORD_KEYS))
+    lowered = {t.lower(): t for t in targets}
+    unknown = []
+    for key in extra:
+        if key in targets or str(key).startswith(SOURCE_PREFIX):
+            continue
+        close = difflib.get_close_matches(str(key).lower(), list(lowered), n=1, cutoff=TYPO_CUTOFF)
+        if close:
+            raise InputError(f"{source}: key {key!r}: did you mean {lowered[close[0]]!r}? (a misspelt key would "
+                             "be ignored)")
+        unknown.append(str(key))
+    if unknown and (source, tuple(unknown)) not in _warned:
+        _warned.add((source, tuple(unknown)))
+        logger.warning("%s: key(s) %s not used by mjtrack; kept in the description", source, ", ".join(unknown))
+
+
+WHEEL_KEYS = ("traction", "wheelbase", "wheels_per_side")  # fields written for wheeled robots only
+
+
+def _wheel_radius_alias(data: dict[str, Any], source: str) -> dict[str, Any]:
+    """``wheel_radius`` read as ``sprocket_radius`` (its alias); both given must agree."""
+    if "wheel_radius" not in data:
+        return data
+    out = {k: v for k, v in data.items() if k != "wheel_radius"}
+    radius = data["wheel_radius"]
+    if "sprocket_radius" in data and data["sprocket_radius"] != radius:
+        raise InputError(f"{source}: 'wheel_radius' = {radius!r} and its alias 'sprocket_radius' = "
+                         f"{data['sprocket_radius']!r} differ; give one of them")
+    out["sprocket_radius"] = radius
+    return out
+
+
 def _is_finite_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
@@ -285,14 +420,7 @@ def _is_finite_number(value: Any) -> bool:
 def read_robot(path: str | os.PathLike) -> Robot:
     """Read a robot description JSON file; bad input raises :class:`InputError`."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read robot description ({exc.strerror})") from None
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: not valid JSON (line {exc.lineno}: {exc.msg})") from None
+    data = read_json(path, what="robot description", max_bytes=MAX_FILE_BYTES, max_depth=MAX_DEPTH)
     return Robot.from_dict(data, source=str(path))
 
 

@@ -30,7 +30,29 @@ contact), the plane then minimising the springs' energy less the weight's work (
 problem, solved by semismooth Newton). Before session 6 each track had its own Wong
 distribution with centroid c_x, N_i = m g (1/2 +- c_y/T) w_i(c_x): a twist term
 proportional to c_x c_y x_i y_i that a rigid chassis cannot carry (0.06 T/2 on the ICRs of a
-150 kg robot with cg 0.05 T aside and 0.1 L ahead at R 2 m, 2 m/s; experiments/fidelity.py --wide).
+150 kg robot with cg 0.05 T aside and 0.1 L ahead at R 2 m, 2 m/s; benchmarks/fidelity.py --wide).
+
+Wheels (``robot.traction == "wheels"``). A wheel touches the ground at one point under its
+axle, so each side is ``wheels_per_side`` points at the axle positions x_j evenly spaced over
+the wheelbase B (:meth:`mjtrack.io.robot.Robot.axle_positions`; ``n_points`` and ``n_across``
+do not apply), each moving over the ground with u_j of eq. (1) at its side's wheel surface
+speed: the wheels of a side turn together, as a track's contact points move together. Their
+loads are the same rigid plate on equal springs (Wong's linear distribution with the lever
+rule and the CG offset; beyond the support the plate lifts off the unloaded wheels), and the
+balance, the load transfer and the solvers are those of the track: one Coulomb reference for
+line and point contacts. For a symmetric pivot of a 2 x 2 robot with the CG at the centre and
+no inertia, the four slips have equal moment arms and Mz = 0 gives wz = 2 V T / (T^2 + B^2):
+the yaw ratio wz / (2V/T) = T^2 / (T^2 + B^2) (the limit of eq. 4 with the load at the ends).
+``rollout``'s default yaw inertia is then the B x T box, m (B^2 + T^2) / 12.
+
+Rolling wheels. A point contact can stick: where the twist's ICR of a side lies on a wheel, that
+wheel rolls without slipping and carries any force in its friction set (u_j = 0, |f_j| <= mu N_j),
+which the slip law u/|u| cannot express and the root finder above cannot reach. A wheeled robot
+whose load sits on one axle (CG ahead of the centre on a short wheelbase) turns about that axle:
+both its wheels roll, wz is the ideal (V_R - V_L)/T, and only the other axle slides. When the
+all-slip solve fails, ``steady_state`` tries these rolling states (:func:`_rolling_states`: each
+axle rolling, then each single wheel) and returns the first whose stuck forces lie in their
+friction sets. (On a track, the points of a line contact have zero measure, so no such state.)
 
 Grounds (robot key ``ground``, :data:`mjtrack.io.robot.GROUND_MODELS`). ``road_wheels``: the
 springs under the plate have the stiffness shares s_i of :meth:`mjtrack.io.robot.Ground.load_shares`
@@ -128,9 +150,13 @@ class _Contacts:
         if int(n_across) != n_across or n_across < 1:
             raise InputError(f"coulomb: n_across must be an integer >= 1, got {n_across!r}")
         n, k = int(n_points), int(n_across)
-        L, T, w = robot.track_length, robot.track_gauge, robot.track_width
+        L, T, w = robot.contact_length, robot.track_gauge, robot.track_width
         self.robot = robot
-        self.xg = -L / 2 + (np.arange(n) + 0.5) * L / n  # midpoint grid along a track
+        if robot.traction == "wheels":  # one point under each axle (module docstring, "Wheels")
+            self.xg = np.asarray(robot.axle_positions(), dtype=float)
+            n, k = self.xg.size, 1
+        else:
+            self.xg = -L / 2 + (np.arange(n) + 0.5) * L / n  # midpoint grid along a track
         dy = (-w / 2 + (np.arange(k) + 0.5) * w / k) if k > 1 else np.zeros(1)
         xs = np.tile(self.xg, 2 * k)
         ys = np.concatenate([np.repeat(side * T / 2 + dy, n) for side in (1.0, -1.0)])
@@ -251,7 +277,8 @@ def contact_wrench(
 def normal_loads(
     robot: Robot, *, n_points: int = DEFAULT_N_POINTS, n_across: int = 1, accel=(0.0, 0.0)
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Contact points and loads: (x [m], y [m], N [N]), each shape (2 n_points n_across,)."""
+    """Contact points and loads: (x [m], y [m], N [N]), each shape (2 n_points n_across,) on tracks,
+    (2 wheels_per_side,) on wheels."""
     c = _Contacts(robot, n_points, n_across)
     return c.x.copy(), c.y.copy(), c.loads(*accel)
 
@@ -327,7 +354,7 @@ def _steady_residual(c: _Contacts, z, icr, mass_scale: float, load_transfer: boo
     Fx, Fy, Mz = c.wrench_icr(z[2], *icr, N)
     m = r.mass * mass_scale
     Mc = Mz - (r.cg_x * Fy - r.cg_y * Fx)
-    return np.array([Fx - m * acc[0], Fy - m * acc[1], Mc / r.track_length]) / r.weight
+    return np.array([Fx - m * acc[0], Fy - m * acc[1], Mc / r.contact_length]) / r.weight
 
 
 def steady_state(
@@ -377,6 +404,14 @@ def steady_state(
     q = solve(np.array([0.65, -0.65, 0.0]), ms)  # nominal-like start: wz ~ 0.77 nominal
     with np.errstate(divide="ignore", invalid="ignore"):
         z = twist_of(q)
+    if not (np.all(np.isfinite(z)) and resid(q) <= _RESIDUAL_MAX) and robot.traction == "wheels":
+        rolling = _rolling_states(c, vl, vr, ms, load_transfer, tol)
+        if rolling:
+            if len(rolling) > 1:
+                log.warning("steady_state: %d steady states with rolling wheels at v_left=%s, v_right=%s; the first "
+                            "is returned", len(rolling), vl, vr)
+            z, icr, res = rolling[0]
+            return SteadyState(vx=float(z[0]), vy=float(z[1]), wz=float(z[2]), residual=res, icr=icr, **meta)
     if not (np.all(np.isfinite(z)) and resid(q) <= _RESIDUAL_MAX):
         log.info("steady_state: direct solve failed; fallback (dissipation minimum, continuation)")
         scale = max(abs(vl), abs(vr))
@@ -405,6 +440,94 @@ def steady_state(
         raise MjtrackError(f"steady_state: the robot would tip over at v_left={vl}, v_right={vr}")
     icr = tuple(float(v) for v in q * T)
     return SteadyState(vx=float(z[0]), vy=float(z[1]), wz=float(z[2]), residual=res, icr=icr, **meta)
+
+
+ROLLING_STARTS = (0.5, 0.25, 0.75, 1.0)  # yaw-rate starts of a one-wheel rolling state / the ideal one
+
+
+def _inside_cone(c: _Contacts, i: int, f: np.ndarray, N: float) -> bool:
+    """Whether force f (2,) lies in contact i's friction set: the ellipse (f_x / mu)^2 + (f_y / (rho mu))^2
+    <= N^2 (a disc on isotropic ground), with a round-off allowance."""
+    mu = c.mu[i] * N
+    return bool(mu > 0 and (f[0] / mu) ** 2 + (f[1] / (c.rho * mu)) ** 2 <= 1.0 + 1e-9)
+
+
+def _rolling_states(c: _Contacts, vl: float, vr: float, mass_scale: float, load_transfer: bool, tol: float
+                    ) -> list[tuple[np.ndarray, tuple[float, float, float], float]]:
+    """Steady states of a wheeled robot in which wheels roll without slipping (module docstring,
+    "Rolling wheels"): (twist, ICRs (y_l, y_r, x_c), residual) of each admissible one, axles first.
+
+    A wheel j that sticks (u_j = 0) carries any force in its friction set, so it is an unknown f_j
+    instead of -mu N u/|u|. One wheel: the twist turns about it, (V_j + wz y_j, -wz x_j, wz), and
+    (wz, f_j) solve the three balance equations (3). Both wheels of an axle (left j, right k at x_a):
+    the twist is fixed, wz = (V_R - V_L)/(y_j - y_k), vx = V_L + wz y_j, vy = -wz x_a; the balance fixes
+    f_jx, f_kx and f_jy + f_ky, and the split t of f_jy - f_ky is free: admissible when some t puts
+    both forces in their friction sets (an interval intersection). Two wheels of one side cannot both
+    stick in a turn (their u_y = vy + wz x differ)."""
+    r = c.robot
+    m = r.mass * mass_scale
+    side_v = np.where(c.left, vl, vr)
+    out: list = []
+
+    def loads_for(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        acc = c.kinematic_accel(z) * (mass_scale > 0)
+        return acc, (c.loads(*acc) if (load_transfer and mass_scale > 0) else c.static_loads)
+
+    def others(z: np.ndarray, N: np.ndarray, stuck: list[int]) -> np.ndarray:
+        Nm = N.copy()
+        Nm[stuck] = 0.0  # the rolling wheels' forces are unknowns
+        return c.wrench(z, vl, vr, Nm, 0.0)
+
+    for xa in np.unique(c.x):
+        j = int(np.flatnonzero(c.left & (c.x == xa))[0])
+        k = int(np.flatnonzero(~c.left & (c.x == xa))[0])
+        wz = (side_v[j] - side_v[k]) / (c.y[k] - c.y[j])
+        if wz == 0.0:
+            continue
+        z = np.array([side_v[j] + wz * c.y[j], -wz * xa, wz])
+        acc, N = loads_for(z)
+        Fo = others(z, N, [j, k])
+        sx, sy = m * acc[0] - Fo[0], m * acc[1] - Fo[1]  # f_j + f_k
+        mz = r.cg_x * m * acc[1] - r.cg_y * m * acc[0] - Fo[2] - xa * sy  # = -y_j f_jx - y_k f_kx
+        fjx = (mz + c.y[k] * sx) / (c.y[k] - c.y[j])
+        fkx = sx - fjx
+        lim = []
+        for i, fx in ((j, fjx), (k, fkx)):
+            mu = c.mu[i] * N[i]
+            lim.append(c.rho * mu * np.sqrt(1.0 - (fx / mu) ** 2) if mu > 0 and abs(fx) <= mu else -1.0)
+        lo, hi = max(-sy / 2 - lim[0], sy / 2 - lim[1]), min(-sy / 2 + lim[0], sy / 2 + lim[1])
+        if min(lim) >= 0.0 and lo <= hi + 1e-12 * r.weight:
+            out.append((z, (float(c.y[j]), float(c.y[k]), float(xa)), 0.0))
+    T, scale = r.track_gauge, max(abs(vl), abs(vr))
+    for j in range(c.x.size):
+        def twist(q, j=j):
+            wz = q[0] * scale / T
+            return np.array([side_v[j] + wz * c.y[j], -wz * c.x[j], wz])
+
+        def fun(q, j=j):
+            z = twist(q)
+            acc, N = loads_for(z)
+            F = others(z, N, [j])
+            fx, fy = q[1] * r.weight, q[2] * r.weight
+            Fx, Fy = F[0] + fx, F[1] + fy
+            Mz = F[2] + c.x[j] * fy - c.y[j] * fx
+            Mc = Mz - (r.cg_x * Fy - r.cg_y * Fx)
+            return np.array([Fx - m * acc[0], Fy - m * acc[1], Mc / r.contact_length]) / r.weight
+
+        for share in ROLLING_STARTS:  # yaw rate starts: shares of the ideal (V_R - V_L)/T
+            with np.errstate(divide="ignore", invalid="ignore"):
+                q = optimize.root(fun, np.array([share * (vr - vl) / scale, 0.0, 0.0]), method="hybr",
+                                  options={"xtol": tol}).x
+            res = float(np.max(np.abs(fun(q))))
+            z = twist(q)
+            if not (res <= _RESIDUAL_MAX and z[2] != 0.0):
+                continue
+            _, N = loads_for(z)
+            if _inside_cone(c, j, q[1:] * r.weight, N[j]):
+                out.append((z, ((z[0] - vl) / z[2], (z[0] - vr) / z[2], -z[1] / z[2]), res))
+                break
+    c.tipped = False
+    return out
 
 
 class PivotTurn(NamedTuple):
@@ -595,7 +718,7 @@ def rollout(
     c = _Contacts(robot, n_points, n_across, slope)
     m = robot.mass
     g_up = G * np.sin(slope) * np.array([np.cos(slope_direction), np.sin(slope_direction)])  # plane frame
-    I = inertia if inertia is not None else m * (robot.track_length**2 + robot.track_gauge**2) / 12
+    I = inertia if inertia is not None else m * (robot.contact_length**2 + robot.track_gauge**2) / 12
     if not I > 0:
         raise InputError(f"rollout: inertia must be > 0, got {inertia!r}")
     cx, cy = c.cg

@@ -14,3 +14,4 @@ from mjtrack.render.video import VideoStats as VideoStats
 from mjtrack.render.video import qpos_from_poses as qpos_from_poses
 from mjtrack.render.video import render_video as render_video
 from mjtrack.render.video import track_travel_from_speeds as track_travel_from_speeds
+from mjtrack.render.video import turn_wheels as turn_wheels

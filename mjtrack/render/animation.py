@@ -23,7 +23,8 @@ from typing import Mapping
 import numpy as np
 
 from mjtrack.errors import InputError
-from mjtrack.render.video import atomic_path, frame_times
+from mjtrack.io.atomic import atomic_path
+from mjtrack.render.video import check_frames, frame_times
 
 logger = logging.getLogger(__name__)
 
@@ -58,6 +59,7 @@ def _check(times, paths, out_path, fps, speed, max_frames):
         raise InputError(f"animate_paths: fps and speed must be positive, got fps={fps}, speed={speed}")
     if Path(out_path).suffix.lower() != ".gif":
         raise InputError(f"animate_paths: output must be a .gif file, got {out_path}")
+    check_frames([times], fps=fps, speed=speed)  # before the frame times are allocated
     t_frames = frame_times(times, fps=fps, speed=speed)
     if len(t_frames) > max_frames:
         raise InputError(f"animate_paths: {len(t_frames)} frames > max_frames={max_frames}; "

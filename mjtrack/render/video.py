@@ -18,20 +18,20 @@ and renamed at the end, so a failure leaves no partial video.
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import dataclasses
 import logging
+import math
 import os
-import tempfile
 import time
 from pathlib import Path
-from typing import Iterator, Sequence
+from typing import Sequence
 
 import mujoco
 import numpy as np
 
 from mjtrack.errors import InputError
+from mjtrack.io.atomic import atomic_path
 from mjtrack.progress import Progress
 from mjtrack.render import decor
 from mjtrack.render.offscreen import OffscreenRenderer
@@ -63,19 +63,20 @@ class VideoStats:
         return self.frames / self.fps
 
 
-@contextlib.contextmanager
-def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
-    """A temporary path with ``path``'s name in a hidden folder beside it; renamed onto ``path`` on success.
+MAX_FRAMES = 216_000  # two hours at 30 frames/s: frames are interpolated up front and encoded one by one
 
-    For writers that need a file name rather than a handle (ffmpeg picks the format from the
-    extension). The folder is removed in every case.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(prefix=f".{path.name}.", dir=path.parent) as folder:
-        tmp = Path(folder) / path.name
-        yield tmp
-        os.replace(tmp, path)
+
+def check_frames(segment_times: Sequence[np.ndarray], *, fps: float, speed: float) -> int:
+    """The number of frames a video of these segments (times [s]) takes; refused (InputError with
+    the estimate) beyond :data:`MAX_FRAMES`, before any frame is made."""
+    if not (math.isfinite(fps) and math.isfinite(speed) and fps > 0 and speed > 0):
+        raise InputError(f"render_video: fps and speed must be > 0, got {fps!r} and {speed!r}")
+    span = sum(float(t[-1] - t[0]) for t in segment_times if len(t))
+    n = sum(math.floor(float(t[-1] - t[0]) * fps / speed + 1e-9) + 1 for t in segment_times if len(t))
+    if n > MAX_FRAMES:
+        raise InputError(f"a video of {span:.6g} s of log at {fps:g} frames/s and {speed:g}x speed has {n:.3g} frames; "
+                         f"at most {MAX_FRAMES:.3g}: raise the playback speed or lower the frame rate")
+    return n
 
 
 def frame_times(times: np.ndarray, *, fps: float, speed: float) -> np.ndarray:
@@ -117,6 +118,19 @@ def track_travel_from_speeds(times: np.ndarray, v_left: np.ndarray, v_right: np.
     v = np.where(np.isfinite(v), v, 0.0)
     out = np.zeros_like(v)
     out[1:] = np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t)[:, None], axis=0)
+    return out
+
+
+def turn_wheels(model: mujoco.MjModel, qpos_traj: np.ndarray, track_travel: np.ndarray, radius: float) -> np.ndarray:
+    """Configurations (N, nq): ``qpos_traj`` with every rolling hinge ``roll_<side>_<i>`` at its side's
+    travel (N, 2) [m] over ``radius`` [m], so that the wheels of a wheeled robot (or the rollers)
+    turn as the log's track speeds say."""
+    out = np.array(qpos_traj, dtype=float)
+    for j in range(model.njnt):
+        name = model.joint(j).name
+        for k, side in enumerate(("left", "right")):
+            if name.startswith(f"roll_{side}_") and model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
+                out[:, model.jnt_qposadr[j]] = np.asarray(track_travel, dtype=float)[:, k] / radius
     return out
 
 
@@ -253,6 +267,7 @@ def render_video(
         model = copy.copy(model)
         for g in decor.roller_geoms(model, body_id):
             model.geom_rgba[g, 3] = 0.0
+    check_frames([times[a:b] for a, b in zip(bounds[:-1], bounds[1:])], fps=fps, speed=speed)
     segments = []
     for a, b in zip(bounds[:-1], bounds[1:]):
         t_seg = times[a:b]

@@ -1,8 +1,9 @@
 """MuJoCo tracked robot: model builder, rollouts, scenarios, steady states (issue 3).
 
 ``chassis`` is the one robot builder (chassis, suspension, sensors, scene) into which a track
-model plugs; ``builder`` makes the roller-chain robot from a :class:`~mjtrack.io.robot.Robot` and
-a :class:`SimConfig` (and dispatches to the other track model); ``rollout`` rolls out track-speed
+model plugs; ``builder`` makes the roller-chain robot, or the wheels of a wheeled robot
+(``traction: "wheels"``), from a :class:`~mjtrack.io.robot.Robot` and a :class:`SimConfig` (and
+dispatches to the other track model); ``rollout`` rolls out track-speed
 commands (``mujoco.rollout``) into drive-log columns; ``scenarios`` names command tables; ``steady`` measures steady-state
 twists and ICRs; ``assets`` writes ``assets/robot.xml`` and ``assets/scene.xml``. The
 ``surfacevel`` track model (``SimConfig(track_model="surfacevel")``) lives in

@@ -52,6 +52,32 @@ measurements):
   belt's speed, as the contact points of a belt do (x_c within 0.0017 L there).
 * **Sensors**: the chassis' (:mod:`mjtrack.sim.chassis`) and the track speeds
   (``track_speed_<side>``, m/s).
+
+Wheels (:class:`WheelSet`, a robot with ``traction: "wheels"``; measurements in
+``assets/README.md``, "Wheels"). A wheel touches the ground at one point under its axle, which is
+what a roller is: each side gets ``wheels_per_side`` of the roller chain's elements at the axle
+positions (:meth:`mjtrack.io.robot.Robot.axle_positions`) with the wheel's radius (bodies and
+geoms ``wheel_<side>_<i>``, hinges ``roll_<side>_<i>``, slides ``susp_<side>_<i>``, servos
+``drive_<side>_<i>``, the side's belt joint ``belt_<side>``: the wheels of a side turn together, as
+a chain or belt drive makes them), so the loads stay determinate on the springs (the tyres'
+deflection), the friction is the noslip pass's hard Coulomb friction and the rest margins put the
+contact point at the wheel radius. ``track_speed_<side>`` is the wheels' mean surface speed. What
+differs from a roller:
+
+* the sphere is not drawn; a tyre (cylinder of the tyre width) with spokes is, so that a video
+  shows the wheels turn (``mjtrack.render.turn_wheels`` turns them by a log's speeds);
+* the wheel body's inertia about its axle is 1 % of a solid sphere's (``spin_inertia_share``): the
+  spin inertia is the hinge's armature (the reflected drivetrain, joint space), because a body
+  inertia makes the spinning wheels of a yawing robot precess: a roll moment I w_spin w_z per
+  wheel that neither the robot description nor the Coulomb reference has;
+* the springs take at most half critical damping (``max_damping_ratio``): the explicit damper at
+  critical damping (c dt / m 1.24 at 5 ms, stable for the rollers) let a 280 kg robot's wheels hop
+  in a fast pivot once the wheels' gyroscopic coupling was gone;
+* the noslip pass runs at least 100 iterations to a tolerance of at most 1e-8: a spin-up winds a
+  side's belt up between its wheels (the front wheel driven, the rear one braked, close to mu N each,
+  held by static friction as a chain drive's wind-up is), and with 40 iterations the unconverged
+  stick forces turned a straight-driving robot at a steady yaw rate;
+* no idlers: a wheel climbs what its radius allows.
 """
 
 from __future__ import annotations
@@ -68,7 +94,7 @@ from mjtrack.sim.chassis import Suspension, TrackModel, build_robot_model, build
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_of
 from mjtrack.sim.ground import apply_ground, require_supported
-from mjtrack.sim.surfacevel import build_surfacevel_model
+from mjtrack.sim.surfacevel import SurfacevelTracks, build_surfacevel_model
 from mjtrack.sim.terrain import Terrain
 
 logger = logging.getLogger(__name__)
@@ -79,6 +105,9 @@ class RollerChain(TrackModel):
 
     name = "rollers"
     modelname = "tracked_robot"
+    element = "roller"  # contact elements: bodies and geoms <element>_<side>_<i>
+    element_rgba = (0.1, 0.1, 0.1, 1.0)
+    spin_inertia_share = 1.0  # an element's body inertia about its axle / a solid sphere's (0.4 m r^2)
 
     def configure(self, robot: Robot, config: SimConfig) -> SimConfig:
         return config.for_robot_mass(robot.mass)  # drive scaled to the robot
@@ -134,21 +163,22 @@ class RollerChain(TrackModel):
         belted = not equality and config.belt_timeconst is not None
         m_belt = BELT_MASS_SHARE * config.track_mass if belted else 0.0  # of the reflected inertia
         for i, x in enumerate(element_positions(robot, n)):
-            roller = track.add_body(name=f"roller_{side}_{i}", pos=[x, 0, r])
+            roller = track.add_body(name=f"{self.element}_{side}_{i}", pos=[x, 0, r])
             roller.explicitinertial = True
             roller.mass = mr
             roller.ipos = [0, 0, 0]  # MjSpec leaves ipos unset otherwise (not on the spin axis)
-            roller.inertia = [0.4 * mr * r**2] * 3
+            roller.inertia = [0.4 * mr * r**2 * share for share in (1.0, self.spin_inertia_share, 1.0)]
             suspension.add_slide(roller, side, i, config)
             roller.add_joint(
                 name=f"roll_{side}_{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0],
                 armature=0.0 if equality else (config.track_mass - m_belt) * r**2 / n,
             )
             roller.add_geom(
-                name=f"roller_{side}_{i}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0],
+                name=f"{self.element}_{side}_{i}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0],
                 friction=[mu, 0.0, 0.0], condim=3, contype=0, conaffinity=0, density=0,
-                rgba=[0.1, 0.1, 0.1, 1],
+                rgba=list(self.element_rgba),
             )
+            self.decorate(roller, robot, config)
             if equality:
                 spec.add_equality(
                     name=f"couple_{side}_{i}", type=mujoco.mjtEq.mjEQ_JOINT, name1=f"roll_{side}_{i}",
@@ -171,6 +201,9 @@ class RollerChain(TrackModel):
         spec.add_sensor(name=f"track_speed_{side}", type=mujoco.mjtSensor.mjSENS_TENDONVEL,
                         objtype=mujoco.mjtObj.mjOBJ_TENDON, objname=f"track_{side}")
 
+    def decorate(self, body, robot: Robot, config: SimConfig) -> None:
+        """Visual geoms of an element's body (none: the renderer draws the belts)."""
+
     def friction_solref(self, config: SimConfig) -> list[float]:
         # friction_timeconst 0: two time steps (SimConfig)
         return [config.friction_timeconst or 2.0 * config.timestep, 1.0]
@@ -185,11 +218,13 @@ class RollerChain(TrackModel):
 
 
 REST_SETTLE_S = 0.5  # [s] at rest before the penetrations are read (as rollout.settled_state)
+SPRUNG_ELEMENTS = ("roller_", "wheel_")  # geoms whose rest penetration becomes their margin
 
 
 def apply_rest_margins(model: mujoco.MjModel) -> np.ndarray:
     """Move each roller's contact point to the roller radius at rest (in place): every contact
-    pair of roller ``roller_<side>_<i>`` gets its rest penetration as its margin; returns the
+    pair of roller ``roller_<side>_<i>`` (or wheel ``wheel_<side>_<i>``, the same sphere on the
+    ground) gets its rest penetration as its margin; returns the
     penetrations [m], one per pair (0 for pairs of other elements, e.g. idlers, left unchanged).
 
     Why: MuJoCo puts a sphere-plane (and capsule-plane) contact point half-way into the
@@ -213,7 +248,7 @@ def apply_rest_margins(model: mujoco.MjModel) -> np.ndarray:
     data = mujoco.MjData(model)
     for _ in range(max(1, int(round(REST_SETTLE_S / model.opt.timestep)))):
         mujoco.mj_step(model, data)
-    roller = {g: model.geom(g).name for g in range(model.ngeom) if model.geom(g).name.startswith("roller_")}
+    roller = {g: model.geom(g).name for g in range(model.ngeom) if model.geom(g).name.startswith(SPRUNG_ELEMENTS)}
     depth: dict[int, float] = {}
     for i in range(data.ncon):
         c = data.contact[i]
@@ -221,9 +256,10 @@ def apply_rest_margins(model: mujoco.MjModel) -> np.ndarray:
             if g in roller:
                 depth[g] = max(depth.get(g, 0.0), float(c.includemargin - c.dist))
     for side in ("left", "right"):
-        touching = [v for g, v in depth.items() if roller[g].startswith(f"roller_{side}_")]
+        on_side = tuple(f"{prefix}{side}_" for prefix in SPRUNG_ELEMENTS)
+        touching = [v for g, v in depth.items() if roller[g].startswith(on_side)]
         for g, name in roller.items():
-            if name.startswith(f"roller_{side}_") and g not in depth:
+            if name.startswith(on_side) and g not in depth:
                 depth[g] = float(np.mean(touching)) if touching else 0.0
     out = np.zeros(model.npair)
     for p in range(model.npair):
@@ -235,6 +271,78 @@ def apply_rest_margins(model: mujoco.MjModel) -> np.ndarray:
 
 
 ROLLER_CHAIN = RollerChain()
+
+
+class WheelSet(RollerChain):
+    """A wheeled skid-steer robot (``robot.traction == "wheels"``): each side ``wheels_per_side``
+    sprung wheels at the axle positions, driven and tied together like the roller chain's rollers
+    (module docstring, "Wheels")."""
+
+    name = "wheels"
+    modelname = "wheeled_robot"
+    element = "wheel"
+    element_rgba = (0.1, 0.1, 0.1, 0.0)  # the contact sphere is not drawn: the tyre is (decorate)
+    idlers = False
+    # the wheel's spin inertia is the hinge's armature (the reflected drivetrain, joint space: no
+    # gyroscopic moment); a body inertia of a solid sphere gave a yawing robot the spinning wheels'
+    # roll moment, which neither the description nor the Coulomb reference has (module docstring)
+    spin_inertia_share = 0.01
+    # most damping of a wheel's spring / critical: at critical damping (c dt / m = 1.24 at 5 ms) the
+    # explicit damper let a 280 kg robot's wheels hop once the gyroscopic moment was gone (module docstring)
+    max_damping_ratio = 0.5
+    # the noslip pass converged at least this far: the wheels of a side wind their belt up against
+    # each other (stuck wheels, forces near the cone), and 40 iterations left a yaw creep (docstring)
+    min_noslip_iterations = 100
+    max_noslip_tolerance = 1e-8
+
+    def configure(self, robot: Robot, config: SimConfig) -> SimConfig:
+        """The roller chain's settings with one element per wheel, of the wheel's radius, and the
+        wheels' limits on spring damping and the noslip pass's convergence."""
+        if robot.traction != "wheels":
+            raise InputError("wheels: the robot's traction is 'tracks'")
+        if config.track_model != "rollers" or config.coupling != "servo":
+            raise InputError(f"wheels: a wheeled robot is built with the roller chain's settings (track_model "
+                             f"'rollers', coupling 'servo'), got {config.track_model!r}, {config.coupling!r}")
+        return super().configure(robot, config).replace(
+            n_rollers=robot.wheels_per_side, roller_radius=robot.wheel_radius,
+            suspension_damping_ratio=min(config.suspension_damping_ratio, self.max_damping_ratio),
+            noslip_iterations=max(config.noslip_iterations, self.min_noslip_iterations),
+            noslip_tolerance=min(config.noslip_tolerance, self.max_noslip_tolerance))
+
+    def decorate(self, body, robot: Robot, config: SimConfig) -> None:
+        """A tyre (cylinder of the wheel's radius and the tyre width, axle along y) and three spokes
+        that stand out of both faces, so that the wheel is seen to turn; visual only."""
+        r, w = config.roller_radius, robot.track_width
+        visual = dict(contype=0, conaffinity=0, density=0)
+        body.add_geom(name=f"tyre_{body.name.removeprefix('wheel_')}", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                      size=[r, w / 2, 0], quat=[math.sqrt(0.5), math.sqrt(0.5), 0, 0], rgba=[0.12, 0.12, 0.13, 1],
+                      **visual)
+        for k in range(3):  # rotated about the axle (body y) by 0, 60, 120 degrees
+            a = k * math.pi / 3
+            body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.8 * r, w / 2 + 0.004, 0.07 * r],
+                          quat=[math.cos(a / 2), 0, math.sin(a / 2), 0], rgba=[0.95, 0.75, 0.1, 1], **visual)
+
+    def hull(self, robot: Robot, config: SimConfig) -> tuple[list[float], list[float]]:
+        """Between the wheels, from the front to the rear wheel's edge, at the axles' height."""
+        T, B, w, r = robot.track_gauge, robot.contact_length, robot.track_width, config.roller_radius
+        return [B / 2 + 0.6 * r, max(T / 2 - w / 2 - 0.01, 0.1 * T), 0.4 * r], [0, 0, r + 0.2 * r]
+
+
+WHEELS = WheelSet()
+
+
+def track_model_for(robot: Robot, config: SimConfig) -> TrackModel:
+    """The track model that builds ``robot`` under ``config``: the wheels for a wheeled robot (which
+    takes the roller chain's settings), else the roller chain or, with ``config.track_model ==
+    "surfacevel"``, the moving contact surfaces."""
+    if robot.traction == "wheels":
+        if config.track_model != "rollers":
+            raise InputError(f"robot: a wheeled robot has wheels, not the {config.track_model!r} track model "
+                             "(use the default track model)")
+        return WHEELS
+    if config.track_model == "surfacevel":
+        return SurfacevelTracks()
+    return ROLLER_CHAIN
 
 
 def build_spec(robot: Robot, config: SimConfig | None = None, *, idlers: bool = False) -> mujoco.MjSpec:
@@ -318,10 +426,12 @@ def control_matrix(model: mujoco.MjModel) -> np.ndarray:
 
 
 def build_model(robot: Robot, config: SimConfig | None = None, terrain: Terrain | None = None) -> mujoco.MjModel:
-    """Compiled robot + terrain (default flat), the model every rollout uses: the roller chain or,
-    with ``config.track_model == "surfacevel"``, :func:`mjtrack.sim.surfacevel.build_surfacevel_model`."""
+    """Compiled robot + terrain (default flat), the model every rollout uses: the roller chain, the
+    wheels of a wheeled robot or, with ``config.track_model == "surfacevel"``,
+    :func:`mjtrack.sim.surfacevel.build_surfacevel_model` (:func:`track_model_for`)."""
     config = config or SimConfig()
-    if config.track_model == "surfacevel":
+    tracks = track_model_for(robot, config)
+    if isinstance(tracks, SurfacevelTracks):
         require_supported(robot, config)
         return build_surfacevel_model(robot, config, terrain=terrain)
-    return build_robot_model(robot, config, ROLLER_CHAIN, terrain)
+    return build_robot_model(robot, config, tracks, terrain)

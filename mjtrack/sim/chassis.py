@@ -20,7 +20,7 @@ Derivation of the shared part (``assets/README.md`` gives the measurements):
   unsprung elements (at height r, centred on the patch) and the chassis (above, offset the other
   way) made I_xz = m_el,total cg_x (cg_z - r) M / m_chassis, and a spinning robot felt a
   centrifugal pitch moment w^2 I_xz that no description of it has: 0.05 T/2 on the ICRs of a
-  2 m/s pivot of a 5 kg robot with cg 0.1 L forward (experiments/gentle_turns.py, section 9).
+  2 m/s pivot of a 5 kg robot with cg 0.1 L forward (benchmarks/gentle_turns.py, section 9).
   A visual hull (no contact, no mass).
 * **Tracks**: each track (``left`` at y = T/2, ``right`` at y = -T/2, its μ) is N contact
   elements at the midpoints x_i = -L/2 + (i + 1/2) L/N (:func:`element_positions`: the N point
@@ -62,7 +62,13 @@ CHASSIS_HEIGHT = 0.15  # [m] height of the box whose inertia the chassis is give
 
 
 def element_positions(robot: Robot, n: int) -> np.ndarray:
-    """x of the contact elements along a track, (n,) [m]: midpoints of n equal cells of L."""
+    """x of the contact elements along a side, (n,) [m]: on tracks the midpoints of n equal cells
+    of L; on wheels the axles (:meth:`mjtrack.io.robot.Robot.axle_positions`, n = wheels_per_side)."""
+    if robot.traction == "wheels":
+        x = np.asarray(robot.axle_positions(), dtype=float)
+        if x.size != n:
+            raise InputError(f"wheels: {n} contact elements per side for {x.size} wheels")
+        return x
     return -robot.track_length / 2 + (np.arange(n) + 0.5) * robot.track_length / n
 
 
@@ -82,7 +88,7 @@ def chassis_mass_properties(robot: Robot, config: SimConfig, tracks: "TrackModel
     if m_chassis <= 0.2 * robot.mass:
         raise InputError(f"{tracks.name}: elements weigh {m_unsprung:.3g} kg of {robot.mass:.3g} kg; "
                          "reduce the unsprung mass")
-    T, L, w = robot.track_gauge, robot.track_length, robot.track_width
+    T, L, w = robot.track_gauge, robot.contact_length, robot.track_width
     cg = np.array([robot.cg_x, robot.cg_y, robot.cg_z])
     ipos = (robot.mass * cg - m_unsprung * np.array([0.0, 0.0, r])
             - sum((m * np.asarray(p, float) for m, p in extra), np.zeros(3))) / m_chassis
@@ -195,6 +201,7 @@ class TrackModel:
 
     name = ""
     modelname = ""
+    idlers = True  # front and rear idlers on terrain they can touch (tracks; wheels climb on their own)
 
     def default_config(self) -> SimConfig:
         return sim_config(self.name)
@@ -231,6 +238,11 @@ class TrackModel:
         """``solreffriction`` of the element-terrain contact pairs."""
         raise NotImplementedError
 
+    def hull(self, robot: Robot, config: SimConfig) -> tuple[list[float], list[float]]:
+        """(half sizes, position) [m] of the visual hull box: above the tracks."""
+        T, L, w, r = robot.track_gauge, robot.track_length, robot.track_width, config.roller_radius
+        return [L / 2, max(T / 2 - w, 0.1 * T), 0.04], [0, 0, 2 * r + 0.06]  # narrow robots keep a hull
+
     def finish_spec(self, spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> mujoco.MjSpec:
         """Last changes to the robot + scene spec before compiling (e.g. the ground model)."""
         return spec
@@ -246,7 +258,7 @@ def add_contact_sensor(spec: mujoco.MjSpec, side: str) -> None:
 
     One sensor per track, not one per element: a contact sensor scans the whole contact list, so
     N per-element sensors cost N x ncon per step (3 % of the default robot's step, 5 % at 40
-    rollers per track; experiments/bench_sim.py). The per-element mean in contact is the count / N.
+    rollers per track; benchmarks/bench_sim.py). The per-element mean in contact is the count / N.
     """
     spec.add_sensor(name=f"ground_{side}", type=mujoco.mjtSensor.mjSENS_CONTACT,
                     objtype=mujoco.mjtObj.mjOBJ_XBODY, objname=f"{side}_track", intprm=[1, 0, 1])
@@ -270,9 +282,9 @@ def build_robot_spec(robot: Robot, config: SimConfig | None, tracks: TrackModel,
     if into is None:
         spec.modelname = tracks.modelname
     set_options(spec, config, tracks)
-    n, r = tracks.elements(config), config.roller_radius
+    n = tracks.elements(config)
     m_el = tracks.element_mass(robot, config)
-    T, L, w = robot.track_gauge, robot.track_length, robot.track_width
+    T = robot.track_gauge
     m_chassis, ipos, full = chassis_mass_properties(robot, config, tracks)
     cg = np.array([robot.cg_x, robot.cg_y, robot.cg_z])
 
@@ -284,9 +296,10 @@ def build_robot_spec(robot: Robot, config: SimConfig | None, tracks: TrackModel,
     chassis.fullinertia = full
     chassis.add_site(name="centre", pos=[0, 0, 0], size=[0.01, 0.01, 0.01])
     chassis.add_site(name="cg", pos=cg, size=[0.015, 0.015, 0.015], rgba=[1, 0, 0, 1])
-    chassis.add_geom(
-        name="hull", type=mujoco.mjtGeom.mjGEOM_BOX, size=[L / 2, max(T / 2 - w, 0.1 * T), 0.04],  # visual only; narrow robots keep a hull
-        pos=[0, 0, 2 * r + 0.06], contype=0, conaffinity=0, density=0, rgba=[0.35, 0.4, 0.45, 1],
+    hull_size, hull_pos = tracks.hull(robot, config)
+    chassis.add_geom(  # visual only
+        name="hull", type=mujoco.mjtGeom.mjGEOM_BOX, size=hull_size, pos=hull_pos, contype=0, conaffinity=0,
+        density=0, rgba=[0.35, 0.4, 0.45, 1],
     )
 
     k = suspension_stiffness(robot, config, n)
@@ -297,7 +310,7 @@ def build_robot_spec(robot: Robot, config: SimConfig | None, tracks: TrackModel,
     for side, y, mu in (("left", T / 2, robot.friction_left), ("right", -T / 2, robot.friction_right)):
         tracks.add_track(spec, chassis, robot, config, side=side, y=y, mu=mu, suspension=suspension)
         add_contact_sensor(spec, side)  # contact persistence
-    if idlers:
+    if idlers and tracks.idlers:
         add_idlers(chassis, robot, config)
     # velocimeter / gyro: velocity of the site expressed in the site's (= chassis) frame
     for name, stype in (("body_linvel", mujoco.mjtSensor.mjSENS_VELOCIMETER),

@@ -3,7 +3,7 @@
 Everything that is not a property of the robot itself (those live in
 :class:`mjtrack.io.robot.Robot`) but decides how it is simulated: time step, roller
 discretisation of the tracks, suspension, contact model and solver, the drive servo.
-The defaults are the settings that ``experiments/fidelity.py`` measured against the
+The defaults are the settings that ``benchmarks/fidelity.py`` measured against the
 rigid-track Coulomb reference; ``assets/README.md`` says why each one is what it is.
 """
 
@@ -55,7 +55,7 @@ class SimConfig:
             and explicit-damper margin kv dt / track_mass). Not scaled down: a 5 kg robot with
             a quarter of the drive missed Coulomb by up to 3.9 T/2 in 10 m turns at 0.2 m/s
             against 0.42 with the full one. ``None``: absolute values (before: a 150 kg robot
-            had the 20 kg robot's drive, experiments/fidelity.py --wide --previous-defaults).
+            had the 20 kg robot's drive, benchmarks/fidelity.py --wide --previous-defaults).
         lag: first-order time constant from command to servo set-point [s] (0 = none).
         contact_timeconst: contact solref time constant [s] (0 = 2 timesteps).
         contact_dampratio: contact solref damping ratio [-].
@@ -63,7 +63,7 @@ class SimConfig:
         friction_timeconst: solref time constant of the friction rows only [s] (explicit
             contact pairs' ``solreffriction``; 0 = 2 timesteps). Keep it short: the noslip
             pass then opposes the slip *velocity*; a long one (1 s) makes friction follow
-            accelerations (measured err_x 0.45 L, experiments/sim_ablation.py).
+            accelerations (measured err_x 0.45 L, benchmarks/sim_ablation.py).
         contact_margin: distance at which a roller-ground contact becomes active [m]; room
             for the separating acceleration that sliding produces in MuJoCo's convex contact
             model, so that a sliding roller floats up a little instead of losing contact.
@@ -82,7 +82,7 @@ class SimConfig:
             speed, as the contact points of a belt do, whatever its load [s]. Without it (``None``,
             before session 6) only the servos tie the rollers together and their surface speeds
             spread by F_i / (kv/N): mm/s, the size of the slips of a gentle turn, which moved x_c
-            by up to 0.03 L at R 10 m, 0.2 m/s (experiments/gentle_turns.py, sections 5, 7, 8).
+            by up to 0.03 L at R 10 m, 0.2 m/s (benchmarks/gentle_turns.py, sections 5, 7, 8).
             Internal forces: the drive's common mode is untouched. Cost 2 % of a step at N = 10
             and 40. Two forms were measured (development probes) and not kept: every roller tied to its track's mean
             position (same steady states, but N^2 tendon entries: 4.6 % at N = 10, 20 % at 40)
@@ -139,11 +139,11 @@ class SimConfig:
             pitched chassis the slides lean, and the noslip pass's longitudinal friction pushed
             the rollers along them (an acceleration the main solve never saw): inner rollers sank
             and outer ones rose by up to 48 um in a turn, moving the contact points
-            (experiments/gentle_turns.py). Off (or |c_x| beyond ~L/6): equal preloads.
+            (benchmarks/gentle_turns.py). Off (or |c_x| beyond ~L/6): equal preloads.
         lag_budget: roller chain: largest x_c offset v dt allowed, as a fraction of the track
             length [-]. The noslip friction opposes the slip predicted one step ahead, which the
             turn has rotated by w dt, so a steady turn's x_c sits v dt off Coulomb
-            (experiments/gentle_turns.py, section 5): 1 cm = 0.056 L for a 0.18 m track at 2 m/s
+            (benchmarks/gentle_turns.py, section 5): 1 cm = 0.056 L for a 0.18 m track at 2 m/s
             and 5 ms. In steady states (``steady_batch``, so ``steady`` and ``sweep``) each case
             runs at ``timestep / k``, k the smallest integer with v_max dt <= lag_budget L (v_max:
             the larger |track speed| commanded; :meth:`step_for`). 0.01 keeps the default
@@ -289,6 +289,14 @@ class SimConfig:
             return 1
         return max(1, math.ceil(mu * G * self.timestep / (self.slip_budget * end_slip) * (1 - 1e-12)))
 
+    def halved(self) -> "SimConfig":
+        """The config whose step is half the one this config runs each case at (a convergence
+        check): halving the time step, the lag budget and the slip budget together halves the step
+        :meth:`step_for` picks."""
+        return self.replace(timestep=self.timestep / 2,
+                            lag_budget=None if self.lag_budget is None else self.lag_budget / 2,
+                            slip_budget=None if self.slip_budget is None else self.slip_budget / 2)
+
     def replace(self, **changes: Any) -> "SimConfig":
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)
@@ -299,8 +307,8 @@ class SimConfig:
         return d
 
 
-# The roller chain's defaults before the speed study (experiments/bench_sim.py --compare,
-# experiments/fidelity.py --wide --previous-defaults): Newton main solver, one drive for every
+# The roller chain's defaults before the speed study (benchmarks/bench_sim.py --compare,
+# benchmarks/fidelity.py --wide --previous-defaults): Newton main solver, one drive for every
 # robot mass. Kept so that old and new settings are timed and checked in the same run (ratios
 # survive a loaded machine better than absolute numbers).
 PREVIOUS_ROLLER_DEFAULTS = dict(solver="Newton", noslip_iterations=20, drive_reference_mass=None, rest_margin=False,
@@ -313,7 +321,7 @@ def previous_defaults() -> SimConfig:
     return SimConfig(**PREVIOUS_ROLLER_DEFAULTS)
 
 
-# Settings measured for the surfacevel track model (experiments/surfacevel_study.py; why each
+# Settings measured for the surfacevel track model (benchmarks/surfacevel_study.py; why each
 # one: mjtrack/sim/surfacevel.py's docstring), pinned here: the SimConfig
 # defaults are tuned for the roller chain and change with it. Why each one: module docstring.
 SURFACEVEL_SETTINGS = dict(

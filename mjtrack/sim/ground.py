@@ -22,7 +22,9 @@ measurements: ``assets/README.md`` ("Ground models").
   tests/test_ground.py). Each roller becomes a capsule of the same radius whose axis is the
   roller's spin axis (chassis y, unchanged by its rolling) and whose half-length is
   ``CAPSULE_HALF`` (two contact points 2 mm apart, one on each side of the track line); its
-  pair gets friction (rho mu, mu): the first tangent is the capsule axis. The elliptic cone
+  pair gets friction (rho mu, mu): the first tangent is the capsule axis. A wheeled robot's wheels
+  (``wheel_<side>_<i>``, the same spheres on their axles) get the same: lateral tyre friction
+  rho mu, longitudinal mu. The elliptic cone
   (f_lat / (rho mu))^2 + (f_long / mu)^2 <= f_n^2 with the noslip pass's hard friction gives the
   maximum-dissipation force on that ellipse, f = -f_n M^2 u / |M u|, M = diag(mu, rho mu).
 """
@@ -84,10 +86,11 @@ def _road_wheels(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> None:
 
 def _anisotropic(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> None:
     rho = robot.ground["lateral_ratio"]
-    r = config.roller_radius
+    r = config.roller_radius  # (the wheel radius on a wheeled robot: its configured SimConfig)
+    element = "wheel" if robot.traction == "wheels" else "roller"
     for side, mu in (("left", robot.friction_left), ("right", robot.friction_right)):
         for i in range(config.n_rollers):
-            geom = spec.geom(f"roller_{side}_{i}")
+            geom = spec.geom(f"{element}_{side}_{i}")
             geom.type = mujoco.mjtGeom.mjGEOM_CAPSULE
             geom.size = [r, CAPSULE_HALF, 0.0]
             geom.quat = [math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0]  # capsule z-axis -> body y

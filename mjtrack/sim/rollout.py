@@ -16,6 +16,12 @@ reach their static state), so a log starts at rest. Logged quantities, sampled e
 
 A simulation that diverges (NaN, or MuJoCo's automatic reset after a bad acceleration,
 seen as time going back) raises :class:`~mjtrack.errors.MjtrackError`.
+
+Size: a rollout is refused before it starts when it would take more than :data:`MAX_STEPS` time
+steps or more memory than :func:`rollout_bytes` allows (:func:`check_rollout`). A single long
+rollout runs in chunks of :data:`CHUNK_STEPS` steps, each chunk starting from the full state and
+the solver's warm start where the previous one ended, so that an interrupt (Ctrl-C) is acted on
+between two chunks; the chunks give the bytes of one call.
 """
 
 from __future__ import annotations
@@ -33,6 +39,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_commands
+from mjtrack.sim.scene import ELEMENT_KINDS
 from mjtrack.sim.surfacevel import TrackDrive
 from mjtrack.sim.terrain import Terrain, timestep_for
 
@@ -41,6 +48,8 @@ logger = logging.getLogger(__name__)
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 SETTLE_S = 0.5  # [s] zero-command settling before t = 0
 MAX_STEPS = 2_000_000  # steps in one rollout (~2 GB of states and sensors at ~1 kB a step)
+MAX_ROLLOUT_BYTES = 2e9  # [bytes] most memory the arrays of one rollout call may take
+CHUNK_STEPS = 500  # steps per mujoco.rollout call of a single rollout (~0.1 s of the default robot on one core)
 
 
 @dataclass(frozen=True)
@@ -67,7 +76,7 @@ class SensorMap:
             track_speed=(int(model.sensor("track_speed_left").adr[0]), int(model.sensor("track_speed_right").adr[0])),
             ground_left=int(model.sensor("ground_left").adr[0]), ground_right=int(model.sensor("ground_right").adr[0]),
             elements=sum(1 for g in range(model.ngeom)
-                         if model.geom(g).name.startswith(("roller_left_", "track_left_"))),
+                         if model.geom(g).name.startswith(tuple(f"{k}_left_" for k in ELEMENT_KINDS))),
         )
 
 
@@ -116,13 +125,41 @@ def initial_state(model: mujoco.MjModel) -> np.ndarray:
     return state
 
 
+def rollout_bytes(model: mujoco.MjModel, nbatch: int, nstep: int, *, keep_states: bool = True) -> float:
+    """Memory [bytes] of the arrays of a rollout: controls (given and extended), sensordata and,
+    with ``keep_states``, the state after every step (float64)."""
+    per_step = 2 * model.nu + model.nsensordata
+    if keep_states:
+        per_step += mujoco.mj_stateSize(model, STATE_SPEC)
+    return 8.0 * nbatch * nstep * per_step
+
+
+def check_rollout(model: mujoco.MjModel, nbatch: int, nstep: int, *, keep_states: bool = True) -> None:
+    """Refuse, before any work, a rollout of more than :data:`MAX_STEPS` steps or one whose arrays
+    would need more than :data:`MAX_ROLLOUT_BYTES` or the memory available now (InputError with
+    the estimate)."""
+    from mjtrack.resources import available_memory, gigabytes
+
+    dt = model.opt.timestep
+    if nstep > MAX_STEPS:
+        raise InputError(f"a rollout of {nstep * dt:.6g} s at the {dt:g} s time step is {nstep:.3g} time steps; "
+                         f"one rollout takes at most {MAX_STEPS:.3g} ({MAX_STEPS * dt:.6g} s)")
+    need = rollout_bytes(model, nbatch, nstep, keep_states=keep_states)
+    available = available_memory()
+    limit = MAX_ROLLOUT_BYTES if available is None else min(MAX_ROLLOUT_BYTES, 0.8 * available)
+    if need > limit:
+        raise InputError(f"a rollout of {nbatch} x {nstep} time steps ({nstep * dt:.6g} s at {dt:g} s) needs about "
+                         f"{gigabytes(need)} of memory; at most {gigabytes(limit)} here")
+
+
 def run_batch(
     models: list[mujoco.MjModel],
     commands: np.ndarray,
     *,
     state0: np.ndarray | None = None,
     nthread: int = 1,
-) -> tuple[np.ndarray, np.ndarray]:
+    keep_states: bool = True,
+) -> tuple[np.ndarray | None, np.ndarray]:
     """Roll out track-speed commands on a batch of models (same size signature).
 
     Args:
@@ -130,12 +167,18 @@ def run_batch(
         commands: (nbatch or 1, nstep, 2) track speed commands [m/s], held for each step.
         state0: (nbatch or 1, nstate) initial states; default each model's rest state.
         nthread: threads for ``mujoco.rollout`` (results do not depend on it).
+        keep_states: return the state after every step (else None in its place: a long rollout
+            then keeps only its sensors).
     Returns:
-        state (nbatch, nstep, nstate) after each step, sensordata (nbatch, nstep, nsensordata).
+        state (nbatch, nstep, nstate) after each step (or None), sensordata (nbatch, nstep, nsensordata).
+    Raises:
+        InputError: a rollout too long or too large for the machine (:func:`check_rollout`).
     """
     commands = np.asarray(commands, dtype=float)
     if commands.ndim != 3 or commands.shape[2] != 2:
         raise InputError(f"rollout: commands must have shape (nbatch, nstep, 2), got {commands.shape}")
+    nbatch_all = max(len(models), commands.shape[0], 1 if state0 is None else np.atleast_2d(state0).shape[0])
+    check_rollout(models[0], nbatch_all, commands.shape[1], keep_states=keep_states)
     B = control_matrix(models[0])
     control = np.ascontiguousarray(commands @ B.T)
     if state0 is None:
@@ -146,12 +189,14 @@ def run_batch(
     datas = [mujoco.MjData(models[0]) for _ in range(max(1, nthread))]
     state, sensordata = aligned_rollout(model_arg, datas if nthread > 1 else datas[0],
                                         np.repeat(state0, nbatch // state0.shape[0], axis=0),
-                                        np.repeat(control, nbatch // control.shape[0], axis=0))
-    _check(state)
+                                        np.repeat(control, nbatch // control.shape[0], axis=0),
+                                        keep_states=keep_states)
+    _check(state, sensordata)
     return state, sensordata
 
 
-def aligned_rollout(model_arg, data_arg, state0: np.ndarray, control: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def aligned_rollout(model_arg, data_arg, state0: np.ndarray, control: np.ndarray, *, keep_states: bool = True,
+                    chunk_steps: int = CHUNK_STEPS) -> tuple[np.ndarray | None, np.ndarray]:
     """``mujoco.rollout.rollout`` with each step's sensors read at the state that step reached.
 
     ``mj_step`` evaluates the sensors in its forward pass, *before* it integrates, so the
@@ -167,19 +212,44 @@ def aligned_rollout(model_arg, data_arg, state0: np.ndarray, control: np.ndarray
             one MjData, or one per thread).
         state0: (nbatch, nstate) initial states (``mjSTATE_FULLPHYSICS``).
         control: (nbatch, nstep, nu) controls, each held for one step.
+        keep_states: return the states (else None in their place).
+        chunk_steps: a single rollout (nbatch 1) longer than this runs in chunks of this many
+            steps (module docstring; the bytes do not depend on it).
     Returns:
-        state (nbatch, nstep, nstate) after each step; sensordata (nbatch, nstep, nsensordata)
-        of those states.
+        state (nbatch, nstep, nstate) after each step (or None); sensordata (nbatch, nstep,
+        nsensordata) of those states.
     """
     control = np.asarray(control, dtype=float)
-    extended = np.ascontiguousarray(np.concatenate([control, control[:, -1:]], axis=1))
-    state, sensordata = mj_rollout.rollout(model_arg, data_arg, state0, extended)
-    return state[:, :-1], sensordata[:, 1:]
+    extended = np.concatenate([control, control[:, -1:]], axis=1)
+    if control.shape[0] > 1 or extended.shape[1] <= chunk_steps:
+        # a batch runs in one call: the solver's warm start of each case is not returned, so a
+        # batch cannot be cut in time without changing its bytes (batches are short: windows, steady cases)
+        state, sensordata = mj_rollout.rollout(model_arg, data_arg, state0, np.ascontiguousarray(extended))
+        return (state[:, :-1] if keep_states else None), sensordata[:, 1:]
+    model = model_arg if isinstance(model_arg, mujoco.MjModel) else model_arg[0]
+    data = data_arg if isinstance(data_arg, mujoco.MjData) else data_arg[0]
+    nstep, total = control.shape[1], extended.shape[1]
+    states = np.empty((1, nstep, mujoco.mj_stateSize(model, STATE_SPEC))) if keep_states else None
+    sensordata = np.empty((1, nstep, model.nsensordata))
+    start, warm = np.atleast_2d(state0), None
+    for lo in range(0, total, chunk_steps):
+        hi = min(total, lo + chunk_steps)
+        # raw step g gives the state after step g and the sensors of the state before it (after g - 1)
+        st, sd = mj_rollout.rollout(model, data, start, np.ascontiguousarray(extended[:, lo:hi]),
+                                    initial_warmstart=warm)
+        if states is not None:
+            states[:, lo:min(hi, nstep)] = st[:, :min(hi, nstep) - lo]
+        first = max(lo, 1)
+        sensordata[:, first - 1:hi - 1] = sd[:, first - lo:]
+        start, warm = st[:, -1], data.qacc_warmstart.copy()[None]
+    return states, sensordata
 
 
-def _check(state: np.ndarray) -> None:
-    if not np.all(np.isfinite(state)):
+def _check(state: np.ndarray | None, sensordata: np.ndarray) -> None:
+    if not np.all(np.isfinite(sensordata)) or (state is not None and not np.all(np.isfinite(state))):
         raise MjtrackError("simulation diverged (non-finite state); reduce the time step")
+    if state is None:
+        return
     t = state[..., 0]
     if np.any(np.diff(t, axis=-1) <= 0):
         raise MjtrackError("simulation diverged (MuJoCo reset the state); reduce the time step")
@@ -300,7 +370,7 @@ def simulate(
     stride = steps_per_sample(model.opt.timestep, log_rate)
     s0 = settled_state(model)
     driven = drive_commands(robot, commands, model.opt.timestep)  # speed scale and dead time
-    _, sensordata = run_batch([model], driven[None], state0=s0[None])
+    _, sensordata = run_batch([model], driven[None], state0=s0[None], keep_states=False)
     cols = log_columns(sensordata[0], commands, SensorMap.of(model), timestep=model.opt.timestep, stride=stride)
     first = _rest_row(model, s0)
     out = {k: np.concatenate([[first[k]], v]) for k, v in cols.items()}

@@ -20,6 +20,7 @@ from mjtrack.sim.config import SimConfig
 from mjtrack.sim.terrain import Terrain, add_terrain
 
 SIDES = ("left", "right")
+ELEMENT_KINDS = ("roller", "track", "wheel")  # contact element names <kind>_<side>_<i> of the track models
 
 _INTEGRATORS = {
     "Euler": mujoco.mjtIntegrator.mjINT_EULER,
@@ -91,13 +92,14 @@ def apply_solver_options(spec: mujoco.MjSpec, config: SimConfig) -> mujoco.MjOpt
     return opt
 
 def track_contacts(spec: mujoco.MjSpec, robot: Robot) -> list[tuple[str, float]]:
-    """(geom name, μ) of the track contact elements of a robot spec: the rollers or surfacevel
-    elements (``roller_<side>_<i>`` / ``track_<side>_<i>``), then the idlers (mean track μ)."""
+    """(geom name, μ) of the track contact elements of a robot spec: the rollers, surfacevel
+    elements or wheels (``roller_<side>_<i>`` / ``track_<side>_<i>`` / ``wheel_<side>_<i>``), then
+    the idlers (mean track μ)."""
     mu = {"left": robot.friction_left, "right": robot.friction_right}
     out = []
     for side in SIDES:
         out += [(g.name, mu[side]) for g in spec.geoms
-                if g.name.startswith((f"roller_{side}_", f"track_{side}_"))]
+                if g.name.startswith(tuple(f"{kind}_{side}_" for kind in ELEMENT_KINDS))]
     return out + [(g.name, (mu["left"] + mu["right"]) / 2) for g in spec.geoms if g.name.startswith("idler_")]
 
 
@@ -106,7 +108,7 @@ def add_ground(spec: mujoco.MjSpec, robot: Robot, terrain: Terrain, contacts: li
     """The scene both track models share: terrain geoms, contact pairs, the robot's initial pose on
     the terrain (at the origin, aligned with the ground, on its highest point under the tracks),
     a light. Idlers touch only steps and height fields (they are above a plane: no pairs there)."""
-    reach = robot.track_length / 2 + robot.sprocket_radius  # front/rear idler ends
+    reach = robot.contact_length / 2 + robot.sprocket_radius  # front/rear idler ends (wheels' fronts)
     for st in terrain.steps:
         if abs(st.x) <= reach + STEP_CLEARANCE:
             # measured: a robot spawned across an edge can be launched (20 kg, step 4 cm at x 0.3 m)
@@ -117,7 +119,7 @@ def add_ground(spec: mujoco.MjSpec, robot: Robot, terrain: Terrain, contacts: li
     add_terrain(spec, terrain, contacts, nominal_mu=robot.mu, pair_options=pair_options)
     if not terrain.is_flat:
         chassis = spec.body("chassis")
-        h = terrain.height_under(robot.track_length / 2 + robot.sprocket_radius,
+        h = terrain.height_under(robot.contact_length / 2 + robot.sprocket_radius,
                                  (robot.track_gauge + robot.track_width) / 2)
         q = terrain.quat
         lift = np.zeros(3)

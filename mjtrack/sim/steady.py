@@ -27,7 +27,7 @@ from typing import Sequence
 
 import numpy as np
 
-from mjtrack.errors import SingularMotionError
+from mjtrack.errors import InputError, SingularMotionError
 from mjtrack.icr import icr_from_twist
 from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model
@@ -35,7 +35,7 @@ from mjtrack.sim.config import MAX_STEP_DIVISIONS, SimConfig
 from mjtrack.sim.drivetrain import drive_commands
 from mjtrack.sim.surfacevel import run_steady
 from mjtrack.sim.terrain import Terrain, timestep_for
-from mjtrack.sim.rollout import SensorMap, run_batch, settled_state
+from mjtrack.sim.rollout import MAX_STEPS, SensorMap, run_batch, settled_state
 
 logger = logging.getLogger(__name__)
 
@@ -86,33 +86,63 @@ def steady_batch(
 ) -> list[SteadyResult]:
     """Steady states of robots[i] under commands[i] = (V_L, V_R) [m/s]; (nbatch, 2) commands.
 
-    All robots must give models of the same size (same ``config``), e.g. differ in cg,
-    friction, mass or geometry. Each case runs at the step :meth:`SimConfig.step_for` gives
-    for its own robot and command (cases that share a step share a rollout), so that a case's
-    result does not depend on the batch it is in.
+    The robots may differ in cg, friction, mass or geometry, and in traction and wheel count.
+    Each case runs at the step :meth:`SimConfig.step_for` gives for its own robot and command
+    (cases that share a step and a model structure share a rollout), so that a case's result does
+    not depend on the batch it is in.
     """
     config = config or SimConfig()
-    config = config.replace(timestep=timestep_for(config.timestep, terrain))  # smaller on edges
     commands = np.atleast_2d(np.asarray(commands, dtype=float))
+    check_steady(robots, commands, config=config, settle_s=settle_s, window_s=window_s, terrain=terrain)
+    config = config.replace(timestep=timestep_for(config.timestep, terrain))  # smaller on edges
     if config.track_model == "surfacevel":
         return [_surfacevel(r, c, config, settle_s, window_s, terrain) for r, c in zip(robots, commands)]
-    groups: dict[float, list[int]] = {}
+    groups: dict[tuple, list[int]] = {}
     capped = 0
     for i, (r, c) in enumerate(zip(robots, commands)):
-        groups.setdefault(case_timestep(config, r, c), []).append(i)
+        # one rollout per step and model size (a wheel count changes the model's size)
+        groups.setdefault((case_timestep(config, r, c), r.traction, r.wheels_per_side), []).append(i)
         _, turn_rate, mu = _turn(r, c)
-        capped += config.slip_divisions(r.track_length, turn_rate, mu) > MAX_STEP_DIVISIONS
+        capped += config.slip_divisions(r.contact_length, turn_rate, mu) > MAX_STEP_DIVISIONS
     if capped:
         logger.warning("%d of %d steady case(s) turn so gently that the slip budget asks for more than %d "
                        "divisions of the %g s step; they run at %g s and their ICRs may move when dt is halved "
                        "(SimConfig.slip_budget)", capped, len(robots), MAX_STEP_DIVISIONS, config.timestep,
                        config.timestep / MAX_STEP_DIVISIONS)
     out: list[SteadyResult] = [None] * len(robots)  # type: ignore[list-item]
-    for step, idx in groups.items():
+    for (step, _, _), idx in groups.items():
         for i, res in zip(idx, _steady_rollout([robots[i] for i in idx], commands[idx], config.replace(timestep=step),
                                                settle_s, window_s, nthread, terrain)):
             out[i] = res
     return out
+
+
+def steady_steps(robot: Robot, command, *, config: SimConfig, settle_s: float, window_s: float,
+                 terrain: Terrain | None = None) -> tuple[int, float]:
+    """(time steps, time step [s]) of one steady case, computed without building anything."""
+    config = config.replace(timestep=timestep_for(config.timestep, terrain))
+    dt = config.timestep if config.track_model == "surfacevel" else case_timestep(config, robot, command)
+    return int(round(settle_s / dt)) + int(round(window_s / dt)), dt
+
+
+def check_steady(robots: Sequence[Robot], commands, *, config: SimConfig, settle_s: float, window_s: float,
+                 terrain: Terrain | None = None, batch: int = 1) -> None:
+    """Refuse, before any work, steady cases whose rollouts would be too long: ``batch`` cases of
+    one rollout call together take at most :data:`~mjtrack.sim.rollout.MAX_STEPS` time steps.
+
+    Raises:
+        InputError: naming the case, its steps and the settle and window times.
+    """
+    if not (math.isfinite(settle_s) and math.isfinite(window_s) and settle_s >= 0 and window_s > 0):
+        raise InputError(f"--settle must be >= 0 and --window > 0 seconds, got {settle_s!r} and {window_s!r}")
+    for i, (r, c) in enumerate(zip(robots, np.atleast_2d(np.asarray(commands, dtype=float)))):
+        n, dt = steady_steps(r, c, config=config, settle_s=settle_s, window_s=window_s, terrain=terrain)
+        if n * batch > MAX_STEPS:
+            which = f"case {i}: " if len(robots) > 1 else ""
+            per = f" per case in a batch of {batch}" if batch > 1 else ""
+            raise InputError(f"{which}--settle {settle_s:g} s + --window {window_s:g} s at the {dt:g} s time step are "
+                             f"{n:.3g} time steps; at most {MAX_STEPS // batch:.3g}{per} "
+                             f"({MAX_STEPS // batch * dt:.6g} s)")
 
 
 def _turn(robot: Robot, command) -> tuple[np.ndarray, float, float]:
@@ -122,11 +152,11 @@ def _turn(robot: Robot, command) -> tuple[np.ndarray, float, float]:
 
 
 def case_timestep(config: SimConfig, robot: Robot, command) -> float:
-    """The step [s] a steady case runs at (flat ground): ``config.step_for`` for the robot's track
-    length, the larger commanded track speed, the nominal turn rate (V_R - V_L) / T and the larger
+    """The step [s] a steady case runs at (flat ground): ``config.step_for`` for the robot's contact
+    length (track length, or wheelbase), the larger commanded track speed, the nominal turn rate (V_R - V_L) / T and the larger
     track friction, after the robot's speed scale."""
     v, turn_rate, mu = _turn(robot, command)
-    return config.step_for(robot.track_length, float(np.max(np.abs(v))), turn_rate, mu).timestep
+    return config.step_for(robot.contact_length, float(np.max(np.abs(v))), turn_rate, mu).timestep
 
 
 def _steady_rollout(robots: Sequence[Robot], commands: np.ndarray, config: SimConfig, settle_s: float,
@@ -138,7 +168,7 @@ def _steady_rollout(robots: Sequence[Robot], commands: np.ndarray, config: SimCo
     s0 = np.stack([settled_state(m) for m in models])
     ctrl = np.stack([drive_commands(r, np.repeat(c[None], n_settle + n_window, axis=0), dt)
                      for r, c in zip(robots, commands)])  # each robot's speed scale and dead time
-    _, sensordata = run_batch(models, ctrl, state0=s0, nthread=nthread)
+    _, sensordata = run_batch(models, ctrl, state0=s0, nthread=nthread, keep_states=False)
     smap = SensorMap.of(models[0])
     return [_stats(sensordata[i], commands[i], smap, n_settle, robots[i].track_gauge / 2)
             for i in range(len(models))]

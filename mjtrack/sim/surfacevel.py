@@ -36,7 +36,7 @@ Derivation of the model.
   track's mu, elliptic cone, impratio, solref/solimp and ``solreffriction`` from SimConfig.
 
 What was wrong with a rigid surfacevel row (0.41 of the ideal pivot yaw rate, 22 % contact),
-and the fixes. Numbers: ``python experiments/surfacevel_study.py`` (pivot at 0.3 m/s, cg_x = 0;
+and the fixes. Numbers: ``python benchmarks/surfacevel_study.py`` (pivot at 0.3 m/s, cg_x = 0;
 Coulomb yaw ratio wz / (2V/T) = 0.743 for T = 0.4, L = 0.5).
 
 1. Loads follow the slip speed. On the elliptic cone a contact in steady sliding has roughly
@@ -70,7 +70,7 @@ Result (default robot, 60 steady turns, both directions, cg_x -0.05/0/0.05, 0.3 
 ICRs within 0.024 T/2 and 0.011 L of the Coulomb reference, contact on 99.96 % of the steps
 (all but the first two), straight |vx - V| <= 6.5e-4 V (chassis pitch), no drift, timestep
 halving moves ICRs <= 0.0017 T/2; about 3x the roller chain's steps/s (study: "speed").
-The full issue-3 grid (``python experiments/fidelity.py --track-model surfacevel``: 432 turns,
+The full issue-3 grid (``python benchmarks/fidelity.py --track-model surfacevel``: 432 turns,
 default and long robot, mu 0.4/0.8, cg_x 0/+-0.1 L, forward and reverse): all pass, ICRs
 within 0.031 T/2 and 0.011 L, contact 99.96 %; comparison with the roller chain in
 ``assets/README.md``.
@@ -209,7 +209,7 @@ def build_surfacevel_model(robot: Robot, config: SimConfig | None = None, terrai
     """
     config = config or surfacevel_config()
     for problem in setting_problems(config):
-        log.warning("surfacevel: %s (experiments/surfacevel_study.py); see surfacevel_config()", problem)
+        log.warning("surfacevel: %s (benchmarks/surfacevel_study.py); see surfacevel_config()", problem)
     return build_robot_model(robot, config, SurfacevelTracks(**options), terrain)
 
 

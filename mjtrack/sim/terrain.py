@@ -29,12 +29,18 @@ contact margin), so the patch's μ wins on the patch and the ground's elsewhere.
 
 Initial pose: the robot starts at the origin, heading +x, its frame aligned with the (tilted)
 ground, raised to the highest terrain point under its footprint (then settles).
+
+Size: a terrain JSON file is at most :data:`MAX_JSON_BYTES` and nested at most
+:data:`MAX_JSON_DEPTH` deep; at most :data:`MAX_ELEMENTS` steps and patches together (each one
+adds a contact pair per track element, checked at every time step); a height field has at most
+:data:`MAX_HFIELD_CELLS` samples, checked from the file's header before its data is read (a
+10 000 x 10 000 image took 6 GB and 27 s to turn into a model that then diverged).
 """
 
 from __future__ import annotations
 
-import json
 import math
+import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -43,6 +49,7 @@ import mujoco
 import numpy as np
 
 from mjtrack.errors import InputError
+from mjtrack.io.jsonfile import read_json
 from mjtrack.models.coulomb import incline_rotation
 
 PATCH_THICKNESS = 0.001  # [m] patches are this thick, lying on the ground
@@ -52,6 +59,11 @@ EDGE_TIMESTEP = 0.0025  # [s] largest time step on terrain with edges (steps, he
 # sharp turns and reversals against a step edge at 1-2 m/s launched or diverged the robot in 2 of 40
 # seeded cases (tests/test_terrain.py slow grid); at 2.5 ms none did
 FLOOR_FRICTION = 1e-3  # friction of the terrain geoms themselves: unused, the contact pairs carry it
+MAX_JSON_BYTES = 1 << 20  # [bytes] a terrain file (MAX_ELEMENTS patches take ~100 kB)
+MAX_JSON_DEPTH = 3  # {"patches": [{"x": ...}]}
+MAX_ELEMENTS = 256  # steps + patches (each is one contact pair per track element)
+MAX_HFIELD_CELLS = 1_000_000  # height-field samples (1000 x 1000)
+HFIELD_BYTES_PER_CELL = 60  # [bytes] measured: a 10 000 x 10 000 field took ~6 GB to build
 
 
 @dataclass(frozen=True)
@@ -190,12 +202,34 @@ def _plausible(value: float, limit: float, what: str, spec: str) -> None:
         raise InputError(f"--terrain {spec}: {what} = {value:g} is beyond physical plausibility (|value| <= {limit:g})")
 
 
+def _check_cells(shape: tuple[int, ...], path: Path, spec: str) -> None:
+    """Refuse a height field with more than :data:`MAX_HFIELD_CELLS` samples, with the estimate."""
+    cells = math.prod(int(n) for n in shape[:2]) if len(shape) >= 2 else math.prod(int(n) for n in shape)
+    if cells > MAX_HFIELD_CELLS:
+        dims = " x ".join(str(int(n)) for n in shape[:2])
+        raise InputError(f"--terrain {spec}: {path}: height field of {dims} = {cells:.3g} samples would take about "
+                         f"{cells * HFIELD_BYTES_PER_CELL / 1e9:.2g} GB to build; at most {MAX_HFIELD_CELLS:.3g} "
+                         f"samples (resample the file)")
+
+
+def _npy_shape(path: Path) -> tuple[int, ...]:
+    """The array shape in a .npy file's header (the data is not read)."""
+    with open(path, "rb") as fh:
+        version = np.lib.format.read_magic(fh)
+        if version == (1, 0):
+            shape, _, _ = np.lib.format.read_array_header_1_0(fh)
+        else:
+            shape, _, _ = np.lib.format.read_array_header_2_0(fh)
+    return tuple(shape)
+
+
 def load_heights(path: Path, spec: str) -> np.ndarray:
     """Heights (nrow, ncol) scaled to [0, 1] from a .npy or .png file."""
     if not path.exists():
         raise InputError(f"--terrain {spec}: height field file {path} not found")
     if path.suffix.lower() == ".npy":
         try:
+            _check_cells(_npy_shape(path), path, spec)
             a = np.load(path, allow_pickle=False)
         except (ValueError, OSError) as exc:
             raise InputError(f"--terrain {spec}: {path}: not a numpy array file ({exc})") from None
@@ -203,7 +237,13 @@ def load_heights(path: Path, spec: str) -> np.ndarray:
         try:
             import imageio.v3 as iio
 
+            with warnings.catch_warnings():  # Pillow warns of "decompression bombs": refused below anyway
+                warnings.simplefilter("ignore")
+                shape = iio.improps(path).shape
+            _check_cells(shape, path, spec)
             a = iio.imread(path)
+        except InputError:
+            raise
         except Exception as exc:  # imageio raises many kinds for a bad image
             raise InputError(f"--terrain {spec}: {path}: cannot read the image ({exc})") from None
         if a.ndim == 3:
@@ -230,9 +270,16 @@ def _hfield(file: str, sx: float, sy: float, h: float, spec: str, base: Path) ->
     return HField(file=str(path), size_x=sx, size_y=sy, height=h, heights=load_heights(path, spec))
 
 
+def _check_elements(n: int, spec: str) -> None:
+    if n > MAX_ELEMENTS:
+        raise InputError(f"--terrain {spec}: {n} steps and patches; at most {MAX_ELEMENTS} (each adds a contact "
+                         "with every track element at every time step)")
+
+
 def _patches(items: Any, spec: str) -> tuple[Patch, ...]:
     if not isinstance(items, list):
         raise InputError(f"--terrain {spec}: 'patches' must be a list of rectangles")
+    _check_elements(len(items), spec)
     out = []
     for i, p in enumerate(items):
         if not isinstance(p, dict):
@@ -253,14 +300,8 @@ def _patches(items: Any, spec: str) -> tuple[Patch, ...]:
 
 
 def _read_json(path: Path, spec: str) -> Any:
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise InputError(f"--terrain {spec}: cannot read {path} ({exc.strerror})") from None
-    except (UnicodeDecodeError, RecursionError) as exc:
-        raise InputError(f"--terrain {spec}: {path}: not valid JSON ({type(exc).__name__})") from None
-    except json.JSONDecodeError as exc:
-        raise InputError(f"--terrain {spec}: {path}: not valid JSON (line {exc.lineno}: {exc.msg})") from None
+    return read_json(path, what="terrain file", max_bytes=MAX_JSON_BYTES, max_depth=MAX_JSON_DEPTH,
+                     where=f"--terrain {spec}: {path}")
 
 
 def _from_json(data: Any, spec: str, base: Path) -> Terrain:
@@ -286,6 +327,8 @@ def _from_json(data: Any, spec: str, base: Path) -> Terrain:
     steps = []
     if not isinstance(data.get("steps", []), list):
         raise InputError(f"--terrain {spec}: 'steps' must be a list of objects")
+    patches_given = data.get("patches", [])
+    _check_elements(len(data.get("steps", [])) + (len(patches_given) if isinstance(patches_given, list) else 0), spec)
     for s in data.get("steps", []):
         if not isinstance(s, dict):
             raise InputError(f"--terrain {spec}: each step must be an object")

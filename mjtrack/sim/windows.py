@@ -9,9 +9,9 @@ simulated over short windows of the log (default 2 s), each one:
   pitch and roll from the robot settled at rest); the body twist from the log's ``vx, vy, wz``
   when present, else from the poses by a local quadratic least-squares fit (a smoothed finite
   difference over ``fit_s`` seconds, centred where the segment allows, one-sided at its
-  start); the tracks already moving: every roller hinge turns at the measured track speed
-  (``v_left``, ``v_right``; the command when they are missing), and a lagged drive's
-  set-point starts there too;
+  start); the tracks already moving: every roller hinge (every wheel of a wheeled robot) turns at
+  the measured track speed (``v_left``, ``v_right``; the command when they are missing), and a
+  lagged drive's set-point starts there too;
 * **driven by the logged commands** (zero-order hold: a row's command is in force until the
   next row), transformed by the drivetrain parameters that are not model fields
   (``track_speed_scale`` multiplies them, ``drive_delay`` shifts them; before the segment's
@@ -24,8 +24,9 @@ Parameters per world: :func:`simulate_windows` takes a list of parameter sets an
 window under each of them in one batch of ``mujoco.rollout`` (threads); the parameters that
 are fields of the compiled model (friction per track, centre of mass, drive lag and force
 limit) are set on a copy of one compiled model -- no rebuild -- and each variant is settled
-at rest once for its initial height and pitch. Geometry (track length, gauge, mass) changes
-the model's structure and needs a new :class:`WindowSim` (one build per evaluation).
+at rest once for its initial height and pitch. Geometry (track length, a wheeled robot's
+wheelbase, gauge, mass) changes the model's structure and needs a new :class:`WindowSim` (one
+build per distinct geometry).
 
 Errors are those of :mod:`mjtrack.diagnose.residuals`: the predicted pose at the window's last
 sample against the measured one, in the frame of the measured start pose (along, across, yaw).
@@ -46,7 +47,7 @@ from mjtrack.errors import InputError, MjtrackError
 from mjtrack.geometry import relative_pose, wrap_angle, world_to_body_velocity
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import G, Robot
-from mjtrack.sim.builder import ROLLER_CHAIN, apply_rest_margins, build_model, control_matrix
+from mjtrack.sim.builder import apply_rest_margins, build_model, control_matrix, track_model_for
 from mjtrack.sim.chassis import chassis_mass_properties, set_body_inertia, set_rest_springs
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.rollout import STATE_SPEC, SensorMap, aligned_rollout, collected_mujoco_warnings, settled_state, yaw_of
@@ -62,8 +63,8 @@ MODEL_PARAMS = ("mu", "mu_left", "mu_right", "cg_x", "cg_y", "drive_lag", "drive
 #: parameters applied to the commands
 COMMAND_PARAMS = ("drive_delay", "track_speed_scale")
 #: parameters that change the model's structure: a robot rebuilt per distinct value (contact
-#: length; the road-wheel ground's load concentration and span)
-GEOMETRY_PARAMS = ("track_length", "concentration", "span")
+#: length: a track's, a wheeled robot's wheelbase; the road-wheel ground's load concentration and span)
+GEOMETRY_PARAMS = ("track_length", "wheelbase", "concentration", "span")
 WINDOW_PARAMS = MODEL_PARAMS + COMMAND_PARAMS + GEOMETRY_PARAMS
 #: drivetrain keys of the robot description; None: as the model was built (no delay, no scale)
 DRIVE_DEFAULTS = {"drive_lag": None, "drive_delay": None, "drive_force_limit": None, "track_speed_scale": None}
@@ -183,8 +184,8 @@ def robot_params(robot: Robot) -> dict[str, float | None]:
     g = dict(robot.ground.params)
     return {"mu": robot.mu, "mu_left": robot.mu_left, "mu_right": robot.mu_right,
             "cg_x": robot.cg_x, "cg_y": robot.cg_y, **drive_params(robot), "track_length": robot.track_length,
-            "lateral_ratio": g.get("lateral_ratio"), "concentration": g.get("concentration"), "span": g.get("span"),
-            "slope_x": 0.0, "slope_y": 0.0}
+            "wheelbase": robot.wheelbase, "lateral_ratio": g.get("lateral_ratio"), "concentration": g.get("concentration"),
+            "span": g.get("span"), "slope_x": 0.0, "slope_y": 0.0}
 
 
 def slope_of(params: Mapping[str, float | None]) -> tuple[float, float]:
@@ -200,7 +201,13 @@ def geometry_robot(robot: Robot, params: Mapping[str, float | None]) -> Robot:
     """``robot`` with the structural parameters of ``params`` (:data:`GEOMETRY_PARAMS`) applied."""
     changes: dict = {}
     if params.get("track_length") is not None and params["track_length"] != robot.track_length:
+        if robot.traction == "wheels":
+            raise InputError("windows: a wheeled robot has no track length; its contact length is 'wheelbase'")
         changes["track_length"] = float(params["track_length"])
+    if params.get("wheelbase") is not None and params["wheelbase"] != robot.wheelbase:
+        if robot.traction != "wheels":
+            raise InputError("windows: 'wheelbase' needs a wheeled robot (robot key traction: \"wheels\")")
+        changes["wheelbase"] = float(params["wheelbase"])
     ground = dict(robot.ground.params)
     new = {k: float(params[k]) for k in ("concentration", "span") if params.get(k) is not None}
     if new:
@@ -213,7 +220,8 @@ def geometry_robot(robot: Robot, params: Mapping[str, float | None]) -> Robot:
 
 
 class WindowSim:
-    """One compiled robot (roller-chain track model) and what it needs to start windows.
+    """One compiled robot (roller chain, or the wheels of a wheeled robot) and what it needs to
+    start windows.
 
     ``lagged``: compile the drives with a first-order filter even if the robot has no lag, so
     that variants may set one (a lag of 0 is then simulated as :data:`MIN_LAG`).
@@ -228,6 +236,9 @@ class WindowSim:
         if lagged or lag > 0:
             config = config.replace(lag=max(lag, MIN_LAG))
         self.robot, self.config = robot, config
+        self.tracks = track_model_for(robot, config)
+        built = self.tracks.configure(robot, config)  # the settings the model is built with
+        self.built_config = built
         self.model = build_model(robot, config)
         m = self.model
         self.dt = float(m.opt.timestep)
@@ -236,13 +247,13 @@ class WindowSim:
         self.side_of_actuator = np.argmax(self.B, axis=1)
         jroot = m.joint("root")
         self.qadr, self.vadr = int(jroot.qposadr[0]), int(jroot.dofadr[0])
-        # the rollers' spin dofs of each track, with the track's belt joint where it has one (they
-        # all move at the track speed, in m/s over the roller radius)
-        self.roll_dofs = [np.array([int(m.joint(f"roll_{s}_{i}").dofadr[0]) for i in range(config.n_rollers)])
+        # the rollers' (wheels') spin dofs of each side, with the side's belt joint where it has one
+        # (they all move at the track speed, in m/s over the roller or wheel radius)
+        self.roll_dofs = [np.array([int(m.joint(f"roll_{s}_{i}").dofadr[0]) for i in range(built.n_rollers)])
                           for s in ("left", "right")]
         belts = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, f"belt_{s}") for s in ("left", "right")]
         self.belt_dofs = [np.array([m.jnt_dofadr[j]] if j >= 0 else [], int) for j in belts]
-        self.roller_radius = config.roller_radius
+        self.roller_radius = built.roller_radius
         chassis = m.body("chassis")
         self.chassis_id = int(chassis.id)
         self.cg_site = int(m.site("cg").id)
@@ -257,7 +268,7 @@ class WindowSim:
         robot = geometry_robot(self.robot, params)
         if robot is self.robot:
             return self
-        key = (robot.track_length, robot.ground.params)
+        key = (robot.track_length, robot.wheelbase, robot.ground.params)
         if key not in self._builds:
             if len(self._builds) >= 24:
                 self._builds.pop(next(iter(self._builds)))
@@ -290,10 +301,10 @@ class WindowSim:
         if params.get("cg_x") is not None or params.get("cg_y") is not None:
             cg = np.array([params.get("cg_x", robot.cg_x) if params.get("cg_x") is not None else robot.cg_x,
                            params.get("cg_y", robot.cg_y) if params.get("cg_y") is not None else robot.cg_y])
-            if abs(cg[0]) >= robot.track_length / 2 or abs(cg[1]) >= robot.track_gauge / 2:
-                raise InputError(f"windows: centre of mass {cg.tolist()} lies outside the tracks")
+            if abs(cg[0]) >= robot.contact_length / 2 or abs(cg[1]) >= robot.track_gauge / 2:
+                raise InputError(f"windows: centre of mass {cg.tolist()} lies outside the {robot.traction}")
             moved = robot.replace(cg_x=float(cg[0]), cg_y=float(cg[1]))
-            _, ipos, full = chassis_mass_properties(moved, self.config, ROLLER_CHAIN)
+            _, ipos, full = chassis_mass_properties(moved, self.built_config, self.tracks)
             m.body_ipos[self.chassis_id] = ipos
             set_body_inertia(m, self.chassis_id, full)  # products of inertia follow the cg
             m.site_pos[self.cg_site, :2] = cg
@@ -302,7 +313,7 @@ class WindowSim:
             # quantities the compiler derives from the mass distribution (constraint scaling
             # through body_invweight0 / dof_invweight0): recomputed as a rebuild would
             mujoco.mj_setConst(m, mujoco.MjData(m))
-            if self.config.rest_margin:  # (WindowSim runs the roller chain only)
+            if self.config.rest_margin:  # (WindowSim runs the roller chain and the wheels only)
                 apply_rest_margins(m)  # the rest penetrations follow the loads, as a rebuild's
         lag = params.get("drive_lag")
         if lag is not None:

@@ -29,13 +29,20 @@ def _fmt(v: Any) -> str:
 
 def icr_map(records: Sequence[dict[str, Any]], grid: Grid, path: str | os.PathLike) -> None:
     """Draw the map of ``records`` (sweep rows as dicts) to ``path`` (PNG, written atomically)."""
+    from mjtrack.io.atomic import atomic_write_bytes
+
+    atomic_write_bytes(path, icr_map_png(records, grid))
+
+
+def icr_map_png(records: Sequence[dict[str, Any]], grid: Grid) -> bytes:
+    """The map of ``records`` (sweep rows as dicts) as PNG bytes."""
+    import io
+
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib import cm, colors
-
-    from mjtrack.io.atomic import atomic_open
 
     facet_keys = [k for k in grid.keys if k not in grid.form]
     facets: dict[tuple, list[tuple[float, float, dict[str, Any], float]]] = defaultdict(list)
@@ -94,6 +101,7 @@ def icr_map(records: Sequence[dict[str, Any]], grid: Grid, path: str | os.PathLi
     fig.colorbar(sm, ax=axes, label="commanded speed [m/s]", shrink=0.6)
     note = f"\n{undefined} straight or spot-turn cases have no ICRs and are not shown" if undefined else ""
     fig.suptitle(f"Measured ICRs of {len(records)} steady states (dashed: no-slip ICRs){note}", fontsize=10)
-    with atomic_open(path, "wb") as fh:
-        fig.savefig(fh, format="png", dpi=110)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
     plt.close(fig)
+    return buf.getvalue()

@@ -12,17 +12,18 @@ varies fastest):
     the robot away from this nominal turn.
 * robot keys (any number of them): ``track_gauge``, ``track_length``, ``track_width``,
   ``sprocket_radius``, ``mass``, ``cg_x``, ``cg_y``, ``cg_z``, ``mu``, ``mu_left``, ``mu_right``,
-  and the drivetrain keys ``drive_lag``, ``drive_delay``, ``drive_force_limit``, ``track_speed_scale``;
-  each case's robot is the base robot with these fields replaced.
+  the drivetrain keys ``drive_lag``, ``drive_delay``, ``drive_force_limit``, ``track_speed_scale``
+  and, for a wheeled base robot, ``wheelbase`` and ``wheels_per_side``; each case's robot is the
+  base robot with these fields replaced.
 
-A value may be a list or a single number (a list of one). Bad grids raise
-:class:`~mjtrack.errors.InputError` naming the file, the key and the bad entry, before any work.
+Every value is a list (a single value is a list of one: ``[0.5]``). Bad grids raise
+:class:`~mjtrack.errors.InputError` naming the file, the key and the bad entry, before any work;
+a grid file is at most :data:`MAX_FILE_BYTES` and nested two deep (an object of lists).
 """
 
 from __future__ import annotations
 
 import itertools
-import json
 import math
 import os
 from dataclasses import dataclass
@@ -30,17 +31,19 @@ from pathlib import Path
 from typing import Any
 
 from mjtrack.errors import InputError
+from mjtrack.io.jsonfile import read_json
 from mjtrack.io.robot import Robot
 
 COMMAND_FORMS: tuple[tuple[str, str], ...] = (("v_left_cmd", "v_right_cmd"), ("speed", "turn_radius"))
 ROBOT_KEYS: tuple[str, ...] = (
     "track_gauge", "track_length", "track_width", "sprocket_radius", "mass",
     "cg_x", "cg_y", "cg_z", "mu", "mu_left", "mu_right",
-    "drive_lag", "drive_delay", "drive_force_limit", "track_speed_scale",
+    "drive_lag", "drive_delay", "drive_force_limit", "track_speed_scale", "wheelbase", "wheels_per_side",
 )
 MAX_SPEED = 100.0  # [m/s] a track speed above this is not a ground robot (same bound as drive logs)
 MAX_RADIUS = 1e6  # [m] coordinate bound of drive logs; use null for straight driving
 MAX_CASES = 100_000  # beyond this a grid is a typo, not a study (about a day on one core)
+MAX_FILE_BYTES = 1 << 20  # [bytes] MAX_CASES cases need far fewer values than a megabyte holds
 
 
 @dataclass(frozen=True)
@@ -74,17 +77,7 @@ class Grid:
 def read_grid(path: str | os.PathLike, base: Robot | None = None) -> Grid:
     """Read and validate a grid JSON file (see the module docstring)."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        why = getattr(exc, "strerror", None) or str(exc)
-        raise InputError(f"{path}: cannot read grid ({why})") from None
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: not valid JSON (line {exc.lineno}: {exc.msg})") from None
-    except RecursionError:
-        raise InputError(f"{path}: not valid JSON (nested too deeply)") from None
+    data = read_json(path, what="grid", max_bytes=MAX_FILE_BYTES, max_depth=2)
     return grid_from_dict(data, base=base, source=str(path))
 
 
@@ -110,7 +103,10 @@ def grid_from_dict(data: Any, *, base: Robot | None = None, source: str = "grid"
     form = forms[0]
     axes = []
     for key, raw in data.items():
-        values = raw if isinstance(raw, list) else [raw]
+        if not isinstance(raw, list):
+            raise InputError(f"{source}: key {key!r}: expected a list of values, got {raw!r}"[:300]
+                             + (f" (write [{raw!r}] for one value)" if _number(raw) or raw is None else ""))
+        values = raw
         if not values:
             raise InputError(f"{source}: key {key!r}: empty list")
         for j, v in enumerate(values):

@@ -4,13 +4,17 @@
 chunk on a ``dask.distributed`` worker through :func:`mjtrack.sim.steady.steady_batch` (one
 ``mujoco.rollout`` call over the chunk's models; each case still runs from its own settled
 state, so a case's numbers do not depend on the chunk it is in nor on the worker count), and
-appends each finished case to ``DIR/sweep.csv`` at once (flushed), in completion order.
+appends each finished case to ``DIR/sweep.partial.csv`` at once (flushed), in completion order;
+``DIR/sweep.partial.json`` holds the settings the rows were made with.
 
-Resume: when ``DIR/sweep.csv`` exists, its complete rows whose case index and grid values
-match the grid are kept and only the other cases run (a row cut short by a kill is dropped).
-At the end ``sweep.csv`` is rewritten sorted by case (atomically), so the finished file has
-the same bytes whatever the worker count and the completion order; then ``sweep.json`` and
-``icr_map.png``.
+Resume: when ``DIR/sweep.partial.csv`` exists, its complete rows whose case index and grid values
+match the grid are kept and only the other cases run (a row cut short by a kill is dropped);
+under other settings it is refused, or discarded with ``restart``.
+At the end the outputs are written sorted by case (atomically), so the finished ``sweep.csv`` has
+the same bytes whatever the worker count and the completion order, with ``sweep.json`` and
+``icr_map.png``; then the two partial files are removed. The folder therefore holds either the
+complete set or only what a resume needs (an interrupt during that last step takes effect after
+it: :func:`mjtrack.interrupts.deferred`).
 
 Columns: ``case``, the grid keys, ``v_left_cmd``, ``v_right_cmd`` (unless grid keys), then
 the steady-state result as :meth:`SteadyResult.to_dict` gives it (``v_left``, ``v_right``,
@@ -32,17 +36,22 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
+from mjtrack import interrupts
 from mjtrack.errors import InputError, MjtrackError
-from mjtrack.io.atomic import atomic_write_text
+from mjtrack.io import atomic
+from mjtrack.io.atomic import atomic_write_bytes, atomic_write_text
 from mjtrack.progress import Progress
+from mjtrack.resources import available_memory
 from mjtrack.sim.config import sim_config
-from mjtrack.sim.steady import SETTLE_S, WINDOW_S, SteadyResult, steady_batch
+from mjtrack.sim.steady import SETTLE_S, WINDOW_S, SteadyResult, check_steady, steady_batch
 from mjtrack.sim.terrain import Terrain
 from mjtrack.sweep.grid import Case, Grid
 
 logger = logging.getLogger(__name__)
 
 CSV_NAME, JSON_NAME, MAP_NAME = "sweep.csv", "sweep.json", "icr_map.png"
+PARTIAL_CSV, PARTIAL_JSON = "sweep.partial.csv", "sweep.partial.json"  # the resume state
+OUTPUTS = (CSV_NAME, JSON_NAME, MAP_NAME)
 RESULT_KEYS: tuple[str, ...] = tuple(SteadyResult.__dataclass_fields__)
 CONNECT_TIMEOUT_S = 10.0
 
@@ -102,7 +111,7 @@ def _read_done(path: Path, grid: Grid, cols: list[str]) -> dict[int, list[str]]:
     rows = list(csv.reader(complete))
     if rows[0] != cols:
         raise InputError(f"{path}: written by a sweep with other columns ({','.join(rows[0])[:80]}...); "
-                         "use another --out folder or delete the file to start over")
+                         f"{_START_OVER}")
     done: dict[int, list[str]] = {}
     for line, row in enumerate(rows[1:], start=2):
         if len(row) != len(cols):
@@ -115,12 +124,12 @@ def _read_done(path: Path, grid: Grid, cols: list[str]) -> dict[int, list[str]]:
             continue
         case = grid.cases[k]
         if row[1:1 + len(case.values)] != [_cell(v) for _, v in case.values]:
-            raise InputError(f"{path}: line {line}: case {k} was run with other grid values; "
-                             "use another --out folder or delete the file to start over")
+            raise InputError(f"{path}: line {line}: case {k} was run with other grid values; {_START_OVER}")
         done[k] = row
     return done
 
 
+_START_OVER = "use another --out folder, delete the file or pass --force to start over"
 MAX_CHUNK = 16  # cases per task at most: a finished chunk is written (and kept on resume) at once
 
 
@@ -130,7 +139,7 @@ def auto_chunk_size(n_cases: int, slots: int) -> int:
     A task costs the scheduler round trip (about 10 ms here) beside its cases (about 60 ms each
     for the default 5 s steady state), so small chunks waste time on a small grid, while fewer
     than two tasks per thread leaves a thread idle when case costs differ. Measured on the
-    24-case benchmark, 2 workers (experiments/bench_sweep.py): 4 per chunk 0.82 s, 6 per chunk
+    24-case benchmark, 2 workers (benchmarks/bench_sweep.py): 4 per chunk 0.82 s, 6 per chunk
     0.81 s, 1 per chunk 0.89 s; results do not depend on it.
     """
     return max(1, min(MAX_CHUNK, math.ceil(n_cases / (2 * max(1, slots)))))
@@ -161,9 +170,32 @@ def _client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
         with client:
             yield client
         return
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+    with interrupts.silent_children():  # a Ctrl-C kills the workers too: without a traceback each
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                               silence_logs=logging.ERROR)
+    with cluster, Client(cluster) as client:
         yield client
+
+
+WORKER_MEMORY = 300e6  # [bytes] a local dask worker process with MuJoCo loaded, running a chunk (measured ~250 MB)
+
+
+MAX_WORKERS_PER_CORE = 4  # more local worker processes than this per core only add start-up time and memory
+
+
+def check_worker_memory(workers: int) -> None:
+    """Refuse a local cluster of more than :data:`MAX_WORKERS_PER_CORE` processes per core, or one
+    whose worker processes would not fit in the memory available now (with the estimate)."""
+    cores = os.cpu_count() or 1
+    if workers > MAX_WORKERS_PER_CORE * cores:
+        raise InputError(f"--workers {workers}: more than {MAX_WORKERS_PER_CORE} worker processes per core "
+                         f"({cores} cores here); use at most {MAX_WORKERS_PER_CORE * cores}")
+    available = available_memory()
+    need = workers * WORKER_MEMORY
+    if available is not None and need > available:
+        raise InputError(f"--workers {workers}: {workers} worker processes need about {need / 1e9:.1f} GB "
+                         f"({WORKER_MEMORY / 1e6:.0f} MB each), {available / 1e9:.1f} GB are available; "
+                         f"use at most {max(1, int(available // WORKER_MEMORY))}")
 
 
 def run_sweep(
@@ -178,13 +210,15 @@ def run_sweep(
     chunk_size: int | None = None,
     terrain: Terrain | None = None,
     quiet: bool = False,
+    restart: bool = False,
 ) -> SweepSummary:
-    """Run every case of ``grid`` not already in ``out/sweep.csv``; write the outputs.
+    """Run every case of ``grid`` not already in ``out/sweep.partial.csv``; write the outputs.
 
     ``workers``: processes of a new local cluster (default: the CPU count); ``scheduler``: the
     address of an existing dask scheduler instead. ``chunk_size`` cases share one batched
     rollout on a worker (results do not depend on it); default :func:`auto_chunk_size`. ``terrain``: the ground of every case
-    (default flat).
+    (default flat). ``restart``: discard a partial sweep that cannot be resumed (other settings,
+    grid or columns) instead of refusing it.
     """
     from dask.distributed import as_completed
 
@@ -192,10 +226,13 @@ def run_sweep(
     sim_config(track_model)  # refuses an unknown model before any work
     if workers is not None and workers < 1:
         raise InputError(f"--workers must be >= 1, got {workers}")
-    if not (settle_s >= 0 and window_s > 0):
-        raise InputError("--settle must be >= 0 and --window > 0 seconds")
+    if workers is not None and scheduler is None:
+        check_worker_memory(workers)
+    check_steady([c.robot for c in grid.cases], [[c.v_left_cmd, c.v_right_cmd] for c in grid.cases],
+                 config=sim_config(track_model), settle_s=settle_s, window_s=window_s, terrain=terrain,
+                 batch=min(chunk_size or MAX_CHUNK, len(grid.cases)))
     cols = header(grid)
-    csv_path = out / CSV_NAME
+    csv_path, json_path = out / PARTIAL_CSV, out / PARTIAL_JSON
     settings = {"grid": grid.to_dict(), "track_model": track_model, "settle_s": settle_s, "window_s": window_s,
                 "base_robot": _base_robot(grid)}
     if terrain is not None and not terrain.is_flat:  # absent when flat: sweeps started before --terrain resume
@@ -204,19 +241,30 @@ def run_sweep(
     # other settings (before session 6 only ``lag_budget`` was kept, before session 5 nothing) is
     # refused instead of mixing two models' rows in one file
     settings["sim_config"] = sim_config(track_model).to_dict()
-    _check_same_settings(out / JSON_NAME, csv_path, settings)
-    done = _read_done(csv_path, grid, cols)
+    try:
+        _check_same_settings(json_path, csv_path, settings)
+        done = _read_done(csv_path, grid, cols)
+    except InputError:
+        if not restart:
+            raise
+        logger.warning("%s: an earlier sweep that cannot be resumed; starting over (--force)", csv_path)
+        done = {}
     todo = [c for c in grid.cases if c.index not in done]
     start = time.monotonic()
-    out.mkdir(parents=True, exist_ok=True)
-    _write_json(out / JSON_NAME, grid, settings, cols, [])  # the settings first: a resume checks them
+    tx = atomic.current()
+    for p in (csv_path, json_path):  # the resume state: rewritten freely, kept when the run is cut short
+        if tx is not None:
+            tx.allow(p)
+            tx.keep(p)
     n_workers, run_seconds = 0, 0.0
     if todo:
-        with _client(workers or os.cpu_count() or 1, scheduler) as client:
+        with _client(workers or os.cpu_count() or 1, scheduler) as client:  # a refused cluster writes nothing
             workers_info = client.scheduler_info().get("workers", {})
             n_workers = len(workers_info)
             slots = sum(int(w.get("nthreads", 1)) for w in workers_info.values()) or 1
             size = chunk_size or auto_chunk_size(len(todo), slots)
+            atomic.make_output_dir(out)
+            _write_json(json_path, grid, settings, cols, [])  # the settings first: a resume checks them
             # write the kept rows back without any partial tail, then append as cases finish
             atomic_write_text(csv_path, _csv_text(cols, [done[k] for k in sorted(done)]))
             t_submit = time.monotonic()
@@ -240,11 +288,19 @@ def run_sweep(
                     bar.update(len(rows))
             run_seconds = time.monotonic() - t_submit
     records = [_record(cols, done[k]) for k in sorted(done)]
-    atomic_write_text(csv_path, _csv_text(cols, [done[k] for k in sorted(done)]))
-    _write_json(out / JSON_NAME, grid, settings, cols, records)
-    from mjtrack.sweep.figure import icr_map
+    from mjtrack.sweep.figure import icr_map_png
 
-    icr_map(records, grid, out / MAP_NAME)
+    png = icr_map_png(records, grid)
+    with interrupts.deferred():  # the complete set, then the resume state goes
+        atomic_write_text(out / CSV_NAME, _csv_text(cols, [done[k] for k in sorted(done)]))
+        _write_json(out / JSON_NAME, grid, settings, cols, records)
+        atomic_write_bytes(out / MAP_NAME, png)
+        for p in (csv_path, json_path):
+            if tx is not None:
+                tx.discard(p)
+            p.unlink(missing_ok=True)
+        if tx is not None:
+            tx.commit()
     return SweepSummary(cases=len(grid.cases), ran=len(todo), resumed=len(grid.cases) - len(todo),
                         seconds=time.monotonic() - start, run_seconds=run_seconds, workers=n_workers)
 
@@ -255,7 +311,7 @@ def _write_json(path: Path, grid: Grid, settings: dict[str, Any], cols: list[str
 
 
 def _check_same_settings(json_path: Path, csv_path: Path, settings: dict[str, Any]) -> None:
-    """A sweep.csv is resumed only under the settings it was started with (kept in sweep.json)."""
+    """A partial sweep is resumed only under the settings it was started with (kept beside it)."""
     if not csv_path.exists():
         return
     try:
@@ -264,11 +320,10 @@ def _check_same_settings(json_path: Path, csv_path: Path, settings: dict[str, An
         same = all(old.get(k) == json.loads(json.dumps(settings.get(k))) for k in keys)
     except (OSError, ValueError, AttributeError):
         raise InputError(f"{csv_path}: an earlier sweep without a readable {json_path.name}: cannot tell how it "
-                         "was run; use another --out folder or delete the file to start over") from None
+                         f"was run; {_START_OVER}") from None
     if not same:
         changed = [k for k in keys if old.get(k) != json.loads(json.dumps(settings.get(k)))]
-        raise InputError(f"{csv_path}: an earlier sweep with other settings ({', '.join(changed)}); "
-                         "use another --out folder or delete the file to start over")
+        raise InputError(f"{csv_path}: an earlier sweep with other settings ({', '.join(changed)}); {_START_OVER}")
 
 
 def _base_robot(grid: Grid) -> dict[str, Any]:

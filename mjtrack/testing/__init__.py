@@ -13,7 +13,9 @@ is used to check (each module's docstring says what it shares with mjtrack and w
 * :mod:`mjtrack.testing.builder_fingerprints`: hashes of the compiled MuJoCo models, a detector
   of unintended model changes.
 * :mod:`mjtrack.testing.cli`: run ``mjtrack ARGS`` in-process or in a subprocess and check its
-  exit status and error line.
+  exit status and error line; :class:`~mjtrack.testing.cli.Forker` runs command lines as real
+  processes forked from a warm one (:mod:`mjtrack.testing.cli_zygote`), under a memory cap, a time
+  limit and signals.
 * :mod:`mjtrack.testing.repo`: where the repository's tests, benchmark scripts and result files
   are (meaningful in a source checkout only).
 

@@ -62,3 +62,55 @@ def assert_usage_error(res: CliResult, *patterns: str) -> str:
         assert re.search(pattern, last), f"{pattern!r} not in {last!r}"
     assert "Traceback" not in res.err, res.err
     return last
+
+
+@dataclass(frozen=True)
+class ForkResult:
+    """What :meth:`Forker.run` saw: exit status (negative: killed by that signal), output, timings."""
+
+    rc: int
+    out: str
+    err: str
+    seconds: float
+    signalled_at: float | None  # [s] after the start, when the first signal was sent (None: none)
+    after_signal_s: float | None  # [s] from the first signal to the end
+    killed: bool  # still running after the grace period: killed with SIGKILL (a hang)
+
+
+class Forker:
+    """Runs ``mjtrack ARGS`` as real processes forked from a warm one (:mod:`mjtrack.testing.cli_zygote`), under a
+    memory cap and a time limit, optionally interrupted by a signal (see that module).
+
+        with Forker() as fk:
+            res = fk.run(["simulate", ...], cwd=tmp_path, signal=(signal.SIGINT, 0.5))
+    """
+
+    def __init__(self) -> None:
+        self.proc = subprocess.Popen([sys.executable, "-m", "mjtrack.testing.cli_zygote"],
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        ready = self.proc.stdout.readline()
+        if ready.strip() != "ready":
+            raise RuntimeError(f"cli_zygote did not start: {ready!r}")
+
+    def run(self, argv: list, *, cwd: str | Path, memory: int = 4_000_000_000, limit_s: float = 60.0,
+            signal: tuple[int, float] | None = None, grace_s: float = 5.0) -> ForkResult:
+        import json
+
+        req = {"argv": [str(a) for a in argv], "cwd": str(cwd), "memory": memory, "limit_s": limit_s,
+               "signal": None if signal is None else [int(signal[0]), float(signal[1])], "grace_s": grace_s}
+        self.proc.stdin.write(json.dumps(req) + "\n")
+        self.proc.stdin.flush()
+        res = json.loads(self.proc.stdout.readline())
+        return ForkResult(res["rc"], res["stdout"], res["stderr"], res["seconds"], res["signalled_at"],
+                          res["after_signal_s"], res["killed"])
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.stdin.close()
+            self.proc.wait(timeout=30)
+
+    def __enter__(self) -> "Forker":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

@@ -51,7 +51,7 @@ XY_STD, YAW_STD, SPEED_STD = 0.01, np.radians(0.3), 0.01
 # Drives that follow their set-point (the nominal model's premise: track speed = command): the
 # default 60 N m sprocket torque moves the 200 kg reflected drivetrain mass at only ~4.8 m/s^2,
 # a ramp of 0.17 s per 0.8 m/s that the diagnosis rightly reads as an actuator defect
-# (experiments/diagnose_mujoco_effects.py --default-drives); 600 N m gives ~48 m/s^2.
+# (benchmarks/diagnose_mujoco_effects.py --default-drives); 600 N m gives ~48 m/s^2.
 DRIVES = SimConfig(torque_limit=600.0)
 
 

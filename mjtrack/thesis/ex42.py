@@ -400,8 +400,10 @@ def plot(ex: Ex42, out_dir) -> dict:
     """Write figs. 4.8–4.14 as PNG into ``out_dir``; return {number: {"file", "caption"}}."""
     from pathlib import Path
 
+    from mjtrack.io.atomic import make_output_dir
+
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    make_output_dir(out_dir)
     cfg, R = ex.config, ex.runs
     setting = (f"Truth MPP s_L = {cfg.s_left}, s_R = {cfg.s_right}, alpha = {cfg.alpha_deg} deg; nominal V = {cfg.speed} m/s, "
                f"w = {cfg.turn_rate_deg} deg/s, T = {cfg.track_gauge} m, dt = {cfg.dt} s, seed {cfg.seed}; noise std "

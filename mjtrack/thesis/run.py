@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable
 
 from mjtrack.errors import InputError
-from mjtrack.io.atomic import atomic_write_text
+from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.progress import Progress
 from mjtrack.thesis import ex41, ex42, figures
 
@@ -75,7 +75,7 @@ def run_thesis(out_dir, *, quiet: bool = False, sections: Iterable[str] | None =
     if unknown:
         raise InputError(f"unknown thesis section(s) {', '.join(unknown)}; known: {', '.join(SECTIONS)}")
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    make_output_dir(out)
     doc: dict = {"thesis": SOURCE, "command": "mjtrack thesis", "sections": keys, "figures": []}
     with Progress(2 * len(keys), label="thesis", quiet=quiet) as bar:
         for key in keys:

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mjtrack.io.atomic import atomic_write_text
+from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.progress import Progress
@@ -131,7 +131,7 @@ def validate(
             "truths": {n: r.metrics for n, r in results.items()},
         })
         out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
+        make_output_dir(out)
         report.write(out / REPORT_NAME)
         atomic_write_text(out / METRICS_NAME, json.dumps(metrics, indent=2, allow_nan=False) + "\n")
     finally:

@@ -8,7 +8,8 @@ the ground where the true |ω| ≥ ``wz_min`` (they run off to infinity in strai
 A log driven on terrain (its robot description records it) is shown on that terrain, the chassis
 at the logged height, roll and pitch. A log with several segments shows them one after the other (each with its own start and
 trail, its number on screen); the GIF shows the first segment. The tracks are drawn as belts
-whose grousers move with the logged track speeds; time and playback speed are on every frame.
+whose grousers move with the logged track speeds, a wheeled robot's wheels turn with them; time
+and playback speed are on every frame.
 
 The GIF is a top view of the true path and the open-loop paths of the nominal model and of
 the online filter models (:mod:`mjtrack.validate.predictors`).
@@ -49,7 +50,7 @@ def render_log(drive: DriveLog, robot: Robot, out_path: str | os.PathLike, *, wi
     """
     import mujoco
 
-    from mjtrack.render import icr_markers, qpos_from_poses, render_video, track_travel_from_speeds
+    from mjtrack.render import icr_markers, qpos_from_poses, render_video, track_travel_from_speeds, turn_wheels
     from mjtrack.render.decor import belt_geometry
     from mjtrack.sim.builder import build_model
 
@@ -57,7 +58,8 @@ def render_log(drive: DriveLog, robot: Robot, out_path: str | os.PathLike, *, wi
     terrain = log_terrain(robot)
     model = build_model(robot, terrain=terrain)
     chassis = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "chassis")
-    belts = belt_geometry(model, chassis, width=robot.track_width, radius=robot.sprocket_radius)
+    wheeled = robot.traction == "wheels"
+    belts = [] if wheeled else belt_geometry(model, chassis, width=robot.track_width, radius=robot.sprocket_radius)
     lifted = drive.z is not None and len(drive.z) == len(case.t)  # a log on terrain: 3-D pose
     qpos = qpos_from_poses(model, case.pose, **({"z": drive.z, "roll": drive.roll, "pitch": drive.pitch} if lifted else {}))
     icr = icr_from_twist(*case.twist.T, case.v_left, case.v_right, wz_min=wz_min, on_singular="mask")
@@ -65,6 +67,8 @@ def render_log(drive: DriveLog, robot: Robot, out_path: str | os.PathLike, *, wi
     travel = np.zeros((len(case.t), 2))
     for a, b in zip([0, *starts], [*starts, len(case.t)]):
         travel[a:b] = track_travel_from_speeds(case.t[a:b], case.v_left[a:b], case.v_right[a:b])
+    if wheeled:
+        qpos = turn_wheels(model, qpos, travel, robot.wheel_radius)
     return render_video(model, qpos, case.t, out_path, width=width, height=height, fps=fps, speed=speed,
                         icr=icr_markers(case.pose, icr), track_travel=travel, belts=belts, segment_starts=starts,
                         progress=not quiet)
@@ -104,5 +108,5 @@ def animate_log(drive: DriveLog, robot: Robot, out_path: str | os.PathLike, *, f
     duration = float(case.t[-1] - case.t[0])
     speed = max(speed, duration * fps / (max_frames - 2))  # a long log plays faster rather than failing
     return animate_paths(case.t, paths, out_path, fps=fps, speed=speed,
-                         footprint=(robot.track_length, robot.track_gauge + robot.track_width),
+                         footprint=(robot.contact_length, robot.track_gauge + robot.track_width),
                          title="true path and open-loop model paths", max_frames=max_frames)
