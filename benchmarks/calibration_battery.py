@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import time
 from pathlib import Path
 
@@ -109,7 +110,8 @@ def main(argv=None) -> int:
                   + (f"  diagnose: {r['diagnose']['cause']}, calibrated: {r['diagnose_calibrated']['cause']}"
                      if "diagnose" in r else ""), flush=True)
             args.out.parent.mkdir(parents=True, exist_ok=True)
-            args.out.write_text(json.dumps({"cases": results, "duration_s": args.duration, "load_before": load0,
+            args.out.write_text(json.dumps({"command": "python benchmarks/calibration_battery.py " + " ".join(sys.argv[1:]),
+                                            "cases": results, "duration_s": args.duration, "load_before": load0,
                                             "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
     rows = [(name, x) for name, r in results.items() for x in r["rows"] if x["determined"]]
     cov = [x["covered"] for _, x in rows if x["covered"] is not None]

@@ -1,4 +1,4 @@
-"""Issue 14: slip compensation that is never worse than none, on a grid of cases.
+"""Slip compensation that is never worse than none, on a grid of cases.
 
 Run: nice python benchmarks/compensation_grid.py [--quick] [--out benchmarks/results/compensation_grid.json]
 

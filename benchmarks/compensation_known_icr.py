@@ -1,4 +1,4 @@
-"""Issue 14: why compensation misses the grid's lane change at 0.5 m/s with the CG behind.
+"""Why compensation misses the grid's lane change at 0.5 m/s with the CG behind.
 
 Run: nice python benchmarks/compensation_known_icr.py [--out benchmarks/results/compensation_known_icr.json]
 

@@ -207,7 +207,8 @@ def summarise(rows: list[dict]) -> dict:
 
 
 def model_error_on_mujoco() -> tuple[float, int]:
-    """RMS relative error of the surrogate's estimates on last round's MuJoCo matrix, as a share of
+    """RMS relative error of the surrogate's estimates on the stored MuJoCo matrix
+    (benchmarks/diagnose_mujoco_effects.py), as a share of
     the effect size |truth - nominal| (the interval's model term MODEL_REL in
     mjtrack/diagnose/surrogate_baseline.py comes from it): (rms, count)."""
     path = RESULTS / "diagnose_mujoco_effects.json"

@@ -1,4 +1,4 @@
-"""Diagnosis on MuJoCo logs: every hidden effect of CONTRACTS.md §4, pose only and with track speeds.
+"""Diagnosis on MuJoCo logs: every hidden effect of diagnosis.json's vocabulary, pose only and with track speeds.
 
     python benchmarks/diagnose_mujoco_effects.py [--duration 180] [--seed 11] [--effects a,b,...]
                                                   [--variants pose,speeds] [--default-drives] [--steps]
@@ -8,7 +8,7 @@ Each log comes from the MuJoCo generator of the tests (mjtrack/testing/mujoco_ef
 mjtrack.sim with one hidden effect, pose noise 1 cm / 0.3 deg, track-speed noise 0.01 m/s), plus
 clean logs. Prints one row per log: effect, injected value(s), named cause, estimate of the
 injected effect's parameter(s) with its 95 % interval, pooled held-out gain, the checks of
-issue 6 (right cause, estimate within 25 %, positive held-out gain; "none" on clean logs) and
+the requirements (right cause, estimate within 25 %, positive held-out gain; "none" on clean logs) and
 the seconds spent (simulation, diagnosis). Writes benchmarks/results/diagnose_mujoco_effects.json.
 """
 
@@ -28,12 +28,12 @@ from mjtrack.testing.mujoco_effects import HIDDEN, make_log
 from mjtrack.testing.repo import RESULTS
 
 
-REL_TOL = 0.25  # issue 6: estimate within +-25 %
+REL_TOL = 0.25  # the requirement: estimate within +-25 %
 DIR_TOL = 0.25  # [rad] slope_direction: an angle, compared on the circle
 
 
 def check(effect: str | None, d) -> dict:
-    """One log's row: what the diagnosis said and whether issue 6's requirements hold."""
+    """One log's row: what the diagnosis said and whether the requirements hold."""
     row = {"cause": d.cause, "findings": [r.effect.name for r in d.findings],
            "before": float(d.before)}
     if effect is None:
@@ -168,7 +168,7 @@ def main(argv=None) -> int:
             if not row["ok"]:
                 print(f"    findings {row['findings']}; {row.get('why', row.get('best_candidate'))}", flush=True)
     summary = {"logs": len(rows), "ok": sum(r["ok"] for r in rows)}
-    print(f"{summary['ok']} / {summary['logs']} logs meet issue 6's requirements")
+    print(f"{summary['ok']} / {summary['logs']} logs meet the requirements")
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps({"command": "python benchmarks/diagnose_mujoco_effects.py " + " ".join(argv or sys.argv[1:]),

@@ -1,6 +1,6 @@
 """Why wheeled continuous logs get an extra friction_scale: the surrogate's transient vs rigid bodies.
 
-Issue 12: on fresh logs (``benchmarks/diagnose_benchmark.py --seed 1000``) two continuous wheeled
+On fresh logs (``benchmarks/diagnose_benchmark.py --seed 1000``) two continuous wheeled
 logs with track speeds got ``friction_scale`` ~ 1.2 beside the right effect. Two measurements:
 
 1. Yaw step responses. For each geometry of mjtrack/testing/diagnose_physics.py, the equivalent yaw dead

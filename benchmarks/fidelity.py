@@ -10,7 +10,7 @@ Both track models (``--track-model both``, the default), each with its measured 
 the moving contact surfaces (``mjtrack.sim.surfacevel``). Same grid, geometries and checks
 for both.
 
-Grid (issue 3): turns of nominal radius R in {pivot, 0.25, 0.5, 1, 2} m at v in {0.3, 0.8}
+Grid: turns of nominal radius R in {pivot, 0.25, 0.5, 1, 2} m at v in {0.3, 0.8}
 m/s (pivot: track speeds +-v), turning left and right, driving forward and backward; cg_x in {-0.1, 0, +0.1} L; mu in
 {0.4, 0.8}; for the default robot (T = 0.4, L = 0.5 m, 20 kg) and a long-track robot
 (T = 0.6, L = 0.9 m, 60 kg, cg_z = 0.2 m). Commands from the nominal model:
@@ -31,7 +31,7 @@ fidelity_surfacevel.json + fidelity_surfacevel.png and, for both, fidelity_combi
 combined table); prints the tables; exit 1 if any check fails. About 1 min (rollers) + 3 min
 (surfacevel) on one core.
 
-``--wide`` (issue 11): 8 robots of 5-150 kg and L/T 0.6-2 (six written out, two drawn with
+``--wide``: 8 robots of 5-150 kg and L/T 0.6-2 (six written out, two drawn with
 seed ``WIDE_SEED``; cg_y 0.05 T on every second one), pivot and R = 0.5-10 m at 0.2, 0.7
 and 2 m/s (turns with nominal v^2/R above 0.5 mu g left out: the robot slides out), left and
 right, forward and reverse, cg_x +-0.1 L: 928 turns (``--quick``: 4 robots, 4 radii, 0.2 and
@@ -41,7 +41,7 @@ right, forward and reverse, cg_x +-0.1 L: 928 turns (``--quick``: 4 robots, 4 ra
 the medians and the pass counts per (radius, speed); writes fidelity_wide[_quick][_model].json.
 Each roller-chain case runs at the step ``SimConfig.step_for`` picks for it (5 ms unless
 its largest track speed v gives v dt > 0.01 L; ``timestep`` in its row), and the dt-halving
-check halves that step; ``--fixed-step``: every case at 5 ms (as before session 5), written to
+check halves that step; ``--fixed-step``: every case at 5 ms (the earlier rule), written to
 ..._fixed_step.json; ``--timestep DT``: every case at DT.
 About 10 min (rollers, with the dt-halved rerun) on a loaded 2-core machine.
 """
@@ -162,8 +162,8 @@ def straight(config: SimConfig) -> list[dict]:
     return out
 
 
-# --- the wider grid (issue 11) ------------------------------------------------------------
-# Robots spanning 5-150 kg and L/T 0.6-2: four corners and the two issue-11 cases written out,
+# --- the wider grid ---------------------------------------------------------------------
+# Robots spanning 5-150 kg and L/T 0.6-2: four corners and two cases of interest written out,
 # two more drawn from a seeded generator (same seed, same robots). cg_z = 0.25 min(T, L): a
 # squat vehicle (0.3 T flipped the 5 kg, L = 0.18 m robot backwards when its tracks spun up
 # to 2 m/s with the cg 0.1 L aft -- real, but no steady turn); friction mu 0.8 unless drawn.
@@ -172,9 +172,9 @@ WIDE_RADII = ("pivot", 0.5, 1.0, 2.0, 5.0, 10.0)
 WIDE_SPEEDS = (0.2, 0.7, 2.0)
 WIDE_CG = (-0.1, 0.1)  # cg_x / L
 WIDE_CG_Y = 0.05  # cg_y / T on every second robot: a lateral offset makes left and right differ
-TOL_WIDE_Y, TOL_WIDE_X, TOL_WIDE_DT = 0.05, 0.02, 0.02  # issue 11: T/2, L, T/2 (dt halving)
-# --holdout: robots and turns that no setting was tuned on (session 6 tuned the belt and the slip
-# budget on the wide grid): drawn robots, other radii, speeds and cg offsets, same tolerances
+TOL_WIDE_Y, TOL_WIDE_X, TOL_WIDE_DT = 0.05, 0.02, 0.02  # T/2, L, T/2 (dt halving)
+# --holdout: robots and turns that no setting was tuned on (the belt and the slip budget
+# were tuned on the wide grid): drawn robots, other radii, speeds and cg offsets, same tolerances
 HOLDOUT_SEED = 2026
 HOLDOUT_RADII = ("pivot", 0.7, 3.0, 7.0)
 HOLDOUT_SPEEDS = (0.35, 1.2)
@@ -436,7 +436,7 @@ def run_model(track_model: str, quick: bool, out: Path, command: str) -> dict:
 
 
 def combined_table(docs: dict[str, dict]) -> list[dict]:
-    """One row per (track model, geometry): the issue-3 numbers side by side."""
+    """One row per (track model, geometry): the fidelity grid's numbers side by side."""
     table = []
     for track_model, doc in docs.items():
         conv, st = doc["convergence"], doc["straight"]
@@ -488,7 +488,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--timestep", type=float, default=None,
                    help="--wide only: run at this time step [s] instead of each model's default")
     p.add_argument("--fixed-step", action="store_true",
-                   help="--wide only: every case at the model's time step (no lag budget: before session 5, "
+                   help="--wide only: every case at the model's time step (no lag budget, the earlier rule: "
                         "fast cases of short robots then have x_c v dt off Coulomb; gentle_turns.py)")
     p.add_argument("--holdout", action="store_true",
                    help="--wide only: two light robots and six drawn with another seed, radii 0.7/3/7 m and pivots, 0.35 and "

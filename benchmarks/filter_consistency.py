@@ -1,4 +1,4 @@
-"""Issue 14: are the filters consistent on MuJoCo robots they were not tuned on, and how fast after a ground change?
+"""Are the filters consistent on MuJoCo robots they were not tuned on, and how fast after a ground change?
 
 Run: nice -n 10 python benchmarks/filter_consistency.py [--out benchmarks/results/filter_consistency.json]
 

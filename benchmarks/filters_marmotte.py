@@ -1,4 +1,4 @@
-"""Issue 14: the filters on the real Marmotte log, restarted per window (last round) and carried across windows.
+"""The filters on the real Marmotte log, restarted per window (the earlier procedure) and carried across windows.
 
 Run: nice -n 10 python benchmarks/filters_marmotte.py [--log ../shared/data/marmotte/marmotte_boreal.csv]
 
@@ -56,7 +56,8 @@ def main(argv=None) -> int:
         print(f"{args.log} not found: the Marmotte data is not in the repository (../shared/data/marmotte/)")
         return 2
     print(f"load average {os.getloadavg()}")
-    for label, carry, adaptive, est in (("restart per window, single EKF, default R (last round)", False, None, False),
+    for label, carry, adaptive, est in (("restart per window, single EKF, default R (earlier procedure)",
+                                         False, None, False),
                                         ("carried across windows, IMM, default R", True, "imm", False),
                                         ("carried across windows, IMM, R estimated from the log (validate now)", True,
                                          "imm", True)):

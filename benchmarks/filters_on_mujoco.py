@@ -1,4 +1,4 @@
-"""Issue 4 (MuJoCo part): the three parameter filters on MuJoCo rollouts.
+"""The three parameter filters on MuJoCo rollouts.
 
 Run: python benchmarks/filters_on_mujoco.py [--out benchmarks/results/filters_on_mujoco.json]
 

@@ -1,4 +1,4 @@
-"""Issue 12: the steady ICR spread of the benchmark's generator against the diagnosis surrogate's.
+"""The steady ICR spread of the benchmark's generator against the diagnosis surrogate's.
 
     python benchmarks/generator_spread.py
 
@@ -10,8 +10,7 @@ which the surrogate's quasi-static ICRs q0 come from; its contact is a line per 
 column "width" gives it 2 points across the track width, as the generator has). The spread
 y_l - y_r is what the
 diagnosis effect `icr_spread` scales: a generator that turns with wider ICRs looks like an
-icr_spread above 1 on a clean log once the surrogate's transient is right (branch
-slip-resistance, session 7).
+icr_spread above 1 on a clean log once the surrogate's transient is right (its slip resistance from the first instant).
 
 Second table: what the generator's numerics do to its transients. On the four-contact body of
 the wheeled geometry (the rollout with a 1.0 m line of two midpoints per side and the

@@ -1,4 +1,4 @@
-"""Why the roller chain misses Coulomb in gentle turns (issue 11's wider grid), measured.
+"""Why the roller chain misses Coulomb in gentle turns (the fidelity script's wide grid), measured.
 
     python benchmarks/gentle_turns.py [--out benchmarks/results/gentle_turns.json]
 
@@ -6,7 +6,7 @@ In a turn of radius R at speed v the tracks slip by |w| (y - T/2) longitudinally
 laterally: at R 10 m and 0.2 m/s for the 5 kg, T 0.2 / L 0.4 m robot of the wide grid that is
 0.5-2 mm/s, so the ICRs y = (v_x - V)/w move by 0.05 T/2 (5 mm) for a velocity error of
 0.1 mm/s. Each section isolates one candidate cause on that robot (cg 0.1 L forward, turning
-left, forward) and on the 80 kg issue-11 robot, with steady states as ``benchmarks/fidelity.py``
+left, forward) and on the wide grid's 80 kg robot, with steady states as ``benchmarks/fidelity.py``
 measures them (3 s settle, 2 s mean, ICRs from the measured track speeds, Coulomb reference with
 load transfer at those speeds):
 
@@ -30,7 +30,7 @@ load transfer at those speeds):
 5. **x_c: drive compliance and the time step.** The rollers' servos let their surface speeds
    spread by F_i / (kv/N) along a track; near x_c, where the slip is mostly longitudinal, this
    bends the friction directions. Printed: x_c against Coulomb for the 80 kg robot (cg +-0.1 L,
-   R 10 m at 0.2 m/s) with the servos alone (no belt, the default until session 6), a 10x
+   R 10 m at 0.2 m/s) with the servos alone (no belt, the earlier default), a 10x
    stiffer one (kv and track_mass x10: the same kv dt / track_mass), the equality-coupled chain
    and the belt of section 8 (10 ms, default; 8 and 20 ms); and at 2 m/s (cg 0) the x_c offset
    against v tc/2, tc the friction rows' time constant (2 dt by default, the least MuJoCo
@@ -43,8 +43,8 @@ load transfer at those speeds):
    roller's servo is proportional (force kv/N (u - v)): under the turn's longitudinal friction
    the tracks run F/kv off their commands. Printed for the three robots at R 10 m and 0.2 m/s
    (cg +-0.1 L): the measured V_R - V_L over the commanded one and the x_c error, with the
-   proportional drive without the belt (as measured in session 5), with the belt (default since
-   session 6: x_c follows Coulomb, the delivered share is the same, the ICRs use the measured
+   proportional drive without the belt (the earlier default), with the belt (the default:
+   x_c follows Coulomb, the delivered share is the same, the ICRs use the measured
    speeds) and with a probe PI drive (no belt; this script only: a second actuator per roller,
    force kv/(N Ti) (integral of u - r q), Ti 0.05 s, each limited as the servo is and both
    under one joint-level force limit ``actfrcrange``); and each drive's speed 3 s after a
@@ -52,7 +52,7 @@ load transfer at those speeds):
    integral cannot be clamped relative to the roller's position: it winds up while the drive
    saturates and then holds the speed F/kv high).
 
-8. **The belt, and what sets the step of a gentle turn (session 6).** Since section 5 every
+8. **The belt, and what sets the step of a gentle turn.** Since section 5 every
    roller's surface is tied by a spring to a belt joint of its track (``SimConfig.belt_timeconst``,
    10 ms): the rollers then run at one speed, as on a belt. Printed: section 5's x_c with it (and
    at 8 and 20 ms), and, for the 5 kg wide robot (cg -0.1 L, R 10 m, 0.2 m/s), the ICR error at
@@ -61,14 +61,14 @@ load transfer at those speeds):
    robots x 3 gentle turns x cg +-0.1 L at dt 5, 2.5, 1.25 ms: the worst dt-halving change per bin
    of r = mu g dt / (|w| L/2), one step's friction velocity change over the lateral slip at the
    track ends; ``SimConfig.slip_budget`` 5 keeps r <= 5.
-9. **Fast pivots and tight turns with the cg off-centre (session 6).** The 5 kg long robot (cg
+9. **Fast pivots and tight turns with the cg off-centre.** The 5 kg long robot (cg
    +0.1 L) pivoting at 0.2-2 m/s with a plain box chassis (before) and with the chassis inertia
    that keeps the robot's principal axes on the body axes (default): the elements at height r
    and the chassis above them made I_xz != 0, and a spin w gave a pitch moment w^2 I_xz that the
    Coulomb reference (a rigid body with principal axes on the body axes) does not have. And the
    150 kg long robot (cg_y 0.05 T, cg_x -0.1 L) at R 2 m, 2 m/s reversing against the reference
-   with the rigid-plate loads (default since session 6) and with the per-track Wong loads it had
-   before (a c_x c_y x y twist term that a rigid chassis on springs cannot carry; this script
+   with the rigid-plate loads (default) and with the per-track Wong loads of an earlier form
+   (a c_x c_y x y twist term that a rigid chassis on springs cannot carry; this script
    only), with cg_y 0.05 T and 0.
 
 6. **A log's twist against its poses.** Semi-implicit Euler moves the pose with the step's new
@@ -195,7 +195,7 @@ def belt_offsets(name: str, config: SimConfig, R: float = 10.0, v: float = 0.2) 
 
 
 def x_c_study() -> dict:
-    """Section 5 (80 kg issue-11 robot)."""
+    """Section 5 (the wide grid's 80 kg robot)."""
     base = wide_robots()["80kg_issue11"]
     out: dict = {"drive": [], "time_step": []}
     drives = {"servos only (no belt)": FixedStep(belt_timeconst=None),
@@ -349,7 +349,7 @@ def slip_budget_study() -> dict:
 
 
 def _wong_per_track_loads(self, ax: float, ay: float) -> np.ndarray:
-    """Section 9: the reference's loads before session 6 (script only): each track its own Wong
+    """Section 9: the reference's loads in an earlier form (script only): each track its own Wong
     distribution with the common centroid c_x, split by the lever rule (no lift-off handling:
     the cases here keep every point loaded)."""
     r = self.robot

@@ -35,7 +35,7 @@ from mjtrack.testing.repo import RESULTS
 
 T_MARMOTTE = 0.592723  # [m] marmotte_boreal.json
 R_MARMOTTE = 0.116702  # [m] sprocket radius, marmotte_boreal.json
-MEASURED = 0.96  # yaw ratio of the real Marmotte (issue 10; steady windows of the shared log)
+MEASURED = 0.96  # yaw ratio of the real Marmotte (steady windows of the shared log)
 PIVOT = (-0.4, 0.4)
 
 

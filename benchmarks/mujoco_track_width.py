@@ -1,4 +1,4 @@
-"""Does the MuJoCo robot's turning depend on the description's track width? (Session 8, issue 12.)
+"""Does the MuJoCo robot's turning depend on the description's track width?
 
     python benchmarks/mujoco_track_width.py
 

@@ -1,18 +1,25 @@
 """The MuJoCo robot calibrated on three real robots' logs: Marmotte (tracked), Husky and Warthog
 (wheeled skid-steer), from the DRIVE data in ../shared/data/ (BSD-3; see each folder's README).
 
-    python benchmarks/real_robots.py [--robots marmotte,husky,warthog] [--rollers 6]
+    python benchmarks/real_robots.py [--robots marmotte,husky,warthog] [--rollers 6] [--diagnose]
+    python benchmarks/real_robots.py --diagnose-only        # diagnose the stored calibrated robots
 
 For each robot: its log's description plus the public specification of what the log does not give
 (every such value named, with its source, under ``assumed`` in calibration.json), calibrated with
 calibrate's default candidates on the first part of the log and scored on the next part, never
 fitted: Marmotte trains on the first 50 % of its windows and tests on the next 20 %; Husky and
 Warthog train on the first 70 % and test on the remaining 30 % of what the shared folder holds.
+Husky and Warthog are calibrated with ``drive_input="measured"``: their own speed controllers cap
+the DRIVE protocol's commands (``command_following`` in the result: once settled, the measured
+track speeds differ from the commands by a large share of them), which no drive key describes, so
+their simulated drives follow the measured track speeds and only the contact is calibrated.
 Writes benchmarks/results/real_robots.json: per robot the held-out 2 s position error before and
 after, the steady-turn yaw ratio measured and simulated (before, after) on the test part, every
 candidate's value, interval and whether the log determines it, the causes and the summary; the
-calibrated robot.json and calibration.json go to benchmarks/results/real_robots/. Prints the same
-and the machine's load.
+calibrated robot.json and calibration.json go to benchmarks/results/real_robots/. With
+``--diagnose`` the test part then goes through ``diagnose --baseline mujoco`` against the calibrated
+robot (what the calibrated simulation still gets wrong), recorded under ``diagnose``. Prints the
+same and the machine's load.
 """
 
 from __future__ import annotations
@@ -28,7 +35,7 @@ import numpy as np
 
 from mjtrack.calibrate.run import calibrate, write_outputs
 from mjtrack.io import read_log_with_robot
-from mjtrack.io.robot import Robot
+from mjtrack.io.robot import Robot, read_robot
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[1] / "shared" / "data"
@@ -49,7 +56,7 @@ ROBOTS = {
             "mu": (0.5, "no public value: start value"),
         }},
     "husky": {
-        "log": DATA / "husky" / "husky_drive.csv", "split": (0.7, 0.3),
+        "log": DATA / "husky" / "husky_drive.csv", "split": (0.7, 0.3), "drive_input": "measured",
         "public": {
             "mass": (50.0, "public specification of the Clearpath Husky A200, 50 kg"),
             "wheelbase": (0.512, f"public model: wheelbase 0.512 m ({HUSKY})"),
@@ -57,7 +64,7 @@ ROBOTS = {
             "mu": (0.5, "no public value: start value"),
         }},
     "warthog": {
-        "log": DATA / "warthog" / "warthog_drive.csv", "split": (0.7, 0.3),
+        "log": DATA / "warthog" / "warthog_drive.csv", "split": (0.7, 0.3), "drive_input": "measured",
         "public": {
             "mass": (260.0, f"public model: chassis 100 kg + two rocker units 50 kg + four wheels 15 kg ({WARTHOG})"),
             "wheelbase": (0.92, f"public model: axles at +-0.46 m ({WARTHOG})"),
@@ -86,12 +93,31 @@ def starting_robot(base: Robot, public: dict) -> Robot:
     return Robot.from_dict(d, source="starting robot")
 
 
+def command_following(log) -> dict:
+    """How far the measured track speeds are from the commands once a command has settled (the
+    second half of every window, where the DRIVE protocol's command has held for at least 1 s):
+    the RMS difference over the RMS command, for the mean and the difference of the two tracks.
+    Near 0: the drives follow their commands; near 1: they do something else."""
+    ok = np.isfinite(log.v_left) & np.isfinite(log.v_right)
+    late = np.zeros_like(ok)
+    for sl in log.segment_slices():
+        t = log.t[sl]
+        late[sl] = t - t[0] >= 0.5 * (t[-1] - t[0])
+    ok &= late
+    c = np.stack([log.v_left_cmd[ok], log.v_right_cmd[ok]], -1)
+    m = np.stack([log.v_left[ok], log.v_right[ok]], -1)
+    rel = lambda a, b: float(np.sqrt(np.mean((a - b) ** 2)) / max(np.sqrt(np.mean(b ** 2)), 1e-12))
+    return {"rows": int(ok.sum()), "mean_speed": rel(m.mean(1), c.mean(1)),
+            "speed_difference": rel(m[:, 1] - m[:, 0], c[:, 1] - c[:, 0])}
+
+
 def run_robot(name: str, spec: dict, *, rollers: int) -> dict:
     log, base = read_log_with_robot(spec["log"])
     train, test = split(log, *spec["split"])
     robot = starting_robot(base, spec["public"])
     t0 = time.time()
-    cal = calibrate(train, robot, test=test, n_rollers=rollers, quiet=not sys.stderr.isatty(),
+    drive_input = spec.get("drive_input", "commanded")
+    cal = calibrate(train, robot, test=test, n_rollers=rollers, quiet=not sys.stderr.isatty(), drive_input=drive_input,
                     train_path=f"{spec['log'].name} (first {100 * spec['split'][0]:.0f} %)",
                     test_path=f"{spec['log'].name} (next {100 * spec['split'][1]:.0f} %)")
     wall = time.time() - t0
@@ -99,7 +125,7 @@ def run_robot(name: str, spec: dict, *, rollers: int) -> dict:
     write_outputs(cal, out)
     cj = cal.to_json()
     yaw = next(f for f in cj["findings"] if f["what"] == "yaw ratio" and f["part"] == "test")
-    return {"traction": robot.traction,
+    return {"traction": robot.traction, "drive_input": drive_input, "command_following": command_following(log),
             "windows": {"train": len(cal.train_windows), "test": len(cal.test_windows)},
             "test": cj["test"], "train": cj["train"],
             "yaw_ratio": {"measured": yaw["measured"], "before": yaw["simulated_before"], "after": yaw["simulated_after"],
@@ -109,10 +135,28 @@ def run_robot(name: str, spec: dict, *, rollers: int) -> dict:
             "assumed": cj["assumed"], "seconds": wall}
 
 
+def diagnose_robot(name: str, spec: dict) -> dict:
+    """``diagnose --baseline mujoco`` of the test part against the stored calibrated robot."""
+    from mjtrack.diagnose import diagnose
+
+    log, _ = read_log_with_robot(spec["log"])
+    _, test = split(log, *spec["split"])
+    robot = read_robot(OUTPUTS / name / "robot.json")
+    t0 = time.time()
+    d = diagnose(test, robot, baseline="mujoco", quiet=not sys.stderr.isatty())
+    return {"cause": d.cause, "findings": [{"effect": f.effect.name, "estimate": [float(v) for v in f.estimate],
+                                            "interval": [[float(a), float(b)] for a, b in f.interval],
+                                            "tied_with": list(f.tied_with), "relative_gain": float(f.relative)}
+                                           for f in d.findings],
+            "seconds": time.time() - t0}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--robots", default=",".join(ROBOTS))
     ap.add_argument("--rollers", type=int, default=6, help="contact rollers per track (tracked robots; default 6)")
+    ap.add_argument("--diagnose", action="store_true", help="then diagnose the test part against the calibrated robot")
+    ap.add_argument("--diagnose-only", action="store_true", help="only diagnose the stored calibrated robots")
     args = ap.parse_args(argv)
     load0 = os.getloadavg()
     old = json.loads(RESULT.read_text()) if RESULT.exists() else {}
@@ -122,24 +166,49 @@ def main(argv=None) -> int:
         if not spec["log"].exists():
             print(f"{spec['log']} not found (the shared data); skipped")
             continue
-        r = run_robot(name, spec, rollers=args.rollers)
+        if args.diagnose_only:
+            r = robots[name]
+        else:
+            r = run_robot(name, spec, rollers=args.rollers)
+        if args.diagnose or args.diagnose_only:
+            r["diagnose"] = diagnose_robot(name, spec)
+            print(f"== {name}: diagnose --baseline mujoco on the test part against the calibrated robot: "
+                  f"{r['diagnose']['cause']} ({r['diagnose']['seconds']:.0f} s)")
         robots[name] = r
+        if args.diagnose_only:
+            _write(robots, args, load0)
+            continue
         t, y = r["test"], r["yaw_ratio"]
         print(f"\n== {name}: {r['windows']['train']} training windows, {r['windows']['test']} test windows, "
               f"{r['seconds']:.0f} s")
+        cf = r["command_following"]
+        print(f"  drives follow: {r['drive_input']} speeds; measured vs commanded once settled: RMS difference "
+              f"{cf['mean_speed']:.2f} of the mean speed, {cf['speed_difference']:.2f} of the speed difference")
         print(f"  test 2 s position RMSE {t['before']:.4f} -> {t['after']:.4f} m ({100 * t['relative']:.1f} % lower)")
-        print(f"  test yaw ratio: measured {y['measured']:.3f}, simulated {y['before']:.3f} -> {y['after']:.3f}")
+        f3 = lambda v: "n/a" if v is None else f"{v:.3f}"
+        print(f"  test yaw ratio: measured {f3(y['measured'])}, simulated {f3(y['before'])} -> {f3(y['after'])} "
+              f"({y['windows']} steady-turn windows)")
         for n, v in r["determined"].items():
             iv = r["intervals"].get(n)
             print(f"  {n:18s} {r['described'][n]:8.4g} -> {r['parameters'][n]:8.4g} "
                   f"{'' if iv is None else f'[{iv[0]:.4g}, {iv[1]:.4g}]':24s} "
                   f"{'determined' if v['determined'] else 'NOT determined'}, {'changed' if v['changed'] else 'kept'}")
         print(f"  {r['summary']}")
-        RESULT.parent.mkdir(parents=True, exist_ok=True)
-        RESULT.write_text(json.dumps({"robots": robots, "rollers": args.rollers, "load_before": load0,
-                                      "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
+        _write(robots, args, load0)
     print(f"\nload average before {load0}, after {os.getloadavg()} ({os.cpu_count()} cores)")
     return 0
+
+
+def _write(robots: dict, args, load0) -> None:
+    """Write this run's robots into the result file, keeping the others as the file holds them now
+    (runs of different robots may overlap)."""
+    RESULT.parent.mkdir(parents=True, exist_ok=True)
+    ran = args.robots.split(",")
+    now = json.loads(RESULT.read_text()).get("robots", {}) if RESULT.exists() else {}
+    merged = {**now, **{k: v for k, v in robots.items() if k in ran}}
+    RESULT.write_text(json.dumps({"command": "python benchmarks/real_robots.py " + " ".join(sys.argv[1:]),
+                                  "robots": merged, "rollers": args.rollers, "load_before": load0,
+                                  "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
 
 
 def _plain(o):

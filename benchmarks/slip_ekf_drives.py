@@ -1,4 +1,4 @@
-"""Issue 14: the slip EKF's adaptive filter on more random-step drives of the tuning robot.
+"""The slip EKF's adaptive filter on more random-step drives of the tuning robot.
 
 Run: nice -n 10 python benchmarks/slip_ekf_drives.py [--seeds 3 4 5]
 

@@ -11,7 +11,7 @@ Sections (each printed as a table, all written to the JSON file):
   convergence  ICR change when the timestep is halved (units of T/2).
   speed        simulation steps per second (plain mj_step loop, pivot turn).
   ablation     the causes: pivot at 0.3 m/s under other contact settings (yaw ratio, contact, loads).
-Targets (issue 3): |dy| < 0.10 T/2, |dx_c| < 0.02 L, contact >= 99 %, |vx - V| < 1 % V,
+Targets (the fidelity grid's): |dy| < 0.10 T/2, |dx_c| < 0.02 L, contact >= 99 %, |vx - V| < 1 % V,
 drift < 1 mm/m, timestep-halving change < 3 %.
 """
 

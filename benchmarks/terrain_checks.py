@@ -1,4 +1,4 @@
-"""Terrain and drivetrain checks (issue 11): every number the README's terrain/drivetrain
+"""Terrain and drivetrain checks: every number the README's terrain/drivetrain
 sections quote.
 
     python benchmarks/terrain_checks.py [--quick]

@@ -1,4 +1,4 @@
-"""Issue 7 (tracked-robot part): slip-compensated trajectory tracking on the MuJoCo robot.
+"""Slip-compensated trajectory tracking on the MuJoCo robot.
 
 Run: python benchmarks/tracking_mujoco.py [--seeds 0 1 2] [--out benchmarks/results/tracking_mujoco.json]
 

@@ -47,32 +47,26 @@ def simulate_log(robot: "Robot", *, scenario: str | None = None,
                  timestep: float | None = None) -> "DriveLog":
     """Drive the MuJoCo robot with a scenario or a command table and return its drive log.
 
-    The Python form of ``mjtrack simulate``: the same arguments give the same log, sample for
-    sample. The robot starts at rest at the origin, heading +x; each command is held until the
-    next one.
+    The Python form of ``mjtrack simulate`` (same arguments, same log). The robot starts at rest at
+    the origin, heading +x; each command is held until the next one.
 
     Args:
         robot: the robot description.
-        scenario: a built-in scenario (``straight``, ``circle``, ``pivot``, ``u_path``,
-            ``random_steps``, and the terrain scenarios ``slope_traverse``, ``hill_climb``,
-            ``step_climb``, ``ice_patch``); exactly one of ``scenario`` and ``commands``.
+        scenario: a name of :data:`mjtrack.sim.scenarios.SCENARIOS` (``mjtrack simulate --help``
+            lists them); exactly one of ``scenario`` and ``commands``.
         commands: a command table ``(t [s], v_left [m/s], v_right [m/s])`` of equal-length
             arrays, or the path of a CSV with columns ``t, v_left_cmd, v_right_cmd``.
         duration: simulated time [s]; default the scenario's, or the last command time + 1 s.
-        seed: seed of the random scenarios.
-        log_rate: log sample rate [Hz], a divisor of the simulation rate (200 Hz at 5 ms).
-        terrain: a terrain spec as ``--terrain`` takes it (``"incline:0.1"``, ``"step:0.04:1.0"``,
-            ...) or a :class:`~mjtrack.sim.terrain.Terrain`; default the scenario's, else flat.
+        seed, log_rate: seed of the random scenarios; log sample rate [Hz], dividing the sim rate.
+        terrain: a ``--terrain`` spec (``"incline:0.1"``) or a Terrain; default the scenario's, else flat.
         track_model: ``"rollers"`` (sprung roller chain, default) or ``"surfacevel"``.
         timestep: simulation time step [s]; default 5 ms (smaller on terrain with edges).
 
     Returns:
-        The :class:`~mjtrack.io.logs.DriveLog`: commands, pose, measured track speeds and the
-        body twist (plus ``z``, ``roll``, ``pitch`` on terrain).
+        The :class:`~mjtrack.io.logs.DriveLog` (plus ``z``, ``roll``, ``pitch`` on terrain).
 
     Raises:
-        InputError: neither or both of ``scenario`` and ``commands``, an unknown scenario, a bad
-            command table or terrain spec.
+        InputError: neither or both of ``scenario`` and ``commands``, or a bad scenario, table or terrain.
 
     Examples:
         >>> import mjtrack as mt
@@ -260,18 +254,14 @@ def diagnose_log(log: "DriveLog", robot: "Robot", *, baseline: str = "auto", tes
                  out_dir: str | os.PathLike | None = None, quiet: bool = True) -> "Diagnosis":
     """Find what a simulation of the robot gets wrong on a measured log, and why.
 
-    The Python form of ``mjtrack diagnose``: the baseline predicts the log's motion over windows
-    of ``horizon_s`` from each window's measured start; every candidate effect (centre-of-mass
-    offsets, friction scale and asymmetry, track-speed scale, actuator lag, command delay, speed
-    and yaw-rate limits, slope, ...) extends it, is fitted on part of the log and scored on the
-    rest; an effect is reported only when its held-out gain is significant.
+    The Python form of ``mjtrack diagnose``: each candidate effect extends the baseline, is fitted on
+    part of the log and reported only when its held-out gain is significant (docs/guide/own-log.md).
 
     Args:
         log: the measured drive log (poses required; measured track speeds help).
         robot: the robot description the simulation is given.
-        baseline: what is diagnosed: ``"mujoco"`` (the MuJoCo robot), ``"surrogate"`` (the
-            rigid-track Coulomb surrogate), ``"kinematic"``, or ``"auto"`` (``mujoco`` when the
-            description lets the MuJoCo robot be built, else ``surrogate``).
+        baseline: ``"mujoco"``, ``"surrogate"`` (rigid-track Coulomb), ``"kinematic"``, or ``"auto"``
+            (``mujoco`` when the description lets the MuJoCo robot be built, else ``surrogate``).
         test_log: fit on ``log`` and score on this log of the same robot (else cross-validation).
         horizon_s: prediction window [s], or ``"auto"`` (2 s, shorter on short segments).
         n_folds: cross-validation folds (at least 3).
@@ -307,10 +297,8 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
                     out_dir: str | os.PathLike | None = None, quiet: bool = True) -> "Calibration":
     """Fit the MuJoCo robot's description to a measured log.
 
-    The Python form of ``mjtrack calibrate``: the log is cut into windows of ``horizon_s``, each
-    simulated by MuJoCo from the measured state at its start under the logged commands, and
-    the parameters are fitted (Levenberg-Marquardt, ``mujoco.sysid``) to the poses at the
-    windows' ends; a parameter the log does not determine keeps its described value.
+    The Python form of ``mjtrack calibrate``: windows of ``horizon_s`` simulated from the measured
+    state, parameters fitted to the poses at their ends (a parameter the log leaves open is kept).
 
     Args:
         log: the measured training log.

@@ -1,6 +1,7 @@
 """Instantaneous centres of rotation (ICRs), the virtual wheeled robot, slip ratios.
 
-Conventions (THESIS.md): robot frame x forward, y left; left track at y = +T/2, right at
+Conventions (as in the tracked-robot thesis, Mendaluk 2019; docs/theory/tracked.md): robot
+frame x forward, y left; left track at y = +T/2, right at
 y = -T/2; V_L, V_R the track surface speeds relative to the body (positive forward);
 body twist (vx, vy, wz) of the geometric centre.
 
@@ -20,15 +21,7 @@ refuses |wz| < ``wz_min`` with :class:`SingularMotionError` (``on_singular="rais
 default) or, with ``on_singular="mask"``, returns NaN there together with a boolean
 ``valid`` mask: the caller sees explicitly which samples carry ICRs.
 
-Virtual wheeled robot (MVIR, 2.16–2.20, after Kurisu et al. 2006). A no-slip
-differential-drive robot with the same heading, centre O' = (x_o, y_o) in the robot frame
-and wheel distance T_v, driven by the same V_L, V_R, moves its centre O' along its heading
-at (V_L + V_R)/2 and turns at (V_R - V_L)/T_v. Equating with the tracked robot's velocity of
-the point O', (vx - wz·y_o, vy + wz·x_o) = ((V_L+V_R)/2, 0) and wz = (V_R - V_L)/T_v, gives
-    x_o = -vy/wz,  y_o = (2·vx - V_L - V_R)/(2·wz),  T_v = (V_R - V_L)/wz.
-The printed (2.17) has y_o = (V_R + V_L - 2 vx)/(2 wz), the opposite sign: under the
-conventions above that version does not reproduce the twist (tested). Note that the virtual
-wheels sit exactly on the track ICRs: y_o ± T_v/2 = y_l, y_r, and x_o = x_c.
+Derivation and measurements: docs/theory/tracked.md, "The virtual wheeled robot".
 """
 
 from __future__ import annotations

@@ -142,3 +142,35 @@ def test_calibration_recovers_drivetrain_and_contact_length(tmp_path):
 
 
 # A hidden anisotropic ground from an independent implementation: tests/test_ground_calibrate.py (slow).
+
+
+def test_measured_drive_input_drives_with_the_measured_speeds_and_refuses_drive_keys():
+    import dataclasses
+
+    from mjtrack.calibrate.run import commanded_log, measured_drive_log
+    from mjtrack.errors import InputError
+
+    n = 50
+    t = np.arange(n) * 0.05
+    lg = dataclasses.replace(
+        _bare_log(t), v_left=np.full(n, 0.2), v_right=np.where(t < 1.0, np.nan, 0.4))
+    m = measured_drive_log(lg, "log")
+    assert np.all(m.v_left_cmd == 0.2)
+    # a track without a measured speed on a row keeps its command there
+    assert np.all(m.v_right_cmd[t < 1.0] == lg.v_right_cmd[t < 1.0]) and np.all(m.v_right_cmd[t >= 1.0] == 0.4)
+    # which windows are steady turns still follows the logged commands
+    assert np.array_equal(commanded_log(m).v_right_cmd, lg.v_right_cmd)
+    with pytest.raises(InputError, match="measured track speeds"):
+        measured_drive_log(_bare_log(t), "log")
+    robot = Robot(track_gauge=0.4)
+    with pytest.raises(InputError, match="drive_lag"):
+        calibrate(lg, robot, names="mu,drive_lag", drive_input="measured")
+    with pytest.raises(InputError, match="drive_input"):
+        calibrate(lg, robot, drive_input="wheels")
+
+
+def _bare_log(t):
+    from mjtrack.io.logs import DriveLog
+
+    z = np.zeros_like(t)
+    return DriveLog(t=t, v_left_cmd=z + 0.5, v_right_cmd=z + 0.6, x=0.5 * t, y=z, yaw=z)

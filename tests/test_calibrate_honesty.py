@@ -39,7 +39,9 @@ def test_a_clean_log_changes_nothing_and_says_so():
     c, cal = _calibrate("clean")
     assert cal.changed == [] and cal.causes == []
     assert cal.test_after.rms == cal.test_before.rms  # the described robot, unchanged
-    assert cal.sentence.startswith("Nothing needs to change")
+    # "Nothing needs to change", or, where the short log leaves a candidate undetermined,
+    # "Nothing the log determines needs to change" (and which ones it does not determine)
+    assert cal.sentence.startswith(("Nothing needs to change", "Nothing the log determines needs to change"))
     js = cal.to_json()
     assert js["causes"] == [] and set(js["determined"]) == set(NAMES)
     assert all(v["reason"] for v in js["determined"].values())

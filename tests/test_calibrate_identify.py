@@ -110,3 +110,43 @@ def test_the_gauss_newton_step_respects_a_bound_the_gradient_pushes_against():
     assert d[0] == 0.0
     b_only = np.linalg.lstsq(J[:, [1]], y, rcond=None)[0][0]  # b's optimum with a held at its bound
     assert abs(d[1] - b_only) < 1e-9
+
+
+def test_summary_names_no_cause_when_the_changes_do_not_lower_the_error():
+    from mjtrack.calibrate.causes import Cause, summary
+
+    c = Cause(parameters=["cg_y"], changed={"cg_y": (0.0, 0.046)}, tied=[], share=0.0, gain_alone=-0.04,
+              sentence="its centre of mass is 0.046 m left of the centre line")
+    worse = summary([c], (0.46, 0.474), where="held-out", yaw=None)
+    assert worse.startswith("No candidate explains the error") and "erred mostly because" not in worse
+    assert "cg_y" in worse and "0.46 m to 0.474 m" in worse
+    better = summary([Cause(["cg_y"], {"cg_y": (0.0, 0.05)}, [], 1.0, 0.99, "its centre of mass is 0.05 m left")],
+                     (0.04, 0.001), where="held-out", yaw=None)
+    assert better.startswith("The described MuJoCo robot erred mostly because its centre of mass")
+
+
+def test_summary_says_what_the_log_does_not_determine():
+    from mjtrack.calibrate.causes import summary
+
+    text = summary([], (0.327, 0.327), where="held-out", yaw=(0.45, 0.53), undetermined=["mu", "wheelbase"])
+    assert text.startswith("Nothing the log determines needs to change. It does not determine mu, wheelbase")
+    assert "measured 0.45, described robot 0.53" in text
+    clean = summary([], (0.004, 0.004), where="held-out", yaw=None, undetermined=[])
+    assert clean.startswith("Nothing needs to change")
+
+
+def test_a_large_change_with_a_wide_interval_is_determined_and_changed():
+    """A parameter whose interval is wider than its resolution but far from the description (the
+    log says it must change, and by about how much) stays fitted, with its interval; one whose
+    equally wide interval reaches the description is not determined."""
+    rng = np.random.default_rng(5)
+    M = 40
+    J = rng.normal(size=(M * ROWS, 2)) * np.array([0.05, 0.05])  # weakly determined: sd ~ 0.05 each
+    J_, theta, resid = _problem(J, np.array([2.0, 0.03]), 6, noise=0.01, shared=0.01)
+    lin = _lin(["far", "near"], J_, theta, resid, specs={"far": _spec("far", 0.01), "near": _spec("near", 0.01)})
+    half = lin.uncertainty([0, 1]).half
+    assert np.all(half > 0.01)  # both wider than the resolution
+    sel = select(lin, {"far": 0.0, "near": 0.0})
+    assert sel.free == ["far"]
+    assert abs(sel.values["far"] - 2.0) < 3 * half[0]
+    assert not sel.verdicts["near"].determined and "not determined" in sel.verdicts["near"].reason

@@ -64,7 +64,7 @@ def test_the_robot_has_the_body_axes_as_principal_axes(make):
     """SimConfig.principal_axes: the whole robot's products of inertia about its centre of mass are
     zero (cg off-centre in x, y and z), so a spinning robot feels no pitch or roll moment that its
     description (mass, cg, no products) does not have; the diagonal is the box's plus the
-    elements'. With a plain box chassis (before session 6) I_xz = m_el cg_x (cg_z - r) M / m_chassis."""
+    elements'. With a plain box chassis (principal_axes=False) I_xz = m_el cg_x (cg_z - r) M / m_chassis."""
     m = make(None)
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)

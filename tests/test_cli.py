@@ -1,6 +1,7 @@
 """CLI smoke tests: ``mjtrack --help`` and ``mjtrack thesis --out DIR`` with content checks."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -23,6 +24,29 @@ def test_help_lists_every_command():
 def test_every_command_has_help(name):
     res = run_cli([name, "--help"])
     assert res.rc == 0 and f"usage: mjtrack {name}" in res.out
+
+
+def _option_help(name: str, option: str) -> str:
+    """The help text of one option of ``mjtrack NAME``, lines joined (argparse wraps them)."""
+    text = run_cli([name, "--help"]).out
+    block = text.split(f"\n  {option} ", 1)[1]
+    return " ".join(re.split(r"\n(?! {3})", block, maxsplit=1)[0].split())  # to the next unindented line
+
+
+@pytest.mark.parametrize("name", ["simulate", "validate", "render"])
+def test_scenario_help_names_every_scenario(name):
+    from mjtrack.sim.scenarios import SCENARIOS
+
+    text = _option_help(name, "--scenario")
+    for scenario in SCENARIOS.values():  # every name with its description, in the help itself
+        assert f"{scenario.name}: {scenario.description}" in text, scenario.name
+
+
+@pytest.mark.parametrize("name, default", [("steady", "flat ground"), ("sweep", "flat ground"),
+                                           ("simulate", "the scenario's terrain, else flat")])
+def test_terrain_help_says_its_real_default(name, default):
+    text = _option_help(name, "--terrain")
+    assert text.endswith(f"(default: {default})"), text[-80:]
 
 
 def test_no_command_is_a_usage_error():

@@ -164,8 +164,8 @@ def test_loads_are_those_of_a_rigid_plate_on_tensionless_springs(cg, n_across):
     """A rigid chassis on equal springs deflects as a plane: N_i = max(0, a + b x_i + c y_i) (the
     MuJoCo robot's suspension). Checked by the optimality conditions, not by the solver: a plane
     fitted through the loaded points reproduces them, and is <= 0 where the load is 0; without
-    lift-off the closed form W/n (1 + c_x x/mean(x^2) + c_y y/mean(y^2)). Before session 6 the two
-    tracks had separate Wong distributions (a c_x c_y x y twist term a rigid chassis cannot carry)."""
+    lift-off the closed form W/n (1 + c_x x/mean(x^2) + c_y y/mean(y^2)). An earlier form gave the two
+    tracks separate Wong distributions (a c_x c_y x y twist term a rigid chassis cannot carry)."""
     robot = ROBOT.replace(cg_x=cg[0], cg_y=cg[1])
     x, y, N = normal_loads(robot, n_points=50, n_across=n_across)
     loaded = N > 0

@@ -6,7 +6,7 @@ regularisation small (5e-5 s, 1e-4 m/s) its lags vanish, and on the same body â€
 (+-0.25, +-0.275) m (the rollout's two midpoints per side of a 1.0 m line), 50 kg, the same yaw
 inertia, cg 0.2 m high â€” both must give the same yaw response after a step of the track speeds.
 Measured by the equivalent dead time int (w_end - w)/(w_end - w_0) dt over 1 s from the step.
-Until session 7 the rollout's load transfer took one fixed-point step per evaluation: 8 % too
+With one fixed-point step of the load transfer per evaluation (``load_iterations=1``) the rollout is 8 % too
 slow on a turn entry from straight driving (0.0701 vs 0.0649 s); converged, within 0.1 %.
 """
 
@@ -60,7 +60,7 @@ def test_rollout_transient_matches_the_independent_generator(u0, u1, monkeypatch
     gen = _generator(u0, u1, monkeypatch)
     roll = _rollout(u0, u1)
     assert roll == pytest.approx(gen, rel=0.01), (roll, gen)  # measured within 0.1 %
-    if u0 == (1.0, 1.0):  # the one-step load transfer of sessions 1-6 is off by more than 5 %
+    if u0 == (1.0, 1.0):  # the one-step load transfer is off by more than 5 %
         assert abs(_rollout(u0, u1, load_iterations=1) / gen - 1) > 0.05
 
 

@@ -1,7 +1,7 @@
 """Diagnosis end to end: each hidden effect is named, estimated within 25 % and gives a held-out
 gain; pairs of effects are both found; clean logs give "none"; ties of physically equivalent
 effects are flagged with what would separate them; DRIVE-layout logs work at default options;
-the command writes diagnosis.json (CONTRACTS.md §4) and report.html; bad input exits 2 with one
+the command writes diagnosis.json (docs/reference/formats/diagnosis-json.md) and report.html; bad input exits 2 with one
 line and writes nothing.
 
 The logs come from the separate, INDEPENDENT generator (mjtrack/testing/diagnose_physics.py through

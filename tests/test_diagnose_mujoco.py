@@ -1,8 +1,8 @@
-"""Issue 6 on MuJoCo logs: every hidden effect named, estimated within 25 %, with a held-out gain;
+"""Diagnosis on MuJoCo logs: every hidden effect named, estimated within 25 %, with a held-out gain;
 clean logs give "none".
 
 The logs come from the separate MuJoCo GENERATOR (mjtrack/testing/mujoco_effects.py): the robot of
-mjtrack.sim with one effect of CONTRACTS.md §4 hidden, pose noise 1 cm / 0.3 deg at 20 Hz,
+mjtrack.sim with one effect of diagnosis.json's vocabulary hidden, pose noise 1 cm / 0.3 deg at 20 Hz,
 pose only or with the simulated track speeds. The diagnosis gets the log and the nominal robot
 only. The default run checks a few effects on 120 s logs; the full matrix (every effect x
 {pose only, with speeds} + clean) is ``-m slow``. Known failures would be strict xfails with the
@@ -25,7 +25,7 @@ from mjtrack.testing.mujoco_effects import DRIVES, HIDDEN, LOG_DT, ROBOT, apply_
 
 DURATION = 120.0  # [s] per log: 2400 samples, 5 folds of 2 s windows; ~1.5 s to simulate, ~2 s to diagnose
 SEED = 11
-REL = 0.25  # issue 6: estimate within +-25 %
+REL = 0.25  # the requirement: estimate within +-25 %
 DIR_TOL = 0.25  # [rad] slope_direction, compared on the circle
 
 
@@ -81,7 +81,7 @@ def _matrix():
     # the surrogate's vocabulary, as benchmarks/diagnose_mujoco_effects.py runs it: the MuJoCo-only
     # grounds (kind "model", e.g. ground_anisotropy) are not effects of the surrogate baseline
     # (they need --baseline mujoco: tests/test_diagnose_mujoco_baseline.py); listing them here made the
-    # slow matrix fail with StopIteration since session 4 added the anisotropic ground
+    # slow matrix fail with StopIteration once the anisotropic ground was added
     for effect in (name for name, h in HIDDEN.items() if h.kind != "model"):
         for speeds in (False, True):
             why = KNOWN.get((effect, speeds))

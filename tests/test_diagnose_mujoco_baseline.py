@@ -236,3 +236,14 @@ def test_model_rel_is_the_measured_one():
     measured = json.loads(path.read_text())["summary"]["model_rel"]
     assert mb.MODEL_REL == round(measured, 3)
     assert mb.MODEL_FORM.rel == mb.MODEL_REL and "diagnose_mujoco_baseline.py" in mb.MODEL_FORM.measured_by
+
+
+def test_surrogate_model_rel_is_the_measured_one():
+    # the surrogate's MODEL_REL is its RMS relative error on the stored MuJoCo matrix, which
+    # benchmarks/diagnose_benchmark.py computes from benchmarks/results/diagnose_mujoco_effects.json (3 decimals)
+    from mjtrack.diagnose import surrogate_baseline as sb
+    from mjtrack.testing.repo import load_benchmark
+
+    rms, n = load_benchmark("diagnose_benchmark").model_error_on_mujoco()
+    assert n >= 10
+    assert sb.MODEL_REL == round(rms, 3)

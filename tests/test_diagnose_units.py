@@ -201,10 +201,10 @@ def test_friction_scale_scales_the_transient_time(fs):
 # The reduced model puts each sliding track's force at its Coulomb bound and the turning resistance at
 # its steady value; the rigid body builds the slip pattern gradually: measured +49 % / +38 % on the two
 # turn entries, -4 % / -3 % on the reversals (python -m pytest -q -s tests/test_diagnose_units.py -k rollout).
-# The first entry's bound was 0.4 until session 7, when the rollout's load transfer was solved to
-# convergence instead of one fixed-point step (tests/test_coulomb_transient.py): the reference's dead
+# The first entry's bound was 0.4 while the rollout's load transfer took one fixed-point step; solved to
+# convergence (tests/test_coulomb_transient.py): the reference's dead
 # time fell from 0.0529 to 0.0470 s, the reduced model's (0.0699 s) did not change, so the measured
-# error went from +32 % to +49 %; 0.55 records that, it is the reduced model's error (issue 12).
+# error went from +32 % to +49 %; 0.55 records that, it is the reduced model's error.
 _YAW_STEPS = [(((0.6, 0.6), (0.6, 0.0)), 0.55), (((0.3, 0.3), (0.6, 0.0)), 0.4),
               (((0.6, 0.0), (0.0, 0.6)), 0.1), (((0.5, -0.5), (-0.5, 0.5)), 0.1)]
 
@@ -226,8 +226,8 @@ def test_friction_limited_yaw_dead_time_against_the_coulomb_rollout(step, tol):
     assert t_model == pytest.approx(t_ref, rel=tol)
     ramp = abs(u1[1] - u1[0] - u0[1] + u0[0]) / 2 / (2 * ROBOT.mu * G)  # accel_limited's D / (2 a)
     if u0 == (0.6, 0.6):
-        # better than the ramp, but not by much: 0.82 of its error against the converged rigid body
-        # (session 7); 0.50 against the one-step load transfer of sessions 1-6, which made the
+        # better than the ramp, but not by much: 0.82 of its error against the converged rigid body;
+        # 0.50 against the one-step load transfer (load_iterations=1), which made the
         # reference itself 12 % slow here. 0.9 keeps the claim "better", not the digits.
         assert abs(t_model - t_ref) < 0.9 * abs(ramp - t_ref)
 

@@ -1,4 +1,4 @@
-"""Issue 4, MuJoCo part: the filters against the (2.13) ICRs of a MuJoCo rollout (short run).
+"""The filters against the ICRs (tracked-robot thesis eq. 2.13) of a MuJoCo rollout (short run).
 
 The experiment ``benchmarks/filters_on_mujoco.py`` holds the procedure (noise, reference
 ICRs, causal 2 s predictions); this test runs it on one left and one right 10 s turn of the

@@ -18,7 +18,8 @@ from mjtrack.errors import InputError
 from mjtrack.render import gl
 from mjtrack.icr import icr_from_twist
 from mjtrack.render.animation import animate_paths, footprint_corners
-from mjtrack.render.decor import BeltGeometry, belt_geometry, icr_markers, roller_geoms
+from mjtrack.render.decor import (ICR_LABELS, ICR_RGBA, BeltGeometry, belt_geometry, icr_markers, legend_image,
+                                  roller_geoms)
 from mjtrack.render.video import (
     clock_text,
     frame_times,
@@ -433,3 +434,38 @@ def test_terrain_geoms_are_in_the_groups_the_renderer_shows(spec):
     assert len(world) >= 2 or spec.startswith("incline")
     assert all(shown[m.geom_group[g]] for g in world)
     assert all(m.geom_rgba[g, 3] > 0 for g in world)
+
+
+def test_icr_legend_names_each_marker_colour(model, backend, tmp_path):
+    """The three ICR markers have their own colours and a legend in the top-right corner names them:
+    the legend image holds each colour, and a frame rendered with labels differs from one without
+    in that corner only (the camera, the scene and the markers are the same)."""
+    legend = legend_image(ICR_LABELS, height_px=480)
+    rgb = (legend[..., :3] * 255).astype(np.uint8)
+    opaque = legend[..., 3] > 0.5
+    for rgba in ICR_RGBA:  # every marker colour is drawn in the legend (its circle and line)
+        assert (colour_mask(rgb, rgba[:3]) & opaque).sum() > 20, rgba
+    assert (rgb[opaque].min(axis=1) > 200).mean() > 0.5  # a light box behind black text
+
+    t, poses = turn(duration=0.2, n=11)
+    icr = np.repeat([[[0.0, RADIUS, 0.0], [0.0, RADIUS + 0.3, 0.0], [0.0, RADIUS - 0.3, 0.0]]], len(t), axis=0)
+    frames = {}
+    for name, labels in (("plain", None), ("legend", ICR_LABELS)):
+        out = tmp_path / f"{name}.mp4"
+        render_video(model, qpos_from_poses(model, poses), t, out, fps=10, icr=icr, icr_labels=labels,
+                     progress=False)
+        frames[name] = np.stack(imageio.mimread(out)).astype(int)
+    diff = np.abs(frames["legend"] - frames["plain"]).max(axis=(0, 3))  # (H, W) largest change
+    h, w = legend.shape[:2]
+    corner = diff[:h + 8, -(w + 8):]
+    # measured 0.19 of the corner: the text, markers and box edge (the light box on the light ground
+    # changes little); a missing legend gives 0
+    assert (corner > 60).mean() > 0.1
+    rest = diff.copy()
+    rest[:h + 16, -(w + 16):] = 0  # outside the corner (with the codec's block margin)
+    # elsewhere only the codec's noise: measured 0.02 % of pixels above 30 (the encoder spends its
+    # bits differently), against 19 % above 60 in the corner
+    assert (rest > 30).mean() < 0.002
+    last = frames["legend"][-1][:h + 8, -(w + 8):].astype(np.uint8)
+    for rgba in ICR_RGBA:  # the colours survive the video codec
+        assert colour_mask(last, rgba[:3]).sum() > 5, rgba

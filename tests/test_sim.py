@@ -70,7 +70,7 @@ def test_equality_coupling_variant_builds_and_drives():
 def test_straight_driving_speed_and_drift():
     res = steady_state(Robot(), 0.8, 0.8, settle_s=1.5, window_s=1.0)
     V = (res.v_left + res.v_right) / 2
-    assert abs(res.vx - V) < 0.01 * V  # issue 3: |v_x - V| < 1 % of V
+    assert abs(res.vx - V) < 0.01 * V  # fidelity target: |v_x - V| < 1 % of V
     assert abs(res.vy) < 1e-4 and abs(res.wz) < 1e-4
     assert math.isnan(res.y_l)  # straight: ICRs undefined, reported as NaN
     assert res.contact_left == res.contact_right == 1.0

@@ -1,6 +1,6 @@
 """Simulation settings of the roller chain: the faster defaults keep the old answers, the drive
 scales with the robot, the step rules, the belt and the principal axes, and the wider fidelity
-grid (issue 11)."""
+grid."""
 
 from __future__ import annotations
 
@@ -48,7 +48,7 @@ def test_faster_defaults_give_the_previous_icrs():
         settle_s=2.0, window_s=1.0)
     for a, b, r in zip(new, old, robots):
         # the main solve carries only the normal rows: PGS and Newton agree to 1e-7 T/2 on the
-        # issue-3 quick grid (assets/README.md "Speed"); 1e-4 leaves room for summation order
+        # fidelity quick grid (assets/README.md "Speed"); 1e-4 leaves room for summation order
         assert max(abs(a.y_l - b.y_l), abs(a.y_r - b.y_r)) < 1e-4 * r.track_gauge / 2
         assert abs(a.x_c - b.x_c) < 1e-4 * r.track_length
 
@@ -65,7 +65,7 @@ def test_straight_driving_does_not_drift_with_the_defaults():
 def test_straight_driving_speed_equals_the_track_speed():
     """No slip in straight driving, so the body moves at the belt speed. Without the rest margins
     it fell 0.10 % short at every speed (MuJoCo puts the contact point half-way into the rest
-    penetration, at r - d/2); with them it matches to 5e-8, and with the belt of session 6 to
+    penetration, at r - d/2); with them it matches to 5e-8, and with the belt to
     about 1e-5 at 0.3 m/s and 2e-6 at 2 m/s (benchmarks/fidelity.py: the strain the belt keeps
     from the start holds tangential forces at the sticking contacts, which creep by that much). The margin-less check runs
     at the fixed 5 ms step: at 2 m/s the lag budget halves the step, and d (~ tc^2) with it falls 4x."""
@@ -103,7 +103,7 @@ def test_rest_margins_put_the_rollers_on_the_ground_and_are_idempotent():
         # The rest depth keeps a trace of how the robot landed (static friction holds the
         # tangential state of the landing), so reapplying is a contraction, not a no-op: for the
         # 150 kg robot the margins move by 4.8e-4, then 4.6e-6, then 5.7e-8 (2.2e-4 without the
-        # belt of session 6, which couples the rollers' tangential states).
+        # belt, which couples the rollers' tangential states).
         np.testing.assert_allclose(model.pair_margin, margins, rtol=1e-3)
 
 
@@ -116,7 +116,7 @@ def test_heavy_robot_keeps_the_commanded_speed_difference():
     res = steady_batch([robot], cmd, config=SimConfig(), settle_s=2.0, window_s=1.0)[0]
     assert (res.v_right - res.v_left) > 0.9 * (cmd[0, 1] - cmd[0, 0])
     ref = coulomb(robot, res.v_left, res.v_right)
-    # measured 0.05 T/2 here before session 6 (0.0081 with the belt and principal axes; the unscaled
+    # measured 0.05 T/2 here without the belt and principal axes (0.0081 with the belt and principal axes; the unscaled
     # drive gave 0.05-0.13); the wide grid's 0.05 T/2 is the bound
     assert max(abs(res.y_l - ref.y_l), abs(res.y_r - ref.y_r)) < 0.05 * robot.track_gauge / 2
 
@@ -129,10 +129,11 @@ def _wide_rows():
 
 @pytest.mark.slow
 def test_wide_quick_grid_passes_everywhere():
-    """The issue-11 quick grid (112 turns: 4 robots of 5-150 kg, L/T 0.6-2, pivot and R 1-10 m at
+    """The wide quick grid (112 turns: 4 robots of 5-150 kg, L/T 0.6-2, pivot and R 1-10 m at
     0.2 and 2 m/s, both directions, cg +-0.1 L) with the default settings: every turn within
     0.05 T/2 and 0.02 L of the Coulomb reference with load transfer (independent code), dt
-    halving < 0.02 T/2, contact >= 99 %. Before session 6, 100 of 112: fast pivots of the 5 kg
+    halving < 0.02 T/2, contact >= 99 %. Without the belt, principal axes and slip budget,
+    100 of 112: fast pivots of the 5 kg
     long robot (0.053 T/2, principal axes), R 10 m at 0.2 m/s (drive compliance: belt; the
     friction time constant: slip budget)."""
     fidelity, rows = _wide_rows()
@@ -270,7 +271,7 @@ def _roller_surface_speeds(model, data, side: str, n: int, r: float) -> np.ndarr
 
 
 def test_belt_makes_the_rollers_of_a_track_run_at_one_speed():
-    """SimConfig.belt_timeconst: in a gentle turn (80 kg issue-11 robot, cg 0.1 L ahead, R 10 m at
+    """SimConfig.belt_timeconst: in a gentle turn (the wide grid's 80 kg robot, cg 0.1 L ahead, R 10 m at
     0.2 m/s) the servos alone let the roller surface speeds of a track spread by F_i/(kv/N), mm/s
     like the slips, and x_c then missed Coulomb by 0.03 L (benchmarks/gentle_turns.py, section 5);
     with the belt every roller runs at the track speed and x_c is within 0.005 L (measured 0.0017).

@@ -85,7 +85,7 @@ def test_track_speed_sign_and_frame(model):
 @pytest.mark.parametrize("v", [0.3, -0.5])
 def test_straight_driving_speed(v):
     run = run_steady(_fresh(), v, v, duration=1.5, average=0.5)
-    assert abs(run.vx - v) < 0.01 * abs(v)  # issue-3 target: 1 % of V
+    assert abs(run.vx - v) < 0.01 * abs(v)  # fidelity target: 1 % of V
     assert abs(run.wz) < 1e-6 and abs(run.vy) < 1e-6
     assert run.drift < 1e-3  # lateral drift < 1 mm per metre
     assert run.warnings == 0
@@ -149,7 +149,7 @@ def test_ground_contact_lookup_matches_ids_and_sensors():
     np.testing.assert_array_equal(ground_contact(d, ids), [False, False])
 
 
-# The worst cases of the issue-3 grid for this model (python benchmarks/fidelity.py
+# The worst cases of the fidelity grid for this model (python benchmarks/fidelity.py
 # --track-model surfacevel: largest err_x on the default robot 0.0106 L, largest err_y on the long
 # robot 0.031 T/2) and low-friction cases of the long robot with the cg at -0.1 L. Commands: v 0.8 m/s.
 LONG = Robot(track_gauge=0.6, track_length=0.9, mass=60.0, cg_z=0.2)

@@ -190,14 +190,14 @@ def test_a_finished_sweep_is_replaced_only_with_force(swept, cluster, capsys):
 
 
 def test_resume_refuses_a_sweep_from_other_simulator_settings(swept, capsys):
-    """A roller-chain sweep started under other settings (session 5 kept only lag_budget, and ran
+    """A roller-chain sweep started under other settings (older sweep files kept only lag_budget, and ran
     without the belt and the principal axes) must not be mixed with rows of the current model."""
     out = swept / "old_rule"
     out.mkdir()
     doc = json.loads((swept / "a" / "sweep.json").read_text())
     config = doc.pop("sim_config")
     assert config["lag_budget"] == 0.01 and config["belt_timeconst"] == 0.01 and config["principal_axes"] is True
-    doc["lag_budget"] = 0.01  # what a session-5 sweep recorded
+    doc["lag_budget"] = 0.01  # what an older sweep file recorded
     (out / "sweep.partial.json").write_text(json.dumps(doc))
     (out / "sweep.partial.csv").write_text((swept / "a" / "sweep.csv").read_text())
     before = (out / "sweep.partial.csv").read_bytes()

@@ -1,4 +1,4 @@
-"""Issue 7, tracked-robot part: compensation maps, the online estimator, the MuJoCo loop, `mjtrack track`."""
+"""Tracked-robot tracking: compensation maps, the online estimator, the MuJoCo loop, `mjtrack track`."""
 
 import json
 import math
@@ -204,7 +204,7 @@ def test_static_error_map_predicts_the_kinematic_closed_loop(x_c):
 
 
 def test_yaw_only_compensation_is_worse_than_none_with_the_cg_behind_and_the_drift_free_point_is_not():
-    """Issue 14's finding, on a kinematic truth: with x_c < 0 the yaw deficit (outwards) and the
+    """Why the first icr mode was worse than none, on a kinematic truth: with x_c < 0 the yaw deficit (outwards) and the
     drift v_y = -x_c w (inwards) of the uncompensated robot partly cancel; correcting the yaw
     alone (the first icr mode) leaves the drift and a larger error; the full ICR map with the
     feedback on the drift-free point (x_c, 0) leaves none."""
@@ -290,7 +290,7 @@ def test_windowed_cross_track_error_ignores_the_other_branch_of_a_figure_eight()
 
 
 def test_compensated_figure_eight_halves_the_cross_track_error():
-    """Issue 7 acceptance: mu 0.4, cg 0.1 L forward, figure-eight at 0.5 m/s, same tracker and gains."""
+    """Acceptance: mu 0.4, cg 0.1 L forward, figure-eight at 0.5 m/s, same tracker and gains."""
     robot = Robot(mu=0.4, cg_x=0.1 * Robot().track_length)
     none = run_tracking(robot, compensation="none").metrics["rms_cross_track_m"]
     vir = run_tracking(robot, compensation="vir").metrics["rms_cross_track_m"]
@@ -299,7 +299,7 @@ def test_compensated_figure_eight_halves_the_cross_track_error():
 
 @pytest.mark.parametrize("scenario, mu, cg_x, speed", [("circle", 0.8, -0.05, 1.0), ("lane_change", 0.8, 0.05, 1.0)])
 def test_compensation_is_not_worse_than_none_on_grid_points(scenario, mu, cg_x, speed):
-    """Two points of benchmarks/compensation_grid.py (seed 0): the issue-14 case, where the first
+    """Two points of benchmarks/compensation_grid.py (seed 0): the case where the first
     icr mode raised the RMS by 65-91 %, and a lane change (both turn directions)."""
     robot = Robot(mu=mu, cg_x=cg_x)
     met = {m: run_tracking(robot, scenario=scenario, compensation=m, speed=speed).metrics for m in ("none", "icr", "vir")}
@@ -394,7 +394,7 @@ def test_the_grid_miss_is_the_estimate_not_the_absence_of_slip():
 def test_quick_compensation_grid_names_the_reason_of_each_miss(tmp_path):
     """benchmarks/compensation_grid.py --quick (24 cases, seed 0); the full 72-case grid is the script.
 
-    Issue 14's "never worse" is not met on the lane change with mu 0.4, cg -0.05 m at 0.5 m/s
+    "Never worse than none" is not met on the lane change with mu 0.4, cg -0.05 m at 0.5 m/s
     (none 2.6 mm RMS): vir's maximum ratio is 1.004 (measured), so the script exits 1. Every mode
     that fails is within 1 % of none, and the script names the reason by measurement: with the
     ICRs of a circle on that ground in place of the estimate the same mode gains >= 5 %."""

@@ -1,6 +1,6 @@
 """Wheeled-robot models of the wheeled-robot thesis: each model's own verification case.
 
-Thesis numbers reproduced (Part 4 of THESIS.md; digits restored as explained in the modules):
+Thesis numbers reproduced (Jonszta 2008, docs/theory/wheeled.md; digits restored as explained in the modules):
 kinematic circle R = 1 m at v = 1 m/s in 2 pi s; dynamic model 1 reaches 2 m/s at 0.333 s and
 spins up at 130 rad/s^2 under +-1 N; dynamic model 2 leaves the R = 0.2 m circle at 2.16 s;
 skid steer reaches 1 m/s at about 0.17 s; Ackermann circles 0.52 m (rear) / 0.6 m (front) at

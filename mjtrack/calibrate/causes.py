@@ -151,14 +151,29 @@ def find_causes(changed: list[str], values: dict[str, float], described: dict[st
     return out
 
 
-def summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: tuple[float, float] | None) -> str:
-    """The calibration's one-paragraph conclusion, from its measured causes."""
+def summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: tuple[float, float] | None,
+            undetermined: list[str] | None = None) -> str:
+    """The calibration's one-paragraph conclusion, from its measured causes (``undetermined``: the
+    candidates the log does not determine)."""
     before, after = rms
+    if not causes and undetermined:
+        text = (f"Nothing the log determines needs to change. It does not determine {', '.join(undetermined)}: "
+                "they keep their described values, and calibration cannot say whether they are right")
+        if yaw is not None and all(np.isfinite(yaw)):
+            text += f" (steady-turn yaw ratio: measured {yaw[0]:.2f}, described robot {yaw[1]:.2f})"
+        return text + (f". {where.capitalize()} 2 s position error {before:.3g} m; what remains of it has causes "
+                       "this log cannot attribute to them.")
     if not causes:
         return (f"Nothing needs to change: the described robot predicts this log within what the log determines "
                 f"({where} 2 s position error {before:.3g} m); no parameter differs from its description by more "
                 "than its interval.")
     first = causes[0]
+    if after >= before or (first.share <= 0 and first.gain_alone <= 0):
+        # the fit moved something, but nothing it moved lowers the error: no candidate is the cause
+        return (f"No candidate explains the error: calibration changed "
+                f"{', '.join(p for c in causes for p in c.changed)} ({first.sentence}), but the {where} 2 s "
+                f"position error went from {before:.3g} m to {after:.3g} m. The simulation errs for a reason none "
+                "of the candidates describes; do not read the changed values as the robot's.")
     text = f"The described MuJoCo robot erred mostly because {first.sentence}"
     text += f" ({100 * first.share:.0f} % of the improvement; alone it removes {100 * first.gain_alone:.0f} % of the error)"
     more = [c for c in causes[1:] if c.share >= 0.1]

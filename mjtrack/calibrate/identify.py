@@ -13,8 +13,10 @@ the sources are measured by :func:`mjtrack.calibrate.run.calibrate`). Half-width
 t sd + |shift| (a bias does not shrink with more windows, so it is added, not put in quadrature).
 
 What the log determines. A parameter is determined when its half-width is at most its resolution
-(:attr:`mjtrack.calibrate.params.ParamSpec.resolution`). :func:`select` removes, one at a time,
-the parameter whose half-width is the largest multiple of its resolution and recomputes the
+(:attr:`mjtrack.calibrate.params.ParamSpec.resolution`) or at most its distance from the
+described value (the interval then excludes the description: the log says it must change, and the
+interval says by how much). :func:`select` removes, one at a time, the parameter whose half-width
+is the largest multiple of that allowance and recomputes the
 others' intervals without it (the sandwich of the remaining columns); a parameter removed because
 it trades with another (|correlation| above :data:`TIE`) leaves that one to carry their
 combination, and both are reported as not determined one by one. Then, among the determined
@@ -221,7 +223,10 @@ def select(lin: Linearised, described: dict[str, float]) -> Selection:
     # 1. what the log determines
     while idx:
         u = lin.uncertainty(idx, resid)
-        ratio = u.half / res[idx]
+        # determined: the interval is within the resolution, or narrow enough to exclude the
+        # description (the log then says the value must change, and by about how much)
+        away = np.abs(theta[idx] - d_scaled[idx]) * lin.scales[idx]
+        ratio = u.half / np.maximum(res[idx], away)
         k = int(np.argmax(ratio))
         if ratio[k] <= 1.0:
             break
@@ -239,7 +244,8 @@ def select(lin: Linearised, described: dict[str, float]) -> Selection:
             tied = [other]
         else:
             reason = (f"not determined by this log: its 95 % interval would be +-{fmt_value(u.half[k], spec.unit)}, "
-                      f"wider than the +-{fmt_value(spec.resolution, spec.unit)} that matters; it stays at its "
+                      f"wider than the +-{fmt_value(spec.resolution, spec.unit)} that matters and than its distance "
+                      f"from the description; it stays at its "
                       f"described value {fmt_value(described[name], spec.unit)}")
             tied = []
         verdicts[name] = Verdict(name, False, False, described[name], described[name], None, reason, tied)
@@ -287,13 +293,14 @@ def final_verdicts(lin: Linearised, described: dict[str, float], ties: dict[str,
         lo, hi = max(spec.lo, v - half), min(spec.hi, v + half)
         tied = ties.get(name, [])
         changed = has_changed(v, described[name])
+        allow = max(spec.resolution, abs(v - described[name]))  # the rule of select, step 1
         if tied:
             reason = (f"carries its combination with {', '.join(tied)}, which the log cannot tell apart: "
                       f"{fmt_value(v, spec.unit)} [{lo:.4g}, {hi:.4g}] holds only with "
                       f"{', '.join(tied)} at the described value")
-        elif half > spec.resolution:
+        elif half > allow:
             reason = (f"moved but barely determined: 95 % interval +-{fmt_value(half, spec.unit)} is wider than the "
-                      f"+-{fmt_value(spec.resolution, spec.unit)} that matters")
+                      f"+-{fmt_value(spec.resolution, spec.unit)} that matters and reaches the described value")
         else:
             unit = "" if spec.unit in ("–", "-") else f" {spec.unit}"
             reason = (f"determined: 95 % interval [{lo:.4g}, {hi:.4g}]{unit} (statistical "
@@ -301,7 +308,7 @@ def final_verdicts(lin: Linearised, described: dict[str, float], ties: dict[str,
                       f"+-{fmt_value(u.shift[k], spec.unit)}, optimiser +-{fmt_value(rest[k], spec.unit)})")
             if not changed:
                 reason += "; equal to the description"
-        out[name] = Verdict(name, bool(not tied and half <= spec.resolution), changed, v, described[name], (lo, hi),
+        out[name] = Verdict(name, bool(not tied and half <= allow), changed, v, described[name], (lo, hi),
                             reason, tied)
     return out, u, rest
 

@@ -152,7 +152,7 @@ def build_report(cal) -> Report:
                 + f"; {sum(f.evaluations for f in fits)} parameter sets × {len(cal.train_windows)} windows simulated "
                   f"in {sum(f.seconds for f in fits):.1f} s. Intervals: 95 %, a cluster-robust sandwich over clusters "
                   "of consecutive windows plus each parameter's model-form shift (a finer simulator, a longer warm-up "
-                  "of the hidden states). A parameter is determined when its half-width is at most its resolution; "
+                  "of the hidden states). A parameter is determined when its half-width is at most its resolution or its distance from the described value; "
                   "one that is not, or whose described value lies in its interval, keeps the described value.")
     rows = []
     for n in cal.names:

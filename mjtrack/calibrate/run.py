@@ -20,6 +20,7 @@ Stages (timed):
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import math
@@ -110,6 +111,7 @@ class Calibration:
     sentence: str
     config: dict
     timings: dict[str, float] = field(default_factory=dict)
+    drive_input: str = "commanded"
 
     @property
     def changed(self) -> list[str]:
@@ -118,7 +120,7 @@ class Calibration:
     def to_json(self) -> dict:
         fits = [self.fit] + ([self.refit] if self.refit is not None else [])
         out = {
-            "simulator": "mujoco", "track_model": self.track_model,
+            "simulator": "mujoco", "track_model": self.track_model, "drive_input": self.drive_input,
             "parameters": {n: self.values[n] for n in self.names},
             "intervals": {n: list(v.interval) for n, v in self.verdicts.items() if v.interval is not None},
             "determined": {n: self.verdicts[n].to_json() for n in self.names},
@@ -190,7 +192,7 @@ def turn_measures(lg: DriveLog, ws: WindowSet, robot: Robot, poses: np.ndarray, 
     tw = _chord_twist(p0, p1, dur)
     v = np.array([np.nanmean(speeds[j, :n[j] + 1], axis=0) for j in range(M)])
     wnom = (v[:, 1] - v[:, 0]) / robot.track_gauge
-    steady = steady_mask(lg, ws)
+    steady = steady_mask(commanded_log(lg), ws)
     use = steady & (np.abs(wnom) >= STEADY_MIN_WZ)
     ratio = float(np.median(tw[use, 2] / wnom[use])) if use.any() else float("nan")
     turn = rs.turn_ratio(v)
@@ -303,7 +305,7 @@ def model_form_sources(obj, values: dict[str, float], resid: np.ndarray, jac: np
 def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
               names: str | list[str] | None = None, horizon_s: float = 2.0, n_rollers: int | None = None,
               max_iter: int = 8, nthread: int = 2, quiet: bool = True, train_path: str | None = None,
-              test_path: str | None = None, warmup_s: float = WARMUP_S) -> Calibration:
+              test_path: str | None = None, warmup_s: float = WARMUP_S, drive_input: str = "commanded") -> Calibration:
     """Fit the MuJoCo robot to ``train`` (see the module docstring); bad input raises InputError.
 
     Args:
@@ -319,14 +321,62 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
         max_iter: Levenberg-Marquardt iterations of the first fit (the refit gets half).
         nthread: rollout threads (results do not depend on it).
         warmup_s: history [s] over which each window's hidden states are warmed up (0: none).
+        drive_input: ``"commanded"``: the simulated drives follow the logged commands (the drive's
+            lag, delay and speed scale are candidates); ``"measured"``: they follow the logged
+            track speeds, for a robot whose own speed controller caps or shapes its commands in
+            ways the drive keys do not describe; only the contact is calibrated then.
     """
     from mjtrack.sim.rollout import summarised_mujoco_warnings
 
     src = train_path or train.source or "train log"
+    if drive_input not in DRIVE_INPUTS:
+        raise InputError(f"drive_input must be one of {', '.join(DRIVE_INPUTS)}, got {drive_input!r}")
+    if drive_input == "measured":
+        train = measured_drive_log(train, train_path or train.source or "train log")
+        test = None if test is None else measured_drive_log(test, test_path or test.source or "test log")
+        if names is None:  # the default candidates less the drive's
+            names = [n for n in parse_names(None, robot, train) if n not in COMMAND_PARAMS]
+        elif isinstance(names, str):
+            names = parse_names(names, robot, train)
+        bad = [n for n in names if n in COMMAND_PARAMS]
+        if bad:
+            raise InputError(f"--params {', '.join(bad)}: describe how the drives follow their commands; with "
+                             f"--drive-input measured the drives follow the measured track speeds")
     with summarised_mujoco_warnings(f"calibrate {src}", log):  # one line, not one per diverged window
-        return _calibrate(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
-                          max_iter=max_iter, nthread=nthread, quiet=quiet, train_path=train_path,
-                          test_path=test_path, warmup_s=warmup_s)
+        cal = _calibrate(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
+                         max_iter=max_iter, nthread=nthread, quiet=quiet, train_path=train_path,
+                         test_path=test_path, warmup_s=warmup_s)
+    return dataclasses.replace(cal, drive_input=drive_input)
+
+
+DRIVE_INPUTS = ("commanded", "measured")
+COMMAND_PARAMS = ("drive_lag", "drive_delay", "track_speed_scale")  # how the drives follow their commands
+
+
+def measured_drive_log(lg: DriveLog, name: str) -> DriveLog:
+    """The log with its measured track speeds in place of the commands (a track without a measured
+    speed on a row keeps its command there); InputError when it has no measured speeds."""
+    if lg.v_left is None or lg.v_right is None:
+        raise InputError(f"{name}: --drive-input measured needs the measured track speeds (v_left, v_right)")
+    ok = np.isfinite(lg.v_left) & np.isfinite(lg.v_right)
+    if ok.mean() < 0.5:  # mostly commands: that is the commanded calibration, mislabelled
+        raise InputError(f"{name}: measured track speeds on only {100 * ok.mean():.0f} % of the rows; "
+                         f"--drive-input measured needs them on most rows")
+    return dataclasses.replace(lg, v_left_cmd=np.where(np.isfinite(lg.v_left), lg.v_left, lg.v_left_cmd),
+                               v_right_cmd=np.where(np.isfinite(lg.v_right), lg.v_right, lg.v_right_cmd),
+                               extra={**lg.extra, LOGGED_COMMANDS[0]: lg.v_left_cmd,
+                                      LOGGED_COMMANDS[1]: lg.v_right_cmd})
+
+
+LOGGED_COMMANDS = ("logged_v_left_cmd", "logged_v_right_cmd")  # where measured_drive_log keeps the commands
+
+
+def commanded_log(lg: DriveLog) -> DriveLog:
+    """The log with its logged commands (undoes :func:`measured_drive_log`): which windows are
+    steady turns is a property of the commands."""
+    if LOGGED_COMMANDS[0] not in lg.extra:
+        return lg
+    return dataclasses.replace(lg, v_left_cmd=lg.extra[LOGGED_COMMANDS[0]], v_right_cmd=lg.extra[LOGGED_COMMANDS[1]])
 
 
 def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, quiet,
@@ -484,7 +534,8 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     m, tb, _ = meas_by[part]
     rms = (test_before.rms, test_after.rms) if test is not None else (before.rms, after.rms)
     sentence = summary(causes, rms, where="held-out" if test is not None else "training",
-                       yaw=(m["yaw_ratio"], tb["yaw_ratio"]))
+                       yaw=(m["yaw_ratio"], tb["yaw_ratio"]),
+                       undetermined=[n for n in names if not verdicts[n].determined])
     timings["total"] = time.perf_counter() - t0
     return Calibration(
         train_path=str(train_path or train.source), test_path=None if test is None else str(test_path or test.source),

@@ -181,17 +181,25 @@ def robot_from_args(args: argparse.Namespace, base: Robot | None = None) -> Robo
         raise InputError(f"{exc} (options: {given}{origin})") from None
 
 
-TERRAIN_HELP = ("terrain under the simulated robot: flat (default), incline:ANGLE[:DIR] (rad; DIR the uphill "
+TERRAIN_HELP = ("terrain under the simulated robot: flat, incline:ANGLE[:DIR] (rad; DIR the uphill "
                 "direction, default 0 = +x), step:HEIGHT:X (a step across the ground from x = X on), "
                 "hfield:FILE:SIZE_X:SIZE_Y:HEIGHT (.npy or .png heights scaled 0-1, centred at the origin), "
                 "patches:FILE.json (rectangles {x, y, size_x, size_y, mu}) or FILE.json combining "
                 "incline/steps/hfield/patches")
 
 
-def add_terrain_option(parser: argparse.ArgumentParser) -> None:
-    """Add ``--terrain SPEC`` (parsed by :func:`terrain_from_args`)."""
-    parser.add_argument("--terrain", metavar="SPEC", default=None,
-                        help=TERRAIN_HELP + " (default: the scenario's terrain, else flat)")
+def add_terrain_option(parser: argparse.ArgumentParser, *, scenarios: bool = True) -> None:
+    """Add ``--terrain SPEC`` (parsed by :func:`terrain_from_args`); ``scenarios``: the command
+    also takes ``--scenario``, whose terrain is the default."""
+    default = "the scenario's terrain, else flat" if scenarios else "flat ground"
+    parser.add_argument("--terrain", metavar="SPEC", default=None, help=f"{TERRAIN_HELP} (default: {default})")
+
+
+def scenario_help(lead: str) -> str:
+    """``lead`` and every built-in scenario with what it drives (the ``--scenario`` help)."""
+    from mjtrack.sim.scenarios import SCENARIOS
+
+    return f"{lead}: " + "; ".join(f"{s.name}: {s.description} ({s.duration:g} s)" for s in SCENARIOS.values())
 
 
 def terrain_from_args(args: argparse.Namespace, scenario: str | None = None):

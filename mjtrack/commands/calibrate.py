@@ -47,6 +47,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rollers", metavar="N", type=bounded("rollers"), default=None,
                         help="contact rollers per track in the simulation (default: the robot file's simulator "
                              "setting, else 10; 6 is ~2x faster); recorded in robot.json")
+    parser.add_argument("--drive-input", choices=["commanded", "measured"], default="commanded",
+                        help="what the simulated drives follow: the logged commands (default; the drive's lag, delay "
+                             "and speed scale are fitted too) or the logged track speeds (for a robot whose own speed "
+                             "controller caps its commands; only the contact is fitted)")
     parser.add_argument("--threads", metavar="N", type=bounded("threads"), default=2, help="rollout threads (default 2)")
     add_robot_options(parser)
     add_output_options(parser)
@@ -63,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
         check_same_robot(robot, test_robot, str(args.test))
     cal = calibrate(train, robot, test=test, names=args.params, horizon_s=args.horizon,
                     n_rollers=args.rollers, max_iter=args.max_iter, nthread=args.threads, quiet=args.quiet,
+                    drive_input=args.drive_input,
                     train_path=str(args.log), test_path=None if args.test is None else str(args.test))
     write_outputs(cal, out)
     changed = ", ".join(f"{n} {cal.described[n]:.4g} -> {cal.values[n]:.4g}" for n in cal.changed) or "nothing"

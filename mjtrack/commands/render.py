@@ -1,8 +1,9 @@
 """Offscreen MuJoCo video of a drive log (or of a scenario rollout), no display needed.
 
 The robot is placed at the log's poses (any log: simulated or measured), the camera follows
-it, its path is trailed on the ground and the log's own ICRs (2.13) of the left track, right
-track and body are drawn on the ground while it turns. Each track is drawn as a belt whose
+it, its path is trailed on the ground and the log's own ICRs of the left track, right track
+and body (from its body twist and track speeds) are drawn on the ground while it turns, in
+three colours that a legend in the top-right corner names. Each track is drawn as a belt whose
 grousers advance with the log's track speeds (measured where logged, else commanded); every
 frame shows the time and the playback speed. A log simulated on terrain (recorded in its
 JSON) is shown on that terrain at the logged height, roll and pitch. A log with several

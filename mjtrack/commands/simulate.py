@@ -1,7 +1,7 @@
 """Headless MuJoCo rollout of the tracked robot: writes a drive log and its robot description.
 
-Drives the roller-chain robot (mjtrack.sim) with a named scenario (straight, circle, pivot,
-u_path, random_steps) or a command CSV (columns t, v_left_cmd, v_right_cmd; each command
+Drives the roller-chain robot (mjtrack.sim) with a built-in scenario (--scenario, listed below)
+or a command CSV (columns t, v_left_cmd, v_right_cmd; each command
 held until the next) and writes LOG.csv (columns t [s], v_left_cmd, v_right_cmd [m/s], x, y [m],
 yaw [rad], v_left, v_right, vx, vy [m/s], wz [rad/s]; z [m], roll, pitch [rad] on terrain other
 than flat) and LOG.json (the robot used, and the terrain under key "terrain" when it is not
@@ -9,9 +9,10 @@ flat). The same arguments and
 seed give a byte-identical log.
 
 Time step of the roller chain (without --timestep): 5 ms (smaller on terrain edges), the step at
-which calibrate and diagnose simulate a log's windows. At fast commands on short tracks a turn's
-x_c then sits v dt behind Coulomb (the noslip friction's one-step lag; `steady` divides its step
-for that, SimConfig.lag_budget): --timestep S with v_max S <= 0.01 L removes it.
+which calibrate and diagnose simulate a log's windows. With fast commands on short tracks a turn's
+x_c (where the tracks slip only along themselves) then sits about v dt behind the rigid-track
+Coulomb reference, because MuJoCo's friction opposes the slip one step ahead (`steady` shortens
+its step for that): --timestep S with v_max S <= 0.01 L removes it.
 """
 
 from __future__ import annotations
@@ -20,7 +21,8 @@ import argparse
 from pathlib import Path
 
 from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, bounded,
-                                      check_out_file, check_overwrite, robot_from_args, terrain_from_args)
+                                      check_out_file, check_overwrite, robot_from_args, scenario_help,
+                                      terrain_from_args)
 
 HELP = "headless MuJoCo rollout: scenario or command CSV -> drive log CSV + robot JSON"
 
@@ -29,7 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from mjtrack.sim.scenarios import SCENARIOS
 
     src = parser.add_mutually_exclusive_group(required=True)
-    src.add_argument("--scenario", choices=list(SCENARIOS), help="a built-in scenario")
+    src.add_argument("--scenario", choices=list(SCENARIOS), help=scenario_help("a built-in scenario"))
     src.add_argument("--commands", metavar="CSV", type=Path, help="command table: t, v_left_cmd, v_right_cmd")
     parser.add_argument("--duration", metavar="S", type=bounded("duration"), default=None,
                         help="simulated time [s] (default: the scenario's; the last command time + 1 s for a CSV)")

@@ -1,15 +1,16 @@
 """Steady-state twist and ICRs of the MuJoCo robot under constant track speeds.
 
 Holds (V_L, V_R) for --settle seconds, then averages the body twist and the measured track
-speeds over --window seconds; ICRs by (2.13) from the means (null when driving straight).
+speeds over --window seconds; ICRs from the means (null when driving straight).
 Prints JSON: vx, vy, wz, y_l, y_r, x_c plus the window standard deviations, the measured
 track speeds and the ground-contact fractions of each track.
 
 Time step of the roller chain: 5 ms, divided by the smallest integer k that keeps
-max|V| dt <= 0.01 L (the noslip friction's one-step lag puts x_c v dt behind Coulomb;
-SimConfig.lag_budget): a 0.5 m track runs at 5 ms up to 1 m/s, a 0.18 m one at 2 m/s at 0.83 ms;
-and that keeps mu g dt <= 5 |w| L/2, w the commanded turn rate (SimConfig.slip_budget, at most 8
-divisions; a gentler turn runs at 0.625 ms with a warning): a 5 kg robot with a 0.18 m track at
+max|V| dt <= 0.01 L (MuJoCo's friction opposes the slip one step ahead, which puts a turn's x_c
+about v dt behind the rigid-track Coulomb reference): a 0.5 m track runs at 5 ms up to 1 m/s, a
+0.18 m one at 2 m/s at 0.83 ms; and that keeps mu g dt <= 5 |w| L/2, w the commanded turn rate
+(so that one step's friction does not overshoot the slip of a gentle turn; at most 8 divisions,
+a gentler turn runs at 0.625 ms with a warning): a 5 kg robot with a 0.18 m track at
 R 10 m and 0.2 m/s runs at 1 ms.
 """
 
@@ -32,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="MuJoCo track model: sprung roller chain (default) or surfacevel row")
     parser.add_argument("--json", action="store_true", help="print JSON (the only output format; accepted for clarity)")
     add_robot_options(parser)
-    add_terrain_option(parser)
+    add_terrain_option(parser, scenarios=False)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -11,7 +11,8 @@ polar law chasing a goal pose ahead on the path), line_following (two sensors on
 line). Their body commands (v, w) go to the tracks or wheel sides through a compensation: none
 (nominal V_L,R = v -+ w T/2: the thesis's adapter), icr (inverse ICR map of the online estimate for the feed-forward, feedback
 on the body point that does not drift sideways) or vir (the same map plus the virtual-robot
-heading correction 2.21). The estimate is applied with a trust weight in [0, 1]: 0 while it is
+heading correction of the tracked-robot thesis, eq. 2.21). The estimate is applied with a trust
+weight in [0, 1]: 0 while it is
 unconverged, physically impossible, or no better than the nominal map at explaining the
 measured motion; so compensation fades out where it cannot help. Same controller and gains for
 all compensations; only the controllers with a feed-forward from the reference (tracker,
@@ -49,7 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="reference path (default figure_eight)")
     parser.add_argument("--compensation", choices=list(MODES), default=None,
                         help="slip compensation: none, icr (inverse ICR map + drift-free control point), vir (inverse ICR map + "
-                             "heading correction 2.21); default vir for tracker and feedforward, none for the others "
+                             "heading correction); default vir for tracker and feedforward, none for the others "
                              "(which, but for pole_placement, have no feed-forward to compensate)")
     parser.add_argument("--reference-map", choices=["nominal", "coulomb"], default="nominal",
                         help="the map the compensation starts from and blends its online estimate against: nominal "

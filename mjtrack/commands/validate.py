@@ -4,8 +4,8 @@ Input: a drive log (LOG.csv, with LOG.json or --robot for the robot) or a MuJoCo
 built-in scenario (--scenario NAME, robot options, --duration, --seed). For each kinematic
 model (nominal, MPP, MICR, MVIR) with parameters from the filters run online on the log
 (slip EKF -> MPP, improved ICR EKF -> MICR, improved VIR filter -> MVIR) and from the log's
-own ICRs (2.13) as an upper bound, it scores predictions over 0.5, 1, 2 and 5 s against the
-log and against an MPP analytic truth with known slips (thesis 4.2) on the same commands.
+own ICRs (from its body twist and track speeds) as an upper bound, it scores predictions over
+0.5, 1, 2 and 5 s against the log and against an MPP analytic truth with known slips (thesis 4.2) on the same commands.
 The filters see seeded Gaussian measurement noise (--noise-scale, 0 = none); errors are
 scored against the noise-free truth. The filters adapt their process noise (a slow and a fast
 random walk of their parameters), carry their parameters across the windows of a log (only
@@ -13,6 +13,13 @@ the pose restarts), and on a measured log take its measurement noise estimated f
 Writes DIR/report.html (self-contained: verdicts, setup, definitions, figures, filter
 consistency with NIS over time) and DIR/metrics.json (the same numbers; per filter and truth
 consistency: nis_mean, nis_dof, nees_mean (null on a measured log), nees_dof, band95).
+On a wheeled robot (robot key traction: "wheels") it also scores the wheeled-robot thesis's four
+models on the log: the kinematic differential drive and the four-wheel skid steer driven by the
+wheel speeds, dynamic models 1 and 2 by the commanded wheel speeds (their own regulator), each
+from the logged state at every window start; metrics.json gets the median and worst position and
+heading error per model and horizon and the best model per horizon (wheeled_models), the report a
+table and an error-against-horizon figure. Parameters missing from the description (yaw
+inertia, drive, friction slope) are stated in both.
 """
 
 from __future__ import annotations
@@ -21,7 +28,7 @@ import argparse
 from pathlib import Path
 
 from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, bounded, check_out_dir,
-                                      check_overwrite, robot_from_args, terrain_from_args)
+                                      check_overwrite, robot_from_args, scenario_help, terrain_from_args)
 from mjtrack.errors import InputError
 
 HELP = "model-vs-physics validation of the kinematic models and filters: report.html + metrics.json"
@@ -35,7 +42,7 @@ def add_source_arguments(parser: argparse.ArgumentParser) -> None:
                         help="drive log (CSV: t, v_left_cmd, v_right_cmd, x, y, yaw, ...); its robot is LOG.json "
                              "beside it or --robot FILE")
     parser.add_argument("--scenario", choices=list(SCENARIOS), default=None,
-                        help="instead of a log: a MuJoCo rollout of this built-in scenario")
+                        help=scenario_help("instead of a log: a MuJoCo rollout of a built-in scenario"))
     parser.add_argument("--duration", metavar="S", type=bounded("duration"), default=None,
                         help="scenario duration [s] (default: the scenario's)")
     parser.add_argument("--seed", type=bounded("seed"), default=0,

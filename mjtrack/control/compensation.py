@@ -1,4 +1,4 @@
-"""Slip-compensated trajectory tracking of the tracked robot (issues 7 and 14).
+"""Slip-compensated trajectory tracking of the tracked robot.
 
 A controller (:class:`~mjtrack.control.tracking.TrajectoryTracker` or the open-loop
 :class:`~mjtrack.control.feedforward.FeedForward`) asks for a body command (v, w) of the
@@ -18,38 +18,7 @@ In ψ, which stays finite for either sign of y_l − y_r: ΔV = V_R − V_L = w/
 V̄ = (V_L + V_R)/2 = v − ψ_y ΔV (:func:`track_speeds_from_psi`). The lateral drift
 v_y = −x_c w cannot be commanded.
 
-**Why the first "icr" mode was worse than none** (issue 14: +65–91 % RMS on a circle with the
-centre of gravity 5 cm behind, μ 0.8, 1 m/s). The tracker's error dynamics with a plant that
-moves δ = (δv_x, δy, δω) off what the controller expects settle at e* = (A − B K − d k₂ᵀ)⁻¹ δ
-(:func:`static_error_map`, checked against the simulated closed loop). Uncompensated, the robot
-turns too little (δω < 0: outwards) and drifts sideways by −x_c ω, which for x_c < 0 points
-inwards: the two partly cancel (27 mm steady error). The feed-forward alone removed the yaw
-deficit and left the drift, which the feedback then holds at e₂* = 1.25 |x_c| = 50 mm for the
-default poles and x_c = −0.04 m — the measured 45–50 mm. On top, the start: the robot
-accelerates from rest, the track drives lag their commands, and the EKF fed the commands read
-that lag as slip (y_r = −314 m after 0.12 s, then a 3 m/s track-speed difference commanded).
-
-**The design** (both modes):
-
-* the feed-forward (v_d, w_d) goes through the inverse map, the feedback's correction through
-  the nominal one (``split_feedback``): the loop gain, and so the stability margin of the
-  tracker, stays that of "none"; an exact feed-forward alone makes e* = 0.
-* "icr": the feedback acts on the point (x_c, 0) of the body on the line of the ICRs, whose
-  velocity under the inverse map is (v, 0) — a unicycle, no sideways drift
-  (:meth:`SlipCompensation.control_pose`). "vir" (2.21): the robot moves like a no-slip
-  differential drive with centre O' = (x_o, y_o) = (x_c, ȳ) and wheel distance T_v on the track
-  ICRs; the geometric centre's velocity (v_x, −x_o ω) points β = atan2(−x_o ω, v_x) off the
-  heading (:func:`mjtrack.icr.course_angle`), so the heading reference is θ_d + α,
-  α = asin(x_o ω / V), with v_x = V cos α (:class:`CorrectedReference`; |α| <= ``max_alpha``).
-* the estimator is fed the measured track speeds (encoders), not the commands;
-* the estimate is used only inside physically admissible ICRs (:data:`SPACING_RANGE`) and
-  blended as ψ₀ + λ (ψ̂ − ψ₀) with one scalar λ = κ · λ_W: λ_W the minimum-mean-square weight
-  of the predicted steady error (:func:`trust_weight`, covariance inflated by the running NIS
-  of the twist), κ the share of the nominal map's twist misfit that the estimate explains over
-  the last :data:`FIT_TAU` (≈ 0 where the kinematic model explains little, e.g. a robot sliding
-  in yaw oscillations); λ falls at once and rises at most 1/(2 s) (``WEIGHT_RISE_TAUS``).
-  One scalar for the whole correction: correcting one part (the yaw) alone is what made the
-  first version worse than none.
+Derivation and measurements: docs/theory/compensation.md, "The compensation design".
 """
 
 from __future__ import annotations
@@ -78,7 +47,7 @@ REFERENCE_MAPS = ("nominal", "coulomb")
 # estimate far off (with the batch filters' (2, 2, 4) psi_y reached 12 within 0.1 s).
 PSI_STD0 = (0.2, 0.2, 0.5)
 # Inflation of the estimator's psi std in the trust weight: the pose-fed ICR EKF is
-# over-confident on MuJoCo data (parameter NEES 22.6 for 3 states, issue 14: sqrt(22.6/3) = 2.7).
+# over-confident on MuJoCo data (parameter NEES 22.6 for 3 states: sqrt(22.6/3) = 2.7).
 TRUST_SCALE = 1.0
 # Physically admissible ICRs of a tracked robot, in units of the gauge T and the track length L:
 # T <= y_l - y_r (slip only moves the track ICRs outwards; 0.8 T leaves room for estimator noise),
@@ -167,7 +136,7 @@ def trust_weight(psi, psi_cov, psi_nominal, v_d: float, w_d: float, *, poles=(-1
     for an over-confident filter). To first order a blend along the whole correction never
     raises the predicted error above none's ((1 − λ) |E₀| <= |E₀|); correcting one part alone
     can — with the centre of gravity behind, the yaw deficit (outwards) and the sideways drift
-    (inwards) partly cancel, and correcting the yaw alone leaves the drift (issue 14). Beyond
+    (inwards) partly cancel, and correcting the yaw alone leaves the drift. Beyond
     first order (δ is nonlinear in ψ) a partial blend can also be worse where E₀ ≈ 0 through
     such a cancellation; there λ ≈ 0.
     λ is evaluated at the reference's (v_d, w_d) with |w_d| floored at 0.1 rad/s (all δ scale

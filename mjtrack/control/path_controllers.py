@@ -23,17 +23,7 @@ speed at rho = v_d/k_rho, so the goal pose leads by that much. Both cut curves b
 lead^2/(2R) (a chord of a circle of radius R). The line follower has no clock: it drives at the
 reference speed and falls behind the reference by what its wiggles cost.
 
-Constants not in the thesis (the thesis's robots are a 6.5 cm robot-soccer chassis and a small
-car; these are chosen for robots of half a metre driven at 0.5 m/s, and kept the same for the
-tracked and the wheeled robot): :data:`REACTIVE_LEAD`, the PI gains :data:`REACTIVE_PI`, the
-speed limits, and the line follower's sensors :data:`LINE_SENSORS`. The thesis's own gains are
-kept where it printed them legibly: reactive b = 5 rad/s, c = 0, d = 0.8 rad/s; posture
-k_alpha = 8, k_beta = -1.5 with k_rho = :data:`POSTURE_K_RHO` (see :mod:`mjtrack.control.posture`).
-
-Progress (:attr:`PathController.clocked`): for the first four the place on the path where the
-robot should be is the reference's s(t) (their reference or goal runs on its clock); for the
-line follower it is the robot's own progress along the path. The cross-track error
-(:func:`mjtrack.control.compensation.cross_track_errors`) is measured near that place.
+Derivation and measurements: docs/theory/wheeled.md, "Path controllers: constants and progress".
 """
 
 from __future__ import annotations

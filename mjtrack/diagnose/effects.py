@@ -1,4 +1,4 @@
-"""The effect vocabulary (CONTRACTS.md §4) and the surrogate model it extends.
+"""The effect vocabulary (docs/reference/formats/diagnosis-json.md) and the surrogate model it extends.
 
 :data:`EFFECTS` is the one vocabulary of every baseline (:class:`Effect`: name, parameters,
 kind, meaning, signature, and the surrogate fit's bounds and start grid); what an effect changes
@@ -22,15 +22,7 @@ A candidate model = the baseline + one effect with its parameters. Two kinds:
   track ICRs (y_l, y_r) -> k (y_l, y_r): more (k > 1) or less skid in turns than modelled, the
   generic symptom of a ground that is not Coulomb-like.
 
-Baselines: ``"coulomb"`` = the nominal robot's Coulomb response (quasi-static ICRs q0 plus the
-first-order inertial response; with ``transient=True`` also the friction-limited transient of the
-rigid body after speed changes, :func:`mjtrack.diagnose.surrogate.friction_limited`: per-track force
-bounds fs mu_s g N_s/(m g), the yaw gain of the model's ICR spread and the turning resistance, which
-friction_scale, friction_asymmetry and cg_offset_y change with the friction and loads they give, so
-the friction level shows in every transient, turn entries and spins included); ``"kinematic"`` = the nominal model (2.1), ICRs (T/2, -T/2, 0),
-used when the description lacks the geometry the physics needs (track_length). With the
-kinematic baseline a ground effect moves the ICRs by the *change* that the Coulomb response of
-the (assumed) robot predicts, and ``friction_scale`` (inertia only) is not testable.
+Derivation and measurements: docs/theory/diagnosis.md, "Baselines".
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ measured state at its start (pose, twist, moving tracks; the states a log does n
 up over the log's last :data:`mjtrack.sim.windows.WARMUP_S` before it, as calibration does;
 :mod:`mjtrack.sim.windows`) under the logged commands, with the simulator settings the robot
 description records (a calibrated robot's, :func:`mjtrack.sim.config.sim_config`). The metric is the RMS position error at the window's end, in the measured
-start frame (CONTRACTS ``pos_err_m``). Every candidate effect is an *extension of the MuJoCo
+start frame (``pos_err_m`` of diagnosis.json). Every candidate effect is an *extension of the MuJoCo
 robot* (:data:`CHANGES`): a model field (friction, centre of mass, drive lag, lateral friction of
 the anisotropic ground), a rebuilt model (road-wheel load), the world (gravity of an inclined
 plane) or the drive's input (speed scale, dead time, saturation). Effects already found are
@@ -17,22 +17,7 @@ The folds, the finding test, ties, order and intervals are those of every baseli
 (:mod:`mjtrack.diagnose.select`); what is MuJoCo's own is the fit, because every parameter value
 costs a pass over the windows:
 
-* a one-parameter effect: every window is simulated at a fixed grid of the parameter (:data:`GRIDS`:
-  7 values chosen before seeing the data, the robot's own "no effect" value among them: a
-  calibrated robot's drive lag, dead time, speed scale, centre of mass and friction ratio are where
-  its grids start or centre; the centre of mass within +-0.15 L and +-0.15 T of it: beyond L/6
-  Wong's linear load goes negative at one end, the end rollers lift, and windows started from a
-  moving state diverged in development runs at 0.2 L); a fit on some windows minimises their RMS
-  error curve over the grid (a parabola through the best grid value and its neighbours); the
-  held-out windows of each fold are simulated again at the fold's estimate;
-* ``slope`` (two parameters: (s, psi) enters through a = sin(s) (cos psi, sin psi)): the window
-  errors (along, across) are linearised in a by central differences (4 extra simulations) and a
-  is fitted by least squares;
-* the statistical covariance: a blocked bootstrap (:data:`N_BOOT` resamples of the blocks of the
-  training windows, the same fit on each) around the estimate.
-
-A window whose nominal simulation diverged is neither fitted nor scored. Costs (measured by
-benchmarks/diagnose_mujoco_baseline.py): about 8 passes over the windows per effect.
+Derivation and measurements: docs/theory/diagnosis.md, "The MuJoCo baseline".
 """
 
 from __future__ import annotations

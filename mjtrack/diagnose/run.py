@@ -1,4 +1,4 @@
-"""``diagnose(log, robot)``: symptom -> cause(s) -> gain, and its outputs (CONTRACTS.md §4).
+"""``diagnose(log, robot)``: symptom -> cause(s) -> gain, and its outputs (docs/reference/formats/diagnosis-json.md).
 
 Stages (timed in ``Diagnosis.timings``):
 1. prepare: drive data, the horizon (:func:`choose_horizon`), folds, blocks, windows, the

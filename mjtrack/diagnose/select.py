@@ -19,64 +19,7 @@ reduce the held-out track-speed error by the same test over the same blocks (the
 whether the actuators are the cause); an input effect the speeds contradict is refuted even
 when it helps the pose error.
 
-Below the floor. An effect that acts in k of B blocks cannot pass the blocked bootstrap unless
-(1 - k/B)^B < 5 % (:func:`min_active_blocks`), however large its gain there: no test that takes
-only the blocks as independent can do better. Such a candidate is not reported as a cause, but
-when its point gain reaches the floor and fewer blocks than that show it, the verdict warns and
-names it (``below_floor``): read off the measured track speeds for an input effect when the log
-has them, else off the pose.
-
-Forward selection (:func:`forward_select`). Step 1 scores every effect against the baseline;
-the best finding is added to the baseline at its estimate, and step 2 scores every remaining
-effect (either kind) on top of it, and so on until no candidate passes (at most
-``max_effects``). With two or more effects found, each is then refitted and scored with the
-others fixed at their estimates (two rounds), which removes the bias a missed second effect
-gives the first; its reported gain is then its own on top of all the others. An effect that no
-longer passes on top of the others is dropped (backward elimination; e.g. a speed scale found
-first as a stand-in for a speed limit found later) and the rest refitted.
-
-Beyond a first effect. The gain floor stands for what the baseline's own approximation may
-leave unexplained, and that is a share of what the models model -- the nominal model's error --
-not of what the effects already found leave: the form of a found effect is rarely the log's
-exactly (a drive's lag is not exactly a first-order lag on speed), and its misfit scales with the
-error it explains. So at every step, and in the refits with the others fixed, the floor is
-``min_gain`` of the *nominal* RMSE (:func:`pose_floor`: ``min_gain`` x nominal / this step's
-baseline RMSE as a share of the step's own), for the finding test and the tie margin alike. And
-an effect is named on top of others only if the model with it beats, by that floor beyond noise
-(the blocked bootstrap interval of the difference, as a share of the nominal RMSE, above the
-floor), every other finding of the previous step, each a model with one effect fewer: a second
-effect that only makes up for having picked the wrong first one (a command delay with a slower
-transient standing in for a lag) is not named, and when that leaves the step without a finding,
-the first effect is reported tied with the rival that explains the log as well alone
-(``substitute``).
-
-Ties. Two findings of one step are tied when the blocked bootstrap interval of their difference
-(as a share of the baseline RMSE) contains zero or the difference is below the gain floor; and,
-whatever the gains, when the physics says the log cannot separate them
-(:func:`physical_tie`: cg_offset_y and friction_asymmetry both set the traction ratio of the
-two tracks under Coulomb friction). Among tied findings the one with fewer parameters goes first
-(one-standard-error rule), then the larger gain.
-
-Intervals: 95 %, estimate +- t x se with se the larger of the covariance the baseline's fit
-gives (the surrogate's least squares: the block-robust sandwich
-:func:`mjtrack.diagnose.stats.sandwich`, a linearised block bootstrap over windows whose
-residuals carry the surrogate's own error; MuJoCo's grid fit: a blocked bootstrap of its error
-curves) and the delete-one-fold jackknife of the fold fits, with, in quadrature, the baseline's
-own error on the effect's size (:class:`mjtrack.diagnose.baseline.ModelForm`, measured on logs
-whose truth is known), which no resampling of one log can show: a systematic error
-is the same in every block, and the fit's own resolution (:meth:`Baseline.resolution`: for the
-least-squares fit its relative finite-difference step :data:`mjtrack.diagnose.fit.DIFF_STEP`: an
-optimum at a kink of the cost, e.g. a dead time fitted to sampled track speeds, is located no
-better; the resampling terms are near zero there). The model-form term is the baseline's
-(:class:`mjtrack.diagnose.baseline.ModelForm`); an effect whose baseline carries, besides, an
-absolute model-form term (how far two independent physics of one robot description lie apart,
-which does not shrink with the effect's size) must in addition have a 95 % interval that
-excludes the nominal value; a candidate failing only that is reported as within the baseline's
-resolution and not named.
-
-Divergence. A simulator's window may diverge (NaN errors): a window whose baseline diverged is
-neither fitted nor scored (:attr:`mjtrack.diagnose.fit.Problem.valid`); a candidate that diverges
-on a held-out window is not a finding.
+Derivation and measurements: docs/theory/diagnosis.md, "Selection rules".
 """
 
 from __future__ import annotations
@@ -112,7 +55,7 @@ class CandidateResult:
     interval's standard error, se_stat its statistical part, se_model the model-form and
     resolution part; nominal: (P,) the effect's no-effect values in the baseline; substitute: the
     finding of the previous step that explains the log as well alone as the model with this
-    candidate on top (the candidate is then not a finding; module docstring, "Beyond a first
+    candidate on top (the candidate is then not a finding; docs/theory/diagnosis.md, "Beyond a first
     effect").
     """
 
@@ -476,7 +419,7 @@ def _speed_base(problem: fitmod.Problem) -> np.ndarray | None:
 def pose_floor(min_gain: float, nominal_rmse: float | None, base_rmse: float) -> float:
     """The position gain floor of a step as a share of its baseline RMSE ``base_rmse`` [m]:
     ``min_gain`` of the nominal model's RMSE ``nominal_rmse`` [m] (None: this step's baseline is
-    the nominal model), never below ``min_gain`` (module docstring, "Beyond a first effect")."""
+    the nominal model), never below ``min_gain`` (docs/theory/diagnosis.md, "Beyond a first effect")."""
     if nominal_rmse is None or not (base_rmse > 0.0) or not np.isfinite(nominal_rmse):
         return min_gain
     return max(min_gain, min_gain * nominal_rmse / base_rmse)
@@ -486,7 +429,7 @@ def _no_substitute(r: CandidateResult, rivals: list[CandidateResult], nominal_sq
                    min_gain: float) -> None:
     """Unpass ``r`` when a rival (a finding of the previous step, a model with one effect fewer)
     explains the log as well alone: the model with ``r`` must beat each by the floor beyond noise
-    (module docstring, "Beyond a first effect")."""
+    (docs/theory/diagnosis.md, "Beyond a first effect")."""
     sq = np.sum(r.held_out_errors[:, :2] ** 2, 1)
     for rv in rivals:
         d, lo, hi = st.difference_test(nominal_sq, sq, np.sum(rv.held_out_errors[:, :2] ** 2, 1), block)
@@ -509,7 +452,7 @@ def evaluate(problem: fitmod.Problem, effects: list[Effect], *, n_folds: int, mi
     ``nominal``: (M,) the nominal model's window errors (M, 3) on the scored windows when the
     problem's baseline already holds effects (the gain floor is a share of its RMSE), None when
     it is the nominal model; ``rivals``: the previous step's findings, each of which a finding
-    here must beat (module docstring, "Beyond a first effect")."""
+    here must beat (docs/theory/diagnosis.md, "Beyond a first effect")."""
     allw = np.arange(problem.starts.size)
     base_err = problem.baseline.errors(problem, allw)[0]
     speed_base = _speed_base(problem)

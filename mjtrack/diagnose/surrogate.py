@@ -23,40 +23,7 @@ flip with sign(wz). Hence:
 3. The static effects (cg offsets, friction ratio) change q0; they are tabulated by exact
    quasi-static solves on a grid of the parameter and interpolated (``static_table``).
 
-Straight driving (V_L = V_R) gives wz = 0 and vx = V exactly (all contacts stick), whatever q:
-ground effects are visible only when the robot turns.
-
-4. Transients (:func:`friction_limited`). The steady state is not reached at once: after a step
-   of the track speeds the body lags behind its tracks, and it can catch up no faster than the
-   track friction lets it. Write the body's motion as "effective" track speeds e = (e_L, e_R)
-   (the speeds whose steady response, eq. 2.14 with the model's ICRs, is the body's twist), with
-   the common mode c = (e_L + e_R)/2 (vx) and the differential mode d = (e_R - e_L)/2 =
-   wz (y_l - y_r)/2. Lump each track's contact forces into one longitudinal force F_s at
-   y = +-T/2, bounded by Coulomb, |F_s| <= fs mu_s N_s (N_s the lever-rule load), and the lateral
-   friction into a turning resistance moment M_r opposing wz. Newton-Euler (per unit mass,
-   f_s = F_s/m, b_s = fs mu_s g N_s/(m g)):
-       c' = f_L + f_R,
-       I wz' = (T/2)(F_R - F_L) - M_r sign(wz)   ->   d' = kappa (f_R - f_L - r sign(d)),
-   kappa = m T (y_l - y_r)/(4 I) (mass-free with the uniform-box yaw inertia of the Coulomb
-   reference, I = m (L^2 + T^2)/12: kappa = 3 T (y_l - y_r)/(L^2 + T^2), 1.58 for the default
-   robot) and r = M_r/(m T/2). The resistance is the moment the tracks' longitudinal forces
-   supply in the steady turn, where they balance it: r = rho (b_L + b_R) with rho = s (F_R - F_L)
-   / sum mu_s N_s of the quasi-static turn (``resist_ratio``, 0.553 for the default robot), at
-   wz = 0 a static moment up to r. A track away from its command slides, f_s = b_s sign(V_s - e_s);
-   a track at its command holds it (e_s' = 0) with the force that takes, within its bound.
-   Both friction bounds and r scale with fs, so fs sets the time scale of every transient.
-   Straight start (V, V): f_L = f_R = b, the mu g ramp of (:func:`accel_limited`). Turn entry
-   (V, V) -> (V, 0): the outer track holds, f_L = ((kappa - 1) f_R - kappa m)/(1 + kappa) with
-   f_R = -b, m = -r, and d ramps at only kappa (f_R - f_L + r) = -0.27 mu g: the yaw reaches
-   the new rate with 0.070 s of dead time (MuJoCo 0.062 s, rigid Coulomb rollout 0.047 s; 0.053 s
-   before session 7 solved its load transfer to convergence), where the mode-wise mu g ramp of
-   :func:`accel_limited` gave 0.019 s. The steady resistance from the first instant is what makes
-   the turn entries slow (+49 % here): at that instant the contacts slip along the tracks and the
-   lateral friction that makes the resistance is still zero (issue 12). Spin reversal +-0.5 m/s:
-   0.042 s (Coulomb 0.044 s, MuJoCo 0.067 s); turn reversal (0.6, 0) -> (0, 0.6): 0.025 s
-   (Coulomb 0.026 s, MuJoCo 0.043 s). ``python benchmarks/diagnose_mujoco_effects.py --steps``
-   prints the step responses; tests/test_diagnose_units.py checks the closed forms and the
-   Coulomb rollout.
+Derivation and measurements: docs/theory/diagnosis.md, "Surrogate transients".
 """
 
 from __future__ import annotations

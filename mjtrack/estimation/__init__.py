@@ -1,4 +1,7 @@
-"""Parameter estimation for the kinematic models (THESIS.md Part 2): slip, ICR and virtual-robot filters."""
+"""Parameter estimation for the kinematic models: slip, ICR and virtual-robot filters.
+
+Models and filters of the tracked-robot thesis (Mendaluk 2019; docs/theory/tracked.md).
+"""
 
 from mjtrack.estimation.common import FilterInputs as FilterInputs
 from mjtrack.estimation.common import FilterResult as FilterResult

@@ -1,4 +1,4 @@
-"""Bookkeeping shared by the parameter filters of THESIS.md Part 2 (eqs. 3.4–3.8).
+"""Bookkeeping shared by the parameter filters of the tracked-robot thesis (Mendaluk 2019, eqs. 3.4–3.8).
 
 One EKF step k (time t_k, command u_{k-1} held over [t_{k-1}, t_k)):
 

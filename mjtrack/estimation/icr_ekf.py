@@ -15,44 +15,7 @@ H = Δt·Rot₃(θ)·(∂ν/∂(y_l, y_r, x_c))·G with G = [[a b 0 0 0 0], [0 0
 Singularities: b is infinite at V_L + V_R = 0 (spin turns): such a step cannot be predicted
 and is skipped (``updated = False``, logged) or raised (``on_singular="raise"``).
 
-**Why the thesis's form cannot work for both turn directions.** Mirroring a manoeuvre
-(swap V_L ↔ V_R) leaves both regressors unchanged — they are even in V_L − V_R — so one q gives
-the *same* offsets y_l − T/2, y_r + T/2, x_c for a left and for a right turn. The true ICRs are
-not even: for a left-right symmetric robot the mirror exchanges the tracks, y_l → −y_r, so the
-left ICR's offset in a left turn (inner track) becomes the right ICR's offset in the right turn
-(equal offsets for both directions would need equal inner and outer offsets); and with the MPP
-truth at a fixed α, x_c = v_x tan α / ω is odd in ω. A q fitted while turning one way therefore
-predicts the wrong ICRs for the other way, and a random-walk filter that sees both has to
-re-converge after every change of direction (and cannot predict at all through a spin turn).
-In one constant manoeuvre the form is merely
-over-parametrised (a, b are constants: only q₁a + q₂b is identifiable, etc.) and, worse, the
-ICRs enter the twist through 1/(y_l − y_r): whenever the true y_l − y_r has the other sign
-than the initial T (a commanded turn that the slip reverses — the 4.2 truth at ω = −7°/s
-turns *left*, y_l − y_r = −0.54 m), the filter must carry y_l − y_r through 0, where the twist
-is infinite, and the linearisation breaks down.
-
-What this implementation shows (``mjtrack.thesis.ex42``, figs. 4.11–4.12): at ω = −7°/s the
-thesis's filter never converges (it has to cross y_l = y_r; it diverges even on noise-free
-poses); at ω = +7°/s it ends within 2–4 cm of the truth, the residual being the bias of the
-Euler prediction (3.17) of a chord (it stays on noise-free poses). The thesis reports the
-opposite turn direction working; with its own sign conventions (not fully printed) the
-crossing case may have been the other one — the mechanism is the same.
-
-**The improved filter** (:func:`run_icr_ekf`). The MICR twist (2.14) is linear in
-ψ = (x_c, (y_l + y_r)/2, 1)/(y_l − y_r) with the single regressor ΔV = V_R − V_L:
-
-    v_x = (V_L + V_R)/2 + ψ_y ΔV,   v_y = −ψ_x ΔV,   ω = ψ_z ΔV        (:class:`InverseICR`)
-
-(from y_l V_R − y_r V_L = ȳ ΔV + (y_l − y_r)(V_L + V_R)/2, ȳ = (y_l + y_r)/2). ψ is finite for
-every motion with finite ICRs of either turn direction, y_l − y_r → ±∞ (straight driving
-under a speed difference) is ψ_z → 0, a regular point, and V_L + V_R = 0 (spin turn) is
-nowhere special. The ICRs are y_l = (ψ_y + ½)/ψ_z, y_r = (ψ_y − ½)/ψ_z, x_c = ψ_x/ψ_z. ψ is the
-thesis's unit-sphere point S of the virtual robot, un-normalised: ψ = (x_o, y_o, 1)/T_v
-(see :mod:`mjtrack.estimation.vir_filter`). ψ is estimated with the pose-augmented EKF
-(:mod:`mjtrack.estimation.pose_ekf`) from the measured pose (and the twist, if measured);
-the prediction of a pose increment is then exact in the filter's bookkeeping (no differenced,
-correlated measurements). The ICRs are identifiable only while ΔV ≠ 0: in straight driving
-the measurement does not depend on ψ and the filter just lets P grow by Q.
+Derivation and measurements: docs/theory/filters.md, "ICR EKF: both turn directions".
 """
 
 from __future__ import annotations

@@ -10,63 +10,7 @@ small" while the error is large: parameter NEES of 10²–10³ for many seconds,
 time of order 1/(q·√J) (J: information per second on p). A large q recovers quickly but
 passes measurement noise into p all the time. Neither covariance is right in both regimes.
 
-**Model.** Two hypotheses j ∈ {slow, fast} about the parameter dynamics over one step Δt,
-identical in everything else (pose transition, measurement model, R):
-
-    slow:  Q_s = diag(q_pose², q²)·Δt,        fast:  Q_f = diag(q_pose², (c·q)²)·Δt,   c > 1,
-
-and the hypothesis itself is a Markov chain. Its switching hazard over a step of Δt has two
-sources:
-
-    slow → fast:  h_s = Δt/τ_s + |Δu|/u_c,     fast → slow:  h_f = Δt/τ_f,     π_jj = exp(−h_j),
-
-τ_s, τ_f [s] mean dwell times, Δu [m/s] the change of the track speeds (V_L, V_R) over the step
-(Euclidean norm) and u_c [m/s] a command scale. The first term is the ground changing by itself
-(rare: τ_s long); the second is physics the kinematic models leave out: the ICRs are functions of
-the command (centripetal load transfer grows with v·ω, the drives' transient follows every step of
-the command), so a change of the command is an *announced* moment at which the parameters may
-jump — a change of |Δu| = u_c makes the switch e⁻¹ likely. With a slow mode whose q is the filter's
-own (default: the thesis filters' settings) and a fast one c times faster, the pair describes
-"still, with bursts of change when the command or the ground changes".
-
-**Filter (Blom & Bar-Shalom 1988, one cycle k).** Inputs: the mode-conditioned posteriors
-(x_j, P_j) and the mode probabilities μ_j from step k−1.
-
-1. Mixing. Predicted mode probabilities c̄_j = Σ_i π_ij μ_i; mixing weights
-   μ_{i|j} = π_ij μ_i / c̄_j; each mode starts from the moment-matched mixture
-   x⁰_j = Σ_i μ_{i|j} x_i,  P⁰_j = Σ_i μ_{i|j} (P_i + (x_i − x⁰_j)(x_i − x⁰_j)ᵀ).
-   (The pose's heading components of the two modes differ by far less than π, so the plain
-   average of θ is the circular mean here.)
-2. Mode-matched EKF. Each mode predicts with its own Q_j and updates with the same z:
-   innovation ε_j, covariance S_j, gain K_j (Joseph form, :func:`~mjtrack.estimation.common.update`).
-3. Mode probabilities. Likelihood Λ_j = N(ε_j; 0, S_j); μ_j = Λ_j c̄_j / Σ_i Λ_i c̄_i
-   (computed in logs; a step without measurement keeps μ_j = c̄_j).
-4. Output (moment matching of the mixture):
-   x = Σ_j μ_j x_j,   P = Σ_j μ_j (P_j + (x_j − x)(x_j − x)ᵀ).
-
-The combined covariance contains the spread between the two modes' estimates: right after a
-jump the fast mode has moved and the slow one has not, and P grows by that spread — the
-filter says how unsure it is exactly when it is wrong, which a single-q EKF cannot. While
-nothing changes the modes agree, the spread vanishes, μ_slow → π_ss-limited steady value and
-the estimate is (almost) the slow filter's.
-
-**The innovation that consistency checks use.** The combined prediction of the measurement
-before the update is the mixture ẑ = Σ_j c̄_j h_j with covariance
-S = Σ_j c̄_j (S_j + (h_j − ẑ)(h_j − ẑ)ᵀ); the recorded innovation is z ⊖ ẑ and NIS = εᵀ S⁻¹ ε.
-The recorded gain is Σ_j μ_j K_j (for plotting only: the IMM's update is not linear in ε).
-
-**Choice of the settings** (:class:`IMMSettings`; chosen on the default robot of
-``benchmarks/filters_on_mujoco.py`` only — random steps and a circle — and checked on robots it
-was not tuned on by ``benchmarks/filter_consistency.py``): c = 300 on ψ (slow 1e-3, fast 0.3 /√s:
-ψ moves by its whole range in about a second) and r = 2 (the kinematic model describes the
-motion less well while the parameters move); τ_s = 1000 s, u_c = 0.2 m/s (a typical step of the
-command is 0.5–1 m/s: it triggers the fast mode; the time term only matters while the command is
-constant); τ_f = 1 s (a burst lasts about one drive transient). With τ_s = 20 s and no command
-term the constant-command runs came out under-confident (parameter NEES/dof 0.2–0.4: the mixing
-feeds the fast mode's covariance into the slow one at the rate the chain assumes) and the
-random-step runs over-confident. The slip EKF uses c = 100, r = 3 (``slip_ekf.SLIP_IMM``) and,
-with ``adaptive``, a covariance-matching factor on the slips' covariance
-(:mod:`mjtrack.estimation.model_error`): its slips jump by amounts no fixed fast intensity covers.
+Derivation and measurements: docs/theory/filters.md, "Adaptive process noise (IMM)".
 """
 
 from __future__ import annotations

@@ -19,28 +19,11 @@ Measurements (either or both; NaN entries are skipped): the pose (3.12), h = (x,
 H = [I₃ 0], yaw residual wrapped; and the body twist at the current command, h = ν(p, u_k),
 H = [0₃ₓ₃ J(u_k)] (the velocity measurement (3.30) of the virtual-robot filter).
 
-Euler's bias. Exact constant-twist motion displaces the centre along the chord, i.e. along the
-heading turned by ωΔt/2 (:func:`mjtrack.geometry.se2_step`: C/S = tan(ωΔt/2)). Fitting Euler
-(3.11) to exactly integrated data therefore biases the lateral velocity by v_x·ωΔt/2 —
-1.6e-3 m/s at the 4.2 settings (v_x = 0.36 m/s, ω = 0.09 rad/s, Δt = 0.1 s), i.e. 0.26° on α
-and 1.8 cm on x_c = −v_y/ω, larger than the noise-limited accuracy. The default
-``step="midpoint"`` uses the mid-step heading (relative error O((ωΔt)²), 1e-4 here):
-
-    x_k = x + Δt (cos θ_m v_x − sin θ_m v_y),  y_k = y + Δt (sin θ_m v_x + cos θ_m v_y),
-    θ_m = θ + ωΔt/2;
-
-its Jacobian evaluates the θ column at θ_m and adds Δt·(∂Rot(θ_m)/∂θ)(v_x, v_y)·(Δt/2)·J₂ to
-the position rows' parameter columns. ``step="euler"`` is the thesis's (3.11).
-
-Adaptive process noise: ``adaptive="imm"`` (or an :class:`~mjtrack.estimation.imm.IMMSettings`)
-runs a slow/fast pair of parameter random walks as an interacting multiple model
-(:mod:`mjtrack.estimation.imm`, derivation there); the default (None) is the single EKF above.
-``model_error`` adds a covariance-matching factor on the parameter covariance, found from the
-twist innovations (:mod:`mjtrack.estimation.model_error`, derivation there); default: off.
-
 Noise units: measurement noise as standard deviations ``*_std`` [m, m, rad, m/s, m/s, rad/s];
 process noise as random-walk intensities ``q_*_std`` [unit/√s], Q = diag(q²)·Δt, so the result
 does not depend on the sampling rate.
+
+Derivation and measurements: docs/theory/filters.md, "Pose EKF: bias and adaptivity".
 """
 
 from __future__ import annotations
@@ -353,21 +336,16 @@ def run_pose_param_ekf(
         pose0: (3,) initial pose (default: the first pose measurement, else 0);
             pose_std0: its std (default: ``pose_std``).
         step: "midpoint" (default) or "euler" (the thesis's (3.11)).
-        param_bounds: optional (P,) (low, high) per parameter: after each update the estimate is
-            projected (clipped) into the box — the standard estimate-projection treatment of
-            hard parameter constraints, for parameters outside of which the model is undefined
-            (e.g. MPP's |alpha| < pi/2). The number of projected steps is in ``info``.
+        param_bounds: optional (P,) (low, high) per parameter: each update is clipped into the box
+            (e.g. MPP's |alpha| < pi/2); ``info`` counts the projected steps.
         adaptive: None (one EKF), "imm" or an :class:`~mjtrack.estimation.imm.IMMSettings`
             (slow/fast IMM pair, :mod:`mjtrack.estimation.imm`); the result's ``mode_prob``
             holds P(fast) per step.
         param_cov0: optional (P, P) initial parameter covariance (overrides ``param_std0``; used to
             carry a filter's estimate from one window of a log to the next).
-        model_error: None, True/"matching" or a
-            :class:`~mjtrack.estimation.model_error.ModelErrorSettings`: the parameter covariance
-            is scaled by the covariance-matching factor λ ≥ 1 of
-            :mod:`mjtrack.estimation.model_error` whenever the twist innovations are larger than
-            S says; ``info["model_error"]["inflated_steps"]`` counts the steps with λ > 1,
-            ``["restarts"]`` the restarts (``twist_inverse``, below).
+        model_error: None, True/"matching" or a :class:`~mjtrack.estimation.model_error.ModelErrorSettings`:
+            the parameter covariance scaled by the matching factor λ ≥ 1 when the twist innovations
+            exceed S; ``info["model_error"]`` counts inflated steps and restarts.
         twist_inverse: optional ``f(twist, v_left, v_right) -> params or None`` (the model's
             inverse) for the restart of :mod:`mjtrack.estimation.model_error`.
     Returns:

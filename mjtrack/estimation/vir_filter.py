@@ -15,32 +15,7 @@ S_y = (V_R + V_L − 2v_x)/l, which through (3.25) give x_o = +v_y/ω and y_o = 
 y_o): sign and factor defects, corrected here so that only the filter's own behaviour is
 compared. Inverting, (3.27) becomes v_x = V̄ + l S_y, v_y = −l S_x, ω = l S_z.
 
-**The thesis's filter** (:func:`run_vir_thesis`). State (v_x, v_y, ω, S_x, S_y, S_z),
-measurement the twist (3.30), H = [I₃ 0], S a random walk. Transition:
- * ``"printed"`` (3.28): v_k = Δt·v_{k-1} — a defect (a velocity is not a displacement). S then
-   enters neither f nor h and F is block-diagonal, so S never correlates with anything
-   measured: its gain is exactly zero, the estimate stays at its initial value and its
-   covariance grows as q²t without bound, while the velocities, re-measured every step, look
-   well "predicted" after the update — the thesis's report (parameters not at the true
-   centre although the velocities are fine); with any coupling (e.g. numerical) the
-   unconstrained S would wander.
- * ``"intended"``: v_k = (V̄ + l S_y, −l S_x, l S_z) with l from (3.24) at v_{k-1}: the velocity
-   is propagated through S. S is observable now, but only through single noisy twist
-   samples: the scale l ≈ |v − (V̄, 0, 0)| is itself re-estimated from the noisy velocity every
-   step (at the 4.2 settings l ≈ 0.14 against a twist noise of 0.05), so the gain on S stays
-   large and S follows the noise; nothing keeps |S| = 1 either.
-Jacobian of the intended step: ∂v'/∂S = l·M, M = [[0, 1, 0], [−1, 0, 0], [0, 0, 1]];
-∂v'/∂v = (M S)(∂l/∂v)ᵀ with ∂l/∂v = (v_x − V̄, v_y, ω)/l; ∂S'/∂S = I.
-
-**The stable filter** (:func:`run_vir_filter`). Keep the ray, drop the unit norm: with the
-scale 1/T_v the un-normalised sphere point ψ = (x_o, y_o, 1)/T_v makes the MVIR twist *linear*
-in the state, v_x = V̄ + ψ_y ΔV, v_y = −ψ_x ΔV, ω = ψ_z ΔV (ΔV = V_R − V_L;
-:class:`~mjtrack.estimation.icr_ekf.InverseICR`): a constant parameter observed linearly
-converges like a least-squares fit, and both hemispheres (turn directions) are one chart.
-(x_o, y_o, T_v) directly would not do: T_v = (V_R − V_L)/ω is negative when the slip reverses
-the commanded turn (−0.54 m in 4.2 at ω = −7°/s), and reaching it from T would cross T_v = 0.
-It is the pose-augmented EKF of :mod:`mjtrack.estimation.pose_ekf` measuring the twist (as the
-thesis) and, when given, the pose. The renormalised S = ψ/|ψ| is reported for comparison.
+Derivation and measurements: docs/theory/filters.md, "Virtual-robot filters".
 """
 
 from __future__ import annotations

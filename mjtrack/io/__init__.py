@@ -1,4 +1,4 @@
-"""Input and output: drive logs (CONTRACTS.md §1), robot descriptions (§2), atomic files."""
+"""Input and output: drive logs, robot descriptions, atomic files (formats: docs/reference/formats/)."""
 
 from mjtrack.io.logs import DriveLog as DriveLog
 from mjtrack.io.logs import read_log as read_log

@@ -1,4 +1,4 @@
-"""Drive logs (CONTRACTS.md §1): what ``simulate`` writes and ``validate``/``diagnose`` read.
+"""Drive logs (docs/reference/formats/drive-log.md): what ``simulate`` writes and ``validate``/``diagnose`` read.
 
 A drive log is a CSV file with one header row and one row per sample. Required columns:
 ``t`` [s], ``v_left_cmd``, ``v_right_cmd`` [m/s], ``x``, ``y`` [m], ``yaw`` [rad]; optional
@@ -50,7 +50,7 @@ OPTIONAL: tuple[str, ...] = ("v_left", "v_right", "vx", "vy", "wz", "z", "roll",
 KNOWN: tuple[str, ...] = REQUIRED + OPTIONAL
 
 # Physical plausibility: a value beyond these bounds is a unit mix-up, a corrupt file or a sim
-# that blew up, never a ground robot; it is refused like a non-number (CONTRACTS.md §1).
+# that blew up, never a ground robot; it is refused like a non-number (docs/reference/formats/drive-log.md).
 _SPEED = (100.0, "m/s", "a track or body speed")
 PLAUSIBLE: Mapping[str, tuple[float, str, str]] = MappingProxyType({
     "t": (1e10, "s", "a time (an epoch time stamp is 1.7e9 s)"),

@@ -163,47 +163,31 @@ class Robot:
     Frame: x forward, y left, z up, origin at the geometric centre of the two track
     contact patches (or of the wheels' contact points) on the ground plane.
 
-    A wheeled robot (``traction="wheels"``: Husky, Warthog, Jackal) has ``wheels_per_side``
-    wheels on each side, their axles evenly spaced over ``wheelbase`` (front to rear axle) and
-    centred on the origin; ``track_gauge`` is the distance between the left and right wheel
-    centre lines, ``sprocket_radius`` the wheel radius (also read from the key ``wheel_radius``),
-    ``track_width`` the tyre width; ``track_length`` is not used. The wheels of one side turn
-    together (one drive per side, like a track) and touch the ground at one point each, under
-    their axles. Every other field means the same for both tractions.
+    A wheeled robot (``traction="wheels"``) reads the track fields as its wheels' (gauge, wheel
+    radius, tyre width): docs/guide/wheeled.md; every key: docs/reference/formats/robot-file.md.
 
     Attributes:
         track_gauge: T, distance between the track (wheel) centre lines [m].
         track_length: L, length of each track's ground contact [m] (tracks only).
         track_width: width of each track's ground contact (of each tyre) [m].
-        sprocket_radius: radius that converts sprocket (wheel) speed to track (wheel surface)
-            speed [m].
+        sprocket_radius: radius from sprocket (wheel) speed to track (wheel surface) speed [m].
         mass: total mass [kg].
         cg_x, cg_y: centre of mass relative to the geometric centre (+x forward, +y left) [m].
         cg_z: height of the centre of mass above the ground [m].
-        mu: ground friction coefficient (both tracks unless mu_left/mu_right are set) [-].
-        mu_left, mu_right: per-track friction coefficients; ``None`` means ``mu`` [-].
-        drive_lag: first-order time constant from track command to track speed [s]; 0: the
-            track speeds follow the commands as fast as the drive's force limit allows.
-        drive_delay: dead time from track command to track speed [s] (applied exactly to the
-            simulation time step).
-        drive_force_limit: traction force limit of one track drive [N] (sprocket torque limit
-            / sprocket_radius); ``None``: the simulator's default drive, which scales with the
-            mass (:meth:`mjtrack.sim.config.SimConfig.for_robot_mass`: 1000 N at R_s = 0.06 m for
-            robots up to 20 kg, proportional to the mass above).
-        track_speed_scale: actual / commanded track speed, both tracks [-] (multiplies the
-            commands before lag, delay and force limit).
-        ground: the ground model and its parameters (:class:`Ground`; default rigid-track
-            isotropic Coulomb). A dict or a model name is accepted and converted. A wheeled
-            robot takes ``coulomb`` or ``anisotropic`` (``road_wheels`` spreads a track's load).
+        mu, mu_left, mu_right: ground friction coefficient; per track, ``None`` meaning ``mu`` [-].
+        drive_lag: first-order time constant from track command to track speed [s] (0: none).
+        drive_delay: dead time from track command to track speed [s].
+        drive_force_limit: traction force limit of one track drive [N]; ``None``: the simulator's
+            default, which scales with the mass (:meth:`mjtrack.sim.config.SimConfig.for_robot_mass`).
+        track_speed_scale: actual / commanded track speed, both tracks [-].
+        ground: the ground model and its parameters (:class:`Ground`, a dict or a model name;
+            default isotropic Coulomb).
         traction: ``"tracks"`` (default) or ``"wheels"``.
-        wheelbase: B, distance from the front to the rear axle [m] (wheels only; None on
-            tracks); a wheeled robot built without one gets the track gauge (a square footprint).
-        wheels_per_side: wheels on each side, axles evenly spaced over the wheelbase (wheels
-            only; 2 to 10) [-].
+        wheelbase: B, front to rear axle [m] (wheels only; default the track gauge).
+        wheels_per_side: wheels on each side, axles evenly spaced over the wheelbase [-].
         extra: project-specific keys read from a description file, kept for round trips.
-        provided: the contract keys that a description file actually gave (the others took
-            their defaults), or None for a robot built in code. Diagnosis uses it to tell
-            known geometry from assumed geometry.
+        provided: the keys a description file gave (the others took their defaults), or None
+            for a robot built in code; diagnosis tells known from assumed geometry by it.
     """
 
     track_gauge: float = 0.4

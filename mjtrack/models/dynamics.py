@@ -22,17 +22,7 @@ i.e. the printed l is the track length L (not a link length) and the d^2 enters 
 sign. For |d| > L/2 the track slides one way throughout and M_r = 0 (d clipped to +-L/2).
 The same distribution gives the net lateral force f_l = 2 mu_y m g sgn(wz) d / L.
 
-Time domain. The lateral friction is evaluated from the distribution itself by the midpoint
-rule over ``n_points`` stations with a regularised sign u/sqrt(u^2 + eps^2) (``lateral_eps``
-[m/s]), which tends to (2.5') as eps -> 0, n -> infinity and stays finite at wz = 0
-(f_l -> -mu_y m g sgn(vy)). Inputs are either the traction forces F_L, F_R [N], or the track
-speeds V_L, V_R [m/s] with the traction law (our choice, documented):
-    F_side = mu N_side s/sqrt(s^2 + traction_eps^2),  s = V_side - (vx -+ wz T/2),
-a saturating longitudinal friction on the slip velocity of the track centre line
-(slip stiffness mu N/traction_eps at small slip, mu N at large slip). Rolling resistance
-R_side = rolling_resistance N_side sgn_eps(vx -+ wz T/2) (default 0). N_side by the lever rule
-(m g/2 each for cg_y = 0). The longitudinal and lateral frictions are independent (a friction
-"box", not the Coulomb circle): the model over-estimates the available friction when both act.
+Derivation and measurements: docs/theory/tracked.md, "Dynamics in the time domain".
 """
 
 from __future__ import annotations

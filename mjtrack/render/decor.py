@@ -1,5 +1,5 @@
 """Decorations drawn into a rendered scene: ground grid, path trail, point markers, camera framing,
-track belts with moving grousers.
+track belts with moving grousers; and a legend image blended into the frames.
 
 All of them assume flat ground at z = 0 (the floor of :func:`mjtrack.sim.chassis.add_scene`)
 and are drawn a few millimetres above it so that they do not z-fight with the plane.
@@ -19,6 +19,10 @@ GROUND_LIFT = 0.004  # [m] height of grid, trail and markers above the z = 0 gro
 GRID_RGBA = (0.25, 0.25, 0.3, 0.6)
 TRAIL_RGBA = (0.05, 0.35, 0.95, 1.0)
 MARKER_RGBA = (0.9, 0.1, 0.6, 1.0)
+# One colour per ICR of :func:`icr_markers` (left track, right track, body), so that the legend can
+# tell them apart; a single point set (K = 1) keeps MARKER_RGBA.
+ICR_RGBA = (MARKER_RGBA, (0.5, 0.2, 0.95, 1.0), (0.1, 0.7, 0.3, 1.0))
+ICR_LABELS = ("ICR left track", "ICR right track", "ICR body")
 _LINE = mujoco.mjtGeom.mjGEOM_LINE
 _SPHERE = mujoco.mjtGeom.mjGEOM_SPHERE
 
@@ -55,18 +59,62 @@ def draw_polyline(renderer: OffscreenRenderer, points: np.ndarray, *, width_px: 
 
 
 def draw_markers(renderer: OffscreenRenderer, points: np.ndarray, origin, *, radius: float,
-                 rgba=MARKER_RGBA) -> None:
+                 rgba=ICR_RGBA) -> None:
     """A sphere at each finite point of ``points`` (K, 3) [m], joined by a thin line to ``origin`` (x, y).
 
-    Points with a NaN or infinite coordinate (e.g. ICRs in straight driving) are skipped.
+    Point k has colour ``rgba[k % len(rgba)]``. Points with a NaN or infinite coordinate (e.g. ICRs
+    in straight driving) are skipped.
     """
     z_line = GROUND_LIFT
-    for p in points:
+    for k, p in enumerate(points):
         if not np.all(np.isfinite(p)):
             continue
+        colour = rgba[k % len(rgba)]
         centre = (p[0], p[1], max(p[2], 0.0) + radius)
-        renderer.add_geom(_SPHERE, (radius, radius, radius), centre, rgba)
-        renderer.add_connector(_LINE, 1.0, (origin[0], origin[1], z_line), (p[0], p[1], z_line), rgba)
+        renderer.add_geom(_SPHERE, (radius, radius, radius), centre, colour)
+        renderer.add_connector(_LINE, 1.0, (origin[0], origin[1], z_line), (p[0], p[1], z_line), colour)
+
+
+def legend_image(labels, rgba=ICR_RGBA, *, height_px: int) -> np.ndarray:
+    """(h, w, 4) float RGBA image in [0, 1] of a legend: a marker and a line in ``rgba[k]`` beside
+    ``labels[k]``, on a light box; sized for frames ``height_px`` high (font ~ 1/32 of it).
+
+    Drawn once with matplotlib (MuJoCo's overlay font has one colour) and blended into every
+    frame by :func:`blend_top_right`.
+    """
+    import io
+
+    from matplotlib.figure import Figure
+    from matplotlib.image import imread
+    from matplotlib.lines import Line2D
+
+    font_pt = max(8.0, height_px / 32) * 72 / 100  # [pt] at 100 dpi: about height/32 pixels
+    fig = Figure(figsize=(4, 2), dpi=100)
+    handles = [Line2D([], [], color=rgba[k % len(rgba)][:3], marker="o", linewidth=1.5,
+                      markersize=font_pt * 0.8) for k in range(len(labels))]
+    fig.legend(handles, list(labels), loc="center", fontsize=font_pt, framealpha=0.85,
+               facecolor="white", edgecolor="0.5", handlelength=1.6, borderpad=0.4, labelspacing=0.3)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100, bbox_inches="tight", pad_inches=0.0, transparent=True)
+    buf.seek(0)
+    return imread(buf)
+
+
+def blend_top_right(frame: np.ndarray, image: np.ndarray, *, margin_px: int = 6) -> np.ndarray:
+    """``frame`` (H, W, 3) uint8 with the RGBA ``image`` (values in [0, 1]) alpha-blended into its
+    top-right corner, ``margin_px`` from the edges (cropped to the frame); a new array."""
+    out = frame.copy()
+    h = min(image.shape[0], frame.shape[0] - margin_px)
+    w = min(image.shape[1], frame.shape[1] - margin_px)
+    if h <= 0 or w <= 0:
+        return out
+    x0 = frame.shape[1] - margin_px - w
+    patch = image[:h, :w]
+    alpha = patch[..., 3:4]
+    region = out[margin_px:margin_px + h, x0:x0 + w].astype(float)
+    blended = (1 - alpha) * region + alpha * 255 * patch[..., :3]
+    out[margin_px:margin_px + h, x0:x0 + w] = np.rint(blended).astype(np.uint8)
+    return out
 
 
 def _in_subtree(model: mujoco.MjModel, body_id: int) -> np.ndarray:
@@ -114,7 +162,8 @@ def icr_markers(poses: np.ndarray, icr) -> np.ndarray:
 
     ``icr``: anything with body-frame arrays ``x_c, y_l, y_r, y_c`` of shape (N,) [m], e.g.
     :class:`mjtrack.icr.ICR` from ``icr_from_twist(..., on_singular="mask")`` (NaN in
-    straight driving: no marker). The three ICRs share x_c (eq. 2.13).
+    straight driving: no marker). The three ICRs share x_c (eq. 2.13); their order is
+    :data:`ICR_LABELS`.
     """
     x_c = np.asarray(icr.x_c, dtype=float)
     body = np.stack([np.stack([x_c, np.asarray(y, dtype=float)], axis=-1)

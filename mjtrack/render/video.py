@@ -211,6 +211,7 @@ def render_video(
     grid: float | None = 0.5,
     trail: bool = True,
     icr: np.ndarray | None = None,
+    icr_labels: Sequence[str] | None = None,
     track_travel: np.ndarray | None = None,
     belts: bool | Sequence[decor.BeltGeometry] = True,
     clock: bool = True,
@@ -229,21 +230,16 @@ def render_video(
             under it); ``False``: one fixed camera framing the whole path.
         distance: camera distance [m]; default: fit the body's subtree (following) or the path.
         azimuth, elevation: camera direction [deg], MuJoCo free-camera convention.
-        grid: spacing [m] of grid lines drawn on the z = 0 ground, ``None`` for none (terrain
-            geoms above z = 0, e.g. a step or an incline, hide it there; the terrain itself is
-            drawn: every geom group MuJoCo shows by default is left visible).
-        trail: draw the body's path so far, at the body origin's height (on the ground for a
-            robot whose origin is its contact centre).
+        grid: spacing [m] of grid lines on the z = 0 ground (terrain above it hides them); ``None``: none.
+        trail: draw the body's path so far, at the body origin's height.
         icr: optional world-frame points (N, 2|3) or (N, K, 2|3) [m] drawn as markers (NaN: none).
-        track_travel: (N, 2) belt travel [m] of the left and right tracks (∫ track speed dt,
-            :func:`track_travel_from_speeds`): the grousers of the belts move by it.
-        belts: draw a belt round each side's rollers (``True``: :func:`decor.belt_geometry` with
-            its defaults; or the (left, right) :class:`decor.BeltGeometry`) and hide the rollers;
-            the belts stand still without ``track_travel``.
+        icr_labels: names of the K points, shown in a legend in the top-right corner (e.g. ``ICR_LABELS``).
+        track_travel: (N, 2) belt travel [m] of the left and right tracks; the grousers move by it.
+        belts: draw a belt round each side's rollers instead of them (``True``: default geometry,
+            or the (left, right) :class:`decor.BeltGeometry`).
         clock: write "t = … s   x… playback" (and the segment) in the top-left corner.
-        segment_starts: sample indices where a new segment begins (a log of several
-            windows): the segments are shown one after the other, each with its own trail;
-            times increase within a segment only.
+        segment_starts: sample indices where a new segment begins: the segments are shown one
+            after the other, each with its own trail.
         shadows: render shadows (about 3-5x slower with Mesa's software rasteriser).
         progress: show a progress line on a terminal (or update the given :class:`Progress`).
 
@@ -292,6 +288,7 @@ def render_video(
     size = max(decor.subtree_radius(model, data, body_id), 0.05)
     trail_stride = max(1, int(np.ceil(max(len(seg[0]) for seg in segments) / MAX_TRAIL_POINTS)))
 
+    legend = None if icr is None or not icr_labels else decor.legend_image(icr_labels, height_px=height)
     bar = progress if isinstance(progress, Progress) else Progress(n_frames, label="render", quiet=not progress)
     render_s = 0.0
     with OffscreenRenderer(model, width=width, height=height) as renderer, atomic_path(out_path) as tmp:
@@ -332,6 +329,8 @@ def render_video(
                         decor.draw_belt(renderer, belt, data.xpos[body_id], data.xmat[body_id],
                                         0.0 if travel is None else float(travel[k, i]))
                     frame = renderer.render(clock_text(float(t_frames[k]), speed, label) if clock else None)
+                    if legend is not None:
+                        frame = decor.blend_top_right(frame, legend)
                     render_s += time.perf_counter() - tic
                     writer.append_data(frame)
                     bar.update()

@@ -1,4 +1,4 @@
-"""MuJoCo tracked robot: model builder, rollouts, scenarios, steady states (issue 3).
+"""MuJoCo tracked robot: model builder, rollouts, scenarios, steady states.
 
 ``chassis`` is the one robot builder (chassis, suspension, sensors, scene) into which a track
 model plugs; ``builder`` makes the roller-chain robot, or the wheels of a wheeled robot

@@ -7,77 +7,7 @@ builder of :mod:`mjtrack.sim.chassis` (chassis, suspension, sensors, scene: deri
 Derivation of the roller chain (what each element stands for; ``assets/README.md`` gives the
 measurements):
 
-* **Track contact** (issue 3): the ground contact of a rigid track of length L is a uniform
-  line load along x. Each track is N spheres of radius r at the midpoints
-  x_i = -L/2 + (i + 1/2) L/N (midpoint rule: the N point loads integrate a linear load over
-  [-L/2, L/2] exactly). A rigid chassis on 2N point contacts is statically indeterminate and
-  MuJoCo's solver then spreads the normal load arbitrarily (measured: 0 to 119 N where 8 N
-  were due). Each roller therefore rides on a vertical slide ``susp_<side>_<i>`` with a
-  spring of stiffness k = m g / (2 N d) (d: static deflection) preloaded so that q = 0 at
-  the nominal load: the loads are then k times the chassis' (linear) deflection at each
-  roller, i.e. Wong's linear load distribution from the cg offset, and determinate.
-* **Track motion**: a roller's contact point must move backwards relative to the chassis at
-  the track speed V. Default (``coupling="servo"``): every roller hinge ``roll_<side>_<i>``
-  (axis +y; positive = forward driving) has its own velocity servo ``drive_<side>_<i>`` on
-  the track command (gear r, so ctrl and speed are in m/s of track), gain kv/N, force limit
-  torque_limit/(R_s N), and armature track_mass r^2/N: the track's reflected drivetrain
-  inertia. Alternative (``coupling="equality"``): roller hinges tied to one sprocket hinge by
-  joint equalities q_roll = (R_s/r) q_sprocket, one servo on the sprocket.
-* **Track speed**: fixed tendon ``track_<side>`` = (r/N) sum q_roll (mean roller surface
-  speed; R_s q_sprocket with the equality coupling); sensor ``track_speed_<side>`` [m/s].
-* **Friction** (the causes measured in ``assets/README.md``): sphere-plane point contacts,
-  condim 3 (sliding friction; a point has no spin moment to resist), one explicit pair per
-  roller carrying the track's mu. MuJoCo solves contacts as a convex problem in which a
-  sliding contact on its friction cone gets a *separating* normal acceleration mu |y_t|
-  (y_t: the friction rows' residual, about b_t |slip|): sliding rollers hop. Therefore the
-  main solve sees nearly no friction (``impratio`` 1e-4: friction rows 10^4 times softer than
-  the normal row, so they never reach the cone), and the friction comes from the noslip
-  pass, which solves the friction rows with the normal forces fixed and no regularisation
-  (hard Coulomb, no lift); its short friction time constant (2 dt) makes it oppose the slip
-  *velocity*. Elliptic cone: the Coulomb cone is isotropic.
-* **Drivetrain and integration**: the servos make every roller of a track run at the track
-  speed to within F_i / (kv/N); a soft servo lets the rollers of one track differ by cm/s,
-  which moves the ICRs of gentle turns (slips of mm/s). Hence a heavy reflected drivetrain
-  inertia (``track_mass``) and a stiff kv. Constraint forces are computed with M alone, so
-  damping that an implicit integrator adds afterwards (servo kv, suspension c) is invisible
-  to the friction solve; it bends the friction away from the slip unless kv dt << armature.
-  Semi-implicit Euler with MuJoCo's implicit joint damping switched off keeps every damper an
-  explicit, known force; stability then needs kv dt / track_mass and c dt / m_roller below
-  1.5 (checked, InputError otherwise).
-* **Belt** (session 6): the servos alone let a track's rollers differ by F_i / (kv/N), mm/s, which
-  at R 10 m and 0.2 m/s moved x_c 0.03 L off Coulomb. Each track has a belt joint ``belt_<side>``
-  (a hinge of surface radius r carrying ``BELT_MASS_SHARE`` of the reflected inertia; the rollers
-  keep the rest) and each roller's surface is tied to it by a spring (tendons
-  ``belt_<side>_<i>``, ``SimConfig.belt_timeconst``): in a steady state every roller runs at the
-  belt's speed, as the contact points of a belt do (x_c within 0.0017 L there).
-* **Sensors**: the chassis' (:mod:`mjtrack.sim.chassis`) and the track speeds
-  (``track_speed_<side>``, m/s).
-
-Wheels (:class:`WheelSet`, a robot with ``traction: "wheels"``; measurements in
-``assets/README.md``, "Wheels"). A wheel touches the ground at one point under its axle, which is
-what a roller is: each side gets ``wheels_per_side`` of the roller chain's elements at the axle
-positions (:meth:`mjtrack.io.robot.Robot.axle_positions`) with the wheel's radius (bodies and
-geoms ``wheel_<side>_<i>``, hinges ``roll_<side>_<i>``, slides ``susp_<side>_<i>``, servos
-``drive_<side>_<i>``, the side's belt joint ``belt_<side>``: the wheels of a side turn together, as
-a chain or belt drive makes them), so the loads stay determinate on the springs (the tyres'
-deflection), the friction is the noslip pass's hard Coulomb friction and the rest margins put the
-contact point at the wheel radius. ``track_speed_<side>`` is the wheels' mean surface speed. What
-differs from a roller:
-
-* the sphere is not drawn; a tyre (cylinder of the tyre width) with spokes is, so that a video
-  shows the wheels turn (``mjtrack.render.turn_wheels`` turns them by a log's speeds);
-* the wheel body's inertia about its axle is 1 % of a solid sphere's (``spin_inertia_share``): the
-  spin inertia is the hinge's armature (the reflected drivetrain, joint space), because a body
-  inertia makes the spinning wheels of a yawing robot precess: a roll moment I w_spin w_z per
-  wheel that neither the robot description nor the Coulomb reference has;
-* the springs take at most half critical damping (``max_damping_ratio``): the explicit damper at
-  critical damping (c dt / m 1.24 at 5 ms, stable for the rollers) let a 280 kg robot's wheels hop
-  in a fast pivot once the wheels' gyroscopic coupling was gone;
-* the noslip pass runs at least 100 iterations to a tolerance of at most 1e-8: a spin-up winds a
-  side's belt up between its wheels (the front wheel driven, the rear one braked, close to mu N each,
-  held by static friction as a chain drive's wind-up is), and with 40 iterations the unconverged
-  stick forces turned a straight-driving robot at a steady yaw rate;
-* no idlers: a wheel climbs what its radius allows.
+Derivation and measurements: docs/theory/simulator.md, "The roller chain".
 """
 
 from __future__ import annotations

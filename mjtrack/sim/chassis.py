@@ -9,38 +9,7 @@ puts the robot on its terrain, :func:`build_robot_model` does both and compiles.
 
 Derivation of the shared part (``assets/README.md`` gives the measurements):
 
-* **Chassis**: one body with a free joint ``root``. Its frame origin is the geometric centre of the
-  two contact patches on the ground (site ``centre``), x forward, y left, z up. The chassis mass is
-  ``robot.mass`` minus the 2N contact elements' (unsprung) mass, whose centres sit at height r; it
-  sits where it puts the total centre of mass at (cg_x, cg_y, cg_z) (site ``cg``); its inertia is
-  a uniform box L x (T + width) x ``CHASSIS_HEIGHT`` plus the products of inertia that cancel those
-  of the elements and of the chassis' own offset (:func:`chassis_mass_properties`), so that the
-  whole robot's inertia about its centre of mass has the body axes as principal axes, as the
-  robot description (no products of inertia) and the Coulomb reference assume. Without that, the
-  unsprung elements (at height r, centred on the patch) and the chassis (above, offset the other
-  way) made I_xz = m_el,total cg_x (cg_z - r) M / m_chassis, and a spinning robot felt a
-  centrifugal pitch moment w^2 I_xz that no description of it has: 0.05 T/2 on the ICRs of a
-  2 m/s pivot of a 5 kg robot with cg 0.1 L forward (benchmarks/gentle_turns.py, section 9).
-  A visual hull (no contact, no mass).
-* **Tracks**: each track (``left`` at y = T/2, ``right`` at y = -T/2, its μ) is N contact
-  elements at the midpoints x_i = -L/2 + (i + 1/2) L/N (:func:`element_positions`: the N point
-  loads integrate a linear load over [-L/2, L/2] exactly), added by the track model.
-* **Suspension**: a rigid chassis on 2N point contacts is statically indeterminate and MuJoCo's
-  solver then spreads the normal load arbitrarily; each sprung element therefore rides on a
-  vertical slide ``susp_<side>_<i>`` with a spring k = m g / (2 N d) (d: static deflection),
-  preloaded so that q = 0 at the nominal load, damped at ``suspension_damping_ratio`` of critical
-  for the element's share of the sprung mass (:class:`Suspension`): the loads are k times the
-  chassis' (linear) deflection at each element, Wong's linear load distribution from the cg offset.
-* **Idlers** on terrain they can touch (:func:`mjtrack.sim.scene.add_idlers`).
-* **Sensors**: ``ground_<side>`` (number of the track's elements in ground contact); the body
-  twist of ``centre`` in its own frame (``body_linvel`` velocimeter, ``body_angvel`` gyro) and its
-  pose (``body_pos``, ``body_quat``).
-* **Options**: the solver settings of ``config`` (:func:`mjtrack.sim.scene.apply_solver_options`),
-  no automatic reset on divergence (NaN instead), plus those of the track model
-  (:meth:`TrackModel.set_options`).
-* MjSpec pitfall: a body with ``explicitinertial`` must be given ``ipos``; left unset the centre of
-  mass was compiled at the body's offset from its parent (spinning rollers then orbited an
-  eccentric axis: several newtons of spurious vertical force, micro-hops).
+Derivation and measurements: docs/theory/simulator.md, "The chassis".
 """
 
 from __future__ import annotations
@@ -100,7 +69,7 @@ def chassis_mass_properties(robot: Robot, config: SimConfig, tracks: "TrackModel
         second += m * np.outer(d, d)
     ly, lz = T + w, CHASSIS_HEIGHT
     box = m_chassis / 12 * np.array([ly**2 + lz**2, L**2 + lz**2, L**2 + ly**2])
-    if not config.principal_axes:  # a plain box (before session 6)
+    if not config.principal_axes:  # a plain box (the earlier form, kept as an option)
         return m_chassis, ipos, np.array([*box, 0.0, 0.0, 0.0])
     # products of inertia are -sum m d_a d_b; the chassis takes +sum m d_a d_b to cancel them
     full = np.array([*box, second[0, 1], second[0, 2], second[1, 2]])

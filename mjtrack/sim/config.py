@@ -26,131 +26,35 @@ MAX_STEP_DIVISIONS = 8
 
 @dataclass(frozen=True)
 class SimConfig:
-    """How the robot is simulated (SI units).
+    """How the robot is simulated (SI units; the measurements behind each default: docs/theory/simulator.md).
 
     Attributes:
-        timestep: integration step [s].
-        n_rollers: contact rollers per track (>= 2); placed at the midpoints of N equal
-            cells of the contact length, so that they integrate a uniform load exactly [-].
-        roller_radius: radius of the spherical contact rollers [m].
-        unsprung_fraction: share of ``robot.mass`` in the 2N rollers (unsprung mass) [-];
-            a fraction, so that the explicit damper's stability margin c dt / m_roller does
-            not depend on the robot's mass.
-        suspension_deflection: static spring deflection of a roller under its share of the
-            weight [m]; sets the road-wheel spring stiffness k = m g / (2 N d).
-        suspension_damping_ratio: damping of the roller spring relative to critical for
-            the roller's share of the sprung mass [-].
-        track_mass: drivetrain inertia of one track (chain, sprocket, gearbox and rotor)
-            reflected to the track surface [kg]; armature track_mass r^2 / N on each roller
-            hinge (track_mass R_s^2 on the sprocket with the equality coupling). Heavy by
-            default (a geared motor: rotor 5e-5 kg m^2 x 100^2 / R_s^2 = 139 kg), so that the
-            rollers of a track move together (assets/README.md, item 5).
-        kv: velocity-servo gain of a track drive [N/(m/s)] (kv / N per roller servo).
-        torque_limit: sprocket torque limit [N m] (track force limit torque/R_s).
-        drive_reference_mass: robot mass [kg] for which ``track_mass``, ``kv`` and
-            ``torque_limit`` are given; the roller chain scales all three up by
-            max(1, robot.mass / drive_reference_mass) (:meth:`for_robot_mass`), so that no
-            robot has a softer drive per unit of traction than the default one (track speeds
-            within F/kv = 2.6 mm/s of the command at full traction, same spin-up acceleration
-            and explicit-damper margin kv dt / track_mass). Not scaled down: a 5 kg robot with
-            a quarter of the drive missed Coulomb by up to 3.9 T/2 in 10 m turns at 0.2 m/s
-            against 0.42 with the full one. ``None``: absolute values (before: a 150 kg robot
-            had the 20 kg robot's drive, benchmarks/fidelity.py --wide --previous-defaults).
+        timestep: integration step [s] (steady states may take a shorter one: ``lag_budget``).
+        n_rollers, roller_radius: contact rollers per track (>= 2) [-] and their radius [m].
+        unsprung_fraction: share of ``robot.mass`` in the 2N rollers [-].
+        suspension_deflection, suspension_damping_ratio: static deflection of a roller spring under
+            its share of the weight [m]; its damping relative to critical [-].
+        track_mass, kv, torque_limit: drivetrain inertia of one track at its surface [kg], track
+            servo gain [N/(m/s)], sprocket torque limit [N m].
+        drive_reference_mass: robot mass [kg] those three are given for; heavier robots get them
+            scaled up (:meth:`for_robot_mass`); ``None``: absolute values.
         lag: first-order time constant from command to servo set-point [s] (0 = none).
-        contact_timeconst: contact solref time constant [s] (0 = 2 timesteps).
-        contact_dampratio: contact solref damping ratio [-].
-        solimp: contact impedance (dmin, dmax, width, midpoint, power).
-        friction_timeconst: solref time constant of the friction rows only [s] (explicit
-            contact pairs' ``solreffriction``; 0 = 2 timesteps). Keep it short: the noslip
-            pass then opposes the slip *velocity*; a long one (1 s) makes friction follow
-            accelerations (measured err_x 0.45 L, benchmarks/sim_ablation.py).
-        contact_margin: distance at which a roller-ground contact becomes active [m]; room
-            for the separating acceleration that sliding produces in MuJoCo's convex contact
-            model, so that a sliding roller floats up a little instead of losing contact.
-        coupling_timeconst: solref time constant of the roller-sprocket couplings [s]
-            (0 = 2 timesteps).
-        coupling: how a track's rollers share its speed: ``"servo"`` (each roller hinge has
-            its own velocity servo on the track command, gain kv, force limit
-            torque_limit / (R_s N), armature track_mass r^2 / N: no constraint rows) or
-            ``"equality"`` (roller hinges tied to one sprocket by joint equalities, one
-            servo on the sprocket: an exact chain, but N more constraint rows).
-        belt_timeconst: the track belt (``coupling="servo"``): each track has a belt joint
-            ``belt_<side>`` carrying a quarter of its reflected inertia (``track_mass``; the rollers
-            keep the rest) and every roller's surface is tied to it by a spring of stiffness
-            k = (track_mass / N) / belt_timeconst^2 (fixed tendons ``belt_<side>_<i>`` =
-            r (q_i - q_belt)), so that in a steady state every roller of a track runs at the belt's
-            speed, as the contact points of a belt do, whatever its load [s]. Without it (``None``,
-            before session 6) only the servos tie the rollers together and their surface speeds
-            spread by F_i / (kv/N): mm/s, the size of the slips of a gentle turn, which moved x_c
-            by up to 0.03 L at R 10 m, 0.2 m/s (benchmarks/gentle_turns.py, sections 5, 7, 8).
-            Internal forces: the drive's common mode is untouched. Cost 2 % of a step at N = 10
-            and 40. Two forms were measured (development probes) and not kept: every roller tied to its track's mean
-            position (same steady states, but N^2 tendon entries: 4.6 % at N = 10, 20 % at 40)
-            and a chain of springs between neighbours (its end-to-end mode relaxes in 0.15 s at
-            N = 10, 2.4 s at 40, and made straight driving creep 3.5e-4 of the speed).
-            Explicit Euler: the belt joint's mode against its rollers, w = 2.31 / belt_timeconst,
-            needs w dt < 1.5 (checked).
-        slip_budget: largest ratio mu g dt / (|w| L/2) of the friction's velocity change per step
-            to the lateral slip at the track ends that a steady case may run at
-            (:meth:`step_for`) [-]: the noslip friction opposes the slip expected one step
-            ahead, and where one step of friction moves a contact by many times its slip the
-            friction direction is off (errors follow the friction time constant 2 dt, not the
-            contact's: gentle_turns.py section 8; with the belt the dt-halving change of gentle
-            turns stays <= 0.0033 T/2 up to r = 12 and reaches 0.022 at r = 21.8). ``None``: no
-            such rule.
-        principal_axes: the chassis takes the products of inertia that keep the whole robot's
-            principal axes on the body axes (:func:`mjtrack.sim.chassis.chassis_mass_properties`);
-            False: a plain box (before session 6: the elements then tilt the principal axes and
-            a spinning robot with its cg off-centre feels a pitch moment no description of it has).
-        cone: ``"elliptic"`` (isotropic Coulomb cone) or ``"pyramidal"``.
-        impratio: friction-to-normal impedance ratio (elliptic cones) [-]; 1e-4 keeps the
-            friction rows of the main solve far inside the cone (no sliding lift-off); the
-            noslip pass then supplies hard Coulomb friction.
-        noslip_iterations: most post-solve iterations of the un-regularised friction solver
-            (it stops at its tolerance: 5 iterations in turns). Fewer cost accuracy where it
-            needs more: 4 moves turn ICRs by <= 0.004 T/2 but straight driving drifts 2 mm/m
-            at 2 m/s (20: 0.09 mm/m); assets/README.md "Speed". 40 since session 6: with the
-            belt, straight driving keeps tangential preloads from the start and 20 iterations
-            left 0.49 mm/m at 0.8 m/s (30: 0.035, 40: 0.008), at no measurable cost on random
-            steps (88x real time either way: the tolerance stops it first elsewhere; development
-            probes, with the mean-coupled belt of the time).
-        solver: main constraint solver, ``"Newton"``, ``"PGS"`` or ``"CG"``. PGS: with
-            impratio 1e-4 the main solve carries only the normal rows and PGS reaches
-            Newton's forces (ICRs equal to 1e-7) without Newton's nv x nv factorisation, on the
-            matrix that noslip needs anyway.
-        iterations, tolerance: main solver settings.
-        jacobian: ``"dense"`` or ``"sparse"``. With friction in the noslip pass (which
-            works on the dense constraint matrix) dense measured ~15 % faster at 10 rollers;
-            sparse was 2-6x faster when the main Newton solve carried the friction.
-        integrator: ``"implicitfast"``, ``"Euler"``, ``"implicit"`` or ``"RK4"``.
-        implicit_damping: keep MuJoCo's implicit joint damping under Euler (default off:
-            the constraint solver cannot see it, see assets/README.md).
-        track_model: ``"rollers"`` (this module's roller chain) or ``"surfacevel"``.
-        noslip_tolerance: early-termination tolerance of the noslip pass (MuJoCo's default
-            1e-6). 1e-4 is 7 % faster at 10 rollers and moves issue-3 grid ICRs by <= 0.0012 T/2,
-            but the most ill-conditioned gentle turns (5 kg, R 10 m) by 0.07 T/2: kept at 1e-6.
-        rest_margin: roller chain only: make each roller's rest penetration its contact margin
-            (:func:`mjtrack.sim.builder.apply_rest_margins`), so that the contact point lies at the
-            roller radius and the ground sees the measured track speed (MuJoCo puts a
-            sphere-plane contact half-way into the penetration).
-        level_chassis: preload each element's spring with its share of Wong's linear load
-            distribution (:func:`mjtrack.sim.chassis.rest_loads`), so that a chassis whose
-            centre of mass is off-centre rests level instead of pitching on its springs. On a
-            pitched chassis the slides lean, and the noslip pass's longitudinal friction pushed
-            the rollers along them (an acceleration the main solve never saw): inner rollers sank
-            and outer ones rose by up to 48 um in a turn, moving the contact points
-            (benchmarks/gentle_turns.py). Off (or |c_x| beyond ~L/6): equal preloads.
-        lag_budget: roller chain: largest x_c offset v dt allowed, as a fraction of the track
-            length [-]. The noslip friction opposes the slip predicted one step ahead, which the
-            turn has rotated by w dt, so a steady turn's x_c sits v dt off Coulomb
-            (benchmarks/gentle_turns.py, section 5): 1 cm = 0.056 L for a 0.18 m track at 2 m/s
-            and 5 ms. In steady states (``steady_batch``, so ``steady`` and ``sweep``) each case
-            runs at ``timestep / k``, k the smallest integer with v_max dt <= lag_budget L (v_max:
-            the larger |track speed| commanded; :meth:`step_for`). 0.01 keeps the default
-            robot at 5 ms up to 1 m/s. None: ``timestep`` always. Logs (``drive_log``, so
-            ``simulate``), calibration and diagnosis windows and the closed-loop plant run at
-            ``timestep``: a log is then simulated at the step its windows are, and a window step
-            that followed the fitted track length would make the objective discontinuous.
+        contact_timeconst, contact_dampratio, solimp: contact solref time constant [s] (0 = two
+            steps), damping ratio [-] and impedance (dmin, dmax, width, midpoint, power).
+        friction_timeconst: solref time constant of the friction rows only [s] (0 = two steps).
+        contact_margin: distance at which a roller-ground contact becomes active [m].
+        coupling, coupling_timeconst: ``"servo"`` (a servo per roller) or ``"equality"`` (rollers
+            tied to one sprocket); the time constant of those ties [s] (0 = two steps).
+        belt_timeconst: time constant of the springs that tie each roller to its track's belt [s];
+            ``None``: no belt.
+        slip_budget: largest mu g dt / (|w| L/2) a steady case runs at (:meth:`step_for`) [-].
+        principal_axes: the chassis keeps the robot's principal axes on the body axes.
+        cone, impratio: ``"elliptic"`` or ``"pyramidal"`` friction cone; friction-to-normal impratio.
+        noslip_iterations, noslip_tolerance: limits of MuJoCo's noslip friction pass.
+        solver, iterations, tolerance, jacobian, integrator, implicit_damping: MuJoCo's settings.
+        track_model: ``"rollers"`` (the roller chain) or ``"surfacevel"``.
+        rest_margin, level_chassis: contact point at the roller radius; chassis resting level.
+        lag_budget: steady states of the roller chain: largest v dt [fraction of L] per step.
     """
 
     timestep: float = 0.005

@@ -10,27 +10,12 @@ m_t the drivetrain inertia reflected to the track surface (``SimConfig.track_mas
 servo gain and F_max the traction force limit per track (``Robot.drive_force_limit``, default
 ``SimConfig.torque_limit / R_s``).
 
-Defaults that scale with the robot (``SimConfig.for_robot_mass``): m_t, kv and F_max are given
-for a 20 kg robot (200 kg, 3e4 N s/m, 1000 N at R_s = 0.06 m) and scaled by
-s = max(1, m / 20 kg). Hence, for every robot from 20 kg up,
-
-* the servo time constant of a track alone, m_t / kv = 6.7 ms, and with the half robot it
-  pushes, (m_t + m/2) / kv <= 7 ms, is the same: a step command is reached in the same time;
-* the servo droop at full traction, mu m g / 2 / kv <= 2.6 mm/s (mu 0.8), is the same relative
-  to the commands: heavy robots no longer lose commanded speed difference in gentle turns
-  (with one drive for all, a 150 kg robot's droop was 7.5x larger);
-* the force-limited spin-up acceleration F_max / (m_t + m/2) = 4.76 m/s^2 is the same;
-* the explicit-Euler margin kv dt / m_t = 0.75 (< 1.5) does not depend on the mass.
-
-Robots lighter than 20 kg keep the 20 kg drive (scaled down, a 5 kg robot's gentle turns
-missed Coulomb by more: ``SimConfig.drive_reference_mass``). With ``drive_lag`` 0 the set-point
-is the command and the track speed follows it within the servo time constant, or at the
-force-limited acceleration when F_max is reached.
-
 The lag is MuJoCo's exact first-order filter on the actuators (roller chain) or the same
 exact discretisation in :class:`mjtrack.sim.surfacevel.TrackDrive`; the delay and the scale
 are applied to the per-step command sequence (:func:`drive_commands`), so they are exact to
 the time step for both models, and the logged commands stay the commanded ones.
+
+Derivation and measurements: docs/theory/simulator.md, "The track drives".
 """
 
 from __future__ import annotations

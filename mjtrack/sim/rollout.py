@@ -11,7 +11,7 @@ reach their static state), so a log starts at rest. Logged quantities, sampled e
 * ``x, y`` [m]: the ``centre`` site (geometric centre on the ground); ``yaw`` [rad]: the
   chassis heading, unwrapped (continuous), from the site quaternion;
 * ``vx, vy, wz``: velocimeter/gyro of ``centre`` in the chassis frame (for the small
-  pitch/roll of the sprung chassis this is the body twist of CONTRACTS.md);
+  pitch/roll of the sprung chassis this is the body twist of docs/reference/formats/drive-log.md);
 * ``v_left, v_right``: track speeds (tendon velocity sensors, m/s).
 
 A simulation that diverges (NaN, or MuJoCo's automatic reset after a bad acceleration,
@@ -293,7 +293,7 @@ def roll_pitch_of(quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def log_columns(sensordata: np.ndarray, commands: np.ndarray, smap: SensorMap, *, timestep: float,
                 stride: int) -> dict[str, np.ndarray]:
-    """Drive-log columns (CONTRACTS.md §1) from one rollout's sensordata (nstep, nsensordata).
+    """Drive-log columns (docs/reference/formats/drive-log.md) from one rollout's sensordata (nstep, nsensordata).
 
     Sample j is the state after step (j+1)*stride - 1, i.e. at t = (j+1) * stride * dt. The
     command columns are filled in by :func:`simulate` (see :func:`_commands_in_force`). A first

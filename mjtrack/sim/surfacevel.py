@@ -15,65 +15,7 @@ it). It cannot be driven by an actuator, and the contact force does not act back
 degree of freedom: the track speed is kinematic. A lag or torque limit is emulated outside
 MuJoCo by :class:`TrackDrive` (one step of explicit coupling, see there).
 
-Derivation of the model.
-
-* Chassis: the shared one (:mod:`mjtrack.sim.chassis`), the elements' mass taken out of it.
-* Track contact: each track (body ``<side>_track`` at y = +-T/2) is N contact elements
-  (``track_<side>_<i>``) at the midpoints x_i = -L/2 + (i + 1/2) L/N (midpoint rule, the
-  grid of mjtrack.models.coulomb: the Coulomb pivot yaw ratio with 12 points is within 0.2 %
-  of the 200-point value, study section "discretisation"; points placed from end to end
-  would over-weight the track ends, which carry the turning resistance).
-* Track motion: the bottom run of a track driven forward at V moves backwards relative to
-  the chassis, so every element of that track has surfacevel = (-V, 0, 0, 0, 0, 0) in its
-  geom frame (aligned with the chassis). Straight driving is then exact: vx = V.
-* Suspension: each element sits on a vertical slide ``susp_<side>_<i>`` with the chassis'
-  spring k = m g / (2 N d), preloaded so q = 0 under the nominal share: the loads are set by
-  the springs (Wong's linear distribution from the cg offset) and are determinate.
-* Sensors: ``body_linvel``, ``body_angvel`` (twist of ``centre`` in the chassis frame),
-  ``body_pos``, ``body_quat``, ``ground_<side>`` (elements in contact), the chassis';
-  no ``track_speed_<side>``: the track speed is the value last set (:class:`TrackDrive`).
-* Friction: explicit contact pairs ``contact_<side>_<i>`` (floor, element), condim 3, the
-  track's mu, elliptic cone, impratio, solref/solimp and ``solreffriction`` from SimConfig.
-
-What was wrong with a rigid surfacevel row (0.41 of the ideal pivot yaw rate, 22 % contact),
-and the fixes. Numbers: ``python benchmarks/surfacevel_study.py`` (pivot at 0.3 m/s, cg_x = 0;
-Coulomb yaw ratio wz / (2V/T) = 0.743 for T = 0.4, L = 0.5).
-
-1. Loads follow the slip speed. On the elliptic cone a contact in steady sliding has roughly
-   f_n = D (mu b |u| - k r - b v_n) (the cone's middle zone couples the friction residual b|u|
-   into the normal row), so a sliding contact pushes in proportion to its slip speed |u| even
-   at zero penetration r. On a rigid row the solver therefore loads the fast-slipping track ends
-   (12 spheres: max/mean load 3.6, min 0) and the yaw ratio drops to 0.48; where the push at
-   zero penetration exceeds the load share the chassis hops (a sub-millimetre limit cycle,
-   contact on 37 % of the steps). One box per track touches the plane at its 4 corners
-   only: ratio 0.38 (Coulomb with the loads at the track ends: T^2/(T^2 + L^2) = 0.39). A pyramidal cone mixes normal and friction rows:
-   one box 0.28. Softer contacts (solref) only change the hop frequency; a row that keeps
-   contact (solimp dmin 0) shows the mechanism cleanly: loads exactly proportional to |u|
-   (coefficient of variation of load/|u| 0.00, load max/mean 1.48), yaw ratio 0.66.
-2. Sprung elements (the roller chain's road-wheel springs) make the loads determinate: ratio
-   0.743 already with MuJoCo's default contact settings (load max/mean 1.06).
-3. solimp dmin = 0 (impedance 0 at zero penetration, 0.99 beyond 1 mm): with dmin 0.95 the
-   light sprung elements are kicked off the ground by the slip push (pivot: contact 97.0 %,
-   elements at zero load); with dmin = 0 every element keeps its spring load, contact 100 %.
-4. Friction rows as hard as the normal rows (``friction_timeconst`` = 0, impratio 10): a slow
-   friction solref creeps at small slip speeds, so gentle turns come out wrong (0.05 s: |dy|
-   0.17 T/2, |dx_c| 0.040 L; 1 s: |dy| > 1 T/2 and a 1.5 s spin-up where Coulomb needs 0.1 s),
-   and noslip cannot undo it (it keeps the rows' reference acceleration -b u, b ~ 2/timeconst).
-   noslip does restore friction made weak by the *impedance*: the roller chain's recipe
-   (impratio 1e-4, noslip 20, dmin 0.95: no slip push, exact friction) matches the Coulomb
-   reference as well here, at about a third of the steps/s; with hard friction rows noslip changes
-   nothing (pivot 0.742 either way) and is off. impratio 1 or 10 and pyramidal or elliptic
-   cones give the same ratio (0.742) once the elements are sprung.
-5. Spheres at cell midpoints: capsules across the track (0.713) and boxes (0.704) touch at
-   their ends/corners +-w/2 off the track line and add turning resistance; 24 spheres = 12.
-Result (default robot, 60 steady turns, both directions, cg_x -0.05/0/0.05, 0.3 and 0.8 m/s):
-ICRs within 0.024 T/2 and 0.011 L of the Coulomb reference, contact on 99.96 % of the steps
-(all but the first two), straight |vx - V| <= 6.5e-4 V (chassis pitch), no drift, timestep
-halving moves ICRs <= 0.0017 T/2; about 3x the roller chain's steps/s (study: "speed").
-The full issue-3 grid (``python benchmarks/fidelity.py --track-model surfacevel``: 432 turns,
-default and long robot, mu 0.4/0.8, cg_x 0/+-0.1 L, forward and reverse): all pass, ICRs
-within 0.031 T/2 and 0.011 L, contact 99.96 %; comparison with the roller chain in
-``assets/README.md``.
+Derivation and measurements: docs/theory/simulator.md, "The surface-velocity track".
 """
 
 from __future__ import annotations

@@ -17,16 +17,6 @@ Specs (SI units, angles in radians):
   H, "x": X}], "hfield": {"file": F, "size_x": SX, "size_y": SY, "height": H}, "patches": [...]}``
   (every key optional; relative file names are relative to the JSON file).
 
-Contacts. The track elements (rollers, surfacevel elements, the idlers) collide with nothing by
-default (contype = conaffinity = 0); :func:`add_terrain` adds one explicit contact pair per
-(track element, terrain geom), so an element meets every terrain geom and keeps its track's
-friction. Friction combination rule: the ground (plane, step, height field) has the friction
-of the track on it (``robot.friction_left`` / ``friction_right``: the track material's μ on the
-nominal ground); on a patch the patch's μ replaces the nominal ground's, per-track asymmetry
-kept as a ratio: μ = μ_patch · μ_track / robot.mu. A patch 1 mm above the ground is what the
-element touches while it is on the patch (the ground below is then 1 mm away, beyond the
-contact margin), so the patch's μ wins on the patch and the ground's elsewhere.
-
 Initial pose: the robot starts at the origin, heading +x, its frame aligned with the (tilted)
 ground, raised to the highest terrain point under its footprint (then settles).
 
@@ -35,6 +25,8 @@ Size: a terrain JSON file is at most :data:`MAX_JSON_BYTES` and nested at most
 adds a contact pair per track element, checked at every time step); a height field has at most
 :data:`MAX_HFIELD_CELLS` samples, checked from the file's header before its data is read (a
 10 000 x 10 000 image took 6 GB and 27 s to turn into a model that then diverged).
+
+Derivation and measurements: docs/theory/simulator.md, "Terrain contacts".
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The MuJoCo robot on many windows of a drive log, each started from the measured state.
 
 A long open-loop rollout of a real log drifts away after a few seconds, and any fit to it
-stalls (issue 10: a whole-log fit of a pushed box stopped at mu 0.665 for a truth of 0.55;
+stalls (measured: a whole-log fit of a pushed box stopped at mu 0.665 for a truth of 0.55;
 the same fit over windows started from the measured state found the truth). So the robot is
 simulated over short windows of the log (default 2 s), each one:
 
@@ -20,16 +20,7 @@ simulated over short windows of the log (default 2 s), each one:
   a segment shorter than the horizon but at least ``min_fraction`` of it still gives one window
   that ends at its last sample (the Marmotte log is 432 segments of 1.90-2.06 s).
 
-Parameters per world: :func:`simulate_windows` takes a list of parameter sets and runs every
-window under each of them in one batch of ``mujoco.rollout`` (threads); the parameters that
-are fields of the compiled model (friction per track, centre of mass, drive lag and force
-limit) are set on a copy of one compiled model -- no rebuild -- and each variant is settled
-at rest once for its initial height and pitch. Geometry (track length, a wheeled robot's
-wheelbase, gauge, mass) changes the model's structure and needs a new :class:`WindowSim` (one
-build per distinct geometry).
-
-Errors are those of :mod:`mjtrack.diagnose.residuals`: the predicted pose at the window's last
-sample against the measured one, in the frame of the measured start pose (along, across, yaw).
+Derivation and measurements: docs/theory/simulator.md, "Windows of a log".
 """
 
 from __future__ import annotations
@@ -449,7 +440,7 @@ class WindowResult:
         return np.hypot(self.errors[..., 0], self.errors[..., 1])
 
     def rms(self) -> np.ndarray:
-        """(P,) RMS horizon position error over the windows [m] (CONTRACTS' pos_err_m)."""
+        """(P,) RMS horizon position error over the windows [m] (``pos_err_m`` of calibration.json)."""
         return np.sqrt(np.mean(self.pos_err() ** 2, axis=1))
 
 

@@ -238,7 +238,7 @@ def run_sweep(
     if terrain is not None and not terrain.is_flat:  # absent when flat: sweeps started before --terrain resume
         settings["terrain"] = terrain.to_dict()
     # every simulator setting (time-step rules, belt, principal axes, ...): a sweep started under
-    # other settings (before session 6 only ``lag_budget`` was kept, before session 5 nothing) is
+    # other settings (older sweep files kept only ``lag_budget``, or no setting at all) is
     # refused instead of mixing two models' rows in one file
     settings["sim_config"] = sim_config(track_model).to_dict()
     try:

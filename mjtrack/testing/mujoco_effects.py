@@ -1,11 +1,11 @@
-"""GENERATOR of MuJoCo drive logs with one hidden effect, for the diagnosis tests (issue 6).
+"""GENERATOR of MuJoCo drive logs with one hidden effect, for the diagnosis tests.
 
 Kept apart from the diagnosis code on purpose: nothing here comes from ``mjtrack.diagnose``
 (the diagnosis must not know which effect was injected, nor reuse the generator's transforms).
 The ground truth is the MuJoCo tracked robot (``mjtrack.sim``): its contacts, suspension, drive
 servos and inertia, not the Coulomb surrogate the diagnosis fits.
 
-How each effect of CONTRACTS.md §4 is injected (``HIDDEN`` holds the injected values):
+How each effect of docs/reference/formats/diagnosis-json.md is injected (``HIDDEN`` holds the injected values):
 
 * ground effects change the simulated robot or its world:
   ``cg_offset_x`` / ``cg_offset_y``: Robot.cg_x / cg_y;  ``friction_scale`` k: Robot.mu = k mu;
@@ -25,10 +25,7 @@ How each effect of CONTRACTS.md §4 is injected (``HIDDEN`` holds the injected v
   ``command_delay`` d: V shifted by round(d/dt) steps, zero before (at rest);
   ``speed_limit`` v: clip(V, -v, v).
 
-Commands: seeded random steps held 1.5-3 s, |V| <= 0.8 m/s: straight runs, turns of varied
-curvature both ways and spins, forward and backward (:func:`commands`). Logged at 20 Hz with
-white pose noise (1 cm in x, y; 0.3 deg in yaw) and, in the ``speeds=True`` variant, the
-simulated track speeds with 0.01 m/s noise. The body-twist columns (vx, vy, wz) are never logged.
+Derivation and measurements: docs/theory/diagnosis.md, "Test logs with a hidden effect".
 """
 
 from __future__ import annotations
@@ -57,7 +54,7 @@ DRIVES = SimConfig(torque_limit=600.0)
 
 @dataclass(frozen=True)
 class Hidden:
-    """One injected effect: its CONTRACTS.md §4 name, kind and parameter values."""
+    """One injected effect: its name in diagnosis.json, kind and parameter values."""
 
     name: str
     kind: str  # "ground" or "input"

@@ -21,43 +21,9 @@ The slip values are the thesis's: 0.1, pi/12 rad and 2 %; the constant left slip
 not printed and is taken equal to case (b)'s 0.1; "while rotating at pi/6" is the hold phase
 (11-16 s), the ramps count as "otherwise".
 
-Sampling: dt = 0.01 s (100 Hz, a usual odometry rate, 2701 samples; every breakpoint and slip
-switch is a multiple of it). Commands and parameters are held constant over
-[t_k, t_k + dt) (zero-order hold, as :func:`mjtrack.models.integrate` assumes) and take the value
-of the continuous profile at the midpoint t_k + dt/2; for a piecewise-linear profile whose
-breakpoints lie on the grid this is its exact mean over the step, so the nominal turn is exactly
-pi. The integration composes exact SE(2) steps, so dt only sets the time resolution; the paths
-do not depend on it through integration error.
-
-Where MICR and MVIR cannot follow (derived here, tested). (2.14) is equivalent to the two
-rest conditions of the track ICRs, vx - wz·y_l = V_L and vx - wz·y_r = V_R, plus vy = -wz·x_c;
-MVIR likewise gives wz·T_v = V_R - V_L, vx = (V_L + V_R)/2 + wz·y_o, vy = -wz·x_o. So with any
-finite parameters (y_l != y_r, T_v != 0):
-  * V_L = V_R  =>  wz = 0, vx = V_L, vy = 0: the nominal straight-line twist, whatever the slip;
-  * V_L != V_R  =>  wz != 0.
-Each sample k of the MPP twist therefore falls in one of three classes:
-  regular          wz != 0 and V_L != V_R: parameters by (2.13) / the virtual robot, and
-                   (2.14)∘(2.13) is the identity, so MICR/MVIR reproduce MPP to rounding;
-  straight         otherwise, if the MPP twist equals the nominal twist (within FALLBACK_TOL):
-                   (2.13) puts the ICRs at infinity (masked by mjtrack.icr) and the nominal
-                   parameters y_l = -y_r = T/2, x_c = 0 (x_o = y_o = 0, T_v = T) reproduce it exactly;
-  unrepresentable  otherwise: no finite parameters reproduce the MPP twist. This is the case
-                   whenever one track slips while the commands are equal (wz != 0 at V_L = V_R;
-                   (2.13) gives y_l = y_r, T_v = 0 and (2.14) is 0/0) or both slip equally on a
-                   straight (vx = V(1 - s) != V at wz = 0).
-On a straight-turn-straight U the straights of cases (b) and (c) are unrepresentable (20 s of
-27 s). The thesis reports identical paths there, but evaluated literally (2.14) is 0/0 (NaN in
-floating point) at those samples, and the thesis does not say how it handled them. We report
-both readings, never feeding NaN/inf to a model:
-  ``MICR``/``MVIR`` paths: at unrepresentable samples the twist is the continuous extension of
-      the per-sample map V -> MPP twist -> (2.13) -> (2.14), which is the identity wherever it is
-      defined, i.e. the MPP twist. This is the thesis's claim; its agreement there is by
-      construction and says nothing about the models.
-  ``MICR_finite``/``MVIR_finite`` paths: the models themselves with the nominal (finite)
-      parameters at those samples; they drive straight at V and leave the MPP path
-      (``max_dev_finite_m``).
-
 ``max_dev_m`` is the largest distance between the MPP, MICR and MVIR positions at any sample.
+
+Derivation and measurements: docs/theory/tracked.md, "Section 4.1 reproduced".
 """
 
 from __future__ import annotations

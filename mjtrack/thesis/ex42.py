@@ -11,23 +11,6 @@ numbers as standard deviations, with θ in degrees: σ_x = σ_y = 0.1 m, σ_θ =
 σ_vx = σ_vy = 0.05 m/s, σ_ω = 0.04 rad/s (the variance reading, σ_x = √0.1 = 0.32 m and
 σ_θ = √2 rad = 81°, is implausible for a pose sensor). Gaussian, independent, seeded.
 
-Filters (each as printed, then improved; :mod:`mjtrack.estimation`):
-  slip_ekf              (3.9)–(3.13), pose measurements (with the midpoint pose step);
-  icr_ekf_thesis        (3.14)–(3.22), six q's, pose increments;
-  icr_ekf               ψ-parametrised ICRs, pose measurements;
-  vir_thesis_printed    (3.23)–(3.31) with the printed transition (3.28), twist measurements;
-  vir_thesis_intended   the same with the velocity propagated through (3.27);
-  vir_filter_twist      ψ-parametrised virtual robot, twist measurements only (the thesis's data);
-  vir_filter            the same with pose and twist measurements.
-The ICR filters also run on two more manoeuvres (both in thesis.json and fig. 4.12):
-  ``mirror``            the mirror image of the whole setting (nominal ω = +7 °/s, s_L = 0, s_R = 0.2,
-                        α = −15°): the truth is a true *right* turn (ω = −0.090 rad/s), y_l − y_r and
-                        x_c of the mirrored robot; the ψ filter must work for it exactly as for the left turn;
-  ``opposite_command``  the thesis's "+7 °/s" run: only the commanded turn rate flips, the slips stay
-                        (s_L = 0.2, α = 15°) — still a *left* turn (ω = +0.31 rad/s), where the thesis saw
-                        its ICR filter fail; it tests the other sign of y_l − y_r − T, not the other turn
-                        direction.
-
 Metrics per filter (JSON ``filters[name]``):
   param_error_final — |estimate − truth| per parameter at the last step (slips [-], α [rad],
       ICRs and centre [m]).
@@ -41,6 +24,8 @@ Metrics per filter (JSON ``filters[name]``):
       if not converged; ``pred_err_window_s``). 1 means "as bad as one raw measurement".
   nis_mean — mean normalised innovation squared over the same window (its expectation is the
       number of measured components, ``nis_dof``, for a consistent filter).
+
+Derivation and measurements: docs/theory/tracked.md, "Section 4.2 reproduced".
 """
 
 from __future__ import annotations

@@ -11,6 +11,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from mjtrack.validate.evaluate import CaseResult
+from mjtrack.validate.wheeled import WheeledResult
 
 COLORS = {"truth": "black", "nominal": "tab:gray", "mpp_slip_ekf": "tab:blue", "micr_icr_ekf": "tab:orange",
           "mvir_vir_filter": "tab:green", "mpp_fit": "tab:purple", "micr_own_icr": "tab:red"}
@@ -40,6 +41,36 @@ def horizon_figure(results: dict[str, CaseResult]) -> Figure:
             ax.set_yscale("log")
             ax.grid(True, which="both", alpha=0.3)
     axes[0, -1].legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    return fig
+
+
+WHEELED_COLORS = {"kinematic": "tab:gray", "dynamic1": "tab:blue", "dynamic2": "tab:orange", "skidsteer4": "tab:red"}
+
+
+def wheeled_figure(res: WheeledResult) -> Figure:
+    """The wheeled models' position and heading errors against the horizon: median (solid) and worst (dashed)."""
+    fig = Figure(figsize=(10, 6.5))
+    axes = fig.subplots(2, 1, sharex=True)
+    for p in res.predictors:
+        rows = res.metrics["models"][p.key]["horizons"]
+        hs = sorted(rows, key=float)
+        x = [float(h) for h in hs]
+        color = WHEELED_COLORS.get(p.key, "k")
+        for ax, f in zip(axes, ("pos", "yaw")):
+            unit = "m" if f == "pos" else "deg"
+            med = [rows[h][f"{f}_median_{unit}"] for h in hs]
+            worst = [rows[h][f"{f}_max_{unit}"] for h in hs]
+            ax.plot(x, [np.nan if v is None else v for v in med], marker="o", color=color, label=f"{p.label}, median")
+            ax.plot(x, [np.nan if v is None else v for v in worst], marker=".", ls="--", color=color,
+                    label=f"{p.label}, worst")
+    axes[0].set_ylabel("position error [m]")
+    axes[1].set_ylabel("heading error [deg]")
+    axes[1].set_xlabel("prediction horizon [s]")
+    for ax in axes:
+        ax.set_yscale("log")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=7, loc="lower right", ncol=2)
     fig.tight_layout()
     return fig
 

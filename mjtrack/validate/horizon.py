@@ -28,6 +28,21 @@ def starts_for(case: Case, *, max_starts: int = 400) -> np.ndarray:
     return np.arange(0, case.t.size, stride)
 
 
+def window_ends(case: Case, horizon_s: float, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(starts, ends) of the windows over ``horizon_s`` [s]: for each start s, the first sample e at
+    or after t_s + h in the same segment; starts without one are dropped (module docstring)."""
+    n = case.t.size
+    seg_end = np.empty(n, dtype=int)
+    ends = np.empty(n, dtype=int)
+    for sl in case.segment_slices():
+        ts = case.t[sl]
+        seg_end[sl] = sl.stop
+        ends[sl] = sl.start + np.searchsorted(ts, ts + horizon_s - 1e-9)
+    starts = np.asarray(starts, dtype=int)
+    kept = starts[ends[starts] < seg_end[starts]]
+    return kept, ends[kept]
+
+
 def horizon_errors_per_start(template: KinematicModel, params: np.ndarray, case: Case, horizon_s: float,
                              *, starts: np.ndarray | None = None) -> HorizonErrors:
     """Prediction errors at ``horizon_s`` [s] with parameters ``params`` (N, P) of ``template``.
@@ -37,14 +52,7 @@ def horizon_errors_per_start(template: KinematicModel, params: np.ndarray, case:
     n = case.t.size
     starts = np.arange(n) if starts is None else np.asarray(starts, dtype=int)
     params = np.broadcast_to(np.asarray(params, float), (n, len(template.param_names)))
-    seg_end = np.empty(n, dtype=int)
-    ends = np.empty(n, dtype=int)
-    for sl in case.segment_slices():
-        ts = case.t[sl]
-        seg_end[sl] = sl.stop
-        ends[sl] = sl.start + np.searchsorted(ts, ts + horizon_s - 1e-9)
-    s_all = starts[ends[starts] < seg_end[starts]]
-    e_all = ends[s_all]
+    s_all, e_all = window_ends(case, horizon_s, starts)
     out_s, out_e, out_pred = [], [], []
     for k in np.unique(e_all - s_all):
         s = s_all[e_all - s_all == k]

@@ -17,22 +17,7 @@ they fit the best *constant* parameters to the true motion inside the window the
 predict, so they bound what any constant-parameter model of their family can do over that
 horizon (the per-sample own ICRs would reproduce the true twist exactly and bound nothing).
 
-Measurements (a decision, so that the three filters differ as in the thesis): the slip EKF
-measures pose and twist, the ICR EKF the pose only (the thesis's (3.20) measures pose
-increments), the VIR filter the twist only (its (3.30)). The ICR EKF and the VIR filter are
-both the ψ-parametrised filter of :mod:`mjtrack.estimation` (ψ = (x_c, ȳ, 1)/(y_l − y_r) =
-(x_o, y_o, 1)/T_v), so MICR and MVIR predict with
-:class:`~mjtrack.estimation.icr_ekf.InverseICR` — the same twist as MICR (2.14) and MVIR
-wherever those are defined, and regular through straight driving (ψ_z = 0).
-
-Window fits (cumulative sums, O(N) for all windows). Twist k is held over [t_k, t_{k+1}),
-weight dt_k; ΔV = V_R − V_L, V̄ = (V_L + V_R)/2. With ψ the MICR twist is linear,
-v_x − V̄ = ψ_y ΔV, v_y = −ψ_x ΔV, ω = ψ_z ΔV, so each component is a scalar ridge
-regression towards the nominal ψ₀ = (0, 0, 1/T):  ψ_i = (Σ dt ΔV r_i + λ ψ₀_i)/(Σ dt ΔV² + λ).
-MPP: the actual track speeds u_L = v_x − ωT/2 = V_L a_L, u_R = v_x + ωT/2 = V_R a_R with
-a = 1 − s, so a_L = (Σ dt V_L u_L + λ)/(Σ dt V_L² + λ) (likewise a_R), and with the fitted
-v̂_x = (V_L a_L + V_R a_R)/2, tan α = −Σ dt v̂_x v_y / (Σ dt v̂_x² + λ). λ = (1 mm/s)²·h makes
-a window without the needed excitation (|ΔV|, |V| below 1 mm/s) fall back to the nominal.
+Derivation and measurements: docs/theory/filters.md, "Predictors: measurements and window fits".
 """
 
 from __future__ import annotations

@@ -16,6 +16,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.report.html import Report
 from mjtrack.validate import figures
 from mjtrack.validate.evaluate import CaseResult
+from mjtrack.validate.wheeled import WheeledResult
 
 VERDICT_HORIZON = 2.0  # [s]
 
@@ -134,7 +135,38 @@ def _setup(report: Report, robot: Robot, setup: dict) -> None:
     s.definitions(items)
 
 
-def build_report(results: dict[str, CaseResult], robot: Robot, setup: dict, verdict: dict[str, str]) -> Report:
+def _wheeled_section(rep: Report, res: WheeledResult) -> None:
+    """The wheeled-robot thesis's four models on the log: inputs, parameters, errors, the best per horizon."""
+    m = res.metrics
+    s = rep.section("Wheeled-robot models")
+    s.paragraph("The robot is wheeled, so the wheeled-robot thesis's four models are scored too, on the log only: "
+                "from each window's start each starts from the logged state (pose, twist, wheel speeds) and is "
+                "integrated with its own RK4 step over the horizon. Errors are at the robot's geometric centre; "
+                "median and worst over the windows.")
+    s.table(["model", "input", "parameters not in the robot description"],
+            [[p.label, p.input_text, "; ".join(f"{k}: {v}" for k, v in p.assumed.items()) or "none"]
+             for p in res.predictors], caption="what each model receives")
+    hs = list(next(iter(m["models"].values()))["horizons"])
+    rows = []
+    for p in res.predictors:
+        hz = m["models"][p.key]["horizons"]
+        rows.append([p.label] + [v for h in hs for v in (hz[h]["pos_median_m"], hz[h]["pos_max_m"])] +
+                    [v for h in hs for v in (hz[h]["yaw_median_deg"], hz[h]["yaw_max_deg"])])
+    s.table(["model"] + [f"pos {h} s {w} [m]" for h in hs for w in ("median", "worst")] +
+            [f"heading {h} s {w} [deg]" for h in hs for w in ("median", "worst")], rows,
+            caption=f"prediction errors on the log ({m['models'][res.predictors[0].key]['horizons'][hs[0]]['n']} "
+                    f"windows at the shortest horizon)")
+    labels = {p.key: p.label for p in res.predictors}
+    s.table(["horizon [s]", "best median position", "best median heading", "best worst position"],
+            [[h, labels.get(b["position"], "none"), labels.get(b["heading"], "none"),
+              labels.get(b["position_worst"], "none")] for h, b in m["best"].items()],
+            caption="ranking: the model with the lowest error at each horizon")
+    s.figure(figures.wheeled_figure(res), "Position (top) and heading (bottom) error of the wheeled models against "
+             "the horizon: median over the windows (solid) and worst (dashed). Log scale.")
+
+
+def build_report(results: dict[str, CaseResult], robot: Robot, setup: dict, verdict: dict[str, str], *,
+                 wheeled: WheeledResult | None = None) -> Report:
     """The whole HTML report (sections described in the module docstring of :mod:`mjtrack.validate.run`)."""
     rep = Report("mjtrack validate: kinematic slip models against physics", intro=(
         "This report checks how well four kinematic models of a tracked robot (nominal differential drive, MPP slip "
@@ -155,6 +187,8 @@ def build_report(results: dict[str, CaseResult], robot: Robot, setup: dict, verd
     v.table(hdr, rows, caption=f"RMSE of {VERDICT_HORIZON:g}-s predictions")
     _setup(rep, robot, setup)
     rep.section("Definitions").definitions(DEFINITIONS)
+    if wheeled is not None:
+        _wheeled_section(rep, wheeled)
 
     h = rep.section("Prediction error against horizon")
     h.paragraph("Each curve is one predictor; solid: online (parameters known at the start of the prediction), "

@@ -9,6 +9,9 @@ ICRs over time, parameter recovery, filters) and ``metrics.json`` (the same numb
 ``setup``, ``definitions``, ``verdicts``, ``headline`` (2-s errors per truth and predictor),
 ``truths.<name>.predictors.<key>.horizons.<h>.{pos_rmse_m, yaw_rmse_deg, n}``,
 ``truths.<name>.filters.<filter>.consistency.{nis_mean, nis_dof, nees_mean, nees_dof, band95}``, ...).
+On a wheeled robot (``traction: "wheels"``) also the wheeled-robot thesis's four models scored on
+the log (:mod:`mjtrack.validate.wheeled`): ``wheeled_models.models.<key>.horizons.<h>.{pos_median_m,
+pos_max_m, yaw_median_deg, yaw_max_deg, pos_rmse_m, yaw_rmse_deg, n}`` and ``wheeled_models.best.<h>``.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ from mjtrack.progress import Progress
 from mjtrack.validate.evaluate import HORIZONS, WZ_MIN, CaseResult, evaluate_case
 from mjtrack.validate.report import DEFINITIONS, VERDICT_HORIZON, build_report, verdicts
 from mjtrack.validate.truth import MPP_TRUTH, Noise, case_from_log, estimate_noise, mpp_case, resolve_speeds
+from mjtrack.validate.wheeled import MAX_STARTS, WheeledResult, evaluate_wheeled
 
 log = logging.getLogger(__name__)
 
@@ -45,6 +49,7 @@ class Validation:
     metrics: dict
     report_path: Path
     metrics_path: Path
+    wheeled: WheeledResult | None = None
 
 
 def _json_safe(x):
@@ -77,6 +82,7 @@ def validate(
     quiet: bool = False,
     bar: Progress | None = None,
     log_noise_free: bool | None = None,
+    wheeled_max_starts: int = MAX_STARTS,
 ) -> Validation:
     """Validate all models and filters on ``drive`` (with ``robot``); write report and metrics to ``out_dir``.
 
@@ -93,6 +99,8 @@ def validate(
         log_noise_free: whether the log is a noise-free simulation, so that the filters' parameter
             NEES can be scored against its own parameters (default: unless ``truth_title`` is
             "measured log").
+        wheeled_max_starts: on a wheeled robot, the most windows per horizon over which the
+            thesis's wheeled models are scored (:mod:`mjtrack.validate.wheeled`).
     """
     speeds = resolve_speeds(drive, speeds)
     horizons = tuple(sorted(float(h) for h in horizons))
@@ -100,7 +108,8 @@ def validate(
         horizons = tuple(sorted(horizons + (VERDICT_HORIZON,)))
     mpp_params = dict(MPP_TRUTH if mpp_params is None else mpp_params)
     own_bar = bar is None
-    bar = bar or Progress(2 * (N_PREDICTORS + 1) + 1, label="validate", quiet=quiet)
+    wheels = robot.traction == "wheels"
+    bar = bar or Progress(2 * (N_PREDICTORS + 1) + 1 + wheels, label="validate", quiet=quiet)
     try:
         noise_free = truth_title != "measured log" if log_noise_free is None else bool(log_noise_free)
         mj = case_from_log(drive, speeds=speeds, noise=noise, seed=seed, title=truth_title, noise_free=noise_free)
@@ -110,6 +119,10 @@ def validate(
         results = {c.name: evaluate_case(c, robot.track_gauge, horizons=horizons, noise=filter_noise[c.name],
                                          wz_min=wz_min, bar=bar) for c in cases}
         verdict = verdicts(results)
+        wheeled = None
+        if wheels:
+            wheeled = evaluate_wheeled(mj, drive, robot, horizons=horizons, max_starts=wheeled_max_starts)
+            bar.update(note="wheeled models")
         setup = _setup(drive, robot, source, horizons, noise, seed, speeds, mpp_params, wz_min)
         if not noise_free:
             est = filter_noise["log"]
@@ -119,7 +132,7 @@ def validate(
                                     f"itself: σ = {est.pose_std[0]:.3g} m, {est.pose_std[1]:.3g} m, "
                                     f"{math.degrees(est.pose_std[2]):.3g}° on the pose, {est.twist_std[0]:.3g} m/s, "
                                     f"{est.twist_std[1]:.3g} m/s, {est.twist_std[2]:.3g} rad/s on the twist")
-        report = build_report(results, robot, setup, verdict)
+        report = build_report(results, robot, setup, verdict, wheeled=wheeled)
         bar.update(note="report")
         metrics = _json_safe({
             "setup": setup, "definitions": DEFINITIONS, "verdicts": verdict,
@@ -129,6 +142,7 @@ def validate(
                          "yaw_rmse_deg": {n: {k: v["horizons"][f"{VERDICT_HORIZON:g}"]["yaw_rmse_deg"]
                                               for k, v in r.metrics["predictors"].items()} for n, r in results.items()}},
             "truths": {n: r.metrics for n, r in results.items()},
+            **({"wheeled_models": wheeled.metrics} if wheeled is not None else {}),
         })
         out = Path(out_dir)
         make_output_dir(out)
@@ -137,7 +151,7 @@ def validate(
     finally:
         if own_bar:
             bar.close()
-    return Validation(results, metrics, out / REPORT_NAME, out / METRICS_NAME)
+    return Validation(results, metrics, out / REPORT_NAME, out / METRICS_NAME, wheeled)
 
 
 def _setup(drive, robot, source, horizons, noise, seed, speeds, mpp_params, wz_min) -> dict:

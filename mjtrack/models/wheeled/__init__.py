@@ -1,4 +1,4 @@
-"""Wheeled-robot models of the wheeled-robot thesis (Part 4 of THESIS.md).
+"""Wheeled-robot models of the wheeled-robot thesis (Jonszta 2008; docs/theory/wheeled.md).
 
 Differential drive: kinematic (1.1)-(1.4), dynamic model 1 (1.5)-(1.8), dynamic model 2
 (1.9)-(1.15); four-wheel skid steer (1.16)-(1.20); Ackermann kinematics (1.21)-(1.23).

@@ -64,6 +64,14 @@ class DiffDriveDynamic1:
             inertia=self.inertia, force_max=self.force_max, gain=self.gain,
         )
 
+    @property
+    def max_stable_dt(self) -> float:
+        """Largest RK4 step [s] for which the regulator's modes stay stable, with margin: forward
+        rate 2K/(M r), yaw rate K b^2/(2 r J) [1/s] (linear range of (1.8))."""
+        rate = max(2.0 * self.gain / (self.mass * self.wheel_radius),
+                   self.gain * self.track**2 / (2.0 * self.wheel_radius * self.inertia))
+        return 2.5 / rate
+
     def forces(self, state: np.ndarray, u: np.ndarray) -> tuple[float, float]:
         """(1.8): wheel traction forces (F_L, F_R) [N]."""
         v, omega = state[3], state[4]

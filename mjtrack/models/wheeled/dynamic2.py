@@ -20,15 +20,12 @@ ground, magnitude P = C |slip| up to mu W (fig. 1.8), split along the slip direc
 :func:`mjtrack.models.wheeled.base.wheel_friction`.  The thesis prints the split as
 F = P v_P/v, S = P v_S/v without signs; the signs here make friction oppose sliding.
 
-Verification (thesis 1.1.2.4): driven on a circle of radius R with forward acceleration a, the
-lateral force that keeps the robot on the circle is at most sqrt((mu W_tot)^2 - F^2) with
-F = M a, W_tot the weight on both wheels; the robot leaves the circle once M omega^2 R exceeds
-it.  Thesis numbers: R = 0.2 m, a = 0.5 m/s^2 -> omega = 5.41 rad/s, v = 1.08 m/s, t = 2.16 s.
-
 State (8,): x, y [m], phi [rad], xdot, ydot [m/s], phidot [rad/s], omega_L, omega_R [rad/s].
 Input (2,): requested wheel speeds (omega_L,req, omega_R,req) [rad/s].
 Stiff: the wheel-slip mode decays at about C (r^2/J_w + 2/M + b^2/(4J)) [1/s]; use
 ``dt <= max_stable_dt`` with RK4.
+
+Derivation and measurements: docs/theory/wheeled.md, "Dynamic model 2: verification".
 """
 
 from __future__ import annotations

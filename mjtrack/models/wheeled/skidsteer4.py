@@ -22,20 +22,10 @@ Wheel loads: ``load_distribution="equal"`` gives every wheel W (as the thesis: W
 2p W (mean W), and scales each wheel's stiffness C and limit mu W_i with its load (slip
 stiffness proportional to normal load).
 
-Properties (tested): (i) straight start: all four forces saturate at mu W, a = 4 mu W/M, the
-speed v_req is reached at t = M v_req/(4 mu W) (thesis: 0.17 s for 1 m/s);
-(ii) slow spin turn (omega_R = -omega_L = Omega, linear friction range): by symmetry of the
-lateral forces the robot turns about the geometric centre, which lies (p - 1/2) a ahead of
-the COG; the moment balance about it, sum x'^2 C phidot + sum y (C (r omega_i + y phidot)) = 0,
-gives phidot = r Omega (b/2)/((a/2)^2 + (b/2)^2), i.e. b^2/(a^2 + b^2) of the no-slip rate;
-(iii) a = 0 reduces exactly to dynamic model 2 with doubled stiffness and wheel load;
-(iv) with the static load distribution the lateral forces of a slow spin balance,
-(1-p)(v_y + p a phidot) + p(v_y - (1-p) a phidot) = v_y = 0, so the robot spins about its
-COG, and the moment balance gives phidot = r Omega (b/2)/(a^2 p (1-p) + (b/2)^2)
-(both reduce to (ii) at p = 1/2).
-
 State (6,): x, y [m] (COG), phi [rad], xdot, ydot [m/s], phidot [rad/s].
 Input (2,): wheel speeds of the left and right side (omega_L, omega_R) [rad/s].
+
+Derivation and measurements: docs/theory/wheeled.md, "Four-wheel skid steer: properties".
 """
 
 from __future__ import annotations
