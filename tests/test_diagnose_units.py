@@ -339,3 +339,43 @@ def test_min_active_blocks_is_where_the_blocked_bootstrap_bound_leaves_zero():
         after[act] *= 0.1
         g = gain_test(before, after, block)
         assert (g.lower > 0) == (k >= need), (k, g)
+
+
+def test_pose_floor_is_a_share_of_the_nominal_error():
+    """The gain floor of a step on top of found effects is min_gain of the nominal RMSE, as a
+    share of the step's own (never below min_gain)."""
+    from mjtrack.diagnose.select import pose_floor
+    assert pose_floor(0.03, None, 0.01) == 0.03
+    assert pose_floor(0.03, 0.2, 0.02) == pytest.approx(0.3)  # 3 % of 0.2 m = 6 mm = 30 % of 0.02 m
+    assert pose_floor(0.03, 0.2, 0.4) == 0.03
+
+
+def _candidate(name, sq_err, base=()):
+    from mjtrack.diagnose.effects import EFFECTS
+    from mjtrack.diagnose.select import CandidateResult
+    err = np.zeros((sq_err.size, 3))
+    err[:, 0] = np.sqrt(sq_err)
+    z = np.zeros(1)
+    return CandidateResult(EFFECTS[name], z, z[None], np.zeros((1, 2)), z, z, 1.0, float(np.sqrt(sq_err.mean())),
+                           0.0, None, None, None, True, "", err, on_top_of=tuple(base))
+
+
+@pytest.mark.parametrize("rival_sq,named", [(0.0100, False), (0.0200, True)])
+def test_an_effect_on_top_is_named_only_if_it_beats_every_rival_alone(rng, rival_sq, named):
+    """command_delay + friction_scale against actuator_lag alone: not named when the lag alone does
+    as well (the first is then reported tied with it), named when the pair beats it by the floor."""
+    from mjtrack.diagnose.select import _no_substitute, _tie_substitutes
+    n = 400
+    block = np.arange(n) // 20
+    nominal_sq = np.full(n, 0.04) * rng.uniform(0.9, 1.1, n)  # a nominal RMSE of 0.2 m
+    pair = _candidate("friction_scale", 0.0100 * rng.uniform(0.9, 1.1, n), base=("command_delay",))
+    lag = _candidate("actuator_lag", rival_sq * rng.uniform(0.9, 1.1, n))
+    first = _candidate("command_delay", 0.0150 * rng.uniform(0.9, 1.1, n))
+    _no_substitute(pair, [lag], nominal_sq, block, 0.03)
+    assert pair.passed is named
+    assert pair.substitute == (None if named else "actuator_lag")
+    _tie_substitutes(first, [pair], [lag])
+    assert ("actuator_lag" in first.tied_with) is (not named)
+    assert ("command_delay" in lag.tied_with) is (not named)
+    if not named:
+        assert "actuator_lag alone explains the log as well" in first.tie_notes[0]

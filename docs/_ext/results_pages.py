@@ -187,6 +187,39 @@ def _diagnosis() -> Page:
         [src for _, src in runs], [table])
 
 
+def _implementations() -> Page:
+    src = Source(RESULTS / "diagnose_implementations.json")
+    verdicts = ("right", "tie", "wrong", "spurious", "missed")
+    counts = Table("Verdicts per baseline and generator: right (the true families named, nothing else), tie (named, "
+                   "reported tied with another effect, both estimates given), wrong (another family named instead, or "
+                   "a lag named a delay without a tie), spurious (the truth and another family), missed (nothing).",
+                   ["baseline", "generator", "logs", *verdicts])
+    for b, per in src.data["summary"].items():
+        for g in ("A", "B", "all"):
+            if per.get(g, {}).get("logs"):
+                counts.add(b, g, number(src, f"/summary/{b}/{g}/logs"),
+                           *(number(src, f"/summary/{b}/{g}/{v}") for v in verdicts))
+    logs = Table("Every log: what was named (a tie as effect ~ effect) and the first finding's first estimate with its "
+                 "interval (the diagnosis's own level).",
+                 ["case", "generator", "baseline", "verdict", "named", "estimate", "low", "high", "time [s]"])
+    for i, r in enumerate(src.data["rows"]):
+        named = ", ".join(f["effect"] + "".join(f" ~ {t}" for t in f["tied_with"]) for f in r["findings"]) or "none"
+        q = f"/rows/{i}/findings/0"
+        est = [number(src, q + "/estimate/0"), number(src, q + "/interval/0/0"), number(src, q + "/interval/0/1")] \
+            if r["findings"] else ["", "", ""]
+        logs.add(r["case"], r["generator"], r["baseline"], r["verdict"], named, *est, number(src, f"/rows/{i}/seconds"))
+    return Page(
+        "diagnosis-implementations", "Diagnosis across implementations of an effect",
+        "Each effect family in physically different implementations (`mjtrack.testing.implementations`: a lag on "
+        "the track speed and on the drive force, a dead time, rate and force limits, Coulomb and anisotropic ground, "
+        "a centre-of-mass offset, a lag beside one, a lag on a light robot, a clean log), each from two generators "
+        "that share no code with the diagnosis (A: `mjtrack.testing.diagnose_physics`; B: "
+        "`mjtrack.testing.bristle_physics`, bristle friction and driven belts with inertia). Pose-only logs with "
+        "pose noise, diagnosed at default options with the named baseline (auto: the MuJoCo robot, screened by the "
+        "surrogate).",
+        [src], [counts, logs])
+
+
 def _filters() -> Page:
     src = Source(RESULTS / "filter_consistency.json")
     table = Table("Normalised innovation and estimation error squared per degree of freedom (NIS, NEES), mean over "
@@ -456,8 +489,8 @@ def _calibration() -> Page:
         "state.", [bat, real], [cases, rows, robots, params, summaries])
 
 
-PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _filters, _speed, _wheeled, _wheeled_models,
-                                          _controllers, _calibration)
+PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _implementations, _filters, _speed, _wheeled,
+                                          _wheeled_models, _controllers, _calibration)
 
 
 # -- writing -----------------------------------------------------------------------------------

@@ -181,9 +181,12 @@ class Diagnosis:
                         + ("fitted on the log and scored on the test log" if self.test_log else
                            f"pooled over {self.n_folds} contiguous cross-validation folds (fit on the others)"),
                 "selection": "forward selection over all effects: each step adds the best finding to the baseline and "
-                             "tests every remaining effect on top of it, until none passes",
+                             "tests every remaining effect on top of it, until none passes; an effect on top of others "
+                             "must also beat, by the floor beyond noise, every other finding of the step before (a "
+                             "model with one effect fewer), else the first is reported tied with that finding",
                 "finding": "one-sided 95 % lower bound of the held-out relative gain above zero (blocked bootstrap over "
-                           "blocks of windows) and a gain of at least the floor",
+                           "blocks of windows) and a gain of at least the floor, a share of the nominal model's error "
+                           "at every step",
                 "interval": f"95 %, estimate +- t se, se the larger of {self.baseline.interval_method()} and the "
                             "delete-one-fold jackknife",
                 "model_form": {"relative": self.baseline.model_form.rel,

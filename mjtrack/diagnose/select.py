@@ -53,7 +53,10 @@ class CandidateResult:
     separate it; held_out_errors: (M, 3) window errors, each from the fit that did not see it;
     on_top_of: names of the effects already in the baseline of this step; se: (P,) the
     interval's standard error, se_stat its statistical part, se_model the model-form and
-    resolution part; nominal: (P,) the effect's no-effect values in the baseline.
+    resolution part; nominal: (P,) the effect's no-effect values in the baseline; substitute: the
+    finding of the previous step that explains the log as well alone as the model with this
+    candidate on top (the candidate is then not a finding; docs/theory/diagnosis.md, "Beyond a first
+    effect").
     """
 
     effect: Effect
@@ -82,6 +85,7 @@ class CandidateResult:
     se_stat: np.ndarray | None = None
     se_model: np.ndarray | None = None
     nominal: np.ndarray | None = None
+    substitute: str | None = None
 
     @property
     def relative(self) -> float:
@@ -134,8 +138,12 @@ def interval(full: np.ndarray, fold_estimates: np.ndarray, cov: np.ndarray, angu
 
 
 def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float, base_err: np.ndarray,
-          speed_base: np.ndarray | None = None, bar=None) -> CandidateResult:
-    """Fit ``eff`` on every K-1 folds, score it on the fold left out, test the gain (module docstring)."""
+          speed_base: np.ndarray | None = None, bar=None, floor: float | None = None) -> CandidateResult:
+    """Fit ``eff`` on every K-1 folds, score it on the fold left out, test the gain (module docstring).
+
+    ``min_gain`` is the floor of the track-speed gain; ``floor`` that of the position gain as a
+    share of this problem's baseline RMSE (None: ``min_gain``; :func:`pose_floor`)."""
+    floor = min_gain if floor is None else floor
     bl = problem.baseline
     folds = np.arange(n_folds)
     score_folds = folds if problem.score_folds is None else np.array(problem.score_folds)
@@ -179,10 +187,10 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
     ivl, se = interval(full, ests, cov, angular, gt.blocks, se_fit)
     se_stat = interval(full, ests, cov, angular, gt.blocks)[1]
     nominal = bl.nominal(eff, problem)
-    passed = gt.lower > 0.0 and gt.relative >= min_gain
+    passed = gt.lower > 0.0 and gt.relative >= floor
     why = (f"held-out position RMSE {before:.3g} -> {after:.3g} m ({100 * gt.relative:.1f} %, one-sided 95 % bound "
            f"{100 * gt.lower:.1f} % by blocked bootstrap over {gt.blocks} blocks of windows; gain floor "
-           f"{100 * min_gain:.0f} %)")
+           f"{100 * floor:.0f} %" + (f", {100 * min_gain:.0f} % of the nominal RMSE" if floor != min_gain else "") + ")")
     if not np.isfinite(after):
         bad = int(np.sum(~np.isfinite(sq_a)))
         why = f"the {bl.noun} diverged on {bad} of {sq_a.size} held-out windows"
@@ -217,9 +225,9 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
                     eff, full, f"the measured track speeds (held-out track-speed RMSE {sb:.3g} -> {sa:.3g} m/s, "
                     f"{100 * sg.relative:.0f} %; position {100 * gt.relative:.1f} %)", below,
                     "A log with more of the commands it acts on would settle it")
-    if below_floor is None and not passed and not speeds and gt.relative >= min_gain and gt.lower <= 0.0:
+    if below_floor is None and not passed and not speeds and gt.relative >= floor and gt.lower <= 0.0:
         # no measured speeds to speak for it (or a ground effect): the pose's own blocks
-        below = _too_few_blocks(sq_b, sq_a, wblock, min_gain)
+        below = _too_few_blocks(sq_b, sq_a, wblock, floor)
         if below is not None:
             below_floor = _below_floor_note(
                 eff, full, f"the pose (held-out position RMSE {before:.3g} -> {after:.3g} m, {100 * gt.relative:.0f} %)",
@@ -326,8 +334,12 @@ def physical_tie(robot, a: CandidateResult, b: CandidateResult) -> str | None:
             f"(left share {0.5 + float(cy.estimate[0]) / robot.track_gauge:.3f} here), a friction asymmetry does not")
 
 
-def _rank(found: list[CandidateResult], robot, problem, base_err, min_gain: float) -> list[CandidateResult]:
-    """Order the findings of one step and mark ties (module docstring)."""
+def _rank(found: list[CandidateResult], robot, problem, base_err, min_gain: float,
+          floor: float | None = None) -> list[CandidateResult]:
+    """Order the findings of one step and mark ties (module docstring); ``floor``: the position
+    gain floor as a share of this step's baseline RMSE (None: ``min_gain``; :func:`pose_floor`),
+    ``min_gain`` that of the track speeds."""
+    floor = min_gain if floor is None else floor
     found = sorted(found, key=lambda r: r.after)
     if not found:
         return found
@@ -336,7 +348,7 @@ def _rank(found: list[CandidateResult], robot, problem, base_err, min_gain: floa
         sq0 = np.sum(base_err[problem.scored][:, :2] ** 2, 1)
         d, lo, hi = st.difference_test(sq0, np.sum(found[0].held_out_errors[:, :2] ** 2, 1),
                                        np.sum(found[1].held_out_errors[:, :2] ** 2, 1), problem.window_block[problem.scored])
-        if not (lo > 0.0 and d >= min_gain):  # tied on the pose: the measured speeds rank them
+        if not (lo > 0.0 and d >= floor):  # tied on the pose: the measured speeds rank them
             found[0], found[1] = found[1], found[0]
     top = found[0]
     sq0 = np.sum(base_err[problem.scored][:, :2] ** 2, 1)
@@ -349,7 +361,7 @@ def _rank(found: list[CandidateResult], robot, problem, base_err, min_gain: floa
         else:
             d, lo, hi = st.difference_test(sq0, sq_top, np.sum(r.held_out_errors[:, :2] ** 2, 1),
                                                problem.window_block[problem.scored])
-            if not (lo > 0.0 and d >= min_gain):
+            if not (lo > 0.0 and d >= floor):
                 why = "held-out gains equal within noise"
         if why is not None and not r.tie_notes and speed_order(top, r, sblock, min_gain) == -1:
             why = None  # tied on the pose, but the measured track speeds tell them apart
@@ -404,21 +416,78 @@ def _speed_base(problem: fitmod.Problem) -> np.ndarray | None:
     return np.where(problem.speed_ok, np.sum((v - problem.data.meas) ** 2, 1), np.nan)
 
 
+def pose_floor(min_gain: float, nominal_rmse: float | None, base_rmse: float) -> float:
+    """The position gain floor of a step as a share of its baseline RMSE ``base_rmse`` [m]:
+    ``min_gain`` of the nominal model's RMSE ``nominal_rmse`` [m] (None: this step's baseline is
+    the nominal model), never below ``min_gain`` (docs/theory/diagnosis.md, "Beyond a first effect")."""
+    if nominal_rmse is None or not (base_rmse > 0.0) or not np.isfinite(nominal_rmse):
+        return min_gain
+    return max(min_gain, min_gain * nominal_rmse / base_rmse)
+
+
+def _no_substitute(r: CandidateResult, rivals: list[CandidateResult], nominal_sq: np.ndarray, block: np.ndarray,
+                   min_gain: float) -> None:
+    """Unpass ``r`` when a rival (a finding of the previous step, a model with one effect fewer)
+    explains the log as well alone: the model with ``r`` must beat each by the floor beyond noise
+    (docs/theory/diagnosis.md, "Beyond a first effect")."""
+    sq = np.sum(r.held_out_errors[:, :2] ** 2, 1)
+    for rv in rivals:
+        d, lo, hi = st.difference_test(nominal_sq, sq, np.sum(rv.held_out_errors[:, :2] ** 2, 1), block)
+        if lo > 0.0 and d >= min_gain:
+            continue
+        model = " + ".join(r.on_top_of + (r.effect.name,))
+        r.passed, r.substitute = False, rv.effect.name
+        r.why += (f"; not named: {rv.effect.name} alone (held-out RMSE {rv.after:.3g} m) explains the log as well as "
+                  f"{model} ({r.after:.3g} m): the difference is {100 * d:.1f} % of the nominal RMSE, 95 % interval "
+                  f"[{100 * lo:.1f}, {100 * hi:.1f}] %, floor {100 * min_gain:.0f} %")
+        return
+
+
 def evaluate(problem: fitmod.Problem, effects: list[Effect], *, n_folds: int, min_gain: float,
-             quiet: bool = True) -> tuple[dict, list[CandidateResult]]:
+             quiet: bool = True, nominal: np.ndarray | None = None,
+             rivals: list[CandidateResult] = ()) -> tuple[dict, list[CandidateResult]]:
     """Score every effect against the problem's baseline; returns (baseline summary, results
-    ordered as findings first, ties marked)."""
+    ordered as findings first, ties marked).
+
+    ``nominal``: (M,) the nominal model's window errors (M, 3) on the scored windows when the
+    problem's baseline already holds effects (the gain floor is a share of its RMSE), None when
+    it is the nominal model; ``rivals``: the previous step's findings, each of which a finding
+    here must beat (docs/theory/diagnosis.md, "Beyond a first effect")."""
     allw = np.arange(problem.starts.size)
     base_err = problem.baseline.errors(problem, allw)[0]
     speed_base = _speed_base(problem)
+    before = fitmod.pos_rmse(base_err[problem.scored])
+    floor = pose_floor(min_gain, None if nominal is None else fitmod.pos_rmse(nominal), before)
     results = []
     with Progress(total=len(effects) * (n_folds + 1), label="candidates", quiet=quiet) as bar:
         for eff in effects:
             results.append(score(problem, eff, n_folds=n_folds, min_gain=min_gain, base_err=base_err,
-                                 speed_base=speed_base, bar=bar))
-    found = _rank([r for r in results if r.passed], problem.baseline.robot, problem, base_err, min_gain)
+                                 speed_base=speed_base, bar=bar, floor=floor))
+    if rivals and nominal is not None:
+        nominal_sq = np.sum(nominal[:, :2] ** 2, 1)
+        for r in results:
+            if r.passed:
+                _no_substitute(r, list(rivals), nominal_sq, problem.window_block[problem.scored], min_gain)
+    found = _rank([r for r in results if r.passed], problem.baseline.robot, problem, base_err, min_gain, floor)
     rest = sorted([r for r in results if not r.passed], key=lambda r: r.after)
-    return {"before": fitmod.pos_rmse(base_err[problem.scored]), "errors": base_err}, found + rest
+    return {"before": before, "errors": base_err, "floor": floor}, found + rest
+
+
+def _tie_substitutes(top: CandidateResult, results: list[CandidateResult], rivals: list[CandidateResult]) -> None:
+    """A step that named nothing because a rival explained the log as well alone as ``top`` with
+    a candidate on top: the log cannot tell ``top`` from that rival; both say so."""
+    by_name = {rv.effect.name: rv for rv in rivals}
+    for r in results:
+        rv = by_name.get(r.substitute)
+        if rv is None or rv.effect.name in top.tied_with:
+            continue
+        note = (f"{rv.effect.name} alone explains the log as well as {top.effect.name} with {r.effect.name} on top "
+                f"({rv.after:.3g} vs {r.after:.3g} m held-out RMSE, equal within noise): the log cannot tell "
+                f"{top.effect.name} from {rv.effect.name}")
+        top.tied_with.append(rv.effect.name)
+        rv.tied_with.append(top.effect.name)
+        top.tie_notes.append(note)
+        rv.tie_notes.append(note)
 
 
 def forward_select(problem: fitmod.Problem, effects: list[Effect], *, n_folds: int, min_gain: float,
@@ -430,12 +499,19 @@ def forward_select(problem: fitmod.Problem, effects: list[Effect], *, n_folds: i
     chosen: list[CandidateResult] = []
     remaining = list(effects)
     current = problem
+    nominal, nominal_rmse, rivals = None, None, []
     while remaining and len(chosen) < max_effects:
-        summary, results = evaluate(current, remaining, n_folds=n_folds, min_gain=min_gain, quiet=quiet)
+        summary, results = evaluate(current, remaining, n_folds=n_folds, min_gain=min_gain, quiet=quiet,
+                                    nominal=nominal, rivals=rivals)
+        if nominal is None:
+            nominal, nominal_rmse = summary["errors"][problem.scored], summary["before"]
         steps.append(Step(tuple(e.name for e, _ in current.base), summary["before"], results))
         best = steps[-1].chosen
         if best is None:
+            if chosen:
+                _tie_substitutes(chosen[-1], results, rivals)
             break
+        rivals = [r for r in results if r.passed and r is not best]
         chosen.append(best)
         drop = {best.effect.name} | {r.effect.name for r in results if r.tie_notes and best.effect.name in r.tied_with}
         remaining = [e for e in remaining if e.name not in drop]
@@ -452,8 +528,9 @@ def forward_select(problem: fitmod.Problem, effects: list[Effect], *, n_folds: i
                 others = tuple((c.effect, c.estimate) for j, c in enumerate(chosen) if j != i)
                 p = dataclasses.replace(problem, base=others)
                 base_err = p.baseline.errors(p, np.arange(p.starts.size))[0]
+                floor = pose_floor(min_gain, nominal_rmse, fitmod.pos_rmse(base_err[p.scored]))
                 new = score(p, r.effect, n_folds=n_folds, min_gain=min_gain, base_err=base_err,
-                            speed_base=_speed_base(p))
+                            speed_base=_speed_base(p), floor=floor)
                 new.tied_with, new.tie_notes = r.tied_with, r.tie_notes
                 chosen[i] = new
                 rescored.append(new)
@@ -479,5 +556,5 @@ def all_findings(steps: list[Step], chosen: list[CandidateResult]) -> list[Candi
     return out
 
 
-__all__ = ["CandidateResult", "Step", "paired_t", "score", "evaluate", "forward_select", "all_findings",
+__all__ = ["CandidateResult", "Step", "paired_t", "score", "evaluate", "pose_floor", "forward_select", "all_findings",
            "physical_tie", "traction_ratio", "equivalent", "interval", "min_active_blocks"]

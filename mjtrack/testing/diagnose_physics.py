@@ -17,9 +17,25 @@ point relative to the track surface (body velocity at the point minus (V_track, 
 Integrator: linearly implicit Euler on the CoM twist (the friction Jacobian in closed form,
 stiff sticking handled without tiny steps), step H; the pose by the exact constant-twist
 SE(2) step (written out here). Track speeds: the commands through the hidden input effects at
-sub-step resolution (held commands, yaw-rate limit, speed limit, dead time, exact first-order
-lag, scale); a measured speed at t_k is the one just before t_k (causal: the command of row k
-is in force from t_k on).
+sub-step resolution (held commands, yaw-rate limit, speed limit, dead time, rate limit, exact
+first-order lag or force lag, scale); a measured speed at t_k is the one just before t_k
+(causal: the command of row k is in force from t_k on).
+
+Implementations of effect families beyond the diagnosis's vocabulary (:data:`OTHER`), each a
+physically different version of an effect the diagnosis names:
+
+* ``force_lag`` tau_f [s]: the drive's FORCE lags its demand (current dynamics) and moves the
+  belt's inertia M: M V' = F, tau_f F' = Kp (u - V) - F with the speed gain Kp = M / (2 tau_f)
+  (damping 0.71), i.e. V = u / (2 tau_f^2 s^2 + 2 tau_f s + 1): a second-order response of mean
+  time 2 tau_f, integrated with semi-implicit Euler at the sub-step (the belt is not loaded by
+  the ground here);
+* ``rate_limit`` [m/s^2]: the track speed moves towards its set-point at most this fast (slew);
+* ``force_limit`` [N]: the traction each drive can give: belts massless, each runs at its
+  set-point unless the ground's traction at that speed (the sum of its points' longitudinal
+  friction, at the current body velocity) exceeds the limit, then at the speed where it equals
+  +-limit (solved by bisection every step): a saturation that shows in spins and hard turns;
+* ``lateral_ratio`` [-]: anisotropic ground, F_y,i = -ratio mu_s N_i s_y / sqrt(|s_i|^2 + EPS^2)
+  (lateral friction ratio x the longitudinal), the Jacobian scaled alike.
 
 Logs: random held commands (2-4 s steps; straight, turns both ways, spins), or the DRIVE
 layout (commands held 6 s, logged as 2 s windows of 1.95 s each, every window its own
@@ -54,6 +70,8 @@ WHEELBASE = 0.5
 
 INPUT = ("yaw_rate_limit", "speed_limit", "command_delay", "actuator_lag", "track_speed_scale")
 GROUND = ("cg_offset_x", "cg_offset_y", "friction_scale", "friction_asymmetry", "slope")
+# implementations of effect families outside the diagnosis's own vocabulary (module docstring)
+OTHER = ("force_lag", "rate_limit", "force_limit", "lateral_ratio")
 
 
 def commands(rng: np.random.Generator, duration: float, dt: float, *, turning: bool = True, hold=(2.0, 4.0),
@@ -110,11 +128,46 @@ def _loads(pts, w, total, cg, cz, m, f):
     return n * total / max(n.sum(), 1e-12)
 
 
+def _limited_belts(vb: np.ndarray, px: np.ndarray, py: np.ndarray, bound: np.ndarray, side: np.ndarray,
+                   limit: float) -> np.ndarray:
+    """Belt speeds (2,) under a drive force limit: each belt runs at its set-point ``vb`` unless the
+    traction that needs (the sum of its points' longitudinal friction, points moving at (px, py),
+    Coulomb bounds ``bound``) exceeds ``limit``; then at the speed whose traction is +-limit (the
+    traction rises monotonically with the belt speed: bisection)."""
+    out = vb.astype(float).copy()
+    for s_ in (0, 1):
+        on = side == s_
+        x, y, b = px[on], py[on], bound[on]
+
+        def traction(speed):
+            sx = x - speed
+            return float(np.sum(b * (-sx) / np.sqrt(sx * sx + y * y + EPS * EPS)))
+
+        need = traction(vb[s_])
+        if abs(need) <= limit:
+            continue
+        target = np.sign(need) * limit
+        lo, hi = (vb[s_] - 2.0 * VMAX - 1.0, vb[s_]) if need > 0 else (vb[s_], vb[s_] + 2.0 * VMAX + 1.0)
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            if traction(mid) > target:
+                hi = mid
+            else:
+                lo = mid
+        out[s_] = 0.5 * (lo + hi)
+    return out
+
+
 def simulate(robot: Robot, kind: str, t_cmd: np.ndarray, v_track: np.ndarray, *, cg=(0.0, 0.0), mu=(0.8, 0.8),
-             slope=0.0, slope_dir=0.0) -> tuple[np.ndarray, np.ndarray]:
+             slope=0.0, slope_dir=0.0, lateral_ratio: float = 1.0, force_limit: float | None = None,
+             belts: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Integrate the body under track speeds v_track (S, 2) given at sub-step times t_cmd (S,)
     (spacing H). Returns poses (S, 3) of the geometric centre and the twists (S, 3) (vx, vy, wz)
-    of the geometric centre, both at the sub-step times."""
+    of the geometric centre, both at the sub-step times.
+
+    ``lateral_ratio``: lateral / longitudinal friction coefficient (anisotropic ground, module
+    docstring); ``force_limit`` [N]: the traction each drive can give (massless belts; module
+    docstring), None: unlimited; ``belts`` (S, 2): filled with the belt speeds actually run."""
     pts, w, side = _contact(robot, kind)
     m = robot.mass
     inertia = m * (robot.track_length**2 + robot.track_gauge**2) / 12.0
@@ -135,13 +188,18 @@ def simulate(robot: Robot, kind: str, t_cmd: np.ndarray, v_track: np.ndarray, *,
         ang = slope_dir - yaw  # uphill direction in the body frame
         g_pl = -G0 * np.sin(slope) * np.array([np.cos(ang), np.sin(ang)])  # in-plane gravity, body frame
         n = _loads(pts, w, total, (cx, cy), cz, m, f_prev)
-        belt = np.where(side == 0, v_track[k, 0], v_track[k, 1])
         u, v, wz = z
+        vb = v_track[k]
+        if force_limit is not None:
+            vb = _limited_belts(vb, u - wz * rel[:, 1], v + wz * rel[:, 0], mu_p * n, side, force_limit)
+        if belts is not None:
+            belts[k] = vb
+        belt = np.where(side == 0, vb[0], vb[1])
         sx = u - wz * rel[:, 1] - belt
         sy = v + wz * rel[:, 0]
         r = np.sqrt(sx * sx + sy * sy + EPS * EPS)
         c = mu_p * n / r
-        fx, fy = -c * sx, -c * sy
+        fx, fy = -c * sx, -lateral_ratio * c * sy
         F = np.array([fx.sum(), fy.sum(), (rel[:, 0] * fy - rel[:, 1] * fx).sum()])
         # d(f_i)/d(s_i) = -mu N (I/r - s s^T / r^3); ds/dz = [[1, 0, -ry], [0, 1, rx]]
         c3 = mu_p * n / r**3
@@ -149,7 +207,7 @@ def simulate(robot: Robot, kind: str, t_cmd: np.ndarray, v_track: np.ndarray, *,
         kyy = -(c - c3 * sy * sy)
         kxy = c3 * sx * sy
         jx = np.stack([kxx, kxy, -kxx * rel[:, 1] + kxy * rel[:, 0]], 1)  # d fx / d z
-        jy = np.stack([kxy, kyy, -kxy * rel[:, 1] + kyy * rel[:, 0]], 1)  # d fy / d z
+        jy = lateral_ratio * np.stack([kxy, kyy, -kxy * rel[:, 1] + kyy * rel[:, 0]], 1)  # d fy / d z
         J = np.stack([jx.sum(0), jy.sum(0), (rel[:, 0, None] * jy - rel[:, 1, None] * jx).sum(0)])
         minv = np.array([1 / m, 1 / m, 1 / inertia])
         rhs = F * minv + np.array([wz * v + g_pl[0], -wz * u + g_pl[1], 0.0])
@@ -184,12 +242,27 @@ def track_speeds(t_fine: np.ndarray, t: np.ndarray, cl: np.ndarray, cr: np.ndarr
         u = np.stack([mean - half, mean + half], -1)
     if "speed_limit" in p:
         u = np.clip(u, -p["speed_limit"], p["speed_limit"])
+    if "rate_limit" in p:  # slew limit of the track speed
+        y = np.empty_like(u)
+        y[0] = u[0]
+        step = p["rate_limit"] * H
+        for k in range(1, u.shape[0]):
+            y[k] = y[k - 1] + np.clip(u[k - 1] - y[k - 1], -step, step)
+        u = y
     if "actuator_lag" in p:
         a = 1.0 - np.exp(-H / p["actuator_lag"])
         y = np.empty_like(u)
         y[0] = u[0]
         for k in range(1, u.shape[0]):
             y[k] = y[k - 1] + a * (u[k - 1] - y[k - 1])
+        u = y
+    if "force_lag" in p:  # belt inertia M under a lagging drive force (module docstring)
+        tf = p["force_lag"]
+        y, acc = np.empty_like(u), np.zeros(2)
+        y[0] = u[0]
+        for k in range(1, u.shape[0]):
+            acc = acc + H * ((u[k - 1] - y[k - 1]) / (2.0 * tf) - acc) / tf
+            y[k] = y[k - 1] + H * acc
         u = y
     if "track_speed_scale" in p:
         u = u * p["track_speed_scale"]
@@ -198,17 +271,18 @@ def track_speeds(t_fine: np.ndarray, t: np.ndarray, cl: np.ndarray, cr: np.ndarr
 
 def make_log(params: dict | None = None, *, geometry: str = "small", seed: int = 0, duration: float = 240.0,
              rate: float = 20.0, speeds: bool = False, turning: bool = True, layout: str = "continuous",
-             vmax: float = VMAX, true_speeds: bool = False):
+             vmax: float = VMAX, true_speeds: bool = False, robot: Robot | None = None, pose_std: float = XY_STD):
     """A log of the geometry's robot with hidden effect parameters ``params`` (names of the
     effect vocabulary, e.g. {"cg_offset_x": 0.05, "actuator_lag": 0.2}; {} or None = clean).
     ``layout``: "continuous" (one segment) or "drive" (2 s windows of 1.95 s, separate segments,
     commands held 6 s). Returns (log, the nominal robot description); with ``true_speeds`` also
     the noise-free track speeds (N, 2) at the log's rows, with the hidden input effects and
-    without them (what shows where an input effect acts)."""
+    without them (what shows where an input effect acts). ``robot``: a tracked robot described
+    otherwise than the geometry's (e.g. another mass); ``pose_std`` [m]: the pose noise in x and y."""
     p = dict(params or {})
-    unknown = set(p) - set(INPUT) - set(GROUND) - {"slope_direction"}
+    unknown = set(p) - set(INPUT) - set(GROUND) - set(OTHER) - {"slope_direction"}
     assert not unknown, unknown
-    robot, kind = GEOMETRIES[geometry]
+    robot, kind = GEOMETRIES[geometry] if robot is None else (robot, "tracks")
     rng = np.random.default_rng(seed)
     dt = 1.0 / rate
     hold = (6.0, 6.0) if layout == "drive" else (2.0, 4.0)
@@ -219,18 +293,21 @@ def make_log(params: dict | None = None, *, geometry: str = "small", seed: int =
     cg = (robot.cg_x + p.get("cg_offset_x", 0.0), robot.cg_y + p.get("cg_offset_y", 0.0))
     mu_r = robot.mu * p.get("friction_scale", 1.0)
     mu_l = mu_r * p.get("friction_asymmetry", 1.0)
+    belts = np.empty_like(v) if "force_limit" in p else None
     poses, _ = simulate(robot, kind, t_fine, v, cg=cg, mu=(mu_l, mu_r), slope=p.get("slope", 0.0),
-                        slope_dir=p.get("slope_direction", 0.0))
+                        slope_dir=p.get("slope_direction", 0.0), lateral_ratio=p.get("lateral_ratio", 1.0),
+                        force_limit=p.get("force_limit"), belts=belts)
+    v = v if belts is None else belts
     poses = poses[::sub]
     # a speed sample at t_k is the speed just before t_k (the command of row k is in force from
     # t_k on and cannot show in it yet): its left limit. Behind a first-order lag the speed is
     # continuous, its value at t_k (the lag state, driven by the inputs before t_k); otherwise it
     # is held, and its left limit is the value of the sub-step before
     k = np.arange(t.size) * sub
-    vs = v[k] if "actuator_lag" in p else v[np.maximum(k - 1, 0)]
+    vs = v[k] if {"actuator_lag", "force_lag", "rate_limit"} & set(p) else v[np.maximum(k - 1, 0)]
     v_nominal = track_speeds(t_fine, t, cl, cr, {}, robot.track_gauge)[np.maximum(k - 1, 0)]
     cols = {"t": t, "v_left_cmd": cl, "v_right_cmd": cr,
-            "x": poses[:, 0] + rng.normal(0, XY_STD, t.size), "y": poses[:, 1] + rng.normal(0, XY_STD, t.size),
+            "x": poses[:, 0] + rng.normal(0, pose_std, t.size), "y": poses[:, 1] + rng.normal(0, pose_std, t.size),
             "yaw": poses[:, 2] + rng.normal(0, YAW_STD, t.size)}
     if speeds:
         cols["v_left"] = vs[:, 0] + rng.normal(0, SPEED_STD, t.size)
