@@ -95,6 +95,7 @@ def test_thesis_writes_readable_figures(thesis_run):
     assert sorted(p.name for p in out.iterdir()) == sorted([*doc["figures"], "thesis.json"])  # no temp files left
 
 
+@pytest.mark.slow  # a second whole thesis run; --quiet is checked on the other commands
 def test_thesis_quiet_prints_nothing(tmp_path):
     res = run_cli(["thesis", "--out", str(tmp_path), "--quiet"])
     assert res.rc == 0 and res.out == "" and res.err == ""

@@ -122,6 +122,7 @@ def test_cli_demo_end_to_end(cli, tmp_path):
     assert "2-s position RMSE" not in res.out  # --quiet keeps only where the outputs are
 
 
+@pytest.mark.slow  # a second whole demo run; the default demo test stays in the default run
 def test_demo_on_terrain_records_it_and_logs_height(tmp_path):
     from mjtrack.sim.terrain import parse_terrain
 

@@ -26,6 +26,7 @@ from mjtrack.testing.mujoco_effects import HIDDEN, ROBOT, make_log
 NOMINAL = Robot.from_dict({**ROBOT.to_dict(), "drive_force_limit": 600.0 / ROBOT.sprocket_radius})
 
 
+@pytest.mark.slow  # about 30 s of CPU; the MuJoCo baseline's clean-log and effect tests stay in the default run
 def test_hidden_ground_extension_is_found_and_estimated(tmp_path):
     lg, _ = make_log("ground_anisotropy", seed=1, duration=40.0)
     test_log, _ = make_log("ground_anisotropy", seed=2, duration=20.0)

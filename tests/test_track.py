@@ -289,6 +289,7 @@ def test_windowed_cross_track_error_ignores_the_other_branch_of_a_figure_eight()
     assert nearest < 0.09
 
 
+@pytest.mark.slow  # about 40 s of CPU; test_control's figure-eight on a slipping robot stays in the default run
 def test_compensated_figure_eight_halves_the_cross_track_error():
     """Acceptance: mu 0.4, cg 0.1 L forward, figure-eight at 0.5 m/s, same tracker and gains."""
     robot = Robot(mu=0.4, cg_x=0.1 * Robot().track_length)
@@ -370,6 +371,7 @@ def test_known_icrs_stand_in_for_the_estimator():
             KnownICR(bad)
 
 
+@pytest.mark.slow  # about 45 s of CPU; the default run keeps the compensation grid's other checks
 def test_the_grid_miss_is_the_estimate_not_the_absence_of_slip():
     """The compensation grid's worst case (lane change, mu 0.4, CG 5 cm behind, 0.5 m/s, seed 1):
     both modes are worse than none (RMS ratio 1.09 / 1.10, measured; none errs 2.7 mm under 1 cm

@@ -89,6 +89,7 @@ def test_track_drives_the_wheeled_robot(robot_file, tmp_path):
     assert doc["max_cross_track_m"] < 0.2
 
 
+@pytest.mark.slow  # the whole demo (about 40 s of CPU); validate and render of a wheeled log stay in the default run
 def test_demo_takes_a_wheeled_robot(tmp_path):
     from mjtrack.demo import run_demo
     from mjtrack.io.robot import Robot
