@@ -28,7 +28,9 @@ TYPED = re.compile(r"\d+\.\d+|\d{2,}")  # a decimal or a number of two digits or
 
 
 def resolve(data, pointer: str):
+    """RFC 6901: "~1" in a token is "/" and "~0" is "~" (a battery case is named "default/cg_x")."""
     for part in pointer.strip("/").split("/"):
+        part = part.replace("~1", "/").replace("~0", "~")
         data = data[int(part)] if isinstance(data, list) else data[part]
     return data
 
@@ -38,7 +40,8 @@ def file_value(root: Path, prov: dict):
     value = resolve(data, prov["pointer"])
     if prov["reduce"]:
         items = [v[prov["field"]] for v in value] if prov["field"] else list(value)
-        value = {"mean": statistics.fmean, "max": max, "min": min, "median": statistics.median}[prov["reduce"]](items)
+        value = {"mean": statistics.fmean, "max": max, "min": min, "median": statistics.median,
+                 "count": lambda xs: len([x for x in xs if x is True])}[prov["reduce"]](items)
     return value if isinstance(value, (bool, type(None))) else value * prov["scale"]
 
 

@@ -42,6 +42,7 @@ def pointer_get(data: Any, pointer: str) -> Any:
 
 REDUCTIONS: dict[str, Callable[[list[float]], float]] = {
     "mean": statistics.fmean, "max": max, "min": min, "median": statistics.median,
+    "count": lambda items: sum(1 for v in items if v is True),  # how many items' field is true
 }
 
 
@@ -434,22 +435,22 @@ def _controllers() -> Page:
 def _calibration() -> Page:
     bat = Source(RESULTS / "calibration_battery.json")
     real = Source(RESULTS / "real_robots.json")
-    cases = Table("The self-consistency battery: MuJoCo logs with one known change each (60 s of random steps; train "
-                  "seed 11, test seed 12), calibrated from the description without the change. Causes: the parameter "
-                  "groups named, largest first; covered: determined parameters whose 95 % interval holds the truth; "
-                  "held-out 2 s position error [m] before and after; the cause `diagnose --baseline mujoco` names "
+    cases = Table("The self-consistency battery: MuJoCo logs with one known change each (a minute of random steps; "
+                  "training and test logs of different seeds), calibrated from the description without the change. "
+                  "Causes: the parameter groups named, largest first; covered: determined parameters whose interval "
+                  "holds the truth; "
+                  "held-out position error [m] at the window's end before and after; the cause `diagnose --baseline mujoco` names "
                   "against the description and against the calibrated robot.",
                   ["case", "causes named", "true cause first", "covered", "determined", "test before", "test after",
                    "diagnose, described", "diagnose, calibrated"])
     rows = Table("Every candidate of every battery case: truth, calibrated value (the described value where kept), "
-                 "95 % interval, whether the log determines it and whether the interval covers the truth.",
+                 "interval, whether the log determines it and whether the interval covers the truth.",
                  ["case", "parameter", "truth", "value", "interval low", "interval high", "determined", "covered"])
     for name, c in bat.data["cases"].items():
         q = f"/cases/{name.replace('~', '~0').replace('/', '~1')}"
-        det = [x for x in c["rows"] if x["determined"]]
-        covered = sum(1 for x in det if x["covered"])
         cases.add(name, "; ".join("+".join(g["parameters"]) for g in c["causes"]) or "none",
-                  number(bat, q + "/cause_ok"), str(covered), str(len(det)), number(bat, q + "/test/0"),
+                  number(bat, q + "/cause_ok"), number(bat, q + "/rows", reduce="count", field_name="covered"),
+                  number(bat, q + "/rows", reduce="count", field_name="determined"), number(bat, q + "/test/0"),
                   number(bat, q + "/test/1"), c.get("diagnose", {}).get("cause", "–"),
                   c.get("diagnose_calibrated", {}).get("cause", "–"))
         for i, x in enumerate(c["rows"]):
@@ -458,16 +459,17 @@ def _calibration() -> Page:
             rows.add(name, x["parameter"], number(bat, r + "/truth"), number(bat, r + "/estimate"), *iv,
                      number(bat, r + "/determined"), number(bat, r + "/covered"))
     robots = Table("Three real robots, calibrated on the first part of their log and scored on the next part: held-out "
-                   "2 s position error [m] before and after, its relative drop, and the steady-turn yaw ratio "
+                   "position error [m] at the window's end before and after, its relative drop, and the steady-turn yaw ratio "
                    "(yaw rate over the ideal (v_R - v_L)/T) measured and simulated on the test part.",
                    ["robot", "train windows", "test windows", "test before", "test after", "drop", "yaw ratio measured",
                     "simulated before", "simulated after"])
-    params = Table("Every candidate of the real-robot calibrations: described value, calibrated value, 95 % interval, "
+    params = Table("Every candidate of the real-robot calibrations: described value, calibrated value, interval, "
                    "whether the log determines it and whether calibration changed it.",
                    ["robot", "parameter", "described", "calibrated", "interval low", "interval high", "determined",
                     "changed"])
-    summaries = Table("What each calibration says, and what `diagnose --baseline mujoco` still finds on the test part "
-                      "against the calibrated robot.", ["robot", "summary", "diagnosis of the calibrated robot"])
+    summaries = Table("The causes each calibration names (parameter groups, largest first), how its simulated drives "
+                      "were driven, and what `diagnose --baseline mujoco` still finds on the test part against the "
+                      "calibrated robot.", ["robot", "causes named", "drives follow", "diagnosis of the calibrated robot"])
     for name, r in real.data["robots"].items():
         q = f"/robots/{name}"
         robots.add(name, number(real, q + "/windows/train"), number(real, q + "/windows/test"),
@@ -479,7 +481,9 @@ def _calibration() -> Page:
                   if r["intervals"].get(n) else ["–", "–"])
             params.add(name, n, number(real, f"{q}/described/{n}"), number(real, f"{q}/parameters/{n}"), *iv,
                        number(real, f"{q}/determined/{n}/determined"), number(real, f"{q}/determined/{n}/changed"))
-        summaries.add(name, r["summary"], r["diagnose"]["cause"] if "diagnose" in r else "not run")
+        summaries.add(name, "; ".join("+".join(g["parameters"]) for g in r["causes"]) or "none",
+                      f"{r.get('drive_input', 'commanded')} track speeds",
+                      r["diagnose"]["cause"] if "diagnose" in r else "not run")
     return Page(
         "calibration", "Calibration",
         "What `mjtrack calibrate` finds on logs whose truth is known (the MuJoCo robot's own logs, one change each), "
