@@ -314,7 +314,9 @@ def test_an_interrupted_long_rollout_stops_at_once(tmp_path, forker, sig, status
                      cwd=tmp_path, signal=(sig, 2.0))
     assert res.rc == status and not res.killed, res
     assert res.err.strip() == f"mjtrack simulate: interrupted by {signal.Signals(sig).name}"
-    assert res.after_signal_s < 1.5, res.after_signal_s  # measured 0.05-0.3 s; 1.5 s on a loaded machine
+    # measured 0.05-0.3 s alone, 1.70 s at load 6 on 2 cores beside a second test worker (the chunk in
+    # progress gets half a core); the whole rollout would take minutes, so 3 s still catches a missed signal
+    assert res.after_signal_s < 3.0, res.after_signal_s
     assert list(tmp_path.iterdir()) == []
 
 
