@@ -196,6 +196,12 @@ class Selection:
     ties: dict[str, list[str]]
 
 
+def allowance(resolution, distance):
+    """The widest 95 % half-width at which a parameter counts as determined: its resolution, or its
+    distance from the described value (the interval then excludes the description)."""
+    return np.maximum(resolution, distance)
+
+
 def select(lin: Linearised, described: dict[str, float]) -> Selection:
     """Remove what the log does not determine, then what it does not need changed (module docstring)."""
     specs = lin.specs
@@ -225,8 +231,7 @@ def select(lin: Linearised, described: dict[str, float]) -> Selection:
         u = lin.uncertainty(idx, resid)
         # determined: the interval is within the resolution, or narrow enough to exclude the
         # description (the log then says the value must change, and by about how much)
-        away = np.abs(theta[idx] - d_scaled[idx]) * lin.scales[idx]
-        ratio = u.half / np.maximum(res[idx], away)
+        ratio = u.half / allowance(res[idx], np.abs(theta[idx] - d_scaled[idx]) * lin.scales[idx])
         k = int(np.argmax(ratio))
         if ratio[k] <= 1.0:
             break
@@ -293,7 +298,7 @@ def final_verdicts(lin: Linearised, described: dict[str, float], ties: dict[str,
         lo, hi = max(spec.lo, v - half), min(spec.hi, v + half)
         tied = ties.get(name, [])
         changed = has_changed(v, described[name])
-        allow = max(spec.resolution, abs(v - described[name]))  # the rule of select, step 1
+        allow = float(allowance(spec.resolution, abs(v - described[name])))
         if tied:
             reason = (f"carries its combination with {', '.join(tied)}, which the log cannot tell apart: "
                       f"{fmt_value(v, spec.unit)} [{lo:.4g}, {hi:.4g}] holds only with "

@@ -247,8 +247,6 @@ def calibrated_robot(robot: Robot, values: dict[str, float], config: SimConfig) 
     of mass, contact length, drive keys, ground parameters) and, under ``simulator``, the settings
     of the simulator they were fitted with. A slope is the log's ground, not the robot's: it stays
     in calibration.json."""
-    import dataclasses
-
     wp = window_params({k: v for k, v in values.items() if k not in ("slope_x", "slope_y")}, robot)
     r = geometry_robot(robot, wp)
     fields = {k: wp[k] for k in ("mu", "mu_left", "mu_right", "cg_x", "cg_y") if k in wp}
@@ -343,10 +341,9 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
             raise InputError(f"--params {', '.join(bad)}: describe how the drives follow their commands; with "
                              f"--drive-input measured the drives follow the measured track speeds")
     with summarised_mujoco_warnings(f"calibrate {src}", log):  # one line, not one per diverged window
-        cal = _calibrate(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
-                         max_iter=max_iter, nthread=nthread, quiet=quiet, train_path=train_path,
-                         test_path=test_path, warmup_s=warmup_s)
-    return dataclasses.replace(cal, drive_input=drive_input)
+        return _calibrate(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
+                          max_iter=max_iter, nthread=nthread, quiet=quiet, train_path=train_path,
+                          test_path=test_path, warmup_s=warmup_s, drive_input=drive_input)
 
 
 DRIVE_INPUTS = ("commanded", "measured")
@@ -380,7 +377,7 @@ def commanded_log(lg: DriveLog) -> DriveLog:
 
 
 def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, quiet,
-               train_path, test_path, warmup_s) -> Calibration:
+               train_path, test_path, warmup_s, drive_input) -> Calibration:
     from mjtrack.progress import Progress
 
     timings: dict[str, float] = {}
@@ -544,7 +541,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
         fixed=fixed, assumed=assumed, fit=result, refit=refit, model_form=model_form, causes=causes,
         train_windows=ws, test_windows=tws, train_log=train, test_log=test, before=before, after=after,
         test_before=test_before, test_after=test_after, findings=_clean(findings), sentence=sentence,
-        config=config.to_dict(), timings=timings)
+        config=config.to_dict(), timings=timings, drive_input=drive_input)
 
 
 def _clean(obj):
