@@ -125,11 +125,15 @@ def run_robot(name: str, spec: dict, *, rollers: int) -> dict:
     write_outputs(cal, out)
     cj = cal.to_json()
     yaw = next(f for f in cj["findings"] if f["what"] == "yaw ratio" and f["part"] == "test")
+    speed = {f["what"].removeprefix("forward speed ratio "): {"measured": f["measured"], "before": f["simulated_before"],
+                                                             "after": f["simulated_after"], "windows": f["windows"]}
+             for f in cj["findings"] if f["what"].startswith("forward speed ratio") and f["part"] == "test"}
     return {"traction": robot.traction, "drive_input": drive_input, "command_following": command_following(log),
-            "windows": {"train": len(cal.train_windows), "test": len(cal.test_windows)},
+            "windows": {"train": len(cal.train_windows), "fit": len(cal.fitted_windows), "test": len(cal.test_windows)},
             "test": cj["test"], "train": cj["train"],
             "yaw_ratio": {"measured": yaw["measured"], "before": yaw["simulated_before"], "after": yaw["simulated_after"],
                           "windows": yaw["windows"]},
+            "speed_ratio": speed,
             "parameters": cj["parameters"], "intervals": cj["intervals"], "determined": cj["determined"],
             "described": cj["described"], "causes": cj["causes"], "summary": cj["summary"],
             "assumed": cj["assumed"], "seconds": wall}

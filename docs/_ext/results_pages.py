@@ -467,6 +467,11 @@ def _calibration() -> Page:
                    "whether the log determines it and whether calibration changed it.",
                    ["robot", "parameter", "described", "calibrated", "interval low", "interval high", "determined",
                     "changed"])
+    speed = Table("Forward speed over the mean track speed in steady windows of the test part, by turn class "
+                  "(|turn ratio| = |v_R - v_L| / (|v_L| + |v_R|)), measured and simulated before and after calibration: "
+                  "1 when the body keeps up with its tracks (Coulomb contact alone); real robots fall behind in turns "
+                  "when the ground resists their motion (robot key `rolling_resistance`).",
+                  ["robot", "turn class", "windows", "measured", "simulated before", "simulated after"])
     summaries = Table("The causes each calibration names (parameter groups, largest first), how its simulated drives "
                       "were driven, and what `diagnose --baseline mujoco` still finds on the test part against the "
                       "calibrated robot.", ["robot", "causes named", "drives follow", "diagnosis of the calibrated robot"])
@@ -476,6 +481,10 @@ def _calibration() -> Page:
                    number(real, q + "/test/before"), number(real, q + "/test/after"), number(real, q + "/test/relative"),
                    number(real, q + "/yaw_ratio/measured"), number(real, q + "/yaw_ratio/before"),
                    number(real, q + "/yaw_ratio/after"))
+        for cls in r.get("speed_ratio", {}):
+            p = f"{q}/speed_ratio/{cls.replace('~', '~0').replace('/', '~1')}"
+            speed.add(name, cls.strip("()"), number(real, p + "/windows"), number(real, p + "/measured"),
+                      number(real, p + "/before"), number(real, p + "/after"))
         for n in r["determined"]:
             iv = ([number(real, f"{q}/intervals/{n}/0"), number(real, f"{q}/intervals/{n}/1")]
                   if r["intervals"].get(n) else ["–", "–"])
@@ -490,7 +499,7 @@ def _calibration() -> Page:
         "and on three real robots: Marmotte (tracked), Husky and Warthog (wheeled skid-steer), from the DRIVE data. "
         "A parameter the log does not determine keeps its described value and is marked so; intervals carry the "
         "correlation of a log's windows and the measured model-form error of simulating a window from a logged "
-        "state.", [bat, real], [cases, rows, robots, params, summaries])
+        "state.", [bat, real], [cases, rows, robots, speed, params, summaries])
 
 
 PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _implementations, _filters, _speed, _wheeled,

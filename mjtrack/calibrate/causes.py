@@ -91,6 +91,9 @@ def phrase(name: str, value: float, described: float, *, track_length: float) ->
         return f"its drives saturate at {value:.3g} N (described {described:.3g} N)"
     if name == "lateral_ratio":
         return f"its ground resists sideways slip {value:.3g} times as much as forward slip (described {described:.3g})"
+    if name == "rolling_resistance":
+        return (f"its ground holds each side back with {value:.2g} of the weight it carries (described "
+                f"{described:.2g}): in turns the robot falls behind its tracks")
     if name in ("concentration", "span"):
         return f"its load sits on its road wheels differently ({name} {value:.3g}, described {described:.3g})"
     return f"{name} is {value:.4g}, not {described:.4g}"

@@ -73,6 +73,9 @@ def _specs(robot: Robot) -> dict[str, ParamSpec]:
         ParamSpec("drive_delay", 0.0, 0.6, 0.01, 0.02, "s", "drive", "dead time from command to track speed"),
         ParamSpec("track_speed_scale", 0.5, 1.5, 0.05, 0.02, "–", "drive", "actual / commanded track speed"),
         ParamSpec("drive_force_limit", 5.0, 5000.0, 50.0, 50.0, "N", "drive", "largest force a track drive applies"),
+        # resolution 0.01: on a Husky-sized robot it moves the forward speed in a turn by 1-5 %
+        ParamSpec("rolling_resistance", 0.0, 0.6, 0.02, 0.01, "–", "ground",
+                  "motion resistance: share of each side's weight holding it back"),
         ParamSpec("slope_x", -0.5, 0.5, 0.02, 0.01, "–", "terrain", "sin(slope) x uphill direction's x (log frame)"),
         ParamSpec("slope_y", -0.5, 0.5, 0.02, 0.01, "–", "terrain", "sin(slope) x uphill direction's y (log frame)"),
         ParamSpec("lateral_ratio", 0.05, 1.0, 0.1, 0.05, "–", "ground", "lateral / longitudinal friction (anisotropic ground)"),
@@ -85,10 +88,13 @@ GROUND_PARAMS = {"anisotropic": ("lateral_ratio",), "road_wheels": ("concentrati
 #: every cause a user meets on a drive log, fitted unless --params names others; identifiability,
 #: not this list, decides what stays (:mod:`mjtrack.calibrate.identify`). Plus the ground model's
 #: parameters, and the slope where the log's poses share one world frame.
-DEFAULT_PARAMS = ("mu", "mu_ratio", "cg_x", "cg_y", "track_length", "drive_lag", "drive_delay", "track_speed_scale")
+DEFAULT_PARAMS = ("mu", "mu_ratio", "cg_x", "cg_y", "track_length", "drive_lag", "drive_delay", "track_speed_scale",
+                  "rolling_resistance")
 SLOPE_PARAMS = ("slope_x", "slope_y")
 #: first values of drivetrain keys that the robot file lacks (a value on a bound stalls the fit)
 DRIVE_START = {"drive_lag": 0.05, "drive_delay": 0.02, "track_speed_scale": 1.0}
+#: first value of a motion resistance the robot file lacks (0 is a bound)
+RESISTANCE_START = 0.02
 
 
 def specs_for(robot: Robot) -> dict[str, ParamSpec]:
@@ -182,6 +188,8 @@ def start_values(robot: Robot, names: list[str], config: SimConfig) -> dict[str,
         given = robot.provided is None or n in robot.provided
         if n in DRIVE_START and (drive_params(robot).get(n) is None or not given):
             v = DRIVE_START[n]
+        if n == "rolling_resistance" and (not given or v == 0.0):
+            v = RESISTANCE_START
         s = specs[n]
         if not s.lo <= v <= s.hi:
             raise InputError(f"robot: {n} = {v!r} is outside the range calibrate fits in [{s.lo:g}, {s.hi:g}] {s.unit}")

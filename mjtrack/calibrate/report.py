@@ -149,7 +149,7 @@ def build_report(cal) -> Report:
                 f"{cal.fit.cost_start:.4g} → {cal.fit.cost_final:.4g})"
                 + (f", then the kept ones again ({cal.refit.iterations} iterations, cost {cal.refit.cost_final:.4g})"
                    if cal.refit is not None else "")
-                + f"; {sum(f.evaluations for f in fits)} parameter sets × {len(cal.train_windows)} windows simulated "
+                + f"; {sum(f.evaluations for f in fits)} parameter sets × {len(cal.fitted_windows)} fit windows simulated "
                   f"in {sum(f.seconds for f in fits):.1f} s. Intervals: 95 %, a cluster-robust sandwich over clusters "
                   "of consecutive windows plus each parameter's model-form shift (a finer simulator, a longer warm-up "
                   "of the hidden states). A parameter is determined when its half-width is at most its resolution or its distance from the described value; "

@@ -48,11 +48,17 @@ from mjtrack.sim.windows import (DRIVE_DEFAULTS, WARMUP_S, WindowResult, WindowS
 log = logging.getLogger(__name__)
 
 #: robot keys whose defaults a description may silently rely on (named under ``assumed``)
-DESCRIBED = ("track_length", "track_width", "mass", "cg_x", "cg_y", "cg_z", "mu", "sprocket_radius")
+DESCRIBED = ("track_length", "track_width", "mass", "cg_x", "cg_y", "cg_z", "mu", "sprocket_radius", "rolling_resistance")
 MAX_ROUNDS = 3  # refits after the first fit, each after what the log determines was decided again
 STEP_TOL = 0.25  # the fit has converged when the remaining Gauss-Newton step is below this share of every half-width
+#: windows a fit uses by default, spread evenly over the log: a fit's time grows with them (about
+#: 200 evaluations of every fit window), its intervals narrow only with their square root
+FIT_WINDOWS = 150
 STEADY_MIN_WZ = 0.3  # [rad/s] nominal yaw rate below which a window's yaw ratio is not used
 ICR_MIN_TURN = 0.3  # |turn ratio| below which a window's ICRs are not used (they diverge)
+SPEED_MIN = 0.1  # [m/s] |mean track speed| below which a window's forward speed ratio is not used
+#: |turn ratio| classes of the forward speed ratio: straight, turning, sharp turns
+TURN_CLASSES = ((0.0, 0.15), (0.15, 0.5), (0.5, 1.0))
 
 
 @dataclass
@@ -112,6 +118,11 @@ class Calibration:
     config: dict
     timings: dict[str, float] = field(default_factory=dict)
     drive_input: str = "commanded"
+    fit_windows: WindowSet | None = None  # the windows the fit used (None: every training window)
+
+    @property
+    def fitted_windows(self) -> WindowSet:
+        return self.train_windows if self.fit_windows is None else self.fit_windows
 
     @property
     def changed(self) -> list[str]:
@@ -128,7 +139,8 @@ class Calibration:
             "changed": self.changed,
             "fixed": self.fixed, "assumed": self.assumed,
             "train": {"log": self.train_path, "metric": "pos_err_m", "horizon_s": self.horizon_s,
-                      "before": self.before.rms, "after": self.after.rms, "windows": len(self.train_windows)},
+                      "before": self.before.rms, "after": self.after.rms, "windows": len(self.train_windows),
+                      "fit_windows": len(self.fitted_windows)},
             "findings": self.findings,
             "causes": [c.to_json() for c in self.causes],
             "summary": self.sentence,
@@ -137,7 +149,7 @@ class Calibration:
             "method": {"optimizer": self.fit.method,
                        "fits": [{"parameters": f.names, "iterations": f.iterations, "cost_start": f.cost_start,
                                  "cost_final": f.cost_final} for f in fits],
-                       "simulated_windows": sum(f.evaluations for f in fits) * len(self.train_windows),
+                       "simulated_windows": sum(f.evaluations for f in fits) * len(self.fitted_windows),
                        "intervals": "95 %: cluster-robust sandwich over clusters of consecutive windows (Student t), "
                                     "plus the model-form shift of each parameter (a finer simulator, a longer "
                                     "warm-up of the hidden states), linearised at the optimum",
@@ -183,7 +195,10 @@ def turn_measures(lg: DriveLog, ws: WindowSet, robot: Robot, poses: np.ndarray, 
 
     yaw ratio: median over steady windows with |nominal yaw rate| >= STEADY_MIN_WZ of the
     window's yaw rate / ((v_R - v_L) / T) (mean track speeds of the window); ICRs (2.13) from the
-    window's chord twist where |turn ratio| >= ICR_MIN_TURN, medians per turn direction.
+    window's chord twist where |turn ratio| >= ICR_MIN_TURN, medians per turn direction; forward
+    speed ratio: median of the chord's forward speed / the mean track speed per |turn ratio| class
+    (:data:`TURN_CLASSES`), where |mean track speed| >= SPEED_MIN -- 1 without longitudinal slip; a
+    real robot falls behind its tracks in turns when the ground resists its motion.
     """
     n = ws.ends - ws.starts
     M = len(ws)
@@ -205,7 +220,13 @@ def turn_measures(lg: DriveLog, ws: WindowSet, robot: Robot, poses: np.ndarray, 
             icr[name] = {"y_l": float(np.median((tw[m, 0] - v[m, 0]) / wz)),
                          "y_r": float(np.median((tw[m, 0] - v[m, 1]) / wz)),
                          "x_c": float(np.median(-tw[m, 1] / wz)), "windows": int(m.sum())}
-    return {"yaw_ratio": ratio, "yaw_windows": int(use.sum()), "icr": icr}
+    vm = v.mean(axis=1)
+    fwd = {}
+    for lo, hi in TURN_CLASSES:
+        m = steady & (np.abs(vm) >= SPEED_MIN) & (np.abs(turn) >= lo) & ((np.abs(turn) < hi) | (hi >= 1.0))
+        if m.sum() >= 3:
+            fwd[(lo, hi)] = (float(np.median(tw[m, 0] / vm[m])), int(m.sum()))
+    return {"yaw_ratio": ratio, "yaw_windows": int(use.sum()), "icr": icr, "speed_ratio": fwd}
 
 
 def measured_speeds(lg: DriveLog, ws: WindowSet) -> np.ndarray:
@@ -290,7 +311,7 @@ def model_form_sources(obj, values: dict[str, float], resid: np.ndarray, jac: np
     out, size = [], {}
     if refine:
         finer = config.replace(timestep=config.timestep / 2, n_rollers=max(config.n_rollers, SimConfig().n_rollers))
-        r_fine = obj.residuals_of([wp], one=True, sim=WindowSim(robot, finer))
+        r_fine = obj.residuals_of([wp], one=True, sim=WindowSim(robot, finer, resisted=obj.sim.resisted))
         out.append(ModelForm("simulator", jac.T @ (r_fine - resid)))
         size["simulator"] = float(np.sqrt(np.sum((r_fine - resid) ** 2)))
     if obj.warmup_s > 0:
@@ -303,7 +324,8 @@ def model_form_sources(obj, values: dict[str, float], resid: np.ndarray, jac: np
 def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
               names: str | list[str] | None = None, horizon_s: float = 2.0, n_rollers: int | None = None,
               max_iter: int = 8, nthread: int = 2, quiet: bool = True, train_path: str | None = None,
-              test_path: str | None = None, warmup_s: float = WARMUP_S, drive_input: str = "commanded") -> Calibration:
+              test_path: str | None = None, warmup_s: float = WARMUP_S, drive_input: str = "commanded",
+              fit_windows: int | None = FIT_WINDOWS) -> Calibration:
     """Fit the MuJoCo robot to ``train`` (see the module docstring); bad input raises InputError.
 
     Args:
@@ -323,6 +345,8 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
             lag, delay and speed scale are candidates); ``"measured"``: they follow the logged
             track speeds, for a robot whose own speed controller caps or shapes its commands in
             ways the drive keys do not describe; only the contact is calibrated then.
+        fit_windows: windows the fit uses, spread evenly over the log (None: every window); the
+            errors before and after and the causes use every window.
     """
     from mjtrack.sim.rollout import summarised_mujoco_warnings
 
@@ -343,7 +367,7 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
     with summarised_mujoco_warnings(f"calibrate {src}", log):  # one line, not one per diverged window
         return _calibrate(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
                           max_iter=max_iter, nthread=nthread, quiet=quiet, train_path=train_path,
-                          test_path=test_path, warmup_s=warmup_s, drive_input=drive_input)
+                          test_path=test_path, warmup_s=warmup_s, drive_input=drive_input, fit_windows=fit_windows)
 
 
 DRIVE_INPUTS = ("commanded", "measured")
@@ -376,8 +400,17 @@ def commanded_log(lg: DriveLog) -> DriveLog:
     return dataclasses.replace(lg, v_left_cmd=lg.extra[LOGGED_COMMANDS[0]], v_right_cmd=lg.extra[LOGGED_COMMANDS[1]])
 
 
+def spread(ws: WindowSet, n: int | None) -> WindowSet:
+    """At most ``n`` of the windows, evenly spread over them in order (all when None or fewer)."""
+    if n is None or len(ws) <= n:
+        return ws
+    if n < 1:
+        raise InputError(f"fit_windows must be >= 1, got {n!r}")
+    return ws.subset(np.unique(np.round(np.linspace(0, len(ws) - 1, int(n))).astype(int)))
+
+
 def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, quiet,
-               train_path, test_path, warmup_s, drive_input) -> Calibration:
+               train_path, test_path, warmup_s, drive_input, fit_windows) -> Calibration:
     from mjtrack.progress import Progress
 
     timings: dict[str, float] = {}
@@ -397,6 +430,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     if len(ws) == 0:
         longest = max(float(train.t[s][-1] - train.t[s][0]) for s in train.segment_slices())
         raise InputError(f"{src}: too short for one {horizon_s:g} s window (longest segment {longest:.3g} s)")
+    fws = spread(ws, fit_windows)
     tws = None
     if test is not None:
         tws = make_windows(test, horizon_s)
@@ -411,7 +445,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
 
     # the robot as described
     t1 = time.perf_counter()
-    sim = WindowSim(robot, config)
+    sim = WindowSim(robot, config, resisted="rolling_resistance" in names)
     kw = dict(nthread=nthread, warmup_s=warmup_s)
     before = _score(sim, train, ws, [{}], **kw)[0]
     test_before = _score(sim, test, tws, [{}], **kw)[0] if test is not None else None
@@ -420,7 +454,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     # every candidate fitted; then, until it settles: what the log determines and needs changed,
     # the rest back at its described value, the kept ones fitted again
     t2 = time.perf_counter()
-    obj = objective(sim, train, ws, names, nthread=nthread, warmup_s=warmup_s)
+    obj = objective(sim, train, fws, names, nthread=nthread, warmup_s=warmup_s)
     specs = obj.specs
     floors = {n: sim.dt for n in ("drive_lag", "drive_delay")}  # timing is resolved to one step at best
     refit_iter = max(3, max_iter // 2)
@@ -446,7 +480,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
             if (sel.free == free and converged) or not sel.free or round_ == MAX_ROUNDS:
                 break
             free = sel.free
-            fobj = objective(sim, train, ws, free, nthread=nthread, warmup_s=warmup_s)
+            fobj = objective(sim, train, fws, free, nthread=nthread, warmup_s=warmup_s)
             begin = {n: float(np.clip(sel.values[n], specs[n].lo, specs[n].hi)) for n in free}
             fr = fit(fobj, begin, max_iter=refit_iter, multistart=False, on_iter=lambda i, c: bar.update())
             fits.append(fr)
@@ -520,6 +554,11 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
                          "simulated_before": tb["yaw_ratio"], "simulated_after": ta["yaw_ratio"],
                          "windows": meas["yaw_windows"],
                          "definition": "median over steady windows of yaw rate / ((v_R - v_L) / T), mean track speeds"})
+        for (lo, hi), (value, count) in meas["speed_ratio"].items():
+            findings.append({"what": f"forward speed ratio (|turn ratio| {lo:g} to {hi:g})", "part": label,
+                             "measured": value, "simulated_before": tb["speed_ratio"].get((lo, hi), (float("nan"),))[0],
+                             "simulated_after": ta["speed_ratio"].get((lo, hi), (float("nan"),))[0], "windows": count,
+                             "definition": "median over steady windows of forward speed / mean track speed"})
         for side in ("left", "right"):
             if side in meas["icr"]:
                 for key in ("y_l", "y_r", "x_c"):
@@ -541,7 +580,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
         fixed=fixed, assumed=assumed, fit=result, refit=refit, model_form=model_form, causes=causes,
         train_windows=ws, test_windows=tws, train_log=train, test_log=test, before=before, after=after,
         test_before=test_before, test_after=test_after, findings=_clean(findings), sentence=sentence,
-        config=config.to_dict(), timings=timings, drive_input=drive_input)
+        config=config.to_dict(), timings=timings, drive_input=drive_input, fit_windows=fws)
 
 
 def _clean(obj):

@@ -97,6 +97,7 @@ OPTION_BOUNDS: dict[str, Bound] = {
     "iterations": Bound(1, 1_000, "", "a number of iterations", integer=True),
     "rollers": Bound(2, 200, "", "rollers per track", integer=True),  # a robot file's simulator n_rollers too
     "threads": Bound(1, 64, "", "a number of threads", integer=True),
+    "fit_windows": Bound(5, 1_000_000, "", "a number of windows", integer=True),
     "workers": Bound(1, 64, "", "a number of worker processes", integer=True),
     # robot options: the robot reader's plausibility table
     **{name: Bound(lo, hi, "" if unit == "-" else unit, f"a robot's {name}", low_open=lo == 0.0)

@@ -16,12 +16,13 @@ short for one window, an unknown parameter or one outside its range) exits with 
 and writes nothing.
 
 Parameters (--params, comma separated): mu, mu_ratio (left / right friction), cg_x, cg_y,
-track_length, drive_lag, drive_delay, track_speed_scale, slope_x, slope_y (sin of the slope times
+track_length, drive_lag, drive_delay, track_speed_scale, rolling_resistance, slope_x, slope_y (sin of the slope times
 the uphill direction in the log's frame), drive_force_limit, mu_left, mu_right (instead of mu and
 mu_ratio); with robot key ground {"model": "anisotropic"}: lateral_ratio; with
 {"model": "road_wheels"}: concentration, span. Default: mu, mu_ratio, cg_x, cg_y, track_length,
 drive_lag, drive_delay, track_speed_scale, plus slope_x, slope_y when the log's segments share one
-world frame, plus the ground model's parameters.
+world frame, plus the ground model's parameters, plus rolling_resistance (the ground holding each
+side back by a share of its weight). A long log is fitted on --fit-windows windows spread over it.
 """
 
 from __future__ import annotations
@@ -29,10 +30,16 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from mjtrack.calibrate.run import FIT_WINDOWS
 from mjtrack.commands._common import (add_output_options, add_robot_options, bounded, check_out_dir, check_overwrite,
                                       log_and_robot, test_log_and_robot)
 
 OUTPUTS = ("robot.json", "calibration.json", "report.html")
+
+
+def fit_windows_arg(text: str) -> int | None:
+    """``--fit-windows``: a number of windows, or ``all`` (None)."""
+    return None if text.strip().lower() == "all" else bounded("fit_windows")(text)
 HELP = "fit the MuJoCo robot to a measured log (windows from the measured state): robot.json + calibration.json + report.html"
 
 
@@ -51,6 +58,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="what the simulated drives follow: the logged commands (default; the drive's lag, delay "
                              "and speed scale are fitted too) or the logged track speeds (for a robot whose own speed "
                              "controller caps its commands; only the contact is fitted)")
+    parser.add_argument("--fit-windows", metavar="N", type=fit_windows_arg, default=FIT_WINDOWS,
+                        help=f"windows the fit uses, spread evenly over the log (default {FIT_WINDOWS}; 'all': every "
+                             "window). The errors before and after, and the causes, use every window; a fit's time "
+                             "grows with its windows, its intervals narrow with their square root")
     parser.add_argument("--threads", metavar="N", type=bounded("threads"), default=2, help="rollout threads (default 2)")
     add_robot_options(parser)
     add_output_options(parser)
@@ -67,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
         check_same_robot(robot, test_robot, str(args.test))
     cal = calibrate(train, robot, test=test, names=args.params, horizon_s=args.horizon,
                     n_rollers=args.rollers, max_iter=args.max_iter, nthread=args.threads, quiet=args.quiet,
-                    drive_input=args.drive_input,
+                    drive_input=args.drive_input, fit_windows=args.fit_windows,
                     train_path=str(args.log), test_path=None if args.test is None else str(args.test))
     write_outputs(cal, out)
     changed = ", ".join(f"{n} {cal.described[n]:.4g} -> {cal.values[n]:.4g}" for n in cal.changed) or "nothing"

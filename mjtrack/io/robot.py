@@ -45,6 +45,7 @@ _warned: set[tuple[str, tuple[str, ...]]] = set()  # (source, keys) already list
 G = 9.81  # [m/s^2] gravity used throughout the package
 MAX_DRIVE_TIME = 10.0  # [s] largest accepted drive_lag / drive_delay (beyond: a unit error)
 MAX_SPEED_SCALE = 10.0  # [-] largest accepted track_speed_scale
+MAX_RESISTANCE = 1.0  # [-] largest accepted rolling_resistance (beyond: the robot could not move on any ground)
 NULLABLE = ("mu_left", "mu_right", "drive_force_limit", "wheelbase")  # keys that may be JSON null
 TRACTIONS = ("tracks", "wheels")
 MAX_WHEELS_PER_SIDE = 10
@@ -180,6 +181,9 @@ class Robot:
         drive_force_limit: traction force limit of one track drive [N]; ``None``: the simulator's
             default, which scales with the mass (:meth:`mjtrack.sim.config.SimConfig.for_robot_mass`).
         track_speed_scale: actual / commanded track speed, both tracks [-].
+        rolling_resistance: motion resistance coefficient f_r [-]: each side is held back by a
+            force f_r times the weight it carries, opposing its motion over the ground (rolling,
+            bulldozing and tread losses); 0: none (docs/theory/simulator.md).
         ground: the ground model and its parameters (:class:`Ground`, a dict or a model name;
             default isotropic Coulomb).
         traction: ``"tracks"`` (default) or ``"wheels"``.
@@ -205,6 +209,7 @@ class Robot:
     drive_delay: float = 0.0
     drive_force_limit: float | None = None
     track_speed_scale: float = 1.0
+    rolling_resistance: float = 0.0
     ground: Ground = field(default_factory=Ground)
     traction: str = "tracks"
     wheelbase: float | None = None
@@ -239,6 +244,9 @@ class Robot:
         if not _is_finite_number(self.track_speed_scale) or not 0 < self.track_speed_scale <= MAX_SPEED_SCALE:
             raise InputError(f"robot: 'track_speed_scale' must be a number in (0, {MAX_SPEED_SCALE:g}], "
                              f"got {self.track_speed_scale!r}")
+        if not _is_finite_number(self.rolling_resistance) or not 0 <= self.rolling_resistance <= MAX_RESISTANCE:
+            raise InputError(f"robot: 'rolling_resistance' must be a number in [0, {MAX_RESISTANCE:g}] (a share of "
+                             f"the weight), got {self.rolling_resistance!r}")
         for name, (low, high, unit) in PLAUSIBLE_ROBOT.items():
             value = getattr(self, name)
             if value is not None and not low <= value <= high:

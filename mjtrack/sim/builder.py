@@ -351,7 +351,8 @@ def control_matrix(model: mujoco.MjModel) -> np.ndarray:
     B = np.zeros((model.nu, 2))
     for a in range(model.nu):
         name = model.actuator(a).name
-        B[a, 0 if name.startswith("drive_left") else 1] = 1.0
+        if name.startswith("drive_"):  # (the motion resistance's actuators take no input)
+            B[a, 0 if name.startswith("drive_left") else 1] = 1.0
     return B
 
 

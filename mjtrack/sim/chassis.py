@@ -281,6 +281,8 @@ def build_robot_spec(robot: Robot, config: SimConfig | None, tracks: TrackModel,
         add_contact_sensor(spec, side)  # contact persistence
     if idlers and tracks.idlers:
         add_idlers(chassis, robot, config)
+    if robot.rolling_resistance > 0:
+        add_resistance(spec, chassis, robot)
     # velocimeter / gyro: velocity of the site expressed in the site's (= chassis) frame
     for name, stype in (("body_linvel", mujoco.mjtSensor.mjSENS_VELOCIMETER),
                         ("body_angvel", mujoco.mjtSensor.mjSENS_GYRO),
@@ -311,6 +313,49 @@ def build_robot_scene(robot: Robot, config: SimConfig | None, tracks: TrackModel
     config = config or tracks.default_config()
     spec = build_robot_spec(robot, config, tracks, idlers=needs_idlers(terrain), **options)
     return tracks.finish_spec(add_scene(spec, robot, config, terrain, tracks=tracks), robot, config)
+
+
+#: [m/s] speed over which the motion resistance builds up to its full value (a regularised
+#: Coulomb law: F = -min(1, |v| / RESIST_EPS) F_max sgn v); small against driving speeds, large
+#: enough that the explicit step stays stable (f_r g dt / RESIST_EPS <= 0.6 at f_r 0.6, dt 5 ms)
+RESIST_EPS = 0.05
+RESIST_SIDES = ("left", "right")
+
+
+def resistance_forces(robot: Robot, coefficient: float) -> tuple[float, float]:
+    """(F_left, F_right) [N]: ``coefficient`` times the weight each side carries at rest on level
+    ground (the centre of mass's lateral offset splits it)."""
+    share_left = 0.5 + robot.cg_y / robot.track_gauge
+    W = robot.mass * G
+    return coefficient * W * share_left, coefficient * W * (1.0 - share_left)
+
+
+def add_resistance(spec: mujoco.MjSpec, chassis, robot: Robot) -> None:
+    """The motion resistance of robot key ``rolling_resistance``: per side, a force along the
+    chassis x axis at the middle of the side's ground contact (site ``resist_<side>``), opposing
+    that point's forward velocity, -F_side sat(v / RESIST_EPS) (:func:`resistance_forces`).
+    MuJoCo-native, so rollouts need no callback: an actuator on the site (its velocity is the
+    site's velocity along x) whose affine bias is a damper, its force range the saturation."""
+    forces = resistance_forces(robot, robot.rolling_resistance)
+    for side, y, F in zip(RESIST_SIDES, (robot.track_gauge / 2, -robot.track_gauge / 2), forces):
+        chassis.add_site(name=f"resist_{side}", pos=[0, y, 0], size=[0.01, 0.01, 0.01])
+        act = spec.add_actuator(name=f"resist_{side}", target=f"resist_{side}", trntype=mujoco.mjtTrn.mjTRN_SITE)
+        act.gear[:6] = [1, 0, 0, 0, 0, 0]
+        act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+        act.gainprm[0] = 0.0  # no input: a passive force
+        act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+        act.biasprm[:3] = [0.0, 0.0, -F / RESIST_EPS]
+        act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        act.forcerange = [-F, F]
+
+
+def set_resistance(model: mujoco.MjModel, forces: tuple[float, float]) -> None:
+    """Set the resistance actuators of a compiled model to the saturation forces ``forces``
+    (F_left, F_right) [N] (0 switches a side off)."""
+    for side, F in zip(RESIST_SIDES, forces):
+        a = model.actuator(f"resist_{side}").id
+        model.actuator_biasprm[a, :3] = (0.0, 0.0, -F / RESIST_EPS)
+        model.actuator_forcerange[a] = (-F, F)
 
 
 def build_robot_model(robot: Robot, config: SimConfig | None, tracks: TrackModel,

@@ -37,9 +37,10 @@ import numpy as np
 from mjtrack.errors import InputError, MjtrackError
 from mjtrack.geometry import relative_pose, wrap_angle, world_to_body_velocity
 from mjtrack.io.logs import DriveLog
-from mjtrack.io.robot import G, Robot
+from mjtrack.io.robot import MAX_RESISTANCE, G, Robot
 from mjtrack.sim.builder import apply_rest_margins, build_model, control_matrix, track_model_for
-from mjtrack.sim.chassis import chassis_mass_properties, set_body_inertia, set_rest_springs
+from mjtrack.sim.chassis import (chassis_mass_properties, resistance_forces, set_body_inertia, set_resistance,
+                                 set_rest_springs)
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.rollout import STATE_SPEC, SensorMap, aligned_rollout, collected_mujoco_warnings, settled_state, yaw_of
 
@@ -50,7 +51,7 @@ logger = logging.getLogger(__name__)
 #: ``slope_x``, ``slope_y``: an inclined ground as the gravity of the plane, a = sin(slope) times
 #: the uphill unit vector in the log's world frame, the log's x, y read as in-plane coordinates)
 MODEL_PARAMS = ("mu", "mu_left", "mu_right", "cg_x", "cg_y", "drive_lag", "drive_force_limit", "lateral_ratio",
-                "slope_x", "slope_y")
+                "slope_x", "slope_y", "rolling_resistance")
 #: parameters applied to the commands
 COMMAND_PARAMS = ("drive_delay", "track_speed_scale")
 #: parameters that change the model's structure: a robot rebuilt per distinct value (contact
@@ -176,7 +177,7 @@ def robot_params(robot: Robot) -> dict[str, float | None]:
     return {"mu": robot.mu, "mu_left": robot.mu_left, "mu_right": robot.mu_right,
             "cg_x": robot.cg_x, "cg_y": robot.cg_y, **drive_params(robot), "track_length": robot.track_length,
             "wheelbase": robot.wheelbase, "lateral_ratio": g.get("lateral_ratio"), "concentration": g.get("concentration"),
-            "span": g.get("span"), "slope_x": 0.0, "slope_y": 0.0}
+            "span": g.get("span"), "slope_x": 0.0, "slope_y": 0.0, "rolling_resistance": robot.rolling_resistance}
 
 
 def slope_of(params: Mapping[str, float | None]) -> tuple[float, float]:
@@ -216,9 +217,12 @@ class WindowSim:
 
     ``lagged``: compile the drives with a first-order filter even if the robot has no lag, so
     that variants may set one (a lag of 0 is then simulated as :data:`MIN_LAG`).
+    ``resisted``: compile the motion resistance's actuators even if the robot has none, so that
+    variants may set ``rolling_resistance`` (at 0 they apply no force).
     """
 
-    def __init__(self, robot: Robot, config: SimConfig | None = None, *, lagged: bool = True) -> None:
+    def __init__(self, robot: Robot, config: SimConfig | None = None, *, lagged: bool = True,
+                 resisted: bool = False) -> None:
         config = config or SimConfig()
         if config.track_model != "rollers":
             raise InputError("windows: only the 'rollers' track model can be batched through mujoco.rollout "
@@ -230,12 +234,18 @@ class WindowSim:
         self.tracks = track_model_for(robot, config)
         built = self.tracks.configure(robot, config)  # the settings the model is built with
         self.built_config = built
-        self.model = build_model(robot, config)
+        resisted = resisted or robot.rolling_resistance > 0
+        # built with some resistance so that the actuators exist; every variant sets its own
+        self.model = build_model(robot.replace(rolling_resistance=max(robot.rolling_resistance, 0.1))
+                                 if resisted else robot, config)
         m = self.model
         self.dt = float(m.opt.timestep)
         self.smap = SensorMap.of(m)
         self.B = control_matrix(m)
-        self.side_of_actuator = np.argmax(self.B, axis=1)
+        self.drives = np.flatnonzero(self.B.any(axis=1))
+        # the side of each actuator state (the drives' filtered set-points)
+        self.side_of_act = np.array([int(np.argmax(self.B[a])) for a in range(m.nu) if m.actuator_actnum[a] > 0], int)
+        self.resisted = resisted
         jroot = m.joint("root")
         self.qadr, self.vadr = int(jroot.qposadr[0]), int(jroot.dofadr[0])
         # the rollers' (wheels') spin dofs of each side, with the side's belt joint where it has one
@@ -263,7 +273,7 @@ class WindowSim:
         if key not in self._builds:
             if len(self._builds) >= 24:
                 self._builds.pop(next(iter(self._builds)))
-            self._builds[key] = WindowSim(robot, self.config, lagged=self._lagged)
+            self._builds[key] = WindowSim(robot, self.config, lagged=self._lagged, resisted=self.resisted)
         return self._builds[key]
 
     # -- variants ---------------------------------------------------------------------------------
@@ -310,13 +320,23 @@ class WindowSim:
         if lag is not None:
             if lag < 0:
                 raise InputError(f"windows: drive_lag must be >= 0 s, got {lag!r}")
-            m.actuator_dynprm[:, 0] = max(float(lag), MIN_LAG)
+            m.actuator_dynprm[self.drives, 0] = max(float(lag), MIN_LAG)
         flim = params.get("drive_force_limit")
         if flim is not None:
             if not flim > 0:
                 raise InputError(f"windows: drive_force_limit must be > 0 N, got {flim!r}")
             per = float(flim) / len(self.roll_dofs[0])
-            m.actuator_forcerange[:] = [-per, per]
+            m.actuator_forcerange[self.drives] = [-per, per]
+        if self.resisted:
+            c = params.get("rolling_resistance")
+            c = robot.rolling_resistance if c is None else float(c)
+            if not 0 <= c <= MAX_RESISTANCE:
+                raise InputError(f"windows: rolling_resistance must be in [0, {MAX_RESISTANCE:g}], got {c!r}")
+            cg_y = params.get("cg_y")
+            set_resistance(m, resistance_forces(robot if cg_y is None else robot.replace(cg_y=float(cg_y)), c))
+        elif params.get("rolling_resistance"):
+            raise InputError("windows: rolling_resistance needs a window simulator built with resistance "
+                             "(WindowSim(..., resisted=True))")
         ax, ay = slope_of(params)
         if ax or ay:
             m.opt.gravity[:] = (-G * ax, -G * ay, -G * math.sqrt(1.0 - ax * ax - ay * ay))
@@ -355,7 +375,7 @@ class WindowSim:
                 data.qvel[self.roll_dofs[side]] = speeds[j, side] / r
                 data.qvel[self.belt_dofs[side]] = speeds[j, side] / r  # the belt joint: radius r too
             if data.act.size:
-                data.act[:] = speeds[j, self.side_of_actuator] if act0.size == self.side_of_actuator.size else act0
+                data.act[:] = speeds[j, self.side_of_act] if act0.size == self.side_of_act.size else act0
             data.time = 0.0
             mujoco.mj_getState(model, data, out[j], STATE_SPEC)
         return out

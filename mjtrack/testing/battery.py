@@ -2,8 +2,8 @@
 
 Each case is a robot *description* (what a user would write) and the *truth* the log was made with:
 the description plus one change -- a centre-of-mass offset (x or y), a drive lag, a dead time, both,
-a friction difference between the sides, a longer contact, a speed scale, an inclined ground, or
-nothing. The logs are made by ``mjtrack.sim.drive_log`` (the MuJoCo robot built with the truth, one
+a friction difference between the sides, a longer contact, a speed scale, an inclined ground, a
+motion resistance (the ground holding each side back by a share of its weight), or nothing. The logs are made by ``mjtrack.sim.drive_log`` (the MuJoCo robot built with the truth, one
 rollout from rest, the ground tilted for the slope) from seeded random track-speed steps; the
 calibration then sees the log and the description only. The truth is written here, in the
 calibration's own terms (friction as level and left/right ratio, a slope as sin(slope) times the
@@ -30,7 +30,7 @@ GEOMETRIES = {
 }
 SLOPE = (0.05, 0.7)  # [rad] incline and uphill direction of the slope case
 CHANGES = ("clean", "cg_x", "cg_y", "drive_lag", "drive_delay", "lag_delay", "friction_asymmetry", "track_length",
-           "track_speed_scale", "slope")
+           "track_speed_scale", "slope", "rolling_resistance")
 LOG_RATE = 50.0  # [Hz]
 VMAX = 0.9  # [m/s] largest commanded track speed
 
@@ -80,6 +80,8 @@ def case(geometry: str, change: str) -> Case:
     elif change == "slope":
         s, psi = SLOPE
         terrain, cause = f"incline:{s}:{psi}", ("slope_x", "slope_y")
+    elif change == "rolling_resistance":
+        keys, cause = {"rolling_resistance": 0.15 * mu}, ("rolling_resistance",)
     elif change != "clean":
         raise ValueError(f"unknown change {change!r}; known: {', '.join(CHANGES)}")
     full = {**d, **keys}
@@ -87,7 +89,8 @@ def case(geometry: str, change: str) -> Case:
     truth = {"mu": math.sqrt(ml * mr), "mu_ratio": ml / mr, "cg_x": full.get("cg_x", 0.0),
              "cg_y": full.get("cg_y", 0.0), "track_length": full["track_length"],
              "drive_lag": full.get("drive_lag", 0.0), "drive_delay": full.get("drive_delay", 0.0),
-             "track_speed_scale": full.get("track_speed_scale", 1.0), "slope_x": 0.0, "slope_y": 0.0}
+             "track_speed_scale": full.get("track_speed_scale", 1.0), "slope_x": 0.0, "slope_y": 0.0,
+             "rolling_resistance": full.get("rolling_resistance", 0.0)}
     if change == "slope":
         s, psi = SLOPE
         truth["slope_x"], truth["slope_y"] = math.sin(s) * math.cos(psi), math.sin(s) * math.sin(psi)
