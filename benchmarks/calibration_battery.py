@@ -96,10 +96,17 @@ def main(argv=None) -> int:
     load0 = os.getloadavg()
     old = json.loads(args.out.read_text()) if args.out.exists() else {"cases": {}}
     results = old.get("cases", {})
+    command = "python benchmarks/calibration_battery.py " + " ".join(sys.argv[1:] if argv is None else argv)
     for g in args.geometries.split(","):
         for ch in args.changes.split(","):
             c = case(g, ch)
             r = run_case(c, duration=args.duration, diagnose=args.diagnose)
+            before = results.get(c.name, {})
+            if not args.diagnose and "diagnose" in before:
+                # diagnose against the description does not depend on calibration: an earlier run's
+                # is kept, marked; against the calibrated robot it does, and is dropped
+                r["diagnose"] = {**before["diagnose"], "from": before.get("command", old.get("command", "an earlier run"))}
+            r["command"] = command  # cases of several runs merge into one file: each says which made it
             results[c.name] = r
             det = [x for x in r["rows"] if x["determined"]]
             miss = [x["parameter"] for x in det if x["covered"] is False]
@@ -110,7 +117,8 @@ def main(argv=None) -> int:
                   + (f"  diagnose: {r['diagnose']['cause']}, calibrated: {r['diagnose_calibrated']['cause']}"
                      if "diagnose" in r else ""), flush=True)
             args.out.parent.mkdir(parents=True, exist_ok=True)
-            args.out.write_text(json.dumps({"command": "python benchmarks/calibration_battery.py " + " ".join(sys.argv[1:]),
+            commands = sorted({x.get("command", old.get("command", "")) for x in results.values()})
+            args.out.write_text(json.dumps({"command": "; ".join(commands),
                                             "cases": results, "duration_s": args.duration, "load_before": load0,
                                             "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
     rows = [(name, x) for name, r in results.items() for x in r["rows"] if x["determined"]]
