@@ -150,3 +150,15 @@ def test_a_large_change_with_a_wide_interval_is_determined_and_changed():
     assert sel.free == ["far"]
     assert abs(sel.values["far"] - 2.0) < 3 * half[0]
     assert not sel.verdicts["near"].determined and "not determined" in sel.verdicts["near"].reason
+
+
+def test_summary_says_when_the_other_changes_compensate_a_cause():
+    """A share above 100 % means the calibrated robot without that change is worse than the
+    described one (the other changes compensate for it): said in words, not as '1433 %'."""
+    from mjtrack.calibrate.causes import Cause, summary
+
+    delay = Cause(["drive_delay"], {"drive_delay": (0.0, 0.45)}, [], 14.3, 0.46, "its drives act 0.45 s late")
+    cg = Cause(["cg_x"], {"cg_x": (0.016, 0.03)}, [], 0.33, 0.02, "its centre of mass is 0.03 m ahead")
+    text = summary([delay, cg], (0.246, 0.086), where="held-out", yaw=None)
+    assert "without it the other changes are worse than the description" in text
+    assert "1430 %" not in text and "(33 % of the improvement)" in text

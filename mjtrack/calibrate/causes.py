@@ -154,6 +154,14 @@ def find_causes(changed: list[str], values: dict[str, float], described: dict[st
     return out
 
 
+def share_words(share: float) -> str:
+    """A cause's share in words. Above 100 %: without it the other changes leave the robot worse than
+    described (they compensate for it), which a percentage above 100 says less plainly."""
+    if share > 1.0:
+        return "without it the other changes are worse than the description"
+    return f"{100 * share:.0f} % of the improvement"
+
+
 def summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: tuple[float, float] | None,
             undetermined: list[str] | None = None) -> str:
     """The calibration's one-paragraph conclusion, from its measured causes (``undetermined``: the
@@ -178,10 +186,10 @@ def summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: t
                 f"position error went from {before:.3g} m to {after:.3g} m. The simulation errs for a reason none "
                 "of the candidates describes; do not read the changed values as the robot's.")
     text = f"The described MuJoCo robot erred mostly because {first.sentence}"
-    text += f" ({100 * first.share:.0f} % of the improvement; alone it removes {100 * first.gain_alone:.0f} % of the error)"
+    text += f" ({share_words(first.share)}; alone it removes {100 * first.gain_alone:.0f} % of the error)"
     more = [c for c in causes[1:] if c.share >= 0.1]
     if more:
-        text += "; also " + "; ".join(f"{c.sentence} ({100 * c.share:.0f} %)" for c in more)
+        text += "; also " + "; ".join(f"{c.sentence} ({share_words(c.share)})" for c in more)
     if yaw is not None and all(np.isfinite(yaw)):
         text += f". Steady-turn yaw ratio: measured {yaw[0]:.2f}, described robot {yaw[1]:.2f}"
     return text + f". {where.capitalize()} 2 s position error {before:.3g} m before, {after:.3g} m after calibration."
