@@ -58,7 +58,7 @@ def run_case(c, *, duration: float, diagnose: bool) -> dict:
            "expected_cause": list(c.cause), "cause_ok": cause_ok,
            "coverage_ok": all(r["covered"] is not False for r in rows if r["determined"]),
            "train": [cal.before.rms, cal.after.rms], "test": [cal.test_before.rms, cal.test_after.rms],
-           "seconds": seconds}
+           "diverged": [cal.before.diverged, cal.after.diverged], "seconds": seconds}
     if diagnose:
         from mjtrack.diagnose.run import diagnose as run_diagnose
 
@@ -114,8 +114,9 @@ def main(argv=None) -> int:
                   f"{[cc['parameters'] for cc in r['causes']][:2]}  covered {len(det) - len(miss)}/{len(det)}"
                   + (f" MISSED {miss}" if miss else "")
                   + f"  test {r['test'][0]:.4g} -> {r['test'][1]:.4g} m  {r['seconds']:.0f} s"
-                  + (f"  diagnose: {r['diagnose']['cause']}, calibrated: {r['diagnose_calibrated']['cause']}"
-                     if "diagnose" in r else ""), flush=True)
+                  + (f"  diagnose: {r['diagnose']['cause']}" if "diagnose" in r else "")
+                  + (f", calibrated: {r['diagnose_calibrated']['cause']}" if "diagnose_calibrated" in r else ""),
+                  flush=True)
             args.out.parent.mkdir(parents=True, exist_ok=True)
             commands = sorted({x.get("command", old.get("command", "")) for x in results.values()})
             args.out.write_text(json.dumps({"command": "; ".join(commands),
