@@ -71,12 +71,13 @@ class Scored:
     poses: np.ndarray
     speeds: np.ndarray
     diverged: int
+    diverged_mask: np.ndarray  # (M,) windows whose simulation blew up
 
     @classmethod
     def of(cls, res: WindowResult, p: int = 0) -> "Scored":
         e = res.errors[p]
         return cls(errors=e, rms=float(np.sqrt(np.mean(e[:, 0] ** 2 + e[:, 1] ** 2))), poses=res.poses[p],
-                   speeds=res.speeds[p], diverged=int(res.diverged[p].sum()))
+                   speeds=res.speeds[p], diverged=int(res.diverged[p].sum()), diverged_mask=res.diverged[p].copy())
 
 
 @dataclass
@@ -400,13 +401,13 @@ def commanded_log(lg: DriveLog) -> DriveLog:
     return dataclasses.replace(lg, v_left_cmd=lg.extra[LOGGED_COMMANDS[0]], v_right_cmd=lg.extra[LOGGED_COMMANDS[1]])
 
 
-def spread(ws: WindowSet, n: int | None) -> WindowSet:
-    """At most ``n`` of the windows, evenly spread over them in order (all when None or fewer)."""
+def fit_index_of(ws: WindowSet, n: int | None) -> np.ndarray:
+    """Indices of at most ``n`` of the windows, evenly spread over them in order (all when None or fewer)."""
     if n is None or len(ws) <= n:
-        return ws
+        return np.arange(len(ws))
     if n < 1:
         raise InputError(f"fit_windows must be >= 1, got {n!r}")
-    return ws.subset(np.unique(np.round(np.linspace(0, len(ws) - 1, int(n))).astype(int)))
+    return np.unique(np.round(np.linspace(0, len(ws) - 1, int(n))).astype(int))
 
 
 def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, quiet,
@@ -430,7 +431,6 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     if len(ws) == 0:
         longest = max(float(train.t[s][-1] - train.t[s][0]) for s in train.segment_slices())
         raise InputError(f"{src}: too short for one {horizon_s:g} s window (longest segment {longest:.3g} s)")
-    fws = spread(ws, fit_windows)
     tws = None
     if test is not None:
         tws = make_windows(test, horizon_s)
@@ -454,77 +454,95 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     # every candidate fitted; then, until it settles: what the log determines and needs changed,
     # the rest back at its described value, the kept ones fitted again
     t2 = time.perf_counter()
-    obj = objective(sim, train, fws, names, nthread=nthread, warmup_s=warmup_s)
-    specs = obj.specs
     floors = {n: sim.dt for n in ("drive_lag", "drive_delay")}  # timing is resolved to one step at best
     refit_iter = max(3, max_iter // 2)
-    with Progress(total=max_iter + MAX_ROUNDS * refit_iter, label="calibrate", quiet=quiet) as bar:
-        result = fit(obj, start, max_iter=max_iter, on_iter=lambda i, c: bar.update())
-        fits = [result]
-        point, resid, jac = dict(result.values), result.resid, result.jac  # every candidate, at the current point
-        free = list(names)
-        for round_ in range(MAX_ROUNDS + 1):
-            # every candidate linearised at the current point (the dropped ones at their described
-            # value): what the log determines and needs changed is decided again for all of them
-            sources, size = model_form_sources(obj, point, resid, jac, config)
-            theta = np.array([point[n] / specs[n].scale for n in names])
-            lin = Linearised(names=list(names), theta=theta, jac=jac, resid=resid,
-                             rows_per_window=obj.rows_per_window, specs=specs, model_form=sources, floors=floors)
-            fidx = [names.index(n) for n in free]
-            rest = np.abs(lin.step(fidx)[fidx]) * lin.scales[fidx]
-            converged = bool(np.all(rest <= STEP_TOL * lin.uncertainty(fidx).half))
-            ahead = Linearised(names=list(names), theta=theta, jac=jac, resid=resid,
-                               rows_per_window=obj.rows_per_window, specs=specs, model_form=sources, floors=floors)
-            ahead.advance()
-            sel = select(ahead, described)
-            if (sel.free == free and converged) or not sel.free or round_ == MAX_ROUNDS:
-                break
-            free = sel.free
-            fobj = objective(sim, train, fws, free, nthread=nthread, warmup_s=warmup_s)
-            begin = {n: float(np.clip(sel.values[n], specs[n].lo, specs[n].hi)) for n in free}
-            fr = fit(fobj, begin, max_iter=refit_iter, multistart=False, on_iter=lambda i, c: bar.update())
-            fits.append(fr)
-            point = {**described, **fr.values}
-            resid, jac = central_jacobian(obj, np.array([point[n] / specs[n].scale for n in names]),
-                                          central=np.array([n in free for n in names]))
-        # the verdicts: those the last decision sent back to their description, and, unless it sent
-        # back every one, the fitted ones at the current point (when the rounds ran out first, the
-        # last fit stands as fitted)
-        kept = [] if not sel.free else free
-        verdicts: dict[str, Verdict] = {n: v for n, v in sel.verdicts.items() if n not in kept}
-        # the rounds ran out while the last decision freed a parameter the last fit had not moved:
-        # it is determined, but no fit reached its value, so it stays at its description and says so
-        for n in sel.free:
-            if n not in kept:
-                s = specs[n]
-                verdicts[n] = Verdict(n, True, False, described[n], described[n], None,
-                                      f"the log points at {fmt_value(sel.values[n], s.unit)} (linearised), but the "
-                                      f"fit did not settle within {MAX_ROUNDS} rounds; it stays at its described "
-                                      f"value {fmt_value(described[n], s.unit)}")
-        ties = {k: v for k, v in sel.ties.items() if k in kept}
-        values = {**described}
-        model_form: dict[str, dict] = {}
-        u = None
-        if kept:
-            kidx = [names.index(n) for n in kept]
-            klin = Linearised(names=list(kept), theta=theta[kidx], jac=jac[:, kidx], resid=resid,
-                              rows_per_window=obj.rows_per_window, specs=specs,
-                              model_form=[ModelForm(m.name, m.g[kidx]) for m in sources], floors=floors)
-            final, u, rest = final_verdicts(klin, described, ties)
-            verdicts.update(final)
-            values.update({n: point[n] for n in kept})
-            model_form = {"residual_change_m": size,
-                          "shift": {src_: {n: float(v) for n, v in zip(kept, sh)} for src_, sh in u.shifts.items()},
-                          "optimiser": {n: float(v) for n, v in zip(kept, rest)}}
-            lin = klin
-        refit = fits[-1] if len(fits) > 1 else None
+
+    def fit_stage(fws: WindowSet):
+        obj = objective(sim, train, fws, names, nthread=nthread, warmup_s=warmup_s)
+        specs = obj.specs
+        with Progress(total=max_iter + MAX_ROUNDS * refit_iter, label="calibrate", quiet=quiet) as bar:
+            result = fit(obj, start, max_iter=max_iter, on_iter=lambda i, c: bar.update())
+            fits = [result]
+            point, resid, jac = dict(result.values), result.resid, result.jac  # every candidate, at the current point
+            free = list(names)
+            for round_ in range(MAX_ROUNDS + 1):
+                # every candidate linearised at the current point (the dropped ones at their described
+                # value): what the log determines and needs changed is decided again for all of them
+                sources, size = model_form_sources(obj, point, resid, jac, config)
+                theta = np.array([point[n] / specs[n].scale for n in names])
+                lin = Linearised(names=list(names), theta=theta, jac=jac, resid=resid,
+                                 rows_per_window=obj.rows_per_window, specs=specs, model_form=sources, floors=floors)
+                fidx = [names.index(n) for n in free]
+                rest = np.abs(lin.step(fidx)[fidx]) * lin.scales[fidx]
+                converged = bool(np.all(rest <= STEP_TOL * lin.uncertainty(fidx).half))
+                ahead = Linearised(names=list(names), theta=theta, jac=jac, resid=resid,
+                                   rows_per_window=obj.rows_per_window, specs=specs, model_form=sources, floors=floors)
+                ahead.advance()
+                sel = select(ahead, described)
+                if (sel.free == free and converged) or not sel.free or round_ == MAX_ROUNDS:
+                    break
+                free = sel.free
+                fobj = objective(sim, train, fws, free, nthread=nthread, warmup_s=warmup_s)
+                begin = {n: float(np.clip(sel.values[n], specs[n].lo, specs[n].hi)) for n in free}
+                fr = fit(fobj, begin, max_iter=refit_iter, multistart=False, on_iter=lambda i, c: bar.update())
+                fits.append(fr)
+                point = {**described, **fr.values}
+                resid, jac = central_jacobian(obj, np.array([point[n] / specs[n].scale for n in names]),
+                                              central=np.array([n in free for n in names]))
+            # the verdicts: those the last decision sent back to their description, and, unless it sent
+            # back every one, the fitted ones at the current point (when the rounds ran out first, the
+            # last fit stands as fitted)
+            kept = [] if not sel.free else free
+            verdicts: dict[str, Verdict] = {n: v for n, v in sel.verdicts.items() if n not in kept}
+            # the rounds ran out while the last decision freed a parameter the last fit had not moved:
+            # it is determined, but no fit reached its value, so it stays at its description and says so
+            for n in sel.free:
+                if n not in kept:
+                    s = specs[n]
+                    verdicts[n] = Verdict(n, True, False, described[n], described[n], None,
+                                          f"the log points at {fmt_value(sel.values[n], s.unit)} (linearised), but the "
+                                          f"fit did not settle within {MAX_ROUNDS} rounds; it stays at its described "
+                                          f"value {fmt_value(described[n], s.unit)}")
+            ties = {k: v for k, v in sel.ties.items() if k in kept}
+            values = {**described}
+            model_form: dict[str, dict] = {}
+            u = None
+            if kept:
+                kidx = [names.index(n) for n in kept]
+                klin = Linearised(names=list(kept), theta=theta[kidx], jac=jac[:, kidx], resid=resid,
+                                  rows_per_window=obj.rows_per_window, specs=specs,
+                                  model_form=[ModelForm(m.name, m.g[kidx]) for m in sources], floors=floors)
+                final, u, rest = final_verdicts(klin, described, ties)
+                verdicts.update(final)
+                values.update({n: point[n] for n in kept})
+                model_form = {"residual_change_m": size,
+                              "shift": {src_: {n: float(v) for n, v in zip(kept, sh)} for src_, sh in u.shifts.items()},
+                              "optimiser": {n: float(v) for n, v in zip(kept, rest)}}
+                lin = klin
+            refit = fits[-1] if len(fits) > 1 else None
+        return obj, result, verdicts, values, model_form, u, (lin if kept else None), refit, ties
+
+    # the fit holds on every training window, not only on those it used: a calibrated robot whose
+    # simulation blows up on a window the fit did not see (its values left the simulator's stable
+    # range there) is fitted again with those windows added (they then count as diverged)
+    fit_index = fit_index_of(ws, fit_windows)
+    for attempt in range(2):
+        fws = ws.subset(fit_index)
+        obj, result, verdicts, values, model_form, u, lin, refit, ties = fit_stage(fws)
+        changed = [n for n in names if verdicts[n].changed]
+        wp = window_params({n: values[n] for n in changed}, robot)
+        after = _score(sim, train, ws, [wp], **kw)[0] if changed else before
+        new = np.flatnonzero(after.diverged_mask & ~before.diverged_mask)
+        new = np.setdiff1d(new, fit_index)
+        if attempt == 1 or new.size == 0:
+            break
+        log.info("calibrate: the fitted robot diverges on %d training windows the fit did not use; fitting again "
+                 "with them", new.size)
+        fit_index = np.union1d(fit_index, new)
     timings["fit"] = time.perf_counter() - t2
 
     # the calibrated robot, scored on the same windows and on the test log; the causes
     t3 = time.perf_counter()
-    changed = [n for n in names if verdicts[n].changed]
-    wp = window_params({n: values[n] for n in changed}, robot)
-    after = _score(sim, train, ws, [wp], **kw)[0] if changed else before
     test_after = (_score(sim, test, tws, [wp], **kw)[0] if changed else test_before) if test is not None else None
     cal_robot = calibrated_robot(robot, {n: values[n] for n in changed}, config)
     corr = np.eye(len(changed))
@@ -572,6 +590,14 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     sentence = summary(causes, rms, where="held-out" if test is not None else "training",
                        yaw=(m["yaw_ratio"], tb["yaw_ratio"]),
                        undetermined=[n for n in names if not verdicts[n].determined])
+    for label, b, a in [("train", before, after)] + ([("test", test_before, test_after)] if test is not None else []):
+        findings.append({"what": "diverged windows", "part": label, "measured": None, "simulated_before": b.diverged,
+                         "simulated_after": a.diverged, "windows": int(b.diverged_mask.size),
+                         "definition": "windows whose simulation blew up (body faster than 20 m/s or not finite)"})
+        if a.diverged > b.diverged:
+            sentence += (f" Warning: the calibrated robot's simulation blows up in {a.diverged} of "
+                         f"{a.diverged_mask.size} {label} windows ({b.diverged} as described): its values leave the "
+                         "simulator's stable range there; its errors there count in the position error.")
     timings["total"] = time.perf_counter() - t0
     return Calibration(
         train_path=str(train_path or train.source), test_path=None if test is None else str(test_path or test.source),
