@@ -226,3 +226,27 @@ def test_a_blow_up_that_stays_is_said(monkeypatch):
     assert "Warning: the calibrated robot's simulation blows up in 1 of 8 train windows (0 as described)" in cal.sentence
     row = next(f for f in cal.findings if f["what"] == "diverged windows" and f["part"] == "train")
     assert row["simulated_before"] == 0 and row["simulated_after"] == 1
+
+
+@pytest.mark.parametrize("robot", [Robot(), Robot(traction="wheels", track_gauge=0.55, wheelbase=0.5, mass=50.0),
+                                   Robot(ground={"model": "anisotropic", "lateral_ratio": 0.7})],
+                         ids=["tracks", "wheels", "anisotropic"])
+def test_the_calibrated_robot_file_carries_every_fitted_value(robot):
+    """robot.json must rebuild the robot the calibration scored: every default candidate (but the
+    slope, the log's ground) read back from the written robot equals the fitted value (a fitted
+    motion resistance was once scored but not written)."""
+    from mjtrack.calibrate.params import default_names, window_params
+    from mjtrack.calibrate.run import calibrated_robot
+    from mjtrack.sim import SimConfig
+    from mjtrack.sim.windows import robot_params
+
+    fitted = {"mu": 0.6, "mu_ratio": 1.2, "cg_x": 0.02, "cg_y": -0.01, "track_length": 0.45, "wheelbase": 0.6,
+              "drive_lag": 0.1, "drive_delay": 0.05, "track_speed_scale": 0.95, "rolling_resistance": 0.07,
+              "lateral_ratio": 0.5}
+    names = default_names(robot)
+    assert "rolling_resistance" in names
+    values = {n: fitted[n] for n in names}
+    written = Robot.from_dict(json.loads(json.dumps(calibrated_robot(robot, values, SimConfig()).to_dict())))
+    got = robot_params(written)
+    for k, v in window_params(values, robot).items():
+        assert got[k] == pytest.approx(v), k

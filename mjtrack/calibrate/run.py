@@ -271,7 +271,7 @@ def calibrated_robot(robot: Robot, values: dict[str, float], config: SimConfig) 
     in calibration.json."""
     wp = window_params({k: v for k, v in values.items() if k not in ("slope_x", "slope_y")}, robot)
     r = geometry_robot(robot, wp)
-    fields = {k: wp[k] for k in ("mu", "mu_left", "mu_right", "cg_x", "cg_y") if k in wp}
+    fields = {k: wp[k] for k in ("mu", "mu_left", "mu_right", "cg_x", "cg_y", "rolling_resistance") if k in wp}
     if "mu_left" in fields and "mu_right" in fields:
         fields["mu"] = math.sqrt(fields["mu_left"] * fields["mu_right"])
         if math.isclose(fields["mu_left"], fields["mu_right"], rel_tol=1e-12):
