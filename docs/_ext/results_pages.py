@@ -467,8 +467,13 @@ def _calibration() -> Page:
                    "whether the log determines it and whether calibration changed it.",
                    ["robot", "parameter", "described", "calibrated", "interval low", "interval high", "determined",
                     "changed"])
+    from mjtrack.calibrate.run import TURN_CLASSES
+
+    class_names = dict(zip((f"(|turn ratio| {lo:g} to {hi:g})" for lo, hi in TURN_CLASSES),
+                           ("straight", "turning", "sharp turns")))
     speed = Table("Forward speed over the mean track speed in steady windows of the test part, by turn class "
-                  "(|turn ratio| = |v_R - v_L| / (|v_L| + |v_R|)), measured and simulated before and after calibration: "
+                  "of |turn ratio| = |v_R - v_L| / (|v_L| + |v_R|) (straight, turning, sharp turns: the classes of the "
+                  "forward speed ratio findings in calibration.json), measured and simulated before and after calibration: "
                   "1 when the body keeps up with its tracks (Coulomb contact alone); real robots fall behind in turns "
                   "when the ground resists their motion (robot key `rolling_resistance`).",
                   ["robot", "turn class", "windows", "measured", "simulated before", "simulated after"])
@@ -483,7 +488,7 @@ def _calibration() -> Page:
                    number(real, q + "/yaw_ratio/after"))
         for cls in r.get("speed_ratio", {}):
             p = f"{q}/speed_ratio/{cls.replace('~', '~0').replace('/', '~1')}"
-            speed.add(name, cls.strip("()"), number(real, p + "/windows"), number(real, p + "/measured"),
+            speed.add(name, class_names.get(cls, cls), number(real, p + "/windows"), number(real, p + "/measured"),
                       number(real, p + "/before"), number(real, p + "/after"))
         for n in r["determined"]:
             iv = ([number(real, f"{q}/intervals/{n}/0"), number(real, f"{q}/intervals/{n}/1")]

@@ -107,12 +107,15 @@ OPTION_BOUNDS: dict[str, Bound] = {
 }
 
 
-def bounded(kind: str):
+def bounded(kind: str, words: dict | None = None):
     """argparse ``type=``: a number within ``OPTION_BOUNDS[kind]`` (else a usage error, exit 2,
-    naming the value and the range; argparse adds the option's name)."""
+    naming the value and the range; argparse adds the option's name); ``words``: texts accepted
+    instead of a number, and their values (``{"all": None}``)."""
     bound = OPTION_BOUNDS[kind]
 
     def parse(text: str):
+        if words and text.strip().lower() in words:
+            return words[text.strip().lower()]
         if bound.integer:
             try:
                 value = int(text)

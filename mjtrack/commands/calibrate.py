@@ -36,10 +36,6 @@ from mjtrack.commands._common import (add_output_options, add_robot_options, bou
 
 OUTPUTS = ("robot.json", "calibration.json", "report.html")
 
-
-def fit_windows_arg(text: str) -> int | None:
-    """``--fit-windows``: a number of windows, or ``all`` (None)."""
-    return None if text.strip().lower() == "all" else bounded("fit_windows")(text)
 HELP = "fit the MuJoCo robot to a measured log (windows from the measured state): robot.json + calibration.json + report.html"
 
 
@@ -58,7 +54,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="what the simulated drives follow: the logged commands (default; the drive's lag, delay "
                              "and speed scale are fitted too) or the logged track speeds (for a robot whose own speed "
                              "controller caps its commands; only the contact is fitted)")
-    parser.add_argument("--fit-windows", metavar="N", type=fit_windows_arg, default=FIT_WINDOWS,
+    parser.add_argument("--fit-windows", metavar="N", type=bounded("fit_windows", {"all": None}), default=FIT_WINDOWS,
                         help=f"windows the fit uses, spread evenly over the log (default {FIT_WINDOWS}; 'all': every "
                              "window). The errors before and after, and the causes, use every window; a fit's time "
                              "grows with its windows, its intervals narrow with their square root")
