@@ -208,9 +208,12 @@ def _write(robots: dict, args, load0) -> None:
     (runs of different robots may overlap)."""
     RESULT.parent.mkdir(parents=True, exist_ok=True)
     ran = args.robots.split(",")
-    now = json.loads(RESULT.read_text()).get("robots", {}) if RESULT.exists() else {}
-    merged = {**now, **{k: v for k, v in robots.items() if k in ran}}
-    RESULT.write_text(json.dumps({"command": "python benchmarks/real_robots.py " + " ".join(sys.argv[1:]),
+    stored = json.loads(RESULT.read_text()) if RESULT.exists() else {}
+    now = {k: {"command": stored.get("command", ""), **v} for k, v in stored.get("robots", {}).items()}
+    command = "python benchmarks/real_robots.py " + " ".join(sys.argv[1:])
+    merged = {**now, **{k: {**v, "command": command} for k, v in robots.items() if k in ran}}
+    # runs of different robots merge into one file: each robot says which command made it
+    RESULT.write_text(json.dumps({"command": "; ".join(sorted({v.get("command", "") for v in merged.values()})),
                                   "robots": merged, "rollers": args.rollers, "load_before": load0,
                                   "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
 
