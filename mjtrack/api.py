@@ -295,7 +295,7 @@ def diagnose_log(log: "DriveLog", robot: "Robot", *, baseline: str = "auto", tes
 def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | None" = None,
                     params: list[str] | None = None, horizon_s: float = 2.0, max_iter: int = 8,
                     out_dir: str | os.PathLike | None = None, quiet: bool = True,
-                    drive_input: str = "commanded") -> "Calibration":
+                    drive_input: str = "commanded", fit_windows: int | None | str = "default") -> "Calibration":
     """Fit the MuJoCo robot's description to a measured log.
 
     The Python form of ``mjtrack calibrate``: windows of ``horizon_s`` simulated from the measured
@@ -307,11 +307,13 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
         test_log: a held-out log of the same robot, scored before and after the fit.
         params: the parameters to fit, as ``mjtrack calibrate --params`` names them (e.g. ``mu``,
             ``cg_x``, ``cg_y``, ``track_length``, ``drive_lag``, ``drive_delay``,
-            ``track_speed_scale``); default: the command's.
+            ``track_speed_scale``, ``rolling_resistance``); default: the command's.
         horizon_s: window length [s].
         max_iter: optimiser iterations.
         out_dir: when given, ``robot.json``, ``calibration.json`` and ``report.html`` are written.
         quiet: no progress display. drive_input: ``"commanded"`` or ``"measured"`` (``--drive-input``).
+        fit_windows: windows the fit uses, spread over the log (``--fit-windows``; None: all;
+            default: the command's).
 
     Returns:
         The calibration: ``calibrated`` (the fitted :class:`~mjtrack.io.robot.Robot`),
@@ -331,7 +333,8 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
 
     cal = calibrate(log, robot, test=test_log, names=None if params is None else ",".join(params), horizon_s=horizon_s,
                     max_iter=max_iter, quiet=quiet, train_path=log.source or "train log", drive_input=drive_input,
-                    test_path=None if test_log is None else test_log.source or "test log")
+                    test_path=None if test_log is None else test_log.source or "test log",
+                    **({} if fit_windows == "default" else {"fit_windows": fit_windows}))
     if out_dir is not None:
         write_outputs(cal, out_dir)
     return cal
