@@ -176,29 +176,35 @@ def _bare_log(t):
     return DriveLog(t=t, v_left_cmd=z + 0.5, v_right_cmd=z + 0.6, x=0.5 * t, y=z, yaw=z)
 
 
-def test_a_fit_that_blows_up_on_an_unused_window_is_fitted_again_with_it(monkeypatch):
-    """The fit uses --fit-windows of the log; the calibrated robot is scored on every window. A
-    window it blows up on that the fit did not use (its values leave the simulator's stable range
-    there, as a whole-log Marmotte fit did: cg_x 0.043 m on a 0.31 m contact) is added to the fit
-    and the fit runs again; a blow-up that stays is said in the summary and the findings."""
+def _blow_up_window_1(monkeypatch, times: int | None) -> dict:
+    """Make the calibrated robot's scoring report window 1 as blown up, the first ``times`` times
+    (None: always); returns the count of calibrated-robot scorings."""
     import mjtrack.calibrate.run as run
 
-    lg = _log(Robot(cg_x=0.04), 16.0, 3, lag=0.0)
     calls = {"after": 0}
     real = run._score
 
     def score(sim, lg_, ws, variants, **kw):
         out = real(sim, lg_, ws, variants, **kw)
-        if variants != [{}]:  # the calibrated robot: pretend window 1 (not a fit window) blew up, once
+        if variants != [{}]:  # the calibrated robot, not the described one
             calls["after"] += 1
-            if calls["after"] == 1:
+            if times is None or calls["after"] <= times:
                 for s in out:
                     s.diverged_mask[1] = True
                     s.diverged = int(s.diverged_mask.sum())
         return out
 
     monkeypatch.setattr(run, "_score", score)
-    cal = calibrate(lg, Robot(), names=["cg_x"], fit_windows=3, max_iter=3)
+    return calls
+
+
+def test_a_fit_that_blows_up_on_an_unused_window_is_fitted_again_with_it(monkeypatch):
+    """The fit uses --fit-windows of the log; the calibrated robot is scored on every window. A
+    window it blows up on that the fit did not use (its values leave the simulator's stable range
+    there, as a whole-log Marmotte fit did: cg_x 0.043 m on a 0.31 m contact) is added to the fit
+    and the fit runs again; a blow-up that stays is said in the summary and the findings."""
+    calls = _blow_up_window_1(monkeypatch, times=1)  # window 1 is not a fit window
+    cal = calibrate(_log(Robot(cg_x=0.04), 16.0, 3, lag=0.0), Robot(), names=["cg_x"], fit_windows=3, max_iter=3)
     fitted = set(zip(cal.fitted_windows.starts.tolist(), cal.fitted_windows.ends.tolist()))
     assert len(cal.train_windows) == 8 and len(cal.fitted_windows) == 4
     assert (int(cal.train_windows.starts[1]), int(cal.train_windows.ends[1])) in fitted
@@ -208,21 +214,8 @@ def test_a_fit_that_blows_up_on_an_unused_window_is_fitted_again_with_it(monkeyp
 
 
 def test_a_blow_up_that_stays_is_said(monkeypatch):
-    import mjtrack.calibrate.run as run
-
-    lg = _log(Robot(cg_x=0.04), 16.0, 3, lag=0.0)
-    real = run._score
-
-    def score(sim, lg_, ws, variants, **kw):
-        out = real(sim, lg_, ws, variants, **kw)
-        if variants != [{}]:  # the calibrated robot blows up on window 1 however it is fitted
-            for s in out:
-                s.diverged_mask[1] = True
-                s.diverged = int(s.diverged_mask.sum())
-        return out
-
-    monkeypatch.setattr(run, "_score", score)
-    cal = calibrate(lg, Robot(), names=["cg_x"], fit_windows=3, max_iter=3)
+    _blow_up_window_1(monkeypatch, times=None)  # however it is fitted
+    cal = calibrate(_log(Robot(cg_x=0.04), 16.0, 3, lag=0.0), Robot(), names=["cg_x"], fit_windows=3, max_iter=3)
     assert "Warning: the calibrated robot's simulation blows up in 1 of 8 train windows (0 as described)" in cal.sentence
     row = next(f for f in cal.findings if f["what"] == "diverged windows" and f["part"] == "train")
     assert row["simulated_before"] == 0 and row["simulated_after"] == 1

@@ -520,7 +520,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
                               "optimiser": {n: float(v) for n, v in zip(kept, rest)}}
                 lin = klin
             refit = fits[-1] if len(fits) > 1 else None
-        return obj, result, verdicts, values, model_form, u, (lin if kept else None), refit, ties
+        return result, verdicts, values, model_form, u, (lin if kept else None), refit, ties
 
     # the fit holds on every training window, not only on those it used: a calibrated robot whose
     # simulation blows up on a window the fit did not see (its values left the simulator's stable
@@ -528,7 +528,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     fit_index = fit_index_of(ws, fit_windows)
     for attempt in range(2):
         fws = ws.subset(fit_index)
-        obj, result, verdicts, values, model_form, u, lin, refit, ties = fit_stage(fws)
+        result, verdicts, values, model_form, u, lin, refit, ties = fit_stage(fws)
         changed = [n for n in names if verdicts[n].changed]
         wp = window_params({n: values[n] for n in changed}, robot)
         after = _score(sim, train, ws, [wp], **kw)[0] if changed else before
