@@ -56,8 +56,7 @@ def test_a_turn_loses_forward_speed_the_sharper_the_more():
         ratios[c] = [steady_state(r, vm - dv / 2, vm + dv / 2).vx / vm for vm, dv in ((0.5, 0.3), (0.4, 0.8))]
     assert ratios[0.0] == pytest.approx([1.0, 1.0], abs=0.05)  # Coulomb contact alone: no loss
     gentle, sharp = ratios[0.1]
-    # measured (Husky-sized, mu 0.6): 0.9 and 0.7; the DRIVE Husky log shows 0.94 and 0.63 over
-    # these turn ratios
+    # measured (Husky-sized, mu 0.6): 0.9 and 0.7
     assert sharp < gentle < 0.97 and sharp < 0.85, ratios
 
 
