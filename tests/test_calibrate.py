@@ -203,8 +203,23 @@ def test_a_fit_that_blows_up_on_an_unused_window_is_fitted_again_with_it(monkeyp
     window it blows up on that the fit did not use (its values leave the simulator's stable range
     there, as a whole-log Marmotte fit did: cg_x 0.043 m on a 0.31 m contact) is added to the fit
     and the fit runs again; a blow-up that stays is said in the summary and the findings."""
+    import mjtrack.calibrate.run as run
+
     calls = _blow_up_window_1(monkeypatch, times=1)  # window 1 is not a fit window
-    cal = calibrate(_log(Robot(cg_x=0.04), 16.0, 3, lag=0.0), Robot(), names=["cg_x"], fit_windows=3, max_iter=3)
+    first_fits = []  # (start, multistart, max_iter, windows) of each attempt's first fit
+    real_fit = run.fit
+
+    def spy(obj, start, **kw):
+        if not first_fits or first_fits[-1][3] is not obj.windows:  # the rounds' refits reuse the windows
+            first_fits.append((dict(start), kw.get("multistart", True), kw["max_iter"], obj.windows))
+        return real_fit(obj, start, **kw)
+
+    monkeypatch.setattr(run, "fit", spy)
+    cal = calibrate(_log(Robot(cg_x=0.04), 16.0, 3, lag=0.0), Robot(), names=["cg_x"], fit_windows=3, max_iter=6)
+    # the second attempt starts where the first ended, with one start and the refit's iterations
+    assert len(first_fits) == 2
+    assert first_fits[0][1:3] == (True, 6) and first_fits[1][1:3] == (False, 3)
+    assert first_fits[0][0]["cg_x"] == 0.0 and first_fits[1][0]["cg_x"] == pytest.approx(0.04, abs=0.005)
     fitted = set(zip(cal.fitted_windows.starts.tolist(), cal.fitted_windows.ends.tolist()))
     assert len(cal.train_windows) == 8 and len(cal.fitted_windows) == 4
     assert (int(cal.train_windows.starts[1]), int(cal.train_windows.ends[1])) in fitted

@@ -34,7 +34,7 @@ import numpy as np
 from mjtrack.calibrate.causes import Cause, find_causes, summary
 from mjtrack.calibrate.fit import FitResult, central_jacobian, fit, objective
 from mjtrack.calibrate.identify import Linearised, ModelForm, Verdict, final_verdicts, fmt_value, select
-from mjtrack.calibrate.params import described_values, parse_names, start_values, window_params
+from mjtrack.calibrate.params import described_values, parse_names, specs_for, start_values, window_params
 from mjtrack.diagnose import residuals as rs
 from mjtrack.errors import InputError
 from mjtrack.geometry import _sinc_terms, relative_pose
@@ -53,7 +53,7 @@ MAX_ROUNDS = 3  # refits after the first fit, each after what the log determines
 STEP_TOL = 0.25  # the fit has converged when the remaining Gauss-Newton step is below this share of every half-width
 #: windows a fit uses by default, spread evenly over the log: a fit's time grows with them (about
 #: 200 evaluations of every fit window), its intervals narrow only with their square root
-FIT_WINDOWS = 150
+FIT_WINDOWS = 60
 STEADY_MIN_WZ = 0.3  # [rad/s] nominal yaw rate below which a window's yaw ratio is not used
 ICR_MIN_TURN = 0.3  # |turn ratio| below which a window's ICRs are not used (they diverge)
 SPEED_MIN = 0.1  # [m/s] |mean track speed| below which a window's forward speed ratio is not used
@@ -454,14 +454,16 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     # every candidate fitted; then, until it settles: what the log determines and needs changed,
     # the rest back at its described value, the kept ones fitted again
     t2 = time.perf_counter()
+    specs = specs_for(robot)
     floors = {n: sim.dt for n in ("drive_lag", "drive_delay")}  # timing is resolved to one step at best
     refit_iter = max(3, max_iter // 2)
 
-    def fit_stage(fws: WindowSet):
+    def fit_stage(fws: WindowSet, start_at: dict[str, float], first: bool):
         obj = objective(sim, train, fws, names, nthread=nthread, warmup_s=warmup_s)
         specs = obj.specs
-        with Progress(total=max_iter + MAX_ROUNDS * refit_iter, label="calibrate", quiet=quiet) as bar:
-            result = fit(obj, start, max_iter=max_iter, on_iter=lambda i, c: bar.update())
+        iters = max_iter if first else refit_iter
+        with Progress(total=iters + MAX_ROUNDS * refit_iter, label="calibrate", quiet=quiet) as bar:
+            result = fit(obj, start_at, max_iter=iters, multistart=first, on_iter=lambda i, c: bar.update())
             fits = [result]
             point, resid, jac = dict(result.values), result.resid, result.jac  # every candidate, at the current point
             free = list(names)
@@ -524,11 +526,14 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
 
     # the fit holds on every training window, not only on those it used: a calibrated robot whose
     # simulation blows up on a window the fit did not see (its values left the simulator's stable
-    # range there) is fitted again with those windows added (they then count as diverged)
+    # range there) is fitted again with those windows added (they then count as diverged), from where
+    # the first fit ended: the fit has found its basin, the added windows only push it back into the
+    # stable range, so neither the several starts nor the first fit's iterations are needed again
     fit_index = fit_index_of(ws, fit_windows)
+    start_at = start
     for attempt in range(2):
         fws = ws.subset(fit_index)
-        result, verdicts, values, model_form, u, lin, refit, ties = fit_stage(fws)
+        result, verdicts, values, model_form, u, lin, refit, ties = fit_stage(fws, start_at, first=attempt == 0)
         changed = [n for n in names if verdicts[n].changed]
         wp = window_params({n: values[n] for n in changed}, robot)
         after = _score(sim, train, ws, [wp], **kw)[0] if changed else before
@@ -539,6 +544,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
         log.info("calibrate: the fitted robot diverges on %d training windows the fit did not use; fitting again "
                  "with them", new.size)
         fit_index = np.union1d(fit_index, new)
+        start_at = {n: float(np.clip(values[n], specs[n].lo, specs[n].hi)) for n in names}
     timings["fit"] = time.perf_counter() - t2
 
     # the calibrated robot, scored on the same windows and on the test log; the causes
