@@ -59,7 +59,10 @@ def main() -> int:
     OUT.write_text(json.dumps({"command": "python benchmarks/bench_calibrate.py " + " ".join(sys.argv[1:]),
                                "windows": len(cal.train_windows), "fit_windows": len(cal.fitted_windows),
                                "candidates": cal.names, "changed": cal.changed,
-                               "wall_s": wall, "timings_s": cal.timings, "rollers": args.rollers,
+                               "wall_s": wall, "minutes": wall / 60, "target_minutes": 10, "timings_s": cal.timings,
+                               "rollers": args.rollers, "parameter_sets": sets,
+                               "windows_per_second": sims / max(sim_s, 1e-9),
+                               "diverged": [cal.before.diverged, cal.after.diverged],
                                "max_iter": args.max_iter, "rms_before": cal.before.rms, "rms_after": cal.after.rms,
                                "load_before": load0, "load_after": load1}, indent=1) + "\n")
     return 0

@@ -5,7 +5,8 @@ For every case: the training log (seed 11) and the test log (seed 12) of the tru
 the training log from the description, then per parameter the truth, the estimate, the 95 %
 interval and whether the log determines it; whether every determined parameter's interval covers
 its truth; the causes named (the true one must lead; the clean log must give none); the held-out
-error before and after. With ``--diagnose`` the same logs also go through
+error before and after. With ``--diagnose`` (or ``--diagnose-only``, on stored cases, the calibrated
+robot rebuilt from their estimates) the same logs also go through
 ``diagnose --baseline mujoco`` against the description (its cause recorded beside) and against the
 calibrated robot (which must name nothing calibration fitted).
 
@@ -60,20 +61,33 @@ def run_case(c, *, duration: float, diagnose: bool) -> dict:
            "train": [cal.before.rms, cal.after.rms], "test": [cal.test_before.rms, cal.test_after.rms],
            "diverged": [cal.before.diverged, cal.after.diverged], "seconds": seconds}
     if diagnose:
-        from mjtrack.diagnose.run import diagnose as run_diagnose
-
-        t1 = time.perf_counter()
-        d = run_diagnose(train, robot, baseline="mujoco", test_log=test)
-        out["diagnose"] = {"cause": d.cause, "findings": [f["effect"] for f in d.to_json()["findings"]],
-                           "seconds": time.perf_counter() - t1}
-        # one story: the log diagnosed against the robot calibrated on it names nothing that
-        # calibration fitted (a slope is the log's ground, not the robot's: calibration reports it
-        # and the robot file does not carry it)
-        t2 = time.perf_counter()
-        d2 = run_diagnose(train, cal.calibrated, baseline="mujoco", test_log=test)
-        out["diagnose_calibrated"] = {"cause": d2.cause, "findings": [f["effect"] for f in d2.to_json()["findings"]],
-                                      "seconds": time.perf_counter() - t2}
+        out.update(diagnose_case(train, test, robot, cal.calibrated))
     return out
+
+
+def diagnose_case(train, test, robot, calibrated) -> dict:
+    """``diagnose --baseline mujoco`` of the case's logs against the description (its cause) and
+    against the calibrated robot (one story: it must name nothing calibration fitted; a slope is the
+    log's ground, not the robot's: calibration reports it and the robot file does not carry it)."""
+    from mjtrack.diagnose.run import diagnose as run_diagnose
+
+    out = {}
+    for key, r in (("diagnose", robot), ("diagnose_calibrated", calibrated)):
+        t0 = time.perf_counter()
+        d = run_diagnose(train, r, baseline="mujoco", test_log=test)
+        out[key] = {"cause": d.cause, "findings": [f["effect"] for f in d.to_json()["findings"]],
+                    "seconds": time.perf_counter() - t0}
+    return out
+
+
+def stored_calibrated(c, stored: dict):
+    """The calibrated robot of a stored case, rebuilt from its changed estimates."""
+    from mjtrack.calibrate.run import calibrated_robot
+    from mjtrack.sim.config import sim_config
+
+    robot = described_robot(c)
+    values = {x["parameter"]: x["estimate"] for x in stored["rows"] if x["changed"]}
+    return calibrated_robot(robot, values, sim_config(None, robot=robot))
 
 
 def _plain(o):
@@ -85,12 +99,23 @@ def _plain(o):
     raise TypeError(type(o).__name__)
 
 
+def _write(out: Path, results: dict, old: dict, duration: float, load0) -> None:
+    out.parent.mkdir(parents=True, exist_ok=True)
+    commands = sorted({x.get("command", old.get("command", "")) for x in results.values()}
+                      | {x["diagnose_command"] for x in results.values() if "diagnose_command" in x})
+    out.write_text(json.dumps({"command": "; ".join(commands), "cases": results, "duration_s": duration,
+                               "load_before": load0, "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--geometries", default=",".join(GEOMETRIES))
     ap.add_argument("--changes", default=",".join(CHANGES))
     ap.add_argument("--duration", type=float, default=60.0, help="seconds of each log (default 60)")
     ap.add_argument("--diagnose", action="store_true", help="also diagnose --baseline mujoco each case")
+    ap.add_argument("--diagnose-only", action="store_true",
+                    help="only diagnose stored cases: against the description and against the calibrated robot "
+                         "rebuilt from the stored estimates")
     ap.add_argument("--out", type=Path, default=RESULT)
     args = ap.parse_args(argv)
     load0 = os.getloadavg()
@@ -100,6 +125,20 @@ def main(argv=None) -> int:
     for g in args.geometries.split(","):
         for ch in args.changes.split(","):
             c = case(g, ch)
+            if args.diagnose_only:
+                if c.name not in results:
+                    print(f"{c.name}: not calibrated yet; skipped", flush=True)
+                    continue
+                r = dict(results[c.name])
+                r.update(diagnose_case(make_log(c, duration=args.duration, seed=11),
+                                       make_log(c, duration=args.duration, seed=12), described_robot(c),
+                                       stored_calibrated(c, r)))
+                r["diagnose_command"] = command
+                results[c.name] = r
+                print(f"{c.name:28s} diagnose: {r['diagnose']['cause']} {r['diagnose']['findings']}, calibrated: "
+                      f"{r['diagnose_calibrated']['cause']} {r['diagnose_calibrated']['findings']}", flush=True)
+                _write(args.out, results, old, args.duration, load0)
+                continue
             r = run_case(c, duration=args.duration, diagnose=args.diagnose)
             before = results.get(c.name, {})
             if not args.diagnose and "diagnose" in before:
@@ -117,11 +156,7 @@ def main(argv=None) -> int:
                   + (f"  diagnose: {r['diagnose']['cause']}" if "diagnose" in r else "")
                   + (f", calibrated: {r['diagnose_calibrated']['cause']}" if "diagnose_calibrated" in r else ""),
                   flush=True)
-            args.out.parent.mkdir(parents=True, exist_ok=True)
-            commands = sorted({x.get("command", old.get("command", "")) for x in results.values()})
-            args.out.write_text(json.dumps({"command": "; ".join(commands),
-                                            "cases": results, "duration_s": args.duration, "load_before": load0,
-                                            "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
+            _write(args.out, results, old, args.duration, load0)
     rows = [(name, x) for name, r in results.items() for x in r["rows"] if x["determined"]]
     cov = [x["covered"] for _, x in rows if x["covered"] is not None]
     print(f"\ncoverage of determined parameters: {sum(cov)}/{len(cov)} = {np.mean(cov):.3f}")

@@ -162,3 +162,12 @@ def test_summary_says_when_the_other_changes_compensate_a_cause():
     text = summary([delay, cg], (0.246, 0.086), where="held-out", yaw=None)
     assert "without it the other changes are worse than the description" in text
     assert "1430 %" not in text and "(33 % of the improvement)" in text
+
+
+def test_cause_phrases_speak_of_wheels_on_a_wheeled_robot():
+    from mjtrack.calibrate.causes import phrase
+
+    for name, value in (("rolling_resistance", 0.15), ("track_speed_scale", 0.93)):
+        tracked, wheeled = phrase(name, value, 0.0, wheels=False), phrase(name, value, 0.0, wheels=True)
+        assert "tracks" in tracked and "wheels" not in tracked
+        assert "wheels" in wheeled and "tracks" not in wheeled

@@ -60,8 +60,9 @@ def groups(names: list[str], corr: np.ndarray) -> list[list[str]]:
     return list(out.values())
 
 
-def phrase(name: str, value: float, described: float, *, track_length: float) -> str:
-    """What a change of one parameter says of the robot, in words."""
+def phrase(name: str, value: float, described: float, *, wheels: bool = False) -> str:
+    """What a change of one parameter says of the robot (``wheels``: a wheeled one), in words."""
+    runner = "wheels" if wheels else "tracks"
     if name == "cg_x":
         return (f"its centre of mass is {abs(value):.3g} m {'ahead of' if value > 0 else 'behind'} the geometric "
                 f"centre (described {described:+.3g} m)")
@@ -86,14 +87,14 @@ def phrase(name: str, value: float, described: float, *, track_length: float) ->
     if name == "drive_delay":
         return f"its drives act {value:.3g} s after a command (described {described:.3g} s)"
     if name == "track_speed_scale":
-        return f"its tracks run at {value:.3g} of the commanded speed (described {described:.3g})"
+        return f"its {runner} run at {value:.3g} of the commanded speed (described {described:.3g})"
     if name == "drive_force_limit":
         return f"its drives saturate at {value:.3g} N (described {described:.3g} N)"
     if name == "lateral_ratio":
         return f"its ground resists sideways slip {value:.3g} times as much as forward slip (described {described:.3g})"
     if name == "rolling_resistance":
         return (f"its ground holds each side back with {value:.2g} of the weight it carries (described "
-                f"{described:.2g}): in turns the robot falls behind its tracks")
+                f"{described:.2g}): in turns the robot falls behind its {runner}")
     if name in ("concentration", "span"):
         return f"its load sits on its road wheels differently ({name} {value:.3g}, described {described:.3g})"
     return f"{name} is {value:.4g}, not {described:.4g}"
@@ -106,11 +107,11 @@ def slope_phrase(ax: float, ay: float) -> str:
 
 
 def sentence_of(params: list[str], values: dict[str, float], described: dict[str, float], tied: list[str],
-                track_length: float) -> str:
+                wheels: bool = False) -> str:
     parts = []
     if "slope_x" in params or "slope_y" in params:
         parts.append(slope_phrase(values.get("slope_x", 0.0), values.get("slope_y", 0.0)))
-    parts += [phrase(n, values[n], described[n], track_length=track_length) for n in params
+    parts += [phrase(n, values[n], described[n], wheels=wheels) for n in params
               if n not in ("slope_x", "slope_y")]
     text = "; ".join(parts)
     if tied:
@@ -120,7 +121,7 @@ def sentence_of(params: list[str], values: dict[str, float], described: dict[str
 
 def find_causes(changed: list[str], values: dict[str, float], described: dict[str, float], corr: np.ndarray,
                 ties: dict[str, list[str]], score: Callable[[list[dict[str, float]]], np.ndarray],
-                rms_before: float, rms_after: float, *, track_length: float) -> list[Cause]:
+                rms_before: float, rms_after: float, *, wheels: bool = False) -> list[Cause]:
     """The causes of the improvement ``rms_before`` -> ``rms_after`` (module docstring).
 
     Args:
@@ -131,6 +132,7 @@ def find_causes(changed: list[str], values: dict[str, float], described: dict[st
         score: RMS position error [m] of the training windows for each of a list of parameter
             sets (each a full set of the calibrated parameters' values).
         rms_before, rms_after: the described and the calibrated robot's RMS error [m].
+        wheels: the robot is wheeled (its sentences speak of wheels, not tracks).
     """
     if not changed:
         return []
@@ -149,7 +151,7 @@ def find_causes(changed: list[str], values: dict[str, float], described: dict[st
         out.append(Cause(parameters=g + tied, changed={n: (described[n], values[n]) for n in g}, tied=tied,
                          share=(without - rms_after) / gain if gain > 0 else 0.0,
                          gain_alone=1.0 - alone / rms_before if rms_before > 0 else 0.0,
-                         sentence=sentence_of(g, values, described, tied, track_length)))
+                         sentence=sentence_of(g, values, described, tied, wheels)))
     out.sort(key=lambda c: -c.share)
     return out
 

@@ -561,7 +561,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
         return res.rms()
 
     causes = find_causes(changed, values, described, corr, ties, score, before.rms, after.rms,
-                         track_length=robot.track_length)
+                         wheels=robot.traction == "wheels")
     timings["after"] = time.perf_counter() - t3
 
     findings = []
