@@ -169,6 +169,22 @@ def test_measured_drive_input_drives_with_the_measured_speeds_and_refuses_drive_
         calibrate(lg, robot, drive_input="wheels")
 
 
+def test_measured_drive_input_keeps_the_speed_scale_as_a_rolling_radius(monkeypatch):
+    """Against measured track speeds the drive's timing has nothing to fit, but the speed scale
+    does: it is the effective rolling radius over the nominal one."""
+    import dataclasses
+
+    import mjtrack.calibrate.run as run
+
+    seen = {}
+    monkeypatch.setattr(run, "_calibrate", lambda train, robot, **kw: seen.update(kw))
+    t = np.arange(50) * 0.05
+    lg = dataclasses.replace(_bare_log(t), v_left=np.full(50, 0.2), v_right=np.full(50, 0.4))
+    calibrate(lg, Robot(track_gauge=0.4), drive_input="measured")
+    assert "track_speed_scale" in seen["names"]
+    assert "drive_lag" not in seen["names"] and "drive_delay" not in seen["names"]
+
+
 def _bare_log(t):
     from mjtrack.io.logs import DriveLog
 

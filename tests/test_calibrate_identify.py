@@ -171,3 +171,6 @@ def test_cause_phrases_speak_of_wheels_on_a_wheeled_robot():
         tracked, wheeled = phrase(name, value, 0.0, wheels=False), phrase(name, value, 0.0, wheels=True)
         assert "tracks" in tracked and "wheels" not in tracked
         assert "wheels" in wheeled and "tracks" not in wheeled
+    # against measured track speeds a speed scale is a rolling radius, not a command's scale
+    assert "commanded" not in phrase("track_speed_scale", 0.94, 1.0, wheels=True, measured=True)
+    assert "effective radius" in phrase("track_speed_scale", 0.94, 1.0, wheels=True, measured=True)

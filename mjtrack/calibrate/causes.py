@@ -60,8 +60,9 @@ def groups(names: list[str], corr: np.ndarray) -> list[list[str]]:
     return list(out.values())
 
 
-def phrase(name: str, value: float, described: float, *, wheels: bool = False) -> str:
-    """What a change of one parameter says of the robot (``wheels``: a wheeled one), in words."""
+def phrase(name: str, value: float, described: float, *, wheels: bool = False, measured: bool = False) -> str:
+    """What a change of one parameter says of the robot, in words (``wheels``: a wheeled one;
+    ``measured``: its simulated drives followed the measured track speeds, not the commands)."""
     runner = "wheels" if wheels else "tracks"
     if name == "cg_x":
         return (f"its centre of mass is {abs(value):.3g} m {'ahead of' if value > 0 else 'behind'} the geometric "
@@ -86,6 +87,9 @@ def phrase(name: str, value: float, described: float, *, wheels: bool = False) -
         return f"its drives reach a command with a {value:.3g} s lag (described {described:.3g} s)"
     if name == "drive_delay":
         return f"its drives act {value:.3g} s after a command (described {described:.3g} s)"
+    if name == "track_speed_scale" and measured:
+        return (f"its {runner} roll on an effective radius of {value:.3g} times the nominal one (described "
+                f"{described:.3g})")
     if name == "track_speed_scale":
         return f"its {runner} run at {value:.3g} of the commanded speed (described {described:.3g})"
     if name == "drive_force_limit":
@@ -107,11 +111,11 @@ def slope_phrase(ax: float, ay: float) -> str:
 
 
 def sentence_of(params: list[str], values: dict[str, float], described: dict[str, float], tied: list[str],
-                wheels: bool = False) -> str:
+                wheels: bool = False, measured: bool = False) -> str:
     parts = []
     if "slope_x" in params or "slope_y" in params:
         parts.append(slope_phrase(values.get("slope_x", 0.0), values.get("slope_y", 0.0)))
-    parts += [phrase(n, values[n], described[n], wheels=wheels) for n in params
+    parts += [phrase(n, values[n], described[n], wheels=wheels, measured=measured) for n in params
               if n not in ("slope_x", "slope_y")]
     text = "; ".join(parts)
     if tied:
@@ -121,7 +125,8 @@ def sentence_of(params: list[str], values: dict[str, float], described: dict[str
 
 def find_causes(changed: list[str], values: dict[str, float], described: dict[str, float], corr: np.ndarray,
                 ties: dict[str, list[str]], score: Callable[[list[dict[str, float]]], np.ndarray],
-                rms_before: float, rms_after: float, *, wheels: bool = False) -> list[Cause]:
+                rms_before: float, rms_after: float, *, wheels: bool = False,
+                measured: bool = False) -> list[Cause]:
     """The causes of the improvement ``rms_before`` -> ``rms_after`` (module docstring).
 
     Args:
@@ -133,6 +138,8 @@ def find_causes(changed: list[str], values: dict[str, float], described: dict[st
             sets (each a full set of the calibrated parameters' values).
         rms_before, rms_after: the described and the calibrated robot's RMS error [m].
         wheels: the robot is wheeled (its sentences speak of wheels, not tracks).
+        measured: the simulated drives followed the measured track speeds (a speed scale is then
+            an effective rolling radius).
     """
     if not changed:
         return []
@@ -151,7 +158,7 @@ def find_causes(changed: list[str], values: dict[str, float], described: dict[st
         out.append(Cause(parameters=g + tied, changed={n: (described[n], values[n]) for n in g}, tied=tied,
                          share=(without - rms_after) / gain if gain > 0 else 0.0,
                          gain_alone=1.0 - alone / rms_before if rms_before > 0 else 0.0,
-                         sentence=sentence_of(g, values, described, tied, wheels)))
+                         sentence=sentence_of(g, values, described, tied, wheels, measured)))
     out.sort(key=lambda c: -c.share)
     return out
 

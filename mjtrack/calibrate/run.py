@@ -357,13 +357,13 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
     if drive_input == "measured":
         train = measured_drive_log(train, train_path or train.source or "train log")
         test = None if test is None else measured_drive_log(test, test_path or test.source or "test log")
-        if names is None:  # the default candidates less the drive's
+        if names is None:  # the default candidates less the drive's timing
             names = [n for n in parse_names(None, robot, train) if n not in COMMAND_PARAMS]
         elif isinstance(names, str):
             names = parse_names(names, robot, train)
         bad = [n for n in names if n in COMMAND_PARAMS]
         if bad:
-            raise InputError(f"--params {', '.join(bad)}: describe how the drives follow their commands; with "
+            raise InputError(f"--params {', '.join(bad)}: describe when the drives follow their commands; with "
                              f"--drive-input measured the drives follow the measured track speeds")
     with summarised_mujoco_warnings(f"calibrate {src}", log):  # one line, not one per diverged window
         return _calibrate(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
@@ -372,7 +372,10 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
 
 
 DRIVE_INPUTS = ("commanded", "measured")
-COMMAND_PARAMS = ("drive_lag", "drive_delay", "track_speed_scale")  # how the drives follow their commands
+# when the drives follow their commands: not candidates with --drive-input measured. The speed scale
+# stays one: against measured track speeds (wheel or sprocket turn rate times its nominal radius) it
+# is the effective rolling radius over the nominal one (a loaded tyre rolls on less than its radius)
+COMMAND_PARAMS = ("drive_lag", "drive_delay")
 
 
 def measured_drive_log(lg: DriveLog, name: str) -> DriveLog:
@@ -561,7 +564,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
         return res.rms()
 
     causes = find_causes(changed, values, described, corr, ties, score, before.rms, after.rms,
-                         wheels=robot.traction == "wheels")
+                         wheels=robot.traction == "wheels", measured=drive_input == "measured")
     timings["after"] = time.perf_counter() - t3
 
     findings = []
