@@ -14,7 +14,8 @@ fewer, to bound a user's time; these are the reference results, and precision is
 Husky and Warthog are calibrated with ``drive_input="measured"``: their own speed controllers cap
 the DRIVE protocol's commands (``command_following`` in the result: once settled, the measured
 track speeds differ from the commands by a large share of them), which no drive key describes, so
-their simulated drives follow the measured track speeds and only the contact is calibrated.
+their simulated drives follow the measured track speeds, and the contact and the effective rolling
+radius (the speed scale) are calibrated.
 Writes benchmarks/results/real_robots.json: per robot the held-out 2 s position error before and
 after, the steady-turn yaw ratio measured and simulated (before, after) on the test part, every
 candidate's value, interval and whether the log determines it, the causes and the summary; the

@@ -345,7 +345,8 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
         drive_input: ``"commanded"``: the simulated drives follow the logged commands (the drive's
             lag, delay and speed scale are candidates); ``"measured"``: they follow the logged
             track speeds, for a robot whose own speed controller caps or shapes its commands in
-            ways the drive keys do not describe; only the contact is calibrated then.
+            ways the drive keys do not describe; the contact and the speed scale (then the effective
+            rolling radius over the nominal one) are calibrated.
         fit_windows: windows the fit uses, spread evenly over the log (None: every window); the
             errors before and after and the causes use every window.
     """
