@@ -174,3 +174,17 @@ def test_cause_phrases_speak_of_wheels_on_a_wheeled_robot():
     # against measured track speeds a speed scale is a rolling radius, not a command's scale
     assert "commanded" not in phrase("track_speed_scale", 0.94, 1.0, wheels=True, measured=True)
     assert "effective radius" in phrase("track_speed_scale", 0.94, 1.0, wheels=True, measured=True)
+
+
+def test_a_value_at_the_edge_of_the_range_searched_says_so():
+    from mjtrack.calibrate.identify import final_verdicts
+
+    rng = np.random.default_rng(3)
+    M = 40
+    J = rng.normal(size=(M * ROWS, 2))
+    specs = {"a": ParamSpec("a", 0.0, 1.0, 1.0, 0.5, "-", "mass", "a"), "b": _spec("b", resolution=0.5)}
+    y = J @ np.array([1.3, 0.4]) + rng.normal(0, 0.01, M * ROWS)  # a's optimum lies beyond its bound 1
+    theta = np.array([1.0, np.linalg.lstsq(J[:, [1]], y - J[:, 0], rcond=None)[0][0]])
+    verdicts, _, _ = final_verdicts(_lin(["a", "b"], J, theta, J @ theta - y, specs=specs), {"a": 0.0, "b": 0.0}, {})
+    assert "edge of the range searched" in verdicts["a"].reason and verdicts["a"].interval[1] == 1.0
+    assert "edge" not in verdicts["b"].reason

@@ -313,6 +313,11 @@ def final_verdicts(lin: Linearised, described: dict[str, float], ties: dict[str,
                       f"+-{fmt_value(u.shift[k], spec.unit)}, optimiser +-{fmt_value(rest[k], spec.unit)})")
             if not changed:
                 reason += "; equal to the description"
+        edge = spec.hi if v >= spec.hi - 1e-9 * max(1.0, abs(spec.hi)) else (
+            spec.lo if v <= spec.lo + 1e-9 * max(1.0, abs(spec.lo)) else None)
+        if edge is not None:  # the fit stopped at the range searched: the log may want more, the interval is cut
+            reason += (f"; at the edge of the range searched ({fmt_value(edge, spec.unit)}): the log may point "
+                       "beyond it, and the interval stops there")
         out[name] = Verdict(name, bool(not tied and half <= allow), changed, v, described[name], (lo, hi),
                             reason, tied)
     return out, u, rest
