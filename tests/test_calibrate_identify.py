@@ -188,3 +188,18 @@ def test_a_value_at_the_edge_of_the_range_searched_says_so():
     verdicts, _, _ = final_verdicts(_lin(["a", "b"], J, theta, J @ theta - y, specs=specs), {"a": 0.0, "b": 0.0}, {})
     assert "edge of the range searched" in verdicts["a"].reason and verdicts["a"].interval[1] == 1.0
     assert "edge" not in verdicts["b"].reason
+
+
+def test_cause_sentences_show_a_small_change_and_say_a_slope_once():
+    from mjtrack.calibrate.causes import phrase, sentence_of
+
+    # a change below three digits is printed with enough digits to be seen
+    text = phrase("track_length", 0.79964, 0.8)
+    assert "0.7996 m long, not 0.8 m" in text
+    values = {"slope_x": 0.038, "slope_y": 0.032, "track_length": 0.79964}
+    described = {"slope_x": 0.0, "slope_y": 0.0, "track_length": 0.8}
+    both = sentence_of(["slope_x", "slope_y"], values, described, [])
+    assert both.count("inclined") == 1
+    # a cause holding one slope component speaks of that component only
+    one = sentence_of(["track_length", "slope_y"], values, described, [])
+    assert "inclined" not in one and "log's y axis" in one and "0.032" in one

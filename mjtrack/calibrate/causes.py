@@ -60,48 +60,58 @@ def groups(names: list[str], corr: np.ndarray) -> list[list[str]]:
     return list(out.values())
 
 
+def digits(value: float, described: float, least: int) -> int:
+    """Significant digits, from ``least`` up to 6, at which ``value`` and ``described`` print differently."""
+    for n in range(least, 7):
+        if f"{value:.{n}g}" != f"{described:.{n}g}":
+            return n
+    return max(least, 6)
+
+
 def phrase(name: str, value: float, described: float, *, wheels: bool = False, measured: bool = False) -> str:
     """What a change of one parameter says of the robot, in words (``wheels``: a wheeled one;
     ``measured``: its simulated drives followed the measured track speeds, not the commands)."""
     runner = "wheels" if wheels else "tracks"
+    # enough digits that the value and the description read differently ("0.8 m, not 0.8 m" says nothing)
+    n, n2, n4 = (digits(value, described, least) for least in (3, 2, 4))
     if name == "cg_x":
-        return (f"its centre of mass is {abs(value):.3g} m {'ahead of' if value > 0 else 'behind'} the geometric "
-                f"centre (described {described:+.3g} m)")
+        return (f"its centre of mass is {abs(value):.{n}g} m {'ahead of' if value > 0 else 'behind'} the geometric "
+                f"centre (described {described:+.{n}g} m)")
     if name == "cg_y":
-        return (f"its centre of mass is {abs(value):.3g} m {'left' if value > 0 else 'right'} of the centre line "
-                f"(described {described:+.3g} m)")
+        return (f"its centre of mass is {abs(value):.{n}g} m {'left' if value > 0 else 'right'} of the centre line "
+                f"(described {described:+.{n}g} m)")
     if name == "mu":
-        return f"its ground's friction is {value:.3g}, not {described:.3g}"
+        return f"its ground's friction is {value:.{n}g}, not {described:.{n}g}"
     if name == "mu_ratio":
-        return (f"its left side grips {value:.3g} times as much as its right (described {described:.3g}): "
+        return (f"its left side grips {value:.{n}g} times as much as its right (described {described:.{n}g}): "
                 "the ground differs under the two sides")
     if name in ("mu_left", "mu_right"):
-        return f"its {name[3:]} side's friction is {value:.3g}, not {described:.3g}"
+        return f"its {name[3:]} side's friction is {value:.{n}g}, not {described:.{n}g}"
     if name == "track_length":
         more = "less" if value > described else "more"
-        return (f"its ground contact is {value:.3g} m long, not {described:.3g} m: the simulated contact resists "
+        return (f"its ground contact is {value:.{n}g} m long, not {described:.{n}g} m: the simulated contact resists "
                 f"turning {more} than the real one")
     if name == "wheelbase":
-        return f"its wheelbase acts as {value:.3g} m, not {described:.3g} m"
+        return f"its wheelbase acts as {value:.{n}g} m, not {described:.{n}g} m"
     if name == "drive_lag":
-        return f"its drives reach a command with a {value:.3g} s lag (described {described:.3g} s)"
+        return f"its drives reach a command with a {value:.{n}g} s lag (described {described:.{n}g} s)"
     if name == "drive_delay":
-        return f"its drives act {value:.3g} s after a command (described {described:.3g} s)"
+        return f"its drives act {value:.{n}g} s after a command (described {described:.{n}g} s)"
     if name == "track_speed_scale" and measured:
-        return (f"its {runner} roll on an effective radius of {value:.3g} times the nominal one (described "
-                f"{described:.3g})")
+        return (f"its {runner} roll on an effective radius of {value:.{n}g} times the nominal one (described "
+                f"{described:.{n}g})")
     if name == "track_speed_scale":
-        return f"its {runner} run at {value:.3g} of the commanded speed (described {described:.3g})"
+        return f"its {runner} run at {value:.{n}g} of the commanded speed (described {described:.{n}g})"
     if name == "drive_force_limit":
-        return f"its drives saturate at {value:.3g} N (described {described:.3g} N)"
+        return f"its drives saturate at {value:.{n}g} N (described {described:.{n}g} N)"
     if name == "lateral_ratio":
-        return f"its ground resists sideways slip {value:.3g} times as much as forward slip (described {described:.3g})"
+        return f"its ground resists sideways slip {value:.{n}g} times as much as forward slip (described {described:.{n}g})"
     if name == "rolling_resistance":
-        return (f"its ground holds each side back with {value:.2g} of the weight it carries (described "
-                f"{described:.2g}): in turns the robot falls behind its {runner}")
+        return (f"its ground holds each side back with {value:.{n2}g} of the weight it carries (described "
+                f"{described:.{n2}g}): in turns the robot falls behind its {runner}")
     if name in ("concentration", "span"):
-        return f"its load sits on its road wheels differently ({name} {value:.3g}, described {described:.3g})"
-    return f"{name} is {value:.4g}, not {described:.4g}"
+        return f"its load sits on its road wheels differently ({name} {value:.{n}g}, described {described:.{n}g})"
+    return f"{name} is {value:.{n4}g}, not {described:.{n4}g}"
 
 
 def slope_phrase(ax: float, ay: float) -> str:
@@ -113,8 +123,11 @@ def slope_phrase(ax: float, ay: float) -> str:
 def sentence_of(params: list[str], values: dict[str, float], described: dict[str, float], tied: list[str],
                 wheels: bool = False, measured: bool = False) -> str:
     parts = []
-    if "slope_x" in params or "slope_y" in params:
-        parts.append(slope_phrase(values.get("slope_x", 0.0), values.get("slope_y", 0.0)))
+    if "slope_x" in params and "slope_y" in params:
+        parts.append(slope_phrase(values["slope_x"], values["slope_y"]))
+    else:  # one component: the other is in another cause's sentence, and the whole slope is not this one's
+        parts += [f"its ground rises along the log's {n[-1]} axis (sine of the slope {values[n]:.3g}, described "
+                  f"{described[n]:.3g})" for n in ("slope_x", "slope_y") if n in params]
     parts += [phrase(n, values[n], described[n], wheels=wheels, measured=measured) for n in params
               if n not in ("slope_x", "slope_y")]
     text = "; ".join(parts)
