@@ -52,7 +52,7 @@ DESCRIBED = ("track_length", "track_width", "mass", "cg_x", "cg_y", "cg_z", "mu"
 MAX_ROUNDS = 3  # refits after the first fit, each after what the log determines was decided again
 STEP_TOL = 0.25  # the fit has converged when the remaining Gauss-Newton step is below this share of every half-width
 #: windows a fit uses by default, spread evenly over the log: a fit's time grows with them (about
-#: 200 evaluations of every fit window), its intervals narrow only with their square root
+#: 250 evaluations of every fit window), its intervals narrow only with their square root
 FIT_WINDOWS = 60
 STEADY_MIN_WZ = 0.3  # [rad/s] nominal yaw rate below which a window's yaw ratio is not used
 ICR_MIN_TURN = 0.3  # |turn ratio| below which a window's ICRs are not used (they diverge)
