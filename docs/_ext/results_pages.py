@@ -115,6 +115,12 @@ class Page:
     figures: list[tuple[Path, str]] = field(default_factory=list)  # (result figure, caption)
 
 
+def add_load(table: Table, src: Source, before: str, after: str) -> None:
+    """The run's one-minute load averages before and after (pointers into ``src``) as two rows."""
+    table.add("load average before (one minute)", number(src, before))
+    table.add("load average after (one minute)", number(src, after))
+
+
 # -- the pages ---------------------------------------------------------------------------------
 def _fidelity() -> Page:
     rollers = Source(RESULTS / "fidelity" / "fidelity.json")
@@ -266,8 +272,7 @@ def _speed() -> Page:
     other.add("batch speed-up, two threads over one", number(src, "/batch/speedup"))
     other.add("surfacevel real-time factor", number(src, "/surfacevel/realtime_factor"))
     other.add("surfacevel time step [s]", number(src, "/surfacevel/timestep"))
-    other.add("load average before (one minute)", number(src, "/loadavg_before/0"))
-    other.add("load average after (one minute)", number(src, "/loadavg_after/0"))
+    add_load(other, src, "/loadavg_before/0", "/loadavg_after/0")
     cal = Source(RESULTS / "bench_calibrate.json")
     whole = Table("Calibration of the whole shared Marmotte log at calibrate's defaults (the rollers per track of "
                   "the real-robot results), with the machine's load and the target wall time.",
@@ -284,8 +289,7 @@ def _speed() -> Page:
     whole.add("2 s position RMSE before [m]", number(cal, "/rms_before"))
     whole.add("2 s position RMSE after [m]", number(cal, "/rms_after"))
     whole.add("windows blown up after calibration", number(cal, "/diverged/1"))
-    whole.add("load average before (one minute)", number(cal, "/load_before/0"))
-    whole.add("load average after (one minute)", number(cal, "/load_after/0"))
+    add_load(whole, cal, "/load_before/0", "/load_after/0")
     return Page(
         "speed", "Speed",
         "Timings depend on the machine and its load; each table gives the load averages of its run.",

@@ -464,7 +464,6 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
 
     def fit_stage(fws: WindowSet, start_at: dict[str, float], first: bool):
         obj = objective(sim, train, fws, names, nthread=nthread, warmup_s=warmup_s)
-        specs = obj.specs
         iters = max_iter if first else refit_iter
         with Progress(total=iters + MAX_ROUNDS * refit_iter, label="calibrate", quiet=quiet) as bar:
             result = fit(obj, start_at, max_iter=iters, multistart=first, on_iter=lambda i, c: bar.update())
