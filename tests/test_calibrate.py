@@ -19,6 +19,7 @@ from mjtrack.calibrate.run import calibrate
 from mjtrack.io.logs import write_log
 from mjtrack.io.robot import Robot, read_robot, write_robot
 from mjtrack.sim import SimConfig, drive_log
+from mjtrack.sim.windows import make_windows
 from mjtrack.testing.cli import run_cli
 
 TRUTH = {"mu": 0.5, "cg_x": 0.04, "cg_y": -0.03}
@@ -225,17 +226,26 @@ def test_a_fit_that_blows_up_on_an_unused_window_is_fitted_again_with_it(monkeyp
     first_fits = []  # (start, multistart, max_iter, windows) of each attempt's first fit
     real_fit = run.fit
 
+    fits_per_attempt = []
+
     def spy(obj, start, **kw):
         if not first_fits or first_fits[-1][3] is not obj.windows:  # the rounds' refits reuse the windows
             first_fits.append((dict(start), kw.get("multistart", True), kw["max_iter"], obj.windows))
+            fits_per_attempt.append(0)
+        fits_per_attempt[-1] += 1
         return real_fit(obj, start, **kw)
 
     monkeypatch.setattr(run, "fit", spy)
-    cal = calibrate(_log(Robot(cg_x=0.04), 16.0, 3, lag=0.0), Robot(), names=["cg_x"], fit_windows=3, max_iter=6)
-    # the second attempt starts where the first ended, with one start and the refit's iterations
+    cal = calibrate(_log(Robot(cg_x=0.04), 16.0, 3, lag=0.0), Robot(), names=["cg_x", "track_speed_scale"],
+                    fit_windows=3, max_iter=6)
+    # the second attempt starts where the first ended, with one start and the refit's iterations, and
+    # fits only what the first attempt changed (the speed scale stays as described)
+    assert cal.changed == ["cg_x"]
     assert len(first_fits) == 2
     assert first_fits[0][1:3] == (True, 6) and first_fits[1][1:3] == (False, 3)
+    assert sorted(first_fits[0][0]) == ["cg_x", "track_speed_scale"] and list(first_fits[1][0]) == ["cg_x"]
     assert first_fits[0][0]["cg_x"] == 0.0 and first_fits[1][0]["cg_x"] == pytest.approx(0.04, abs=0.005)
+    assert fits_per_attempt[1] <= 1 + run.GUARD_ROUNDS  # the second attempt decides again once
     fitted = set(zip(cal.fitted_windows.starts.tolist(), cal.fitted_windows.ends.tolist()))
     assert len(cal.train_windows) == 8 and len(cal.fitted_windows) == 4
     assert (int(cal.train_windows.starts[1]), int(cal.train_windows.ends[1])) in fitted
@@ -274,3 +284,26 @@ def test_the_calibrated_robot_file_carries_every_fitted_value(robot):
     got = robot_params(written)
     for k, v in window_params(values, robot).items():
         assert got[k] == pytest.approx(v), k
+
+
+def test_windows_whose_poses_move_against_the_tracks_are_left_out_and_listed():
+    """One window of a simulated log rewritten as a flipped localisation would record it (tracks
+    forwards, poses backwards; mjtrack.testing.records), as in two windows of a real Warthog log: it
+    is left out of the fit and of every score, listed under left_out and said in the summary; kept on
+    request."""
+    from mjtrack.testing.records import with_backward_window
+
+    lg = _log(Robot(cg_x=0.04), 16.0, 3, lag=0.0)
+    ws = make_windows(lg, 2.0)
+    assert len(ws) == 8
+    bad, (s, e) = with_backward_window(lg, int(ws.starts[2]), int(ws.ends[2]))
+    cal = calibrate(bad, Robot(), names=["cg_x"], fit_windows=None, max_iter=3)
+    assert len(cal.train_windows) == 7 and s not in cal.train_windows.starts.tolist()
+    assert "1 of 8 train windows were left out: their poses move against the tracks" in cal.sentence
+    (row,) = cal.to_json()["left_out"]["train"]["windows"]
+    assert row["t0"] == pytest.approx(float(lg.t[s]))
+    assert row["track_path_m"] == pytest.approx([0.6, 0.6]) and row["body_path_m"] == pytest.approx([-0.8, -0.8])
+    assert cal.values["cg_x"] == pytest.approx(0.04, abs=0.005)
+    kept = calibrate(bad, Robot(), names=["cg_x"], fit_windows=None, max_iter=3, keep_contradicting=True)
+    assert len(kept.train_windows) == 8 and kept.to_json()["left_out"] == {}
+    assert kept.before.rms > 3 * cal.before.rms  # the rewritten window dominates the error it is scored in

@@ -106,6 +106,22 @@ def test_clean_log_gives_no_cause(capfd):
     assert "cause: none" in d.summary()
 
 
+def test_windows_whose_poses_move_against_the_tracks_are_left_out_and_said():
+    # one window of a clean log rewritten as a flipped localisation would record it (tracks forwards,
+    # poses backwards): it is neither fitted nor scored, the notes say so, and it names no cause
+    from mjtrack.testing.records import with_backward_window
+
+    lg, _ = make_log(None, seed=4, duration=30.0)
+    ws = make_windows(lg, 2.0)
+    bad, (s, e) = with_backward_window(lg, int(ws.starts[5]), int(ws.ends[5]))
+    assert len(MujocoBaseline(NOMINAL, bad).ws) == len(ws) - 1
+    d = diagnose(bad, NOMINAL, baseline="mujoco", effects=["friction_scale"])
+    assert d.cause == "none", d.summary()
+    note = next(n for n in d.notes if "left out" in n)
+    assert note.startswith(f"1 of {len(ws)} windows left out (starting at t = {lg.t[s]:.2f} s)")
+    assert d.to_json()["notes"] == d.notes
+
+
 def test_grids_extend_a_calibrated_robot():
     # a calibrated drivetrain is the "no effect" value: lag and dead time are added to it, the speed
     # scale and centre of mass are searched around it (not reset to an ideal robot's)

@@ -190,3 +190,68 @@ def test_diverged_windows_are_scored_without_flooding_stderr(log, sim, capfd, ca
     assert any("diverged" in r.getMessage() and "QACC" in r.getMessage() for r in caplog.records)
     summary = [r for r in caplog.records if r.getMessage().startswith("test batch: MuJoCo warned")]
     assert len(summary) == 1 and summary[0].levelno == logging.WARNING
+
+
+def _straight(v_track: float, v_body: float, decel: float = 0.0, n: int = 41, dt: float = 0.05):
+    """A log along +x at yaw 0 (poses written by hand): tracks at ``v_track``; the body starts at
+    ``v_body`` and slows at ``decel`` [m/s^2] until it stops."""
+    from mjtrack.io.logs import DriveLog
+
+    t = np.arange(n) * dt
+    z = np.zeros(n)
+    stop = abs(v_body) / decel if decel > 0 else np.inf
+    tt = np.minimum(t, stop)
+    x = np.sign(v_body) * (abs(v_body) * tt - 0.5 * decel * tt ** 2)
+    return DriveLog(t=t, v_left_cmd=z + v_track, v_right_cmd=z + v_track, v_left=z + v_track, v_right=z + v_track,
+                    x=x, y=z, yaw=z)
+
+
+@pytest.mark.parametrize("v_track, v_body, decel, flagged", [
+    (1.0, 0.9, 0.0, False),    # slip shortens the path
+    (-1.0, -0.4, 0.0, False),  # reversing, both ways agree
+    (1.0, -0.9, 0.0, True),    # 0.9 m a half against the tracks, not slowing down: no ground does that
+    (-1.5, 0.4, 0.0, False),   # 0.4 m a half against: under 0.5 m (noise, a push)
+    (0.05, -0.6, 0.0, True),   # creeping forward, the body 0.6 m a half back
+    (-1.0, 3.0, 2.0, False),   # coasting at 3 m/s against reversed tracks, braked at 0.2 g: 0.25 m in the 2nd half
+    (-1.0, 3.0, 0.7, False),   # braked at 0.07 g from 3 m/s: 2.65 m then 1.95 m
+    (-1.0, 3.0, 0.3, True),    # braked at 0.03 g: 2.85 m then 2.55 m, less braking than the rule's 0.05 g (its limit)
+    (-3.0, 2.0, 1.0, False),   # braked at 0.1 g from 2 m/s: 1.5 m then 0.5 m
+])
+def test_windows_whose_poses_move_against_the_tracks_are_found(v_track, v_body, decel, flagged):
+    from mjtrack.sim.windows import contradicting_windows
+
+    lg = _straight(v_track, v_body, decel)
+    ws = make_windows(lg, 2.0)
+    assert len(ws) == 1
+    rows = contradicting_windows(lg, ws)
+    assert bool(rows) == flagged
+    if rows:
+        assert rows[0]["track_path_m"] == pytest.approx([v_track, v_track])
+        x = lambda t: np.sign(v_body) * (abs(v_body) * t - 0.5 * decel * t ** 2)  # (never stopped when flagged)
+        assert rows[0]["body_path_m"] == pytest.approx([x(1.0) - x(0.0), x(2.0) - x(1.0)])
+
+
+def test_against_the_tracks_is_measured_along_the_body_heading():
+    """Reversing while facing -x: the world x grows, the body goes backwards with its tracks."""
+    from mjtrack.io.logs import DriveLog
+    from mjtrack.sim.windows import contradicting_windows
+
+    t = np.arange(41) * 0.05
+    z = np.zeros(41)
+    lg = DriveLog(t=t, v_left_cmd=z - 1.0, v_right_cmd=z - 1.0, x=0.9 * t, y=z, yaw=z + np.pi)
+    assert contradicting_windows(lg, make_windows(lg, 2.0)) == []
+    lg2 = lg.replace(yaw=z)  # the same poses facing +x: 1.8 m forward on tracks driving backwards
+    assert len(contradicting_windows(lg2, make_windows(lg2, 2.0))) == 1
+
+
+def test_tracks_that_reverse_mid_window_flag_nothing():
+    """Tracks forward then backward, the body coasting forward throughout: the tracks do not push
+    one way over the window, so a body against them in the second half is not a contradiction."""
+    from mjtrack.io.logs import DriveLog
+    from mjtrack.sim.windows import contradicting_windows
+
+    t = np.arange(41) * 0.05
+    z = np.zeros(41)
+    v = np.where(t < 1.0, 1.0, -1.0)
+    lg = DriveLog(t=t, v_left_cmd=v, v_right_cmd=v, v_left=v, v_right=v, x=1.0 * t, y=z, yaw=z)
+    assert contradicting_windows(lg, make_windows(lg, 2.0)) == []

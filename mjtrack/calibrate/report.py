@@ -11,6 +11,7 @@ import numpy as np
 from mjtrack.calibrate.params import specs_for
 from mjtrack.diagnose import residuals as rs
 from mjtrack.report.html import Report
+from mjtrack.sim.windows import AGAINST_WHY
 
 TURN_EDGES = (-1.0, -0.6, -0.2, 0.2, 0.6, 1.0)
 
@@ -123,6 +124,15 @@ def build_report(cal) -> Report:
              "Position error at the horizon of every training window against the commanded turn ratio and speed.")
     s.figure(_figure_paths(cal), "The windows the uncalibrated simulation got most wrong"
              + (" (test log)" if cal.test_log is not None else "") + ": measured, uncalibrated and calibrated paths.")
+
+    rows_ = [[part, f"{r['t0']:.2f}", *(f"{v:+.2f}" for v in r["track_path_m"]), *(f"{v:+.2f}" for v in r["body_path_m"])]
+             for part, rows in cal.left_out.items() for r in rows]
+    if rows_:
+        s = rep.section("Windows left out")
+        s.paragraph(f"Not fitted and not scored: {AGAINST_WHY}. Track path: the mean track speed integrated over "
+                    "each half of the window; body path: the measured displacement along the body's heading.")
+        s.table(["part", "window start [s]", "track path, 1st half [m]", "2nd half [m]", "body path, 1st half [m]",
+                 "2nd half [m]"], rows_)
 
     s = rep.section("Steady turns: yaw ratio and ICRs, measured against simulated")
     s.paragraph("Yaw ratio: median over steady windows (commands constant) of the yaw rate over the nominal "

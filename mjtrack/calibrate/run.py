@@ -42,14 +42,18 @@ from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.config import SimConfig, sim_config
-from mjtrack.sim.windows import (DRIVE_DEFAULTS, WARMUP_S, WindowResult, WindowSet, WindowSim, geometry_robot,
-                                 make_windows, measured_window_poses, simulate_windows)
+from mjtrack.sim.windows import (AGAINST_WHY, DRIVE_DEFAULTS, WARMUP_S, WindowResult, WindowSet,
+                                 WindowSim, contradicting_windows, geometry_robot, make_windows, measured_window_poses,
+                                 simulate_windows)
 
 log = logging.getLogger(__name__)
 
 #: robot keys whose defaults a description may silently rely on (named under ``assumed``)
 DESCRIBED = ("track_length", "track_width", "mass", "cg_x", "cg_y", "cg_z", "mu", "sprocket_radius", "rolling_resistance")
 MAX_ROUNDS = 3  # refits after the first fit, each after what the log determines was decided again
+#: refits of the guard's second attempt (after a blow-up on a window the fit did not use): it starts
+#: from the first attempt's settled decision, which the added windows move only a little
+GUARD_ROUNDS = 1
 STEP_TOL = 0.25  # the fit has converged when the remaining Gauss-Newton step is below this share of every half-width
 #: windows a fit uses by default, spread evenly over the log: a fit's time grows with them (about
 #: 250 evaluations of every fit window), its intervals narrow only with their square root
@@ -87,7 +91,8 @@ class Calibration:
     ``names``: every parameter the fit was allowed to move; ``values``: their calibrated values
     (the described value for those the log does not determine or does not need changed);
     ``verdicts``: what the log says of each (:class:`mjtrack.calibrate.identify.Verdict`);
-    ``fit``: the first fit (all of ``names``), ``refit``: the final fit of the kept parameters
+    ``fit``: the first fit (all of ``names``; after a blow-up on an unused window, the second
+    attempt's fit of the parameters the first one changed), ``refit``: the final fit of the kept parameters
     (None when nothing was kept or all were); ``causes``: the measured causes of the improvement."""
 
     train_path: str
@@ -120,6 +125,9 @@ class Calibration:
     timings: dict[str, float] = field(default_factory=dict)
     drive_input: str = "commanded"
     fit_windows: WindowSet | None = None  # the windows the fit used (None: every training window)
+    #: windows left out because their poses move against the tracks (see
+    #: :func:`mjtrack.sim.windows.contradicting_windows`), by part ("train", "test")
+    left_out: dict[str, list[dict]] = field(default_factory=dict)
 
     @property
     def fitted_windows(self) -> WindowSet:
@@ -162,6 +170,7 @@ class Calibration:
                                   "before it; errors at the window's end in its start frame"},
             "sim_config": self.config,
             "timings_s": self.timings,
+            "left_out": {part: {"why": LEFT_OUT_WHY, "windows": rows} for part, rows in self.left_out.items() if rows},
         }
         if self.test_before is not None and self.test_after is not None:
             b, a = self.test_before.rms, self.test_after.rms
@@ -326,7 +335,7 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
               names: str | list[str] | None = None, horizon_s: float = 2.0, n_rollers: int | None = None,
               max_iter: int = 8, nthread: int = 2, quiet: bool = True, train_path: str | None = None,
               test_path: str | None = None, warmup_s: float = WARMUP_S, drive_input: str = "commanded",
-              fit_windows: int | None = FIT_WINDOWS) -> Calibration:
+              fit_windows: int | None = FIT_WINDOWS, keep_contradicting: bool = False) -> Calibration:
     """Fit the MuJoCo robot to ``train`` (see the module docstring); bad input raises InputError.
 
     Args:
@@ -349,6 +358,8 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
             rolling radius over the nominal one) are calibrated.
         fit_windows: windows the fit uses, spread evenly over the log (None: every window); the
             errors before and after and the causes use every window.
+        keep_contradicting: keep the windows whose poses move against the tracks (by default they
+            are left out of the fit and of every score, and listed under ``left_out``).
     """
     from mjtrack.sim.rollout import summarised_mujoco_warnings
 
@@ -369,7 +380,8 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
     with summarised_mujoco_warnings(f"calibrate {src}", log):  # one line, not one per diverged window
         return _calibrate(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
                           max_iter=max_iter, nthread=nthread, quiet=quiet, train_path=train_path,
-                          test_path=test_path, warmup_s=warmup_s, drive_input=drive_input, fit_windows=fit_windows)
+                          test_path=test_path, warmup_s=warmup_s, drive_input=drive_input, fit_windows=fit_windows,
+                          keep_contradicting=keep_contradicting)
 
 
 DRIVE_INPUTS = ("commanded", "measured")
@@ -415,7 +427,7 @@ def fit_index_of(ws: WindowSet, n: int | None) -> np.ndarray:
 
 
 def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, quiet,
-               train_path, test_path, warmup_s, drive_input, fit_windows) -> Calibration:
+               train_path, test_path, warmup_s, drive_input, fit_windows, keep_contradicting) -> Calibration:
     from mjtrack.progress import Progress
 
     timings: dict[str, float] = {}
@@ -440,6 +452,11 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
         tws = make_windows(test, horizon_s)
         if len(tws) == 0:
             raise InputError(f"{test_path or test.source}: too short for one {horizon_s:g} s window")
+    left_out: dict[str, list[dict]] = {}
+    if not keep_contradicting:
+        ws, left_out["train"] = _without_contradicting(train, ws, src)
+        if test is not None:
+            tws, left_out["test"] = _without_contradicting(test, tws, test_path or test.source or "test log")
     fixed = {"track_gauge": robot.track_gauge}
     for k in ("track_length", "mass", "sprocket_radius", "cg_z", "track_width"):
         if k not in names and (robot.provided is None or k in robot.provided):
@@ -462,15 +479,26 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     floors = {n: sim.dt for n in ("drive_lag", "drive_delay")}  # timing is resolved to one step at best
     refit_iter = max(3, max_iter // 2)
 
-    def fit_stage(fws: WindowSet, start_at: dict[str, float], first: bool):
+    def fit_stage(fws: WindowSet, start_at: dict[str, float], only: list[str] | None = None):
+        # only: the parameters a first attempt changed (the guard's second attempt): they alone are
+        # fitted again, from start_at, before the rounds decide again for every candidate
         obj = objective(sim, train, fws, names, nthread=nthread, warmup_s=warmup_s)
-        iters = max_iter if first else refit_iter
-        with Progress(total=iters + MAX_ROUNDS * refit_iter, label="calibrate", quiet=quiet) as bar:
-            result = fit(obj, start_at, max_iter=iters, multistart=first, on_iter=lambda i, c: bar.update())
+        iters = max_iter if only is None else refit_iter
+        rounds = MAX_ROUNDS if only is None else GUARD_ROUNDS
+        with Progress(total=iters + rounds * refit_iter, label="calibrate", quiet=quiet) as bar:
+            if only is None:
+                result = fit(obj, start_at, max_iter=iters, multistart=True, on_iter=lambda i, c: bar.update())
+                point, resid, jac = dict(result.values), result.resid, result.jac  # every candidate, at the current point
+            else:
+                fobj = objective(sim, train, fws, only, nthread=nthread, warmup_s=warmup_s)
+                result = fit(fobj, {n: start_at[n] for n in only}, max_iter=iters, multistart=False,
+                             on_iter=lambda i, c: bar.update())
+                point = {**described, **result.values}
+                resid, jac = central_jacobian(obj, np.array([point[n] / specs[n].scale for n in names]),
+                                              central=np.array([n in only for n in names]))
             fits = [result]
-            point, resid, jac = dict(result.values), result.resid, result.jac  # every candidate, at the current point
-            free = list(names)
-            for round_ in range(MAX_ROUNDS + 1):
+            free = list(names if only is None else only)
+            for round_ in range(rounds + 1):
                 # every candidate linearised at the current point (the dropped ones at their described
                 # value): what the log determines and needs changed is decided again for all of them
                 sources, size = model_form_sources(obj, point, resid, jac, config)
@@ -484,7 +512,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
                                    rows_per_window=obj.rows_per_window, specs=specs, model_form=sources, floors=floors)
                 ahead.advance()
                 sel = select(ahead, described)
-                if (sel.free == free and converged) or not sel.free or round_ == MAX_ROUNDS:
+                if (sel.free == free and converged) or not sel.free or round_ == rounds:
                     break
                 free = sel.free
                 fobj = objective(sim, train, fws, free, nthread=nthread, warmup_s=warmup_s)
@@ -506,7 +534,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
                     s = specs[n]
                     verdicts[n] = Verdict(n, True, False, described[n], described[n], None,
                                           f"the log points at {fmt_value(sel.values[n], s.unit)} (linearised), but the "
-                                          f"fit did not settle within {MAX_ROUNDS} rounds; it stays at its described "
+                                          f"fit did not settle within {rounds} rounds; it stays at its described "
                                           f"value {fmt_value(described[n], s.unit)}")
             ties = {k: v for k, v in sel.ties.items() if k in kept}
             values = {**described}
@@ -531,12 +559,14 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     # simulation blows up on a window the fit did not see (its values left the simulator's stable
     # range there) is fitted again with those windows added (they then count as diverged), from where
     # the first fit ended: the fit has found its basin, the added windows only push it back into the
-    # stable range, so neither the several starts nor the first fit's iterations are needed again
+    # stable range, so neither the several starts nor the first fit's iterations are needed again: only
+    # the changed parameters are fitted, and the decision for every candidate is made again once
+    # (GUARD_ROUNDS)
     fit_index = fit_index_of(ws, fit_windows)
-    start_at = start
+    start_at, only = start, None
     for attempt in range(2):
         fws = ws.subset(fit_index)
-        result, verdicts, values, model_form, u, lin, refit, ties = fit_stage(fws, start_at, first=attempt == 0)
+        result, verdicts, values, model_form, u, lin, refit, ties = fit_stage(fws, start_at, only)
         changed = [n for n in names if verdicts[n].changed]
         wp = window_params({n: values[n] for n in changed}, robot)
         after = _score(sim, train, ws, [wp], **kw)[0] if changed else before
@@ -548,6 +578,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
                  "with them", new.size)
         fit_index = np.union1d(fit_index, new)
         start_at = {n: float(np.clip(values[n], specs[n].lo, specs[n].hi)) for n in names}
+        only = changed
     timings["fit"] = time.perf_counter() - t2
 
     # the calibrated robot, scored on the same windows and on the test log; the causes
@@ -607,6 +638,11 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
             sentence += (f" Warning: the calibrated robot's simulation blows up in {a.diverged} of "
                          f"{a.diverged_mask.size} {label} windows ({b.diverged} as described): its values leave the "
                          "simulator's stable range there; its errors there count in the position error.")
+    for label, rows in left_out.items():
+        if rows:
+            kept = len(ws) if label == "train" else len(tws)
+            sentence += (f" {len(rows)} of {len(rows) + kept} {label} windows were left out: their poses move against "
+                         "the tracks (listed under left_out).")
     timings["total"] = time.perf_counter() - t0
     return Calibration(
         train_path=str(train_path or train.source), test_path=None if test is None else str(test_path or test.source),
@@ -615,7 +651,30 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
         fixed=fixed, assumed=assumed, fit=result, refit=refit, model_form=model_form, causes=causes,
         train_windows=ws, test_windows=tws, train_log=train, test_log=test, before=before, after=after,
         test_before=test_before, test_after=test_after, findings=_clean(findings), sentence=sentence,
-        config=config.to_dict(), timings=timings, drive_input=drive_input, fit_windows=fws)
+        config=config.to_dict(), timings=timings, drive_input=drive_input, fit_windows=fws, left_out=left_out)
+
+
+LEFT_OUT_WHY = AGAINST_WHY + " (keep them with --keep-contradicting)"
+
+
+def _without_contradicting(lg: DriveLog, ws: WindowSet, src: str) -> tuple[WindowSet, list[dict]]:
+    """``ws`` less the windows whose poses move against the tracks, and those windows."""
+    bad = contradicting_windows(lg, ws)
+    if not bad:
+        return ws, []
+    first = bad[0]
+    example = (f"from t = {first['t0']:.3f} s the tracks drive {first['track_path_m'][0]:+.2f} then "
+               f"{first['track_path_m'][1]:+.2f} m, the body moves {first['body_path_m'][0]:+.2f} then "
+               f"{first['body_path_m'][1]:+.2f} m along its heading")
+    if len(bad) == len(ws):
+        raise InputError(f"{src}: in every window the poses move against the tracks (e.g. {example}): check the "
+                         "signs of the speed columns")
+    log.warning("calibrate: %s: %d of %d windows left out: their poses move against the tracks (e.g. %s)", src,
+                len(bad), len(ws), example)
+    keep = np.ones(len(ws), bool)
+    keep[[b["index"] for b in bad]] = False
+    rows = [{"t0": b["t0"], "track_path_m": b["track_path_m"], "body_path_m": b["body_path_m"]} for b in bad]
+    return ws.subset(keep), rows
 
 
 def _clean(obj):

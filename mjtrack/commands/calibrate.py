@@ -23,6 +23,8 @@ mu_ratio); with robot key ground {"model": "anisotropic"}: lateral_ratio; with
 drive_lag, drive_delay, track_speed_scale, plus slope_x, slope_y when the log's segments share one
 world frame, plus the ground model's parameters, plus rolling_resistance (the ground holding each
 side back by a share of its weight). A long log is fitted on --fit-windows windows spread over it.
+Windows whose poses move against the tracks (a jumped localisation, a speed of the wrong sign) are
+left out of the fit and of every score unless --keep-contradicting is given.
 """
 
 from __future__ import annotations
@@ -59,6 +61,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"windows the fit uses, spread evenly over the log (default {FIT_WINDOWS}; 'all': every "
                              "window). The errors before and after, and the causes, use every window; a fit's time "
                              "grows with its windows, its intervals narrow with their square root")
+    parser.add_argument("--keep-contradicting", action="store_true",
+                        help="keep the windows whose poses move against the tracks (by default they are left out of "
+                             "the fit and of every score, with a warning, and listed in calibration.json under "
+                             "left_out: a body that keeps moving against its tracks without slowing down is a pose or "
+                             "speed record the ground cannot explain)")
     parser.add_argument("--threads", metavar="N", type=bounded("threads"), default=2, help="rollout threads (default 2)")
     add_robot_options(parser)
     add_output_options(parser)
@@ -76,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
     cal = calibrate(train, robot, test=test, names=args.params, horizon_s=args.horizon,
                     n_rollers=args.rollers, max_iter=args.max_iter, nthread=args.threads, quiet=args.quiet,
                     drive_input=args.drive_input, fit_windows=args.fit_windows,
+                    keep_contradicting=args.keep_contradicting,
                     train_path=str(args.log), test_path=None if args.test is None else str(args.test))
     write_outputs(cal, out)
     changed = ", ".join(f"{n} {cal.described[n]:.4g} -> {cal.values[n]:.4g}" for n in cal.changed) or "nothing"

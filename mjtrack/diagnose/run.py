@@ -35,6 +35,7 @@ from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import G, Robot
 from mjtrack.sim.rollout import summarised_mujoco_warnings
+from mjtrack.sim.windows import AGAINST_WHY
 
 log = logging.getLogger(__name__)
 
@@ -256,6 +257,10 @@ def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, bas
         problem = model.problem(n_folds, n_train=None if test_log is None else log_.n_samples)
         choice = {"requested": requested, "chosen": "mujoco", "why": mujoco_note, "screened_by_surrogate": screened}
         notes: list[str] = []
+        if model.left_out:
+            notes.append(f"{len(model.left_out)} of {len(model.left_out) + len(model.ws)} windows left out (starting at "
+                         + ", ".join(f"t = {b['t0']:.2f} s" for b in model.left_out) + f"): {AGAINST_WHY}")
+            log.warning("diagnose %s: %s", src, notes[-1])
     else:
         problem, notes, why = _surrogate_problem(log_, robot, horizon_s=horizon_s, n_folds=n_folds, baseline=baseline,
                                                  max_fit_windows=max_fit_windows, transient=transient,

@@ -157,6 +157,52 @@ def start_speeds(log: DriveLog, ws: WindowSet) -> np.ndarray:
     return np.where(np.isfinite(meas), meas, cmd)
 
 
+#: A window's poses contradict its tracks when, with the tracks' path pointing the same way in both
+#: halves of the window, the body moves at least ``AGAINST_PATH_M`` against it in the second half
+#: without having slowed down: a body moving against its tracks on level ground is braked by the
+#: ground, at ``AGAINST_MU`` or more times g, so its second-half path against them is at least
+#: AGAINST_MU g tau^2 shorter than its first-half path (halves of tau seconds). A body still
+#: coasting against tracks that reversed (a DRIVE window that starts at speed) slows down and is not
+#: flagged; a record whose localisation jumped or flipped, or whose speeds have the wrong sign, is.
+#: A robot sliding down a slope its tracks cannot climb is flagged too (the docs say so).
+AGAINST_PATH_M = 0.5
+AGAINST_MU = 0.05
+AGAINST_WHY = (f"in the second half of the window the poses move at least {AGAINST_PATH_M:g} m against the tracks, "
+               f"which push the same way in both halves, without the slowing down that ground friction (at least "
+               f"{AGAINST_MU:g} g) forces on a body moving against its tracks on level ground: the window's pose or "
+               "speed record is wrong")
+
+
+def contradicting_windows(log: DriveLog, ws: WindowSet) -> list[dict]:
+    """The windows whose measured poses move against the tracks in a way the ground cannot allow
+    (:data:`AGAINST_WHY`), each as ``{"index", "t0", "track_path_m", "body_path_m"}``: the window's
+    index in ``ws``, its start time, and, per half of the window, the signed path of the mean track
+    speed (measured when present, else commanded) and the signed path of the poses along their own
+    heading."""
+    if len(ws) == 0:
+        return []
+    vl = log.v_left if log.has_track_speeds else log.v_left_cmd
+    vr = log.v_right if log.has_track_speeds else log.v_right_cmd
+    v = 0.5 * (np.where(np.isfinite(vl), vl, log.v_left_cmd) + np.where(np.isfinite(vr), vr, log.v_right_cmd))
+    out = []
+    for j, (s, e) in enumerate(zip(ws.starts, ws.ends)):
+        tau = 0.5 * float(log.t[e] - log.t[s])
+        m = int(np.searchsorted(log.t[s:e + 1], log.t[s] + tau - 1e-9)) + s
+        if not s < m < e:
+            continue
+        track, body = [], []
+        for a, b in ((s, m), (m, e)):
+            track.append(float(np.sum(v[a:b] * np.diff(log.t[a:b + 1]))))
+            yaw = log.yaw[a:b]
+            body.append(float(np.sum(np.diff(log.x[a:b + 1]) * np.cos(yaw) + np.diff(log.y[a:b + 1]) * np.sin(yaw))))
+        if track[0] * track[1] <= 0:
+            continue
+        against = [-np.sign(track[0]) * b for b in body]
+        if against[1] >= AGAINST_PATH_M and against[1] > against[0] - AGAINST_MU * G * tau ** 2:
+            out.append({"index": j, "t0": float(log.t[s]), "track_path_m": track, "body_path_m": body})
+    return out
+
+
 # -- the simulator of windows ---------------------------------------------------------------------
 def drive_params(robot: Robot) -> dict[str, float | None]:
     """The robot's drivetrain keys (attributes or description keys), None where absent."""

@@ -1,0 +1,43 @@
+"""Drive logs with a wrong record in one window, for the tests of the windows left out.
+
+    from mjtrack.testing.records import with_backward_window
+
+    bad, (s, e) = with_backward_window(log, start_row=80, end_row=120)
+
+The rows ``start_row .. end_row`` become a window in which both tracks drive forwards at a constant
+speed (commands, and measured speeds where the log has them) while the poses move backwards along
+the start heading at another constant speed, as a localisation that flipped would record it; the
+rows after the window are shifted so that the log continues from there as before. Written here,
+with no code of :mod:`mjtrack.sim.windows`, which finds such windows.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjtrack.io.logs import DriveLog
+
+
+def with_backward_window(lg: DriveLog, start_row: int, end_row: int, *, track_speed: float = 0.6,
+                         body_speed: float = 0.8) -> tuple[DriveLog, tuple[int, int]]:
+    """``lg`` with rows ``start_row .. end_row`` (inclusive) rewritten as the module docstring says;
+    returns the new log and the row range."""
+    s, e = int(start_row), int(end_row)
+    if not 0 <= s < e < lg.n_samples:
+        raise ValueError(f"rows {s}..{e} are not inside the log's {lg.n_samples}")
+    t = lg.t - lg.t[s]
+    heading = float(lg.yaw[s])
+    x, y, yaw = lg.x.copy(), lg.y.copy(), lg.yaw.copy()
+    x[s:e + 1] = lg.x[s] - body_speed * t[s:e + 1] * np.cos(heading)
+    y[s:e + 1] = lg.y[s] - body_speed * t[s:e + 1] * np.sin(heading)
+    yaw[s:e] = heading  # the last row keeps its own heading: the log goes on from there
+    x[e + 1:] += x[e] - lg.x[e]
+    y[e + 1:] += y[e] - lg.y[e]
+    changes = {"x": x, "y": y, "yaw": yaw}
+    for name in ("v_left_cmd", "v_right_cmd", "v_left", "v_right"):
+        col = getattr(lg, name)
+        if col is not None:
+            col = col.copy()
+            col[s:e] = track_speed
+            changes[name] = col
+    return lg.replace(**changes), (s, e)
