@@ -8,8 +8,9 @@ up over the log's last :data:`mjtrack.sim.windows.WARMUP_S` before it, as calibr
 description records (a calibrated robot's, :func:`mjtrack.sim.config.sim_config`). The metric is the RMS position error at the window's end, in the measured
 start frame (``pos_err_m`` of diagnosis.json). Every candidate effect is an *extension of the MuJoCo
 robot* (:data:`CHANGES`): a model field (friction, centre of mass, drive lag, lateral friction of
-the anisotropic ground), a rebuilt model (road-wheel load), the world (gravity of an inclined
-plane) or the drive's input (speed scale, dead time, saturation). Effects already found are
+the anisotropic ground, the motion resistance's force), a rebuilt model (road-wheel load, contact
+length), the world (gravity of an inclined plane) or the drive's input (speed scale, dead time,
+saturation). Effects already found are
 combined with the candidate (a model variant with both fields; the commands clipped and the
 gravity tilted as well), except the two ground models with each other.
 
@@ -77,6 +78,8 @@ CHANGES = {
     "slope": "gravity of a plane inclined by slope, uphill towards slope_direction (world frame)",
     "ground_anisotropy": "anisotropic ground: lateral friction = ratio x longitudinal (capsule rollers)",
     "road_wheels": "95 % of the load on 4 road wheels spread over span x the contact length",
+    "contact_length": "a track's contact length (a wheeled robot's wheelbase): the robot rebuilt",
+    "rolling_resistance": "a force holding each side back by this share of its weight (model actuators)",
 }
 UNTESTABLE = {"icr_spread": "not a physical parameter of the MuJoCo robot",
               "yaw_rate_limit": "the MuJoCo drives have no yaw-rate limit"}
@@ -94,6 +97,8 @@ NOMINAL: dict[str, Callable[[Robot, DriveLog], float]] = {
     "speed_limit": lambda r, lg: _vmax(lg),
     "ground_anisotropy": lambda r, lg: 1.0,
     "road_wheels": lambda r, lg: 1.0,
+    "contact_length": lambda r, lg: r.contact_length,
+    "rolling_resistance": lambda r, lg: r.rolling_resistance,
 }
 # the fit's grid of each one-parameter effect (module docstring)
 GRIDS: dict[str, Callable[[Robot, DriveLog], np.ndarray]] = {
@@ -107,6 +112,8 @@ GRIDS: dict[str, Callable[[Robot, DriveLog], np.ndarray]] = {
     "speed_limit": lambda r, lg: _vmax(lg) * np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
     "ground_anisotropy": lambda r, lg: np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
     "road_wheels": lambda r, lg: np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
+    "contact_length": lambda r, lg: r.contact_length * np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4]),
+    "rolling_resistance": lambda r, lg: r.rolling_resistance + np.array([0.0, 0.02, 0.05, 0.08, 0.12, 0.18, 0.25]),
 }
 _SIM_OF = {"ground_anisotropy": "aniso", "road_wheels": "wheels"}
 
@@ -172,9 +179,12 @@ def _spec(robot: Robot, parts) -> tuple[str, dict, float | None]:
             scale = v
         elif name == "friction_asymmetry":
             ratio = v
+        elif name == "contact_length":
+            variant["wheelbase" if robot.traction == "wheels" else "track_length"] = v
         else:
             variant[{"cg_offset_x": "cg_x", "cg_offset_y": "cg_y", "track_speed_scale": "track_speed_scale",
-                     "actuator_lag": "drive_lag", "command_delay": "drive_delay"}[name]] = v
+                     "actuator_lag": "drive_lag", "command_delay": "drive_delay",
+                     "rolling_resistance": "rolling_resistance"}[name]] = v
     if scale is not None or ratio is not None:
         s = 1.0 if scale is None else scale
         left = robot.friction_left if ratio is None else robot.friction_right * ratio
@@ -301,16 +311,19 @@ class MujocoBaseline(Baseline):
         return f"a blocked bootstrap over windows ({N_BOOT} resamples of the MuJoCo fit)"
 
     def _sim(self, kind: str) -> WindowSim:
+        # every simulator carries the motion resistance's actuators (as calibration's), so that the
+        # rolling_resistance effect is a window parameter; at the robot's own 0 they apply no force
         if kind not in self._sims:
             r = self.robot
             if kind == "aniso":
                 ground = r.ground if r.ground.model == "anisotropic" else {"model": "anisotropic", "lateral_ratio": 1.0}
-                self._sims[kind] = WindowSim(r.replace(ground=ground), self.config)
+                self._sims[kind] = WindowSim(r.replace(ground=ground), self.config, resisted=True)
             elif kind == "wheels":
                 self._sims[kind] = WindowSim(r.replace(ground={"model": "road_wheels", "wheels": 4,
-                                                               "concentration": 0.95, "span": 1.0}), self.config)
+                                                               "concentration": 0.95, "span": 1.0}), self.config,
+                                             resisted=True)
             else:
-                self._sims[kind] = WindowSim(r, self.config)
+                self._sims[kind] = WindowSim(r, self.config, resisted=True)
         return self._sims[kind]
 
     def _run(self, windows: np.ndarray, specs: Sequence[tuple]) -> np.ndarray:
