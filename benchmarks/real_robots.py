@@ -115,6 +115,94 @@ def command_following(log) -> dict:
             "speed_difference": rel(m[:, 1] - m[:, 0], c[:, 1] - c[:, 0])}
 
 
+def kinematic_model(train, train_ws, test, test_ws, gauge: float) -> dict:
+    """A planar kinematic model driven by the measured track speeds, on the same windows as the
+    calibration: body speed v = k (v_L + v_R) / 2, yaw rate k (v_R - v_L) / (a T), lateral speed -x_c
+    times the yaw rate (the ICR model of an effective gauge a T, a speed scale k and an ICR offset
+    x_c), each row's speeds held to the next row, integrated from each window's measured start pose
+    and scored as calibrate scores (RMS position error at the window's end). ``fitted_on_train``: k,
+    a, x_c fitted on the training windows and scored on the test windows, a baseline to beat;
+    ``fitted_on_test``: fitted on the test windows themselves, a bound no model of this family can
+    beat there."""
+    from scipy.optimize import least_squares
+
+    from mjtrack.sim.windows import window_errors
+
+    def errors(lg, ws, p):
+        n = ws.ends - ws.starts
+        K, M = int(n.max()) + 1, len(ws)
+        vl = np.where(np.isfinite(lg.v_left), lg.v_left, lg.v_left_cmd)
+        vr = np.where(np.isfinite(lg.v_right), lg.v_right, lg.v_right_cmd)
+        k, a, xc = p
+        out = np.full((1, M, K, 3), np.nan)
+        for j, (s, e) in enumerate(zip(ws.starts, ws.ends)):
+            dt = np.diff(lg.t[s:e + 1])
+            v = k * 0.5 * (vl[s:e] + vr[s:e])
+            w = k * (vr[s:e] - vl[s:e]) / (a * gauge)
+            yaw = lg.yaw[s] + np.concatenate([[0.0], np.cumsum(w * dt)])
+            vy = -xc * w
+            c, si = np.cos(yaw[:-1]), np.sin(yaw[:-1])
+            x = lg.x[s] + np.concatenate([[0.0], np.cumsum((v * c - vy * si) * dt)])
+            y = lg.y[s] + np.concatenate([[0.0], np.cumsum((v * si + vy * c) * dt)])
+            out[0, j, :e - s + 1] = np.column_stack([x, y, yaw])
+        return window_errors(lg, ws, out)[0][:, :2]
+
+    def fitted(lg, ws):
+        return least_squares(lambda p: errors(lg, ws, p).ravel(), [1.0, 1.0, 0.0],
+                             bounds=([0.3, 0.3, -2.0], [3.0, 5.0, 2.0])).x
+
+    def scored(p):
+        r = errors(test, test_ws, p)
+        return {"rms": float(np.sqrt(np.mean(np.sum(r ** 2, 1)))), "speed_scale": float(p[0]),
+                "gauge_factor": float(p[1]), "icr_x": float(p[2]), "windows": len(test_ws)}
+
+    return {"model": "v = k (v_L + v_R)/2, yaw rate k (v_R - v_L)/(a T), lateral -x_c yaw rate, driven by the "
+                     "measured track speeds",
+            "fitted_on_train": scored(fitted(train, train_ws)), "fitted_on_test": scored(fitted(test, test_ws))}
+
+
+def context_of_stored(name: str, spec: dict, *, rollers: int, worst: int = 10) -> dict:
+    """What puts a stored calibration's test error in context, on the windows it scored (the same
+    split, the same windows left out): ``kinematic`` (:func:`kinematic_model`); ``start_at_rest``: the
+    described robot's test error with every window started with the body at rest instead of the
+    twist estimated from the poses (how much the start state the log gives matters);
+    ``concentration``: the share of the calibrated robot's squared test error carried by its
+    ``worst`` worst windows, with their start times."""
+    from mjtrack.calibrate.run import measured_drive_log
+    from mjtrack.sim.config import robot_sim_settings, sim_config
+    from mjtrack.sim.windows import WARMUP_S, WindowSim, make_windows, simulate_windows
+
+    log, base = read_log_with_robot(spec["log"])
+    parts = list(split(log, *spec["split"]))
+    stored = json.loads((OUTPUTS / name / "calibration.json").read_text())
+    wins = []
+    for part, lg in zip(("train", "test"), parts):
+        ws = make_windows(lg, stored["train"]["horizon_s"])
+        out = {round(w["t0"], 6) for w in stored.get("left_out", {}).get(part, {}).get("windows", [])}
+        wins.append(ws.subset(np.array([round(float(lg.t[s]), 6) not in out for s in ws.starts], bool)))
+    kin = kinematic_model(parts[0], wins[0], parts[1], wins[1], base.track_gauge)
+    test, tws = parts[1], wins[1]
+    if spec.get("drive_input") == "measured":
+        test = measured_drive_log(test, f"{spec['log'].name} (test part)")
+
+    def errors(robot, lg, twists=None):
+        config = sim_config(None, robot=robot)
+        if robot.traction != "wheels" and "n_rollers" not in robot_sim_settings(robot):  # as the calibration ran
+            config = config.replace(n_rollers=rollers)
+        res = simulate_windows(WindowSim(robot, config, resisted=True), lg, tws, [{}], warmup_s=WARMUP_S,
+                               twists=twists)
+        return np.hypot(res.errors[0][:, 0], res.errors[0][:, 1])
+
+    e_rest = errors(starting_robot(base, spec["public"]), test, twists=np.zeros((len(tws), 3)))
+    e_cal = errors(read_robot(OUTPUTS / name / "robot.json"), test)
+    order = np.argsort(e_cal)[::-1][:worst]
+    return {"kinematic": kin,
+            "start_at_rest": {"rms": float(np.sqrt(np.mean(e_rest ** 2))), "windows": len(tws)},
+            "concentration": {"worst": worst, "share": float(np.sum(e_cal[order] ** 2) / np.sum(e_cal ** 2)),
+                              "median_m": float(np.median(e_cal)), "rms_m": float(np.sqrt(np.mean(e_cal ** 2))),
+                              "t0": [float(test.t[tws.starts[j]]) for j in order]}}
+
+
 def run_robot(name: str, spec: dict, *, rollers: int) -> dict:
     log, base = read_log_with_robot(spec["log"])
     train, test = split(log, *spec["split"])
@@ -141,15 +229,21 @@ def run_robot(name: str, spec: dict, *, rollers: int) -> dict:
             "speed_ratio": speed,
             "parameters": cj["parameters"], "intervals": cj["intervals"], "determined": cj["determined"],
             "described": cj["described"], "causes": cj["causes"], "summary": cj["summary"],
-            "assumed": cj["assumed"], "seconds": wall}
+            "assumed": cj["assumed"], "left_out": cj["left_out"],
+            "seconds": wall, **context_of_stored(name, spec, rollers=rollers)}
 
 
 def diagnose_robot(name: str, spec: dict) -> dict:
-    """``diagnose --baseline mujoco`` of the test part against the stored calibrated robot."""
+    """``diagnose --baseline mujoco`` of the test part against the stored calibrated robot (its drives
+    following what they followed in the calibration: the commands, or the measured track speeds)."""
     from mjtrack.diagnose import diagnose
+
+    from mjtrack.calibrate.run import measured_drive_log
 
     log, _ = read_log_with_robot(spec["log"])
     _, test = split(log, *spec["split"])
+    if spec.get("drive_input") == "measured":  # driven as calibrated: by the measured track speeds
+        test = measured_drive_log(test, f"{spec['log'].name} (test part)")
     robot = read_robot(OUTPUTS / name / "robot.json")
     t0 = time.time()
     d = diagnose(test, robot, baseline="mujoco", quiet=not sys.stderr.isatty())
@@ -166,6 +260,9 @@ def main(argv=None) -> int:
     ap.add_argument("--rollers", type=int, default=6, help="contact rollers per track (tracked robots; default 6)")
     ap.add_argument("--diagnose", action="store_true", help="then diagnose the test part against the calibrated robot")
     ap.add_argument("--diagnose-only", action="store_true", help="only diagnose the stored calibrated robots")
+    ap.add_argument("--context-only", action="store_true",
+                    help="only recompute, for the stored robots, the kinematic model, the start-state sensitivity "
+                         "and the error concentration (seconds)")
     args = ap.parse_args(argv)
     load0 = os.getloadavg()
     old = json.loads(RESULT.read_text()) if RESULT.exists() else {}
@@ -174,6 +271,17 @@ def main(argv=None) -> int:
         spec = ROBOTS[name]
         if not spec["log"].exists():
             print(f"{spec['log']} not found (the shared data); skipped")
+            continue
+        if args.context_only:
+            robots[name] = {**{k: v for k, v in robots[name].items() if k != "kinematic_bound"},  # (its old name)
+                            **context_of_stored(name, spec, rollers=args.rollers)}
+            r = robots[name]
+            k, c = r["kinematic"], r["concentration"]
+            print(f"== {name}: test error {r['test']['before']:.4f} -> {r['test']['after']:.4f} m; kinematic model "
+                  f"{k['fitted_on_train']['rms']:.4f} m (fitted on train), {k['fitted_on_test']['rms']:.4f} m (fitted "
+                  f"on test); described robot started at rest {r['start_at_rest']['rms']:.4f} m; the calibrated "
+                  f"robot's {c['worst']} worst test windows carry {100 * c['share']:.0f} % of its squared error")
+            _write(robots, args, load0)
             continue
         if args.diagnose_only:
             r = robots[name]
@@ -194,6 +302,14 @@ def main(argv=None) -> int:
         print(f"  drives follow: {r['drive_input']} speeds; measured vs commanded once settled: RMS difference "
               f"{cf['mean_speed']:.2f} of the mean speed, {cf['speed_difference']:.2f} of the speed difference")
         print(f"  test 2 s position RMSE {t['before']:.4f} -> {t['after']:.4f} m ({100 * t['relative']:.1f} % lower)")
+        kin = r["kinematic"]
+        print(f"  a kinematic ICR model on the measured track speeds: {kin['fitted_on_train']['rms']:.4f} m fitted on "
+              f"the training windows, {kin['fitted_on_test']['rms']:.4f} m fitted on the test windows themselves "
+              "(a bound)")
+        for part, lo in r["left_out"].items():
+            at = ", ".join(f"{w['t0']:.1f}" for w in lo["windows"])
+            print(f"  left out of the {part} part: {len(lo['windows'])} windows whose poses move against the tracks "
+                  f"(at t = {at} s)")
         f3 = lambda v: "n/a" if v is None else f"{v:.3f}"
         print(f"  test yaw ratio: measured {f3(y['measured'])}, simulated {f3(y['before'])} -> {f3(y['after'])} "
               f"({y['windows']} steady-turn windows)")

@@ -481,10 +481,20 @@ def _calibration() -> Page:
             rows.add(name, x["parameter"], number(bat, r + "/truth"), number(bat, r + "/estimate"), *iv,
                      number(bat, r + "/determined"), number(bat, r + "/covered"))
     robots = Table("Three real robots, calibrated on the first part of their log and scored on the next part: held-out "
-                   "position error [m] at the window's end before and after, its relative drop, and the steady-turn yaw ratio "
-                   "(yaw rate over the ideal (v_R - v_L)/T) measured and simulated on the test part.",
+                   "position error [m] at the window's end before and after, its relative drop, the steady-turn yaw ratio "
+                   "(yaw rate over the ideal (v_R - v_L)/T) measured and simulated on the test part, and the windows "
+                   "left out because their poses move against the tracks (calibration.json `left_out`).",
                    ["robot", "train windows", "test windows", "test before", "test after", "drop", "yaw ratio measured",
-                    "simulated before", "simulated after"])
+                    "simulated before", "simulated after", "left out (train, test)"])
+    context = Table("What puts the real robots' test errors [m] in context, on the same windows: a kinematic ICR model "
+                    "(speed scale, effective gauge, ICR offset) driven by the measured track speeds, fitted on the "
+                    "training windows (a baseline) and on the test windows themselves (a bound no model of that family "
+                    "can beat there); the described robot with every window started with the body at rest instead of "
+                    "the twist estimated from the poses; the calibrated robot's median window error and the share of "
+                    "its squared error carried by its ten worst windows.",
+                    ["robot", "calibrated MuJoCo", "kinematic, fitted on train", "kinematic, fitted on test",
+                     "described MuJoCo", "described, started at rest", "calibrated, median window",
+                     "ten worst windows' share"])
     params = Table("Every candidate of the real-robot calibrations: described value, calibrated value, interval, "
                    "whether the log determines it and whether calibration changed it.",
                    ["robot", "parameter", "described", "calibrated", "interval low", "interval high", "determined",
@@ -507,7 +517,14 @@ def _calibration() -> Page:
         robots.add(name, number(real, q + "/windows/train"), number(real, q + "/windows/test"),
                    number(real, q + "/test/before"), number(real, q + "/test/after"), number(real, q + "/test/relative"),
                    number(real, q + "/yaw_ratio/measured"), number(real, q + "/yaw_ratio/before"),
-                   number(real, q + "/yaw_ratio/after"))
+                   number(real, q + "/yaw_ratio/after"),
+                   ", ".join(str(len(r.get("left_out", {}).get(part, {}).get("windows", []))) for part in ("train", "test"))
+                   if "left_out" in r else "not checked")
+        if "kinematic" in r:
+            context.add(name, number(real, q + "/test/after"), number(real, q + "/kinematic/fitted_on_train/rms"),
+                        number(real, q + "/kinematic/fitted_on_test/rms"), number(real, q + "/test/before"),
+                        number(real, q + "/start_at_rest/rms"), number(real, q + "/concentration/median_m"),
+                        number(real, q + "/concentration/share"))
         for cls in r.get("speed_ratio", {}):
             p = f"{q}/speed_ratio/{cls.replace('~', '~0').replace('/', '~1')}"
             speed.add(name, class_names.get(cls, cls), number(real, p + "/windows"), number(real, p + "/measured"),
@@ -526,7 +543,7 @@ def _calibration() -> Page:
         "and on three real robots: Marmotte (tracked), Husky and Warthog (wheeled skid-steer), from the DRIVE data. "
         "A parameter the log does not determine keeps its described value and is marked so; intervals carry the "
         "correlation of a log's windows and the measured model-form error of simulating a window from a logged "
-        "state.", [bat, real], [cases, rows, robots, speed, params, summaries])
+        "state.", [bat, real], [cases, rows, robots, context, speed, params, summaries])
 
 
 PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _implementations, _filters, _speed, _wheeled,
