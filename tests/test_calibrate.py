@@ -182,7 +182,7 @@ def test_measured_drive_input_keeps_the_speed_scale_as_a_rolling_radius(monkeypa
     t = np.arange(50) * 0.05
     lg = dataclasses.replace(_bare_log(t), v_left=np.full(50, 0.2), v_right=np.full(50, 0.4))
     calibrate(lg, Robot(track_gauge=0.4), drive_input="measured")
-    assert "track_speed_scale" in seen["names"]
+    assert "track_speed_scale" in seen["names"] and "drive_force_limit" in seen["names"]
     assert "drive_lag" not in seen["names"] and "drive_delay" not in seen["names"]
 
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from mjtrack.errors import InputError
 from mjtrack.io.logs import DriveLog
-from mjtrack.io.robot import Robot
+from mjtrack.io.robot import G, Robot
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.windows import WINDOW_PARAMS, drive_params, robot_params
 
@@ -58,6 +58,7 @@ def _specs(robot: Robot) -> dict[str, ParamSpec]:
     # cg bounds: a quarter of the half-length / half-gauge; the roller chain's explicit-Euler step
     # diverged at cg_x = 0.4 L/2 in some transients (tests/test_windows.py)
     cgx, cgy = 0.25 * L / 2, 0.25 * T / 2
+    W = robot.mass * G  # a drive's force limit is a share of the weight: 2 % to 5 times it per side
     return {s.name: s for s in (
         ParamSpec("mu", 0.05, 2.0, 0.1, 0.1, "–", "ground", "ground friction (geometric mean of the two sides)"),
         ParamSpec("mu_ratio", 0.2, 5.0, 0.1, 0.05, "–", "ground", "left / right friction"),
@@ -72,7 +73,8 @@ def _specs(robot: Robot) -> dict[str, ParamSpec]:
         # time step, across which the residuals have kinks in the delay (mjtrack.calibrate.fit)
         ParamSpec("drive_delay", 0.0, 0.6, 0.01, 0.02, "s", "drive", "dead time from command to track speed"),
         ParamSpec("track_speed_scale", 0.5, 1.5, 0.05, 0.02, "–", "drive", "actual / commanded track speed"),
-        ParamSpec("drive_force_limit", 5.0, 5000.0, 50.0, 50.0, "N", "drive", "largest force a track drive applies"),
+        ParamSpec("drive_force_limit", 0.02 * W, 5.0 * W, 0.1 * W, 0.05 * W, "N", "drive",
+                  "largest force a track drive applies"),
         # resolution 0.01: on a Husky-sized robot it moves the forward speed in a turn by 1-5 %
         ParamSpec("rolling_resistance", 0.0, 0.6, 0.02, 0.01, "–", "ground",
                   "motion resistance: share of each side's weight holding it back"),

@@ -354,8 +354,9 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
         drive_input: ``"commanded"``: the simulated drives follow the logged commands (the drive's
             lag, delay and speed scale are candidates); ``"measured"``: they follow the logged
             track speeds, for a robot whose own speed controller caps or shapes its commands in
-            ways the drive keys do not describe; the contact and the speed scale (then the effective
-            rolling radius over the nominal one) are calibrated.
+            ways the drive keys do not describe; the contact, the speed scale (then the effective
+            rolling radius over the nominal one) and the drives' force limit (how fast the simulated
+            drives can follow the measured speeds) are calibrated.
         fit_windows: windows the fit uses, spread evenly over the log (None: every window); the
             errors before and after and the causes use every window.
         keep_contradicting: keep the windows whose poses move against the tracks (by default they
@@ -369,8 +370,8 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
     if drive_input == "measured":
         train = measured_drive_log(train, train_path or train.source or "train log")
         test = None if test is None else measured_drive_log(test, test_path or test.source or "test log")
-        if names is None:  # the default candidates less the drive's timing
-            names = [n for n in parse_names(None, robot, train) if n not in COMMAND_PARAMS]
+        if names is None:  # the default candidates less the drive's timing, plus how hard the drives push
+            names = [n for n in parse_names(None, robot, train) if n not in COMMAND_PARAMS] + list(MEASURED_PARAMS)
         elif isinstance(names, str):
             names = parse_names(names, robot, train)
         bad = [n for n in names if n in COMMAND_PARAMS]
@@ -389,6 +390,11 @@ DRIVE_INPUTS = ("commanded", "measured")
 # stays one: against measured track speeds (wheel or sprocket turn rate times its nominal radius) it
 # is the effective rolling radius over the nominal one (a loaded tyre rolls on less than its radius)
 COMMAND_PARAMS = ("drive_lag", "drive_delay")
+# and a candidate then: the simulated drives follow the measured speeds only as fast as their force
+# limit lets them accelerate the drivetrain's inertia; the default limit (SimConfig.torque_limit over
+# the wheel radius) lets a 0.3 m wheel of a 260 kg robot change speed at about 1 m/s^2, where the
+# Warthog's measured wheels reverse at 4 m/s^2 and more
+MEASURED_PARAMS = ("drive_force_limit",)
 
 
 def measured_drive_log(lg: DriveLog, name: str) -> DriveLog:
