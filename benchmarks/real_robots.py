@@ -168,7 +168,7 @@ def context_of_stored(name: str, spec: dict, *, rollers: int, worst: int = 10) -
     twist estimated from the poses (how much the start state the log gives matters);
     ``concentration``: the share of the calibrated robot's squared test error carried by its
     ``worst`` worst windows, with their start times."""
-    from mjtrack.calibrate.run import measured_drive_log
+    from mjtrack.sim.windows import measured_drive_log
     from mjtrack.sim.config import robot_sim_settings, sim_config
     from mjtrack.sim.windows import WARMUP_S, WindowSim, make_windows, simulate_windows
 
@@ -238,7 +238,7 @@ def diagnose_robot(name: str, spec: dict) -> dict:
     following what they followed in the calibration: the commands, or the measured track speeds)."""
     from mjtrack.diagnose import diagnose
 
-    from mjtrack.calibrate.run import measured_drive_log
+    from mjtrack.sim.windows import measured_drive_log
 
     log, _ = read_log_with_robot(spec["log"])
     _, test = split(log, *spec["split"])

@@ -148,7 +148,7 @@ def test_calibration_recovers_drivetrain_and_contact_length(tmp_path):
 def test_measured_drive_input_drives_with_the_measured_speeds_and_refuses_drive_keys():
     import dataclasses
 
-    from mjtrack.calibrate.run import commanded_log, measured_drive_log
+    from mjtrack.sim.windows import commanded_log, measured_drive_log
     from mjtrack.errors import InputError
 
     n = 50
@@ -307,3 +307,15 @@ def test_windows_whose_poses_move_against_the_tracks_are_left_out_and_listed():
     kept = calibrate(bad, Robot(), names=["cg_x"], fit_windows=None, max_iter=3, keep_contradicting=True)
     assert len(kept.train_windows) == 8 and kept.to_json()["left_out"] == {}
     assert kept.before.rms > 3 * cal.before.rms  # the rewritten window dominates the error it is scored in
+
+
+def test_the_calibrated_robot_file_records_the_drive_input(tmp_path):
+    """A robot calibrated with its drives following the measured speeds says so under simulator,
+    so that the MuJoCo diagnosis of a log drives it the same way; commanded drives add nothing."""
+    from mjtrack.calibrate.run import calibrated_robot
+    from mjtrack.sim.config import robot_sim_settings
+
+    measured = calibrated_robot(Robot(), {"cg_x": 0.02}, SimConfig(), "measured")
+    write_robot(measured, tmp_path / "robot.json")
+    assert robot_sim_settings(read_robot(tmp_path / "robot.json"))["drive_input"] == "measured"
+    assert "drive_input" not in robot_sim_settings(calibrated_robot(Robot(), {"cg_x": 0.02}, SimConfig()))

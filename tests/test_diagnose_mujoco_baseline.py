@@ -122,6 +122,31 @@ def test_windows_whose_poses_move_against_the_tracks_are_left_out_and_said():
     assert d.to_json()["notes"] == d.notes
 
 
+def test_a_robot_calibrated_on_measured_speeds_is_diagnosed_on_them(monkeypatch):
+    # simulator.drive_input "measured" in the robot file: the MuJoCo diagnosis drives the robot by
+    # the log's measured track speeds, as its calibration did, and says so
+    import mjtrack.diagnose.run as run
+
+    lg, _ = make_log(None, seed=4, duration=30.0, speeds=True)
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def spy(robot, log, **kw):
+        seen["log"] = log
+        raise Stop
+
+    monkeypatch.setattr(run, "MujocoBaseline", spy)
+    robot = Robot.from_dict({**NOMINAL.to_dict(), "simulator": {"drive_input": "measured"}})
+    with pytest.raises(Stop):
+        diagnose(lg, robot, baseline="mujoco")
+    assert np.array_equal(seen["log"].v_left_cmd, np.where(np.isfinite(lg.v_left), lg.v_left, lg.v_left_cmd))
+    with pytest.raises(Stop):
+        diagnose(lg, NOMINAL, baseline="mujoco")
+    assert np.array_equal(seen["log"].v_left_cmd, lg.v_left_cmd)
+
+
 def test_grids_extend_a_calibrated_robot():
     # a calibrated drivetrain is the "no effect" value: lag and dead time are added to it, the speed
     # scale and centre of mass are searched around it (not reset to an ideal robot's)

@@ -43,8 +43,8 @@ from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.config import SimConfig, sim_config
 from mjtrack.sim.windows import (AGAINST_WHY, DRIVE_DEFAULTS, WARMUP_S, WindowResult, WindowSet,
-                                 WindowSim, contradicting_windows, geometry_robot, make_windows, measured_window_poses,
-                                 simulate_windows)
+                                 WindowSim, commanded_log, contradicting_windows, geometry_robot, make_windows,
+                                 measured_drive_log, measured_window_poses, simulate_windows)
 
 log = logging.getLogger(__name__)
 
@@ -273,10 +273,11 @@ def assumed_values(robot: Robot, names: list[str]) -> dict[str, str]:
     return out
 
 
-def calibrated_robot(robot: Robot, values: dict[str, float], config: SimConfig) -> Robot:
+def calibrated_robot(robot: Robot, values: dict[str, float], config: SimConfig,
+                     drive_input: str = "commanded") -> Robot:
     """The robot with calibrated values written into its description (friction per side, centre
     of mass, contact length, drive keys, ground parameters) and, under ``simulator``, the settings
-    of the simulator they were fitted with. A slope is the log's ground, not the robot's: it stays
+    of the simulator they were fitted with (with the drive input when it was not the commands). A slope is the log's ground, not the robot's: it stays
     in calibration.json."""
     wp = window_params({k: v for k, v in values.items() if k not in ("slope_x", "slope_y")}, robot)
     r = geometry_robot(robot, wp)
@@ -297,6 +298,8 @@ def calibrated_robot(robot: Robot, values: dict[str, float], config: SimConfig) 
             else:
                 extra[k] = wp[k]
     extra["simulator"] = {"track_model": config.track_model, "n_rollers": int(config.n_rollers)}
+    if drive_input != "commanded":  # what its drives followed in the fit: the MuJoCo diagnosis follows it too
+        extra["simulator"]["drive_input"] = drive_input
     return dataclasses.replace(r, extra=extra)
 
 
@@ -395,32 +398,6 @@ COMMAND_PARAMS = ("drive_lag", "drive_delay")
 # the wheel radius) lets a 0.3 m wheel of a 260 kg robot change speed at about 1 m/s^2, where the
 # Warthog's measured wheels reverse at 4 m/s^2 and more
 MEASURED_PARAMS = ("drive_force_limit",)
-
-
-def measured_drive_log(lg: DriveLog, name: str) -> DriveLog:
-    """The log with its measured track speeds in place of the commands (a track without a measured
-    speed on a row keeps its command there); InputError when it has no measured speeds."""
-    if lg.v_left is None or lg.v_right is None:
-        raise InputError(f"{name}: --drive-input measured needs the measured track speeds (v_left, v_right)")
-    ok = np.isfinite(lg.v_left) & np.isfinite(lg.v_right)
-    if ok.mean() < 0.5:  # mostly commands: that is the commanded calibration, mislabelled
-        raise InputError(f"{name}: measured track speeds on only {100 * ok.mean():.0f} % of the rows; "
-                         f"--drive-input measured needs them on most rows")
-    return dataclasses.replace(lg, v_left_cmd=np.where(np.isfinite(lg.v_left), lg.v_left, lg.v_left_cmd),
-                               v_right_cmd=np.where(np.isfinite(lg.v_right), lg.v_right, lg.v_right_cmd),
-                               extra={**lg.extra, LOGGED_COMMANDS[0]: lg.v_left_cmd,
-                                      LOGGED_COMMANDS[1]: lg.v_right_cmd})
-
-
-LOGGED_COMMANDS = ("logged_v_left_cmd", "logged_v_right_cmd")  # where measured_drive_log keeps the commands
-
-
-def commanded_log(lg: DriveLog) -> DriveLog:
-    """The log with its logged commands (undoes :func:`measured_drive_log`): which windows are
-    steady turns is a property of the commands."""
-    if LOGGED_COMMANDS[0] not in lg.extra:
-        return lg
-    return dataclasses.replace(lg, v_left_cmd=lg.extra[LOGGED_COMMANDS[0]], v_right_cmd=lg.extra[LOGGED_COMMANDS[1]])
 
 
 def fit_index_of(ws: WindowSet, n: int | None) -> np.ndarray:
@@ -590,7 +567,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     # the calibrated robot, scored on the same windows and on the test log; the causes
     t3 = time.perf_counter()
     test_after = (_score(sim, test, tws, [wp], **kw)[0] if changed else test_before) if test is not None else None
-    cal_robot = calibrated_robot(robot, {n: values[n] for n in changed}, config)
+    cal_robot = calibrated_robot(robot, {n: values[n] for n in changed}, config, drive_input)
     corr = np.eye(len(changed))
     if changed and u is not None:
         cidx = [lin.names.index(n) for n in changed]

@@ -34,8 +34,9 @@ from mjtrack.errors import InputError
 from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import G, Robot
+from mjtrack.sim.config import robot_sim_settings
 from mjtrack.sim.rollout import summarised_mujoco_warnings
-from mjtrack.sim.windows import AGAINST_WHY
+from mjtrack.sim.windows import AGAINST_WHY, measured_drive_log
 
 log = logging.getLogger(__name__)
 
@@ -252,11 +253,16 @@ def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, bas
             screened = ranked[:screen]
             effects = screened + [n for n in ("ground_anisotropy", "road_wheels") if n not in screened]
         clock["screen"] = time.perf_counter()
+        notes: list[str] = []
+        if robot_sim_settings(robot).get("drive_input") == "measured":  # as the robot was calibrated
+            log_ = measured_drive_log(log_, src)
+            test_log = None if test_log is None else measured_drive_log(test_log, test_log.source or "test log")
+            notes.append("the simulated drives follow the logged track speeds, as in the robot's calibration (robot "
+                         "key simulator.drive_input: measured)")
         h = DEFAULT_HORIZON if horizon_s == "auto" else float(horizon_s)
         model = MujocoBaseline(robot, log_ if test_log is None else concat_logs(log_, test_log), horizon_s=h)
         problem = model.problem(n_folds, n_train=None if test_log is None else log_.n_samples)
         choice = {"requested": requested, "chosen": "mujoco", "why": mujoco_note, "screened_by_surrogate": screened}
-        notes: list[str] = []
         if model.left_out:
             notes.append(f"{len(model.left_out)} of {len(model.left_out) + len(model.ws)} windows left out (starting at "
                          + ", ".join(f"t = {b['t0']:.2f} s" for b in model.left_out) + f"): {AGAINST_WHY}")

@@ -265,7 +265,9 @@ def surfacevel_config(**changes) -> SimConfig:
 
 #: settings a robot description may carry under its key ``simulator`` (a calibrated robot records
 #: the simulator its parameters were fitted with, so that every command rebuilds that one)
-ROBOT_SIM_KEYS = ("track_model", "n_rollers", "timestep")
+#: ``drive_input``: what the drives followed when the robot was calibrated on a log ("commanded", the
+#: default, or "measured": the logged track speeds), which the MuJoCo diagnosis of a log then follows too
+ROBOT_SIM_KEYS = ("track_model", "n_rollers", "timestep", "drive_input")
 
 
 def robot_sim_settings(robot) -> dict:
@@ -283,6 +285,8 @@ def robot_sim_settings(robot) -> dict:
     if "timestep" in out and (isinstance(out["timestep"], bool) or not isinstance(out["timestep"], (int, float))
                               or not 1e-5 <= out["timestep"] <= 0.05):
         raise InputError(f"robot: simulator 'timestep' must be a number in [1e-05, 0.05] s, got {out['timestep']!r}")
+    if out.get("drive_input", "commanded") not in ("commanded", "measured"):
+        raise InputError(f"robot: simulator 'drive_input' must be commanded or measured, got {out['drive_input']!r}")
     if out.get("track_model", "rollers") not in ("rollers", "surfacevel"):
         raise InputError(f"robot: simulator 'track_model' must be rollers or surfacevel, got {out['track_model']!r}")
     return out

@@ -26,6 +26,7 @@ Derivation and measurements: docs/theory/simulator.md, "Windows of a log".
 from __future__ import annotations
 
 import copy
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass
@@ -201,6 +202,35 @@ def contradicting_windows(log: DriveLog, ws: WindowSet) -> list[dict]:
         if against[1] >= AGAINST_PATH_M and against[1] > against[0] - AGAINST_MU * G * tau ** 2:
             out.append({"index": j, "t0": float(log.t[s]), "track_path_m": track, "body_path_m": body})
     return out
+
+
+def measured_drive_log(lg: DriveLog, name: str) -> DriveLog:
+    """The log with its measured track speeds in place of the commands (a track without a measured
+    speed on a row keeps its command there); InputError when it has no measured speeds. A log it
+    made already is returned as it is."""
+    if LOGGED_COMMANDS[0] in lg.extra:
+        return lg
+    if lg.v_left is None or lg.v_right is None:
+        raise InputError(f"{name}: driving by the measured speeds needs the measured track speeds (v_left, v_right)")
+    ok = np.isfinite(lg.v_left) & np.isfinite(lg.v_right)
+    if ok.mean() < 0.5:  # mostly commands: that is the commanded calibration, mislabelled
+        raise InputError(f"{name}: measured track speeds on only {100 * ok.mean():.0f} % of the rows; "
+                         f"driving by the measured speeds needs them on most rows")
+    return dataclasses.replace(lg, v_left_cmd=np.where(np.isfinite(lg.v_left), lg.v_left, lg.v_left_cmd),
+                               v_right_cmd=np.where(np.isfinite(lg.v_right), lg.v_right, lg.v_right_cmd),
+                               extra={**lg.extra, LOGGED_COMMANDS[0]: lg.v_left_cmd,
+                                      LOGGED_COMMANDS[1]: lg.v_right_cmd})
+
+
+LOGGED_COMMANDS = ("logged_v_left_cmd", "logged_v_right_cmd")  # where measured_drive_log keeps the commands
+
+
+def commanded_log(lg: DriveLog) -> DriveLog:
+    """The log with its logged commands (undoes :func:`measured_drive_log`): which windows are
+    steady turns is a property of the commands."""
+    if LOGGED_COMMANDS[0] not in lg.extra:
+        return lg
+    return dataclasses.replace(lg, v_left_cmd=lg.extra[LOGGED_COMMANDS[0]], v_right_cmd=lg.extra[LOGGED_COMMANDS[1]])
 
 
 # -- the simulator of windows ---------------------------------------------------------------------
