@@ -168,18 +168,14 @@ def context_of_stored(name: str, spec: dict, *, rollers: int, worst: int = 10) -
     twist estimated from the poses (how much the start state the log gives matters);
     ``concentration``: the share of the calibrated robot's squared test error carried by its
     ``worst`` worst windows, with their start times."""
-    from mjtrack.sim.windows import measured_drive_log
     from mjtrack.sim.config import robot_sim_settings, sim_config
-    from mjtrack.sim.windows import WARMUP_S, WindowSim, make_windows, simulate_windows
+    from mjtrack.sim.windows import (WARMUP_S, WindowSim, make_windows, measured_drive_log, simulate_windows,
+                                     without_contradicting)
 
     log, base = read_log_with_robot(spec["log"])
     parts = list(split(log, *spec["split"]))
-    stored = json.loads((OUTPUTS / name / "calibration.json").read_text())
-    wins = []
-    for part, lg in zip(("train", "test"), parts):
-        ws = make_windows(lg, stored["train"]["horizon_s"])
-        out = {round(w["t0"], 6) for w in stored.get("left_out", {}).get(part, {}).get("windows", [])}
-        wins.append(ws.subset(np.array([round(float(lg.t[s]), 6) not in out for s in ws.starts], bool)))
+    horizon = json.loads((OUTPUTS / name / "calibration.json").read_text())["train"]["horizon_s"]
+    wins = [without_contradicting(lg, make_windows(lg, horizon))[0] for lg in parts]
     kin = kinematic_model(parts[0], wins[0], parts[1], wins[1], base.track_gauge)
     test, tws = parts[1], wins[1]
     if spec.get("drive_input") == "measured":
@@ -237,7 +233,6 @@ def diagnose_robot(name: str, spec: dict) -> dict:
     """``diagnose --baseline mujoco`` of the test part against the stored calibrated robot (its drives
     following what they followed in the calibration: the commands, or the measured track speeds)."""
     from mjtrack.diagnose import diagnose
-
     from mjtrack.sim.windows import measured_drive_log
 
     log, _ = read_log_with_robot(spec["log"])
@@ -332,9 +327,12 @@ def _write(robots: dict, args, load0) -> None:
     stored = json.loads(RESULT.read_text()) if RESULT.exists() else {}
     now = {k: {"command": stored.get("command", ""), **v} for k, v in stored.get("robots", {}).items()}
     command = "python benchmarks/real_robots.py " + " ".join(sys.argv[1:])
-    merged = {**now, **{k: {**v, "command": command} for k, v in robots.items() if k in ran}}
-    # runs of different robots merge into one file: each robot says which command made it
-    RESULT.write_text(json.dumps({"command": "; ".join(sorted({v.get("command", "") for v in merged.values()})),
+    # a run that only adds to a stored calibration keeps the command that made it and says its own
+    key = "context_command" if args.context_only else "diagnose_command" if args.diagnose_only else "command"
+    merged = {**now, **{k: {**v, key: command} for k, v in robots.items() if k in ran}}
+    # runs of different robots merge into one file: each robot says which commands made it
+    commands = {v.get(c, "") for v in merged.values() for c in ("command", "diagnose_command", "context_command")}
+    RESULT.write_text(json.dumps({"command": "; ".join(sorted(commands - {""})),
                                   "robots": merged, "rollers": args.rollers, "load_before": load0,
                                   "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
 

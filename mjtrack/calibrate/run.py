@@ -43,8 +43,8 @@ from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.config import SimConfig, sim_config
 from mjtrack.sim.windows import (AGAINST_WHY, DRIVE_DEFAULTS, WARMUP_S, WindowResult, WindowSet,
-                                 WindowSim, commanded_log, contradicting_windows, geometry_robot, make_windows,
-                                 measured_drive_log, measured_window_poses, simulate_windows)
+                                 WindowSim, commanded_log, geometry_robot, make_windows, measured_drive_log,
+                                 measured_window_poses, simulate_windows, without_contradicting)
 
 log = logging.getLogger(__name__)
 
@@ -277,8 +277,8 @@ def calibrated_robot(robot: Robot, values: dict[str, float], config: SimConfig,
                      drive_input: str = "commanded") -> Robot:
     """The robot with calibrated values written into its description (friction per side, centre
     of mass, contact length, drive keys, ground parameters) and, under ``simulator``, the settings
-    of the simulator they were fitted with (with the drive input when it was not the commands). A slope is the log's ground, not the robot's: it stays
-    in calibration.json."""
+    of the simulator they were fitted with (with the drive input when it was not the commands). A
+    slope is the log's ground, not the robot's: it stays in calibration.json."""
     wp = window_params({k: v for k, v in values.items() if k not in ("slope_x", "slope_y")}, robot)
     r = geometry_robot(robot, wp)
     fields = {k: wp[k] for k in ("mu", "mu_left", "mu_right", "cg_x", "cg_y", "rolling_resistance") if k in wp}
@@ -641,23 +641,21 @@ LEFT_OUT_WHY = AGAINST_WHY + " (keep them with --keep-contradicting)"
 
 
 def _without_contradicting(lg: DriveLog, ws: WindowSet, src: str) -> tuple[WindowSet, list[dict]]:
-    """``ws`` less the windows whose poses move against the tracks, and those windows."""
-    bad = contradicting_windows(lg, ws)
+    """``ws`` less the windows whose poses move against the tracks, and those windows (said in a
+    warning; InputError when that is every window)."""
+    kept, bad = without_contradicting(lg, ws)
     if not bad:
         return ws, []
     first = bad[0]
     example = (f"from t = {first['t0']:.3f} s the tracks drive {first['track_path_m'][0]:+.2f} then "
                f"{first['track_path_m'][1]:+.2f} m, the body moves {first['body_path_m'][0]:+.2f} then "
                f"{first['body_path_m'][1]:+.2f} m along its heading")
-    if len(bad) == len(ws):
+    if len(kept) == 0:
         raise InputError(f"{src}: in every window the poses move against the tracks (e.g. {example}): check the "
                          "signs of the speed columns")
     log.warning("calibrate: %s: %d of %d windows left out: their poses move against the tracks (e.g. %s)", src,
                 len(bad), len(ws), example)
-    keep = np.ones(len(ws), bool)
-    keep[[b["index"] for b in bad]] = False
-    rows = [{"t0": b["t0"], "track_path_m": b["track_path_m"], "body_path_m": b["body_path_m"]} for b in bad]
-    return ws.subset(keep), rows
+    return kept, bad
 
 
 def _clean(obj):

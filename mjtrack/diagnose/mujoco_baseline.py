@@ -38,8 +38,8 @@ from mjtrack.errors import InputError
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.config import SimConfig, sim_config
-from mjtrack.sim.windows import (WARMUP_S, WindowSim, contradicting_windows, drive_params,
-                                 make_windows, simulate_windows)
+from mjtrack.sim.windows import (WARMUP_S, WindowSim, drive_params, make_windows, simulate_windows,
+                                 without_contradicting)
 
 N_BOOT = 1000  # blocked bootstrap replicates of the estimates (the gain test draws its own, stats.N_BOOT)
 # The MuJoCo baseline's own error on an effect's size, 1 sigma, as a share of the size |theta - nominal|
@@ -248,14 +248,8 @@ class MujocoBaseline(Baseline):
             self.vocabulary = {n: c for n, c in CHANGES.items() if n != "road_wheels"}
         self.config = config or sim_config(None, robot=robot)
         self.nthread, self.seed = nthread, seed
-        ws = make_windows(log, horizon_s)
         # windows whose poses move against the tracks hold a wrong record, not an effect: left out, as calibrate does
-        self.left_out = contradicting_windows(log, ws)
-        if self.left_out:
-            keep = np.ones(len(ws), bool)
-            keep[[b["index"] for b in self.left_out]] = False
-            ws = ws.subset(keep)
-        self.ws = ws
+        self.ws, self.left_out = without_contradicting(log, make_windows(log, horizon_s))
         self.horizon_s = float(horizon_s)
         self._sims: dict[str, WindowSim] = {}
         self._cache: dict[tuple, object] = {}

@@ -204,6 +204,15 @@ def contradicting_windows(log: DriveLog, ws: WindowSet) -> list[dict]:
     return out
 
 
+def without_contradicting(log: DriveLog, ws: WindowSet) -> tuple[WindowSet, list[dict]]:
+    """``ws`` less the windows :func:`contradicting_windows` finds, and those windows (``t0``,
+    ``track_path_m``, ``body_path_m`` each)."""
+    bad = contradicting_windows(log, ws)
+    keep = np.ones(len(ws), bool)
+    keep[[b["index"] for b in bad]] = False
+    return ws.subset(keep), [{k: v for k, v in b.items() if k != "index"} for b in bad]
+
+
 def measured_drive_log(lg: DriveLog, name: str) -> DriveLog:
     """The log with its measured track speeds in place of the commands (a track without a measured
     speed on a row keeps its command there); InputError when it has no measured speeds. A log it
