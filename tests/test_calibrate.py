@@ -95,7 +95,7 @@ def test_cli_writes_a_robot_every_command_accepts(logs, tmp_path):
 
 
 @pytest.mark.parametrize("case", ["other_robot", "too_short", "unknown_param", "out_of_range",
-                                  "wrong_ground_param"])
+                                  "wrong_ground_param", "bad_drive_input"])
 def test_bad_input_exits_2_one_line_nothing_written(logs, tmp_path, case):
     from mjtrack.io.logs import read_log
 
@@ -119,6 +119,10 @@ def test_bad_input_exits_2_one_line_nothing_written(logs, tmp_path, case):
         args += ["--robot", tmp_path / "r.json", "--params", "mu,drive_lag"]
     elif case == "wrong_ground_param":
         args += ["--params", "lateral_ratio"]
+    elif case == "bad_drive_input":  # the robot file's record of what its drives followed
+        (tmp_path / "r.json").write_text(json.dumps({**json.loads((logs / "train.json").read_text()),
+                                                     "simulator": {"drive_input": "wheels"}}))
+        args += ["--robot", tmp_path / "r.json"]
     res = run_cli(args)
     assert res.rc == 2, (res.rc, res.err)
     lines = [ln for ln in res.err.splitlines() if ln.strip()]
