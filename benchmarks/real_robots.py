@@ -39,6 +39,7 @@ import numpy as np
 from mjtrack.calibrate.run import calibrate, write_outputs
 from mjtrack.io import read_log_with_robot
 from mjtrack.io.robot import Robot, read_robot
+from mjtrack.sim.windows import left_out_counts
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[1] / "shared" / "data"
@@ -175,7 +176,7 @@ def context_of_stored(name: str, spec: dict, *, rollers: int, worst: int = 10) -
     log, base = read_log_with_robot(spec["log"])
     parts = list(split(log, *spec["split"]))
     horizon = json.loads((OUTPUTS / name / "calibration.json").read_text())["train"]["horizon_s"]
-    wins = [without_contradicting(lg, make_windows(lg, horizon))[0] for lg in parts]
+    wins = [without_contradicting(lg, make_windows(lg, horizon), base.track_gauge)[0] for lg in parts]
     kin = kinematic_model(parts[0], wins[0], parts[1], wins[1], base.track_gauge)
     test, tws = parts[1], wins[1]
     if spec.get("drive_input") == "measured":
@@ -303,8 +304,7 @@ def main(argv=None) -> int:
               "(a bound)")
         for part, lo in r["left_out"].items():
             at = ", ".join(f"{w['t0']:.1f}" for w in lo["windows"])
-            print(f"  left out of the {part} part: {len(lo['windows'])} windows whose poses move against the tracks "
-                  f"(at t = {at} s)")
+            print(f"  left out of the {part} part: {left_out_counts(lo['windows'])} (at t = {at} s)")
         f3 = lambda v: "n/a" if v is None else f"{v:.3f}"
         print(f"  test yaw ratio: measured {f3(y['measured'])}, simulated {f3(y['before'])} -> {f3(y['after'])} "
               f"({y['windows']} steady-turn windows)")

@@ -303,9 +303,9 @@ def test_windows_whose_poses_move_against_the_tracks_are_left_out_and_listed():
     bad, (s, e) = with_backward_window(lg, int(ws.starts[2]), int(ws.ends[2]))
     cal = calibrate(bad, Robot(), names=["cg_x"], fit_windows=None, max_iter=3)
     assert len(cal.train_windows) == 7 and s not in cal.train_windows.starts.tolist()
-    assert "1 of 8 train windows were left out: their poses move against the tracks" in cal.sentence
+    assert "1 of 8 train windows were left out: 1 whose poses move against the tracks" in cal.sentence
     (row,) = cal.to_json()["left_out"]["train"]["windows"]
-    assert row["t0"] == pytest.approx(float(lg.t[s]))
+    assert row["kind"] == "against" and row["t0"] == pytest.approx(float(lg.t[s]))
     assert row["track_path_m"] == pytest.approx([0.6, 0.6]) and row["body_path_m"] == pytest.approx([-0.8, -0.8])
     assert cal.values["cg_x"] == pytest.approx(0.04, abs=0.005)
     kept = calibrate(bad, Robot(), names=["cg_x"], fit_windows=None, max_iter=3, keep_contradicting=True)

@@ -255,3 +255,125 @@ def test_tracks_that_reverse_mid_window_flag_nothing():
     v = np.where(t < 1.0, 1.0, -1.0)
     lg = DriveLog(t=t, v_left_cmd=v, v_right_cmd=v, v_left=v, v_right=v, x=1.0 * t, y=z, yaw=z)
     assert contradicting_windows(lg, make_windows(lg, 2.0)) == []
+
+
+GAUGE = 0.5
+
+
+def _turning(v_left: float, v_right: float, wz, vx=0.0, n: int = 41, dt: float = 0.05):
+    """A log whose body turns about its centre at yaw rate ``wz`` [rad/s] (a number, or a function of
+    time) while moving at ``vx`` [m/s] along +x (a number, or a function giving the path x(t)), its
+    tracks at ``v_left``, ``v_right`` (poses written by hand)."""
+    from mjtrack.io.logs import DriveLog
+
+    t = np.arange(n) * dt
+    z = np.zeros(n)
+    yaw = wz(t) if callable(wz) else wz * t
+    x = vx(t) if callable(vx) else vx * t
+    return DriveLog(t=t, v_left_cmd=z + v_left, v_right_cmd=z + v_right, v_left=z + v_left, v_right=z + v_right,
+                    x=x, y=z, yaw=yaw)
+
+
+@pytest.mark.parametrize("v_left, v_right, wz, vx, flagged", [
+    (-1.0, 1.0, 1.6, 0.0, False),     # spin turn at yaw ratio 0.4: the points under the tracks move 0.4 m a second
+    (-1.0, 1.0, 0.0, 0.0, True),      # tracks spin 1 m a half, the body does not move
+    (-1.0, 1.0, 0.32, 0.0, True),     # the points move 0.08 m a half: under a tenth of the tracks' path
+    (-1.0, 1.0, 0.48, 0.0, False),    # they move 0.12 m a half: over a tenth
+    (-0.4, 0.4, 0.0, 0.0, False),     # 0.4 m a half: under the 0.5 m the rule needs
+    (0.0, 1.0, 0.0, 0.0, True),       # one track still, the other runs, the body held
+    (0.0, 1.0, 0.9, 0.225, False),    # the same tracks pivoting the body at yaw ratio 0.45
+    (1.0, 1.0, 0.0, lambda t: 0.5 * 0.05 * 9.81 * t ** 2, False),  # on ice (0.05 g) from rest: 0.25 m, then 0.74 m
+    (1.0, 1.0, 0.0, lambda t: 0.5 * 0.01 * 9.81 * t ** 2, True),   # at 0.01 g: 0.05 m in the 1st half (the rule's limit)
+    (-1.0, 1.0, lambda t: 1.6 * np.minimum(t, 1.0), 0.0, True),    # turning in the 1st half, held in the 2nd
+    (0.8, 0.8, 0.0, lambda t: -0.25 * np.sin(np.pi * t), False),     # reversing: 0.25 m back and return in each half
+])
+def test_windows_in_which_the_robot_is_held_still_are_found(v_left, v_right, wz, vx, flagged):
+    from mjtrack.sim.windows import stuck_windows
+
+    lg = _turning(v_left, v_right, wz, vx)
+    ws = make_windows(lg, 2.0)
+    assert len(ws) == 1
+    rows = stuck_windows(lg, ws, GAUGE)
+    assert bool(rows) == flagged
+    yaw = lambda t: wz(t) if callable(wz) else wz * t
+    x = lambda t: vx(t) if callable(vx) else vx * t
+    # how far the two points at +-gauge/2 across the body get from where they were at each half's
+    # start (the farthest of the log's samples, 0.05 s apart), written out
+    moved = []
+    for a, b in ((0.0, 1.0), (1.0, 2.0)):
+        tt = np.linspace(a, b, 21)
+        d = [np.hypot(x(tt) - x(a) - y * (np.sin(yaw(tt)) - np.sin(yaw(a))), y * (np.cos(yaw(tt)) - np.cos(yaw(a))))
+             for y in (GAUGE / 2, -GAUGE / 2)]
+        moved.append(max(float(np.max(k)) for k in d))
+    if rows:
+        assert rows[0]["track_path_m"] == pytest.approx([max(abs(v_left), abs(v_right))] * 2)
+        assert rows[0]["body_path_m"] == pytest.approx(moved)
+
+
+def test_a_window_both_rules_find_is_left_out_once_and_listed_in_time_order():
+    from mjtrack.io.logs import DriveLog
+    from mjtrack.sim.windows import without_contradicting
+
+    pieces = [_turning(-1.0, 1.0, 1.6), _straight(1.0, -0.9), _turning(-1.0, 1.0, 0.0)]  # fine, against, held
+    cols = {k: np.concatenate([getattr(p, k) for p in pieces])
+            for k in ("v_left_cmd", "v_right_cmd", "v_left", "v_right", "x", "y", "yaw")}
+    cols["t"] = np.concatenate([p.t + 10.0 * i for i, p in enumerate(pieces)])
+    cols["window"] = np.repeat(np.arange(3), [p.n_samples for p in pieces])
+    lg = DriveLog.from_columns(cols)
+    ws = make_windows(lg, 2.0)
+    assert len(ws) == 3
+    kept, rows = without_contradicting(lg, ws, GAUGE)
+    assert kept.starts.tolist() == [ws.starts[0]]
+    assert [r["kind"] for r in rows] == ["against", "stuck"]
+    assert [r["t0"] for r in rows] == [float(lg.t[ws.starts[1]]), float(lg.t[ws.starts[2]])]
+
+
+def test_on_coulomb_ground_the_body_under_sliding_tracks_moves_more_than_the_stuck_rule_allows():
+    """The stuck rule's premise (mjtrack.sim.windows.STUCK_WHY), checked on the independent steady
+    balance of Coulomb ground (mjtrack.testing.ground_balance): for track lengths up to four times
+    the gauge, spread and point loads, straight, turning, pivot and spin turns, the points under the
+    tracks' centres move at least 0.16 times the faster track's speed, above the rule's 0.1."""
+    from mjtrack.sim.windows import STUCK_SHARE
+    from mjtrack.testing.ground_balance import steady_twist
+
+    T = 1.0
+    shares = []
+    for L in (0.3, 1.0, 2.0, 4.0):
+        for load in ({}, {"wheels": 2, "concentration": 1.0, "span": 0.99}):
+            for v_left, v_right in ((1.0, 1.0), (0.5, 1.0), (0.0, 1.0), (-0.2, 1.0), (-1.0, 1.0)):
+                try:
+                    vx, vy, wz = steady_twist(v_left, v_right, T, L, eps=1e-6, **load)
+                except RuntimeError:  # the point-load balance of a spin turn has no smooth root at some L
+                    continue
+                moved = max(np.hypot(vx - wz * y, vy) for y in (T / 2, -T / 2))
+                shares.append(moved / max(abs(v_left), abs(v_right)))
+    assert len(shares) >= 36
+    assert min(shares) >= 0.16 > STUCK_SHARE
+
+
+def test_a_lagged_reversal_of_the_simulated_robot_is_not_taken_for_a_stuck_robot():
+    """The battery's drive-lag log reverses at t = 58.24 s: the tracks run 0.63 m in that half while
+    the body goes back 0.27 m and returns; the body was never still."""
+    from mjtrack.sim.windows import stuck_windows
+    from mjtrack.testing.battery import case, described_robot, make_log
+
+    c = case("default", "drive_lag")
+    lg = make_log(c, duration=60.0, seed=12)
+    ws = make_windows(lg, 2.0)
+    assert float(lg.t[ws.starts[-1]]) == pytest.approx(58.0)
+    assert stuck_windows(lg, ws, described_robot(c).track_gauge) == []
+
+
+@pytest.mark.slow
+def test_no_window_of_the_simulators_own_logs_is_taken_for_a_stuck_robot():
+    """Every log of the calibration battery (three geometries, every change, both seeds)."""
+    from mjtrack.sim.windows import without_contradicting
+    from mjtrack.testing.battery import CHANGES, GEOMETRIES, case, described_robot, make_log
+
+    for g in GEOMETRIES:
+        for change in CHANGES:
+            c = case(g, change)
+            for seed in (11, 12):
+                lg = make_log(c, duration=60.0, seed=seed)
+                _, rows = without_contradicting(lg, make_windows(lg, 2.0), described_robot(c).track_gauge)
+                assert rows == [], (g, change, seed)

@@ -483,7 +483,8 @@ def _calibration() -> Page:
     robots = Table("Three real robots, calibrated on the first part of their log and scored on the next part: held-out "
                    "position error [m] at the window's end before and after, its relative drop, the steady-turn yaw ratio "
                    "(yaw rate over the ideal (v_R - v_L)/T) measured and simulated on the test part, and the windows "
-                   "left out because their poses move against the tracks (calibration.json `left_out`).",
+                   "left out because the ground cannot explain them: poses that move against the tracks, or a robot "
+                   "held still while a track ran under it (calibration.json `left_out`).",
                    ["robot", "train windows", "test windows", "test before", "test after", "drop", "yaw ratio measured",
                     "simulated before", "simulated after", "left out (train, test)"])
     context = Table("What puts the real robots' test errors [m] in context, on the same windows: a kinematic ICR model "

@@ -11,7 +11,7 @@ import numpy as np
 from mjtrack.calibrate.params import specs_for
 from mjtrack.diagnose import residuals as rs
 from mjtrack.report.html import Report
-from mjtrack.sim.windows import AGAINST_WHY
+from mjtrack.sim.windows import AGAINST_WHY, STUCK_WHY
 
 TURN_EDGES = (-1.0, -0.6, -0.2, 0.2, 0.6, 1.0)
 
@@ -125,13 +125,17 @@ def build_report(cal) -> Report:
     s.figure(_figure_paths(cal), "The windows the uncalibrated simulation got most wrong"
              + (" (test log)" if cal.test_log is not None else "") + ": measured, uncalibrated and calibrated paths.")
 
-    rows_ = [[part, f"{r['t0']:.2f}", *(f"{v:+.2f}" for v in r["track_path_m"]), *(f"{v:+.2f}" for v in r["body_path_m"])]
+    sign = {"against": "+.2f", "stuck": ".2f"}
+    rows_ = [[part, r["kind"], f"{r['t0']:.2f}", *(format(v, sign[r["kind"]]) for v in r["track_path_m"]),
+              *(format(v, sign[r["kind"]]) for v in r["body_path_m"])]
              for part, rows in cal.left_out.items() for r in rows]
     if rows_:
         s = rep.section("Windows left out")
-        s.paragraph(f"Not fitted and not scored: {AGAINST_WHY}. Track path: the mean track speed integrated over "
-                    "each half of the window; body path: the measured displacement along the body's heading.")
-        s.table(["part", "window start [s]", "track path, 1st half [m]", "2nd half [m]", "body path, 1st half [m]",
+        s.paragraph(f"Not fitted and not scored. Kind against: {AGAINST_WHY}; track path: the mean track speed "
+                    "integrated over each half of the window, body path: the measured displacement along the body's "
+                    f"heading. Kind stuck: {STUCK_WHY}; track path: the longer of the two tracks' paths in each half, "
+                    "body path: the farthest either point under the tracks' centres gets from where it was.")
+        s.table(["part", "kind", "window start [s]", "track path, 1st half [m]", "2nd half [m]", "body path, 1st half [m]",
                  "2nd half [m]"], rows_)
 
     s = rep.section("Steady turns: yaw ratio and ICRs, measured against simulated")

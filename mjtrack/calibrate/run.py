@@ -42,9 +42,10 @@ from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.config import SimConfig, sim_config
-from mjtrack.sim.windows import (AGAINST_WHY, DRIVE_DEFAULTS, WARMUP_S, WindowResult, WindowSet,
+from mjtrack.sim.windows import (AGAINST_WHY, DRIVE_DEFAULTS, STUCK_WHY, WARMUP_S, WindowResult, WindowSet,
                                  WindowSim, commanded_log, geometry_robot, make_windows, measured_drive_log,
-                                 measured_window_poses, simulate_windows, without_contradicting)
+                                 left_out_counts, measured_window_poses, simulate_windows,
+                                 without_contradicting)
 
 log = logging.getLogger(__name__)
 
@@ -437,9 +438,10 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
             raise InputError(f"{test_path or test.source}: too short for one {horizon_s:g} s window")
     left_out: dict[str, list[dict]] = {}
     if not keep_contradicting:
-        ws, left_out["train"] = _without_contradicting(train, ws, src)
+        ws, left_out["train"] = _without_contradicting(train, ws, src, robot.track_gauge)
         if test is not None:
-            tws, left_out["test"] = _without_contradicting(test, tws, test_path or test.source or "test log")
+            tws, left_out["test"] = _without_contradicting(test, tws, test_path or test.source or "test log",
+                                                           robot.track_gauge)
     fixed = {"track_gauge": robot.track_gauge}
     for k in ("track_length", "mass", "sprocket_radius", "cg_z", "track_width"):
         if k not in names and (robot.provided is None or k in robot.provided):
@@ -624,8 +626,8 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     for label, rows in left_out.items():
         if rows:
             kept = len(ws) if label == "train" else len(tws)
-            sentence += (f" {len(rows)} of {len(rows) + kept} {label} windows were left out: their poses move against "
-                         "the tracks (listed under left_out).")
+            sentence += (f" {len(rows)} of {len(rows) + kept} {label} windows were left out: {left_out_counts(rows)} "
+                         "(listed under left_out).")
     timings["total"] = time.perf_counter() - t0
     return Calibration(
         train_path=str(train_path or train.source), test_path=None if test is None else str(test_path or test.source),
@@ -637,24 +639,30 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
         config=config.to_dict(), timings=timings, drive_input=drive_input, fit_windows=fws, left_out=left_out)
 
 
-LEFT_OUT_WHY = AGAINST_WHY + " (keep them with --keep-contradicting)"
+LEFT_OUT_WHY = (f'kind "against": {AGAINST_WHY}; kind "stuck": {STUCK_WHY} '
+                "(keep them with --keep-contradicting)")
 
 
-def _without_contradicting(lg: DriveLog, ws: WindowSet, src: str) -> tuple[WindowSet, list[dict]]:
-    """``ws`` less the windows whose poses move against the tracks, and those windows (said in a
-    warning; InputError when that is every window)."""
-    kept, bad = without_contradicting(lg, ws)
+def _without_contradicting(lg: DriveLog, ws: WindowSet, src: str, gauge: float) -> tuple[WindowSet, list[dict]]:
+    """``ws`` less the windows the ground cannot explain (poses against the tracks, a robot held
+    still), and those windows (said in a warning; InputError when that is every window)."""
+    kept, bad = without_contradicting(lg, ws, gauge)
     if not bad:
         return ws, []
     first = bad[0]
-    example = (f"from t = {first['t0']:.3f} s the tracks drive {first['track_path_m'][0]:+.2f} then "
-               f"{first['track_path_m'][1]:+.2f} m, the body moves {first['body_path_m'][0]:+.2f} then "
-               f"{first['body_path_m'][1]:+.2f} m along its heading")
+    if first["kind"] == "against":
+        example = (f"from t = {first['t0']:.3f} s the tracks drive {first['track_path_m'][0]:+.2f} then "
+                   f"{first['track_path_m'][1]:+.2f} m, the body moves {first['body_path_m'][0]:+.2f} then "
+                   f"{first['body_path_m'][1]:+.2f} m along its heading")
+    else:
+        example = (f"from t = {first['t0']:.3f} s a track runs {first['track_path_m'][0]:.2f} then "
+                   f"{first['track_path_m'][1]:.2f} m, the body under the tracks gets {first['body_path_m'][0]:.2f} "
+                   f"then {first['body_path_m'][1]:.2f} m away")
     if len(kept) == 0:
-        raise InputError(f"{src}: in every window the poses move against the tracks (e.g. {example}): check the "
-                         "signs of the speed columns")
-    log.warning("calibrate: %s: %d of %d windows left out: their poses move against the tracks (e.g. %s)", src,
-                len(bad), len(ws), example)
+        raise InputError(f"{src}: no window the ground can explain ({left_out_counts(bad)}; e.g. {example}): check "
+                         "the signs of the speed columns and the localisation")
+    log.warning("calibrate: %s: %d of %d windows left out: %s (e.g. %s)", src, len(bad), len(ws),
+                left_out_counts(bad), example)
     return kept, bad
 
 

@@ -23,8 +23,9 @@ mu_ratio); with robot key ground {"model": "anisotropic"}: lateral_ratio; with
 drive_lag, drive_delay, track_speed_scale, plus slope_x, slope_y when the log's segments share one
 world frame, plus the ground model's parameters, plus rolling_resistance (the ground holding each
 side back by a share of its weight). A long log is fitted on --fit-windows windows spread over it.
-Windows whose poses move against the tracks (a jumped localisation, a speed of the wrong sign) are
-left out of the fit and of every score unless --keep-contradicting is given.
+Windows the ground cannot explain are left out of the fit and of every score unless
+--keep-contradicting is given: poses that move against the tracks (a jumped localisation, a speed of
+the wrong sign), and a robot held still while a track runs under it (an obstacle, a rut).
 """
 
 from __future__ import annotations
@@ -63,10 +64,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "window). The errors before and after, and the causes, use every window; a fit's time "
                              "grows with its windows, its intervals narrow with their square root")
     parser.add_argument("--keep-contradicting", action="store_true",
-                        help="keep the windows whose poses move against the tracks (by default they are left out of "
-                             "the fit and of every score, with a warning, and listed in calibration.json under "
-                             "left_out: a body that keeps moving against its tracks without slowing down is a pose or "
-                             "speed record the ground cannot explain)")
+                        help="keep the windows the ground cannot explain (by default they are left out of the fit "
+                             "and of every score, with a warning, and listed in calibration.json under left_out): a "
+                             "body that keeps moving against its tracks without slowing down (a wrong pose or speed "
+                             "record), and a body held still while a track runs at least 0.5 m under it (something the "
+                             "simulation does not have holds it: an obstacle, a rut)")
     parser.add_argument("--threads", metavar="N", type=bounded("threads"), default=2, help="rollout threads (default 2)")
     add_robot_options(parser)
     add_output_options(parser)

@@ -248,8 +248,9 @@ class MujocoBaseline(Baseline):
             self.vocabulary = {n: c for n, c in CHANGES.items() if n != "road_wheels"}
         self.config = config or sim_config(None, robot=robot)
         self.nthread, self.seed = nthread, seed
-        # windows whose poses move against the tracks hold a wrong record, not an effect: left out, as calibrate does
-        self.ws, self.left_out = without_contradicting(log, make_windows(log, horizon_s))
+        # windows the ground cannot explain (poses against the tracks, a robot held still by something the
+        # simulation lacks) are not an effect of the catalogue: left out, as calibrate does
+        self.ws, self.left_out = without_contradicting(log, make_windows(log, horizon_s), robot.track_gauge)
         self.horizon_s = float(horizon_s)
         self._sims: dict[str, WindowSim] = {}
         self._cache: dict[tuple, object] = {}

@@ -36,7 +36,7 @@ from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import G, Robot
 from mjtrack.sim.config import robot_sim_settings
 from mjtrack.sim.rollout import summarised_mujoco_warnings
-from mjtrack.sim.windows import AGAINST_WHY, measured_drive_log
+from mjtrack.sim.windows import AGAINST_WHY, STUCK_WHY, left_out_counts, measured_drive_log
 
 log = logging.getLogger(__name__)
 
@@ -265,7 +265,9 @@ def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, bas
         choice = {"requested": requested, "chosen": "mujoco", "why": mujoco_note, "screened_by_surrogate": screened}
         if model.left_out:
             notes.append(f"{len(model.left_out)} of {len(model.left_out) + len(model.ws)} windows left out (starting at "
-                         + ", ".join(f"t = {b['t0']:.2f} s" for b in model.left_out) + f"): {AGAINST_WHY}")
+                         + ", ".join(f"t = {b['t0']:.2f} s" for b in model.left_out) + f"): {left_out_counts(model.left_out)}"
+                         + "".join(f"; {kind}: {why}" for kind, why in (("against", AGAINST_WHY), ("stuck", STUCK_WHY))
+                                   if any(b["kind"] == kind for b in model.left_out)))
             log.warning("diagnose %s: %s", src, notes[-1])
     else:
         problem, notes, why = _surrogate_problem(log_, robot, horizon_s=horizon_s, n_folds=n_folds, baseline=baseline,

@@ -174,6 +174,12 @@ AGAINST_WHY = (f"in the second half of the window the poses move at least {AGAIN
                "speed record is wrong")
 
 
+def _middle_row(log: DriveLog, s: int, e: int) -> int | None:
+    """The first row at or after the middle of rows s..e in time; None when it is an end row."""
+    m = int(np.searchsorted(log.t[s:e + 1], log.t[s] + 0.5 * float(log.t[e] - log.t[s]) - 1e-9)) + s
+    return m if s < m < e else None
+
+
 def contradicting_windows(log: DriveLog, ws: WindowSet) -> list[dict]:
     """The windows whose measured poses move against the tracks in a way the ground cannot allow
     (:data:`AGAINST_WHY`), each as ``{"index", "t0", "track_path_m", "body_path_m"}``: the window's
@@ -187,10 +193,10 @@ def contradicting_windows(log: DriveLog, ws: WindowSet) -> list[dict]:
     v = 0.5 * (np.where(np.isfinite(vl), vl, log.v_left_cmd) + np.where(np.isfinite(vr), vr, log.v_right_cmd))
     out = []
     for j, (s, e) in enumerate(zip(ws.starts, ws.ends)):
-        tau = 0.5 * float(log.t[e] - log.t[s])
-        m = int(np.searchsorted(log.t[s:e + 1], log.t[s] + tau - 1e-9)) + s
-        if not s < m < e:
+        m = _middle_row(log, s, e)
+        if m is None:
             continue
+        tau = 0.5 * float(log.t[e] - log.t[s])
         track, body = [], []
         for a, b in ((s, m), (m, e)):
             track.append(float(np.sum(v[a:b] * np.diff(log.t[a:b + 1]))))
@@ -204,13 +210,72 @@ def contradicting_windows(log: DriveLog, ws: WindowSet) -> list[dict]:
     return out
 
 
-def without_contradicting(log: DriveLog, ws: WindowSet) -> tuple[WindowSet, list[dict]]:
-    """``ws`` less the windows :func:`contradicting_windows` finds, and those windows (``t0``,
-    ``track_path_m``, ``body_path_m`` each)."""
-    bad = contradicting_windows(log, ws)
+#: A window's robot is held by something the simulation does not have (an obstacle, a rut, a
+#: ledge it is high-centred on) when, in one half of the window, a track runs at least
+#: ``STUCK_PATH_M`` while neither point under the tracks' centres gets ``STUCK_SHARE`` of that away
+#: from where it was at the half's start.
+#: On level ground a track that slides under the body pushes it: in the steady state of Coulomb
+#: ground the points under the tracks move at least 0.17 times the faster track's speed for every
+#: track length up to four times the gauge, pivot and spin turns included (docs/theory/simulator.md,
+#: "Windows of a log"), and from rest a ground of at least ``AGAINST_MU`` friction moves them by
+#: AGAINST_MU g tau^2 / 2, 0.25 m in a one-second half.
+STUCK_PATH_M = 0.5
+STUCK_SHARE = 0.1
+STUCK_WHY = (f"in one half of the window a track runs at least {STUCK_PATH_M:g} m while neither point under the "
+             f"tracks' centres gets {STUCK_SHARE:g} of that away from where it was: on level ground a track that "
+             "slides under the body pushes it, so something the simulation does not have (an obstacle, a rut, a "
+             "ledge) held the robot")
+
+
+def stuck_windows(log: DriveLog, ws: WindowSet, gauge: float) -> list[dict]:
+    """The windows in which the robot is held still while a track runs under it (:data:`STUCK_WHY`),
+    each as ``{"index", "t0", "track_path_m", "body_path_m"}``: per half of the window, the longer
+    of the two tracks' paths (measured speeds when present, else commanded; unsigned) and how far the
+    points under the tracks' centres (at +-gauge/2 across the body) get from where they were at the
+    half's start (the larger of the two; the farthest sample, so that a body that reverses within
+    the half counts how far it went, and pose noise is not summed up as motion)."""
+    vl = log.v_left if log.has_track_speeds else log.v_left_cmd
+    vr = log.v_right if log.has_track_speeds else log.v_right_cmd
+    vl = np.abs(np.where(np.isfinite(vl), vl, log.v_left_cmd))
+    vr = np.abs(np.where(np.isfinite(vr), vr, log.v_right_cmd))
+    out = []
+    for j, (s, e) in enumerate(zip(ws.starts, ws.ends)):
+        m = _middle_row(log, s, e)
+        if m is None:
+            continue
+        track, body = [], []
+        for a, b in ((s, m), (m, e)):
+            dt = np.diff(log.t[a:b + 1])
+            track.append(float(max(np.sum(vl[a:b] * dt), np.sum(vr[a:b] * dt))))
+            moved = 0.0
+            for y in (0.5 * gauge, -0.5 * gauge):  # the point under each track's centre, in the world
+                px = log.x[a:b + 1] - y * np.sin(log.yaw[a:b + 1])
+                py = log.y[a:b + 1] + y * np.cos(log.yaw[a:b + 1])
+                moved = max(moved, float(np.max(np.hypot(px - px[0], py - py[0]))))
+            body.append(moved)
+        if any(tp >= STUCK_PATH_M and bp <= STUCK_SHARE * tp for tp, bp in zip(track, body)):
+            out.append({"index": j, "t0": float(log.t[s]), "track_path_m": track, "body_path_m": body})
+    return out
+
+
+def without_contradicting(log: DriveLog, ws: WindowSet, gauge: float) -> tuple[WindowSet, list[dict]]:
+    """``ws`` less the windows the ground cannot explain, and those windows, in time order: each
+    with ``kind`` ("against": :func:`contradicting_windows`; "stuck": :func:`stuck_windows` for a
+    robot of track gauge ``gauge`` [m]), ``t0``, ``track_path_m``, ``body_path_m``. A window both
+    rules find is listed once, as "against"."""
+    rows = {b["index"]: {"kind": "against", **b} for b in contradicting_windows(log, ws)}
+    for b in stuck_windows(log, ws, gauge):
+        rows.setdefault(b["index"], {"kind": "stuck", **b})
     keep = np.ones(len(ws), bool)
-    keep[[b["index"] for b in bad]] = False
-    return ws.subset(keep), [{k: v for k, v in b.items() if k != "index"} for b in bad]
+    keep[list(rows)] = False
+    return ws.subset(keep), [{k: v for k, v in rows[i].items() if k != "index"} for i in sorted(rows)]
+
+
+def left_out_counts(rows: Sequence[Mapping]) -> str:
+    """"2 whose poses move against the tracks, 6 in which the robot was held still" (the kinds present)."""
+    words = {"against": "whose poses move against the tracks", "stuck": "in which the robot was held still"}
+    n = {k: sum(r["kind"] == k for r in rows) for k in words}
+    return ", ".join(f"{n[k]} {w}" for k, w in words.items() if n[k])
 
 
 def measured_drive_log(lg: DriveLog, name: str) -> DriveLog:
