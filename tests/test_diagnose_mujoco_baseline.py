@@ -145,6 +145,15 @@ def test_a_robot_calibrated_on_measured_speeds_is_diagnosed_on_them(monkeypatch)
     with pytest.raises(Stop):
         diagnose(lg, NOMINAL, baseline="mujoco")
     assert np.array_equal(seen["log"].v_left_cmd, lg.v_left_cmd)
+    # asked for explicitly (diagnose --drive-input), either way, whatever the robot file says
+    with pytest.raises(Stop):
+        diagnose(lg, NOMINAL, baseline="mujoco", drive_input="measured")
+    assert np.array_equal(seen["log"].v_left_cmd, np.where(np.isfinite(lg.v_left), lg.v_left, lg.v_left_cmd))
+    with pytest.raises(Stop):
+        diagnose(lg, robot, baseline="mujoco", drive_input="commanded")
+    assert np.array_equal(seen["log"].v_left_cmd, lg.v_left_cmd)
+    with pytest.raises(InputError, match="neither 'commanded' nor 'measured'"):
+        diagnose(lg, robot, baseline="mujoco", drive_input="speeds")
 
 
 def test_grids_extend_a_calibrated_robot():

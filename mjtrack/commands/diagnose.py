@@ -52,6 +52,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "or the kinematic model when the description lacks the contact length), 'kinematic' (the "
                              "kinematic skid-steer model), 'auto' (default: mujoco when the robot can be built, else "
                              "surrogate; diagnosis.json and the report say which it chose and why)")
+    parser.add_argument("--drive-input", choices=["commanded", "measured"], default=None,
+                        help="with the mujoco baseline, the simulated drives follow the logged commands or the "
+                             "measured track speeds (v_left, v_right; for robots whose own speed controller does not "
+                             "do what it is commanded). Default: what the robot file says (simulator.drive_input, "
+                             "which 'mjtrack calibrate --drive-input measured' writes), else the commands")
     parser.add_argument("--test", metavar="LOG2", type=Path, default=None,
                         help="fit on LOG, score on LOG2 (a log of the same robot) instead of cross-validating")
     add_robot_options(parser)
@@ -66,7 +71,8 @@ def run(args: argparse.Namespace) -> int:
     drive_log, robot = log_and_robot(args)
     test_log, test_robot = test_log_and_robot(args.test)
     result = diagnose(drive_log, robot, horizon_s=args.horizon, n_folds=args.folds, confirm=args.confirm,
-                      quiet=args.quiet, baseline=args.baseline, test_log=test_log, test_robot=test_robot)
+                      quiet=args.quiet, baseline=args.baseline, test_log=test_log, test_robot=test_robot,
+                      drive_input=args.drive_input)
     write_outputs(result, out)
     print(result.summary())
     conf = result.confirmation

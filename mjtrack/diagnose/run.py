@@ -183,7 +183,8 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n
              min_gain: float = 0.03, baseline: str = "surrogate", effects: list[str] | None = None,
              max_fit_windows: int = 3000, max_effects: int | None = None, confirm: bool = False, quiet: bool = True,
              transient: bool | str = "auto", test_log: DriveLog | None = None,
-             test_robot: Robot | None = None, screen: int | None = MUJOCO_SCREEN) -> Diagnosis:
+             test_robot: Robot | None = None, screen: int | None = MUJOCO_SCREEN,
+             drive_input: str | None = None) -> Diagnosis:
     """Diagnose what the nominal model gets wrong on a measured log, name the cause(s) and the gain.
 
     Args:
@@ -211,6 +212,9 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n
             of the two parameter-free nominal baselines predicts the log better.
         test_log: fit on ``log_``, score on this log (no cross-validation); ``test_robot``: its
             description when it has its own (refused when it is another robot).
+        drive_input: the MuJoCo baseline's simulated drives follow the logged "commanded" speeds or the
+            "measured" track speeds; None (default): what the robot file says (``simulator.drive_input``,
+            which a calibration on measured speeds writes), else the commands.
     Raises:
         InputError: horizon longer than every segment, too little data for the folds, unknown
             effect or baseline, a test log of another robot, MuJoCo requested for a robot it cannot build.
@@ -219,11 +223,12 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n
     with summarised_mujoco_warnings(f"diagnose {src}", log):
         return _diagnose(log_, robot, horizon_s=horizon_s, n_folds=n_folds, min_gain=min_gain, baseline=baseline,
                          effects=effects, max_fit_windows=max_fit_windows, max_effects=max_effects, confirm=confirm,
-                         quiet=quiet, transient=transient, test_log=test_log, test_robot=test_robot, screen=screen)
+                         quiet=quiet, transient=transient, test_log=test_log, test_robot=test_robot, screen=screen,
+                         drive_input=drive_input)
 
 
 def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, baseline, effects, max_fit_windows,
-              max_effects, confirm, quiet, transient, test_log, test_robot, screen) -> Diagnosis:
+              max_effects, confirm, quiet, transient, test_log, test_robot, screen, drive_input) -> Diagnosis:
     clock = {"start": time.perf_counter()}
     src = log_.source or "drive log"
     if n_folds < 3:
@@ -241,6 +246,8 @@ def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, bas
         if differ:
             raise InputError(f"{test_log.source or 'test log'}: another robot than {src}'s ({'; '.join(differ)}): "
                              "a test log must come from the same robot")
+    if drive_input not in (None, "commanded", "measured"):
+        raise InputError(f"diagnose: drive input {drive_input!r} is neither 'commanded' nor 'measured'")
     requested, mujoco_note, screened = baseline, None, None
     if baseline in ("auto", "mujoco"):
         use_mujoco, mujoco_note = choose_simulator(baseline, robot)
@@ -254,11 +261,16 @@ def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, bas
             effects = screened + [n for n in ("ground_anisotropy", "road_wheels") if n not in screened]
         clock["screen"] = time.perf_counter()
         notes: list[str] = []
-        if robot_sim_settings(robot).get("drive_input") == "measured":  # as the robot was calibrated
+        from_file = robot_sim_settings(robot).get("drive_input")
+        if (drive_input or from_file) == "measured":
             log_ = measured_drive_log(log_, src)
             test_log = None if test_log is None else measured_drive_log(test_log, test_log.source or "test log")
             notes.append("the simulated drives follow the logged track speeds, as in the robot's calibration (robot "
-                         "key simulator.drive_input: measured)")
+                         "key simulator.drive_input: measured)" if drive_input is None else
+                         "the simulated drives follow the logged track speeds (drive input: measured)")
+        elif drive_input == "commanded" and from_file == "measured":
+            notes.append("the simulated drives follow the logged commands, although the robot was calibrated with "
+                         "its drives following the measured track speeds (robot key simulator.drive_input)")
         h = DEFAULT_HORIZON if horizon_s == "auto" else float(horizon_s)
         model = MujocoBaseline(robot, log_ if test_log is None else concat_logs(log_, test_log), horizon_s=h)
         problem = model.problem(n_folds, n_train=None if test_log is None else log_.n_samples)
