@@ -135,6 +135,25 @@ def test_summary_says_what_the_log_does_not_determine():
     assert clean.startswith("Nothing needs to change")
 
 
+def test_what_the_log_points_at_but_the_fit_did_not_reach_is_said():
+    """A candidate the fit's rounds did not reach keeps its described value: calibration.json gives
+    the value the log points at, and the summary says the log does not confirm the description."""
+    from mjtrack.calibrate.causes import Cause, summary
+    from mjtrack.calibrate.identify import Verdict
+
+    v = Verdict("mu_ratio", True, False, 1.0, 1.0, None, "the log points at 1.3 (linearised), ...", points_at=1.3)
+    assert v.to_json()["points_at"] == 1.3
+    assert "points_at" not in Verdict("mu", True, False, 0.5, 0.5, (0.4, 0.6), "kept").to_json()
+    c = Cause(["wheelbase"], {"wheelbase": (0.512, 0.6)}, [], 0.9, 0.3, "its wheelbase acts as 0.6 m")
+    one = summary([c], (0.3, 0.2), where="held-out", yaw=None, unsettled={"mu_ratio": "1.3"})
+    assert one.endswith("The log also points at mu_ratio 1.3, which the fit did not reach within its rounds: it "
+                        "keeps its described value, which the log does not confirm.")
+    two = summary([c], (0.3, 0.2), where="held-out", yaw=None, unsettled={"mu_ratio": "1.3", "cg_y": "-0.047 m"})
+    assert "points at mu_ratio 1.3, cg_y -0.047 m, which" in two and "they keep their described values" in two
+    assert summary([c], (0.3, 0.2), where="held-out", yaw=None) == summary([c], (0.3, 0.2), where="held-out",
+                                                                          yaw=None, unsettled={})
+
+
 def test_a_large_change_with_a_wide_interval_is_determined_and_changed():
     """A parameter whose interval is wider than its resolution but far from the description (the
     log says it must change, and by about how much) stays fitted, with its interval; one whose

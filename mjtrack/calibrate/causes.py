@@ -185,9 +185,21 @@ def share_words(share: float) -> str:
 
 
 def summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: tuple[float, float] | None,
-            undetermined: list[str] | None = None) -> str:
+            undetermined: list[str] | None = None, unsettled: dict[str, str] | None = None) -> str:
     """The calibration's one-paragraph conclusion, from its measured causes (``undetermined``: the
-    candidates the log does not determine)."""
+    candidates the log does not determine; ``unsettled``: name -> the value, in words, the log points
+    at for the candidates the fit's rounds did not reach, which kept their described values)."""
+    text = _summary(causes, rms, where=where, yaw=yaw, undetermined=undetermined)
+    if unsettled:
+        text += (" The log also points at " + ", ".join(f"{n} {v}" for n, v in unsettled.items())
+                 + ", which the fit did not reach within its rounds: "
+                 + ("it keeps its described value" if len(unsettled) == 1 else "they keep their described values")
+                 + ", which the log does not confirm.")
+    return text
+
+
+def _summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: tuple[float, float] | None,
+             undetermined: list[str] | None) -> str:
     before, after = rms
     if not causes and undetermined:
         text = (f"Nothing the log determines needs to change. It does not determine {', '.join(undetermined)}: "

@@ -173,11 +173,16 @@ class Verdict:
     interval: tuple[float, float] | None
     reason: str
     tied_with: list[str] = field(default_factory=list)
+    #: the value the log points at when the fit's rounds ran out before reaching it (the parameter
+    #: then keeps its described value, which the log does not confirm)
+    points_at: float | None = None
 
     def to_json(self) -> dict:
         out = {"determined": bool(self.determined), "changed": bool(self.changed), "reason": self.reason}
         if self.tied_with:
             out["tied_with"] = list(self.tied_with)
+        if self.points_at is not None:
+            out["points_at"] = float(self.points_at)
         return out
 
 

@@ -520,7 +520,8 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
                     verdicts[n] = Verdict(n, True, False, described[n], described[n], None,
                                           f"the log points at {fmt_value(sel.values[n], s.unit)} (linearised), but the "
                                           f"fit did not settle within {rounds} rounds; it stays at its described "
-                                          f"value {fmt_value(described[n], s.unit)}")
+                                          f"value {fmt_value(described[n], s.unit)}, which the log does not confirm",
+                                          points_at=float(sel.values[n]))
             ties = {k: v for k, v in sel.ties.items() if k in kept}
             values = {**described}
             model_form: dict[str, dict] = {}
@@ -614,7 +615,9 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     rms = (test_before.rms, test_after.rms) if test is not None else (before.rms, after.rms)
     sentence = summary(causes, rms, where="held-out" if test is not None else "training",
                        yaw=(m["yaw_ratio"], tb["yaw_ratio"]),
-                       undetermined=[n for n in names if not verdicts[n].determined])
+                       undetermined=[n for n in names if not verdicts[n].determined],
+                       unsettled={n: fmt_value(verdicts[n].points_at, specs[n].unit) for n in names
+                                  if verdicts[n].points_at is not None})
     for label, b, a in [("train", before, after)] + ([("test", test_before, test_after)] if test is not None else []):
         findings.append({"what": "diverged windows", "part": label, "measured": None, "simulated_before": b.diverged,
                          "simulated_after": a.diverged, "windows": int(b.diverged_mask.size),
