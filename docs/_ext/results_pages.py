@@ -492,10 +492,12 @@ def _calibration() -> Page:
                     "training windows (a baseline) and on the test windows themselves (a bound no model of that family "
                     "can beat there); the described robot with every window started with the body at rest instead of "
                     "the twist estimated from the poses; the calibrated robot's median window error and the share of "
-                    "its squared error carried by its ten worst windows.",
+                    "its squared error carried by its ten worst windows; the described and calibrated robots' error "
+                    "over every test window, the windows left out included, and its relative drop.",
                     ["robot", "calibrated MuJoCo", "kinematic, fitted on train", "kinematic, fitted on test",
                      "described MuJoCo", "described, started at rest", "calibrated, median window",
-                     "ten worst windows' share"])
+                     "ten worst windows' share", "every window: described", "every window: calibrated",
+                     "every window: drop"])
     params = Table("Every candidate of the real-robot calibrations: described value, calibrated value, interval, "
                    "whether the log determines it and whether calibration changed it.",
                    ["robot", "parameter", "described", "calibrated", "interval low", "interval high", "determined",
@@ -525,7 +527,9 @@ def _calibration() -> Page:
             context.add(name, number(real, q + "/test/after"), number(real, q + "/kinematic/fitted_on_train/rms"),
                         number(real, q + "/kinematic/fitted_on_test/rms"), number(real, q + "/test/before"),
                         number(real, q + "/start_at_rest/rms"), number(real, q + "/concentration/median_m"),
-                        number(real, q + "/concentration/share"))
+                        number(real, q + "/concentration/share"),
+                        *(number(real, q + f"/with_left_out/{k}") if "with_left_out" in r else "not computed"
+                          for k in ("before", "after", "relative")))
         for cls in r.get("speed_ratio", {}):
             p = f"{q}/speed_ratio/{cls.replace('~', '~0').replace('/', '~1')}"
             speed.add(name, class_names.get(cls, cls), number(real, p + "/windows"), number(real, p + "/measured"),
