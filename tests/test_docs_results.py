@@ -41,7 +41,7 @@ def file_value(root: Path, prov: dict):
     if prov["reduce"]:
         items = [v[prov["field"]] for v in value] if prov["field"] else list(value)
         value = {"mean": statistics.fmean, "max": max, "min": min, "median": statistics.median,
-                 "count": lambda xs: len([x for x in xs if x is True])}[prov["reduce"]](items)
+                 "count": lambda xs: len([x for x in xs if x is True]), "length": len}[prov["reduce"]](items)
     return value if isinstance(value, (bool, type(None))) else value * prov["scale"]
 
 

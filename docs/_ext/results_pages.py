@@ -43,6 +43,7 @@ def pointer_get(data: Any, pointer: str) -> Any:
 REDUCTIONS: dict[str, Callable[[list[float]], float]] = {
     "mean": statistics.fmean, "max": max, "min": min, "median": statistics.median,
     "count": lambda items: sum(1 for v in items if v is True),  # how many items' field is true
+    "length": len,  # how many items
 }
 
 
@@ -486,7 +487,7 @@ def _calibration() -> Page:
                    "left out because the ground cannot explain them: poses that move against the tracks, or a robot "
                    "held still while a track ran under it (calibration.json `left_out`).",
                    ["robot", "train windows", "test windows", "test before", "test after", "drop", "yaw ratio measured",
-                    "simulated before", "simulated after", "left out (train, test)"])
+                    "simulated before", "simulated after", "left out, train", "left out, test"])
     context = Table("What puts the real robots' test errors [m] in context, on the same windows: a kinematic ICR model "
                     "(speed scale, effective gauge, ICR offset) driven by the measured track speeds, fitted on the "
                     "training windows (a baseline) and on the test windows themselves (a bound no model of that family "
@@ -521,8 +522,8 @@ def _calibration() -> Page:
                    number(real, q + "/test/before"), number(real, q + "/test/after"), number(real, q + "/test/relative"),
                    number(real, q + "/yaw_ratio/measured"), number(real, q + "/yaw_ratio/before"),
                    number(real, q + "/yaw_ratio/after"),
-                   ", ".join(str(len(r.get("left_out", {}).get(part, {}).get("windows", []))) for part in ("train", "test"))
-                   if "left_out" in r else "not checked")
+                   *(number(real, f"{q}/left_out/{part}/windows", reduce="length") if part in r.get("left_out", {})
+                     else ("none" if "left_out" in r else "not checked") for part in ("train", "test")))
         if "kinematic" in r:
             context.add(name, number(real, q + "/test/after"), number(real, q + "/kinematic/fitted_on_train/rms"),
                         number(real, q + "/kinematic/fitted_on_test/rms"), number(real, q + "/test/before"),
