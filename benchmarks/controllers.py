@@ -12,8 +12,10 @@ control) on
   measurements, then with the ``track`` command's default measurement noise for ``--seeds``
   seeds;
 
-and the project's slip-compensated tracker (``tracker``, compensation vir) on the MuJoCo robots
-for reference. Reported per run: RMS and maximum cross-track error, final position error, CPU
+then the feed-forward once more through the slip compensation vir (``feedforward_vir``: the
+inverse of the online ICR estimate, the ``track`` command's default for it; on the kinematic
+model it is the plain feed-forward), and the project's slip-compensated tracker (``tracker``,
+compensation vir) on the MuJoCo robots for reference. Reported per run: RMS and maximum cross-track error, final position error, CPU
 seconds. Also stored:
 
 * ``sensitivity``: the line follower with its sensors 0.15 m ahead in place of 0.3 m (exact
@@ -54,6 +56,7 @@ HUSKY = Robot(traction="wheels", track_gauge=0.555, wheelbase=0.512, sprocket_ra
               mass=50.0, cg_z=0.2)
 ROBOTS = {"tracked": Robot(), "wheeled": HUSKY}
 EXACT = {"pose_noise": (0.0, 0.0, 0.0), "twist_noise": (0.0, 0.0, 0.0), "track_speed_noise": 0.0}
+FF_COMPENSATED = "feedforward_vir"  # the feed-forward through the slip compensation vir
 
 # What the thesis reports for each controller's own test (chapter 3), quoted. "numbers" holds the
 # legible numbers of the case as printed.
@@ -105,9 +108,12 @@ def figure_eight(laps: float | None, seeds: int) -> dict:
     out = {}
     for robot_name, robot in ROBOTS.items():
         rows = {}
-        for name in (*THESIS_CONTROLLERS, "tracker"):
-            comp = "vir" if name == "tracker" else "none"
-            row = {"compensation": comp}
+        # the thesis's five through the nominal adapter, the open-loop feed-forward once more through the
+        # slip compensation (`mjtrack track`'s default for it), and the project's tracker
+        runs = [(n, n, "none") for n in THESIS_CONTROLLERS] + [(FF_COMPENSATED, "feedforward", "vir"),
+                                                              ("tracker", "tracker", "vir")]
+        for key, name, comp in runs:
+            row = {"controller": name, "compensation": comp}
             if name != "tracker":
                 res, cpu = timed(lambda: run_kinematic_tracking(robot, controller=name, laps=laps))
                 row["kinematic"] = run_record(res, cpu)
@@ -123,9 +129,9 @@ def figure_eight(laps: float | None, seeds: int) -> dict:
             row["mujoco_noisy_summary"] = {
                 f"{stat}_{key}": fn([r[key] for r in noisy]) for key in ("rms_cross_track_m", "max_cross_track_m")
                 for stat, fn in (("mean", lambda v: float(np.mean(v))), ("worst", max))} if noisy else {}
-            rows[name] = row
+            rows[key] = row
             k = row.get("kinematic", {})
-            print(f"{robot_name:8s} {name:15s} kinematic {k.get('rms_cross_track_m', math.nan):.4f}/"
+            print(f"{robot_name:8s} {key:22s} kinematic {k.get('rms_cross_track_m', math.nan):.4f}/"
                   f"{k.get('max_cross_track_m', math.nan):.4f}  MuJoCo {row['mujoco_exact']['rms_cross_track_m']:.4f}/"
                   f"{row['mujoco_exact']['max_cross_track_m']:.4f} m (RMS/max)", flush=True)
         out[robot_name] = {"robot": robot.to_dict(), "controllers": rows}

@@ -4,8 +4,9 @@ loop through the track-speed interface, on the MuJoCo tracked and wheeled robots
 Bounds on the MuJoCo robots (exact measurements): RMS cross-track error below 8 cm and maximum
 below 20 cm, about half the figure-eight's tightest radius of curvature (0.375 m at A = 1.5 m);
 measured in benchmarks/results/controllers.json (two laps, the worst closed-loop case 7.6 cm
-RMS, 14.4 cm maximum: pole placement on the wheeled robot). The feed-forward is open loop: on a
-skidding robot it does not track, and the test says so.
+RMS, 14.4 cm maximum: pole placement on the wheeled robot). The feed-forward is open loop: through
+the thesis's adapter it does not track a skidding robot, and the test says so; through the slip
+compensation it stays within the same bounds on the quarter lap tested.
 """
 
 from __future__ import annotations
@@ -134,6 +135,18 @@ def test_the_open_loop_feedforward_drifts_off_on_both_mujoco_robots(robot):
     yaw_turned = mj.loop.poses[-1, 2] - mj.loop.poses[0, 2]
     yaw_asked = mj.reference.at(mj.reference.duration).pose[2] - mj.reference.at(0.0).pose[2]
     assert abs(yaw_turned) < abs(yaw_asked)
+
+
+@pytest.mark.parametrize("robot", list(ROBOTS))
+def test_the_feedforward_through_the_slip_compensation_follows_the_path_on_both_mujoco_robots(robot):
+    """The same open-loop feed-forward, its commands through the slip compensation vir (the inverse of
+    the online ICR estimate, `mjtrack track`'s default for it): within the closed-loop controllers'
+    bounds over the quarter lap where the uncompensated one leaves the path, and at least three
+    times closer to it."""
+    plain = run_tracking(ROBOTS[robot], controller="feedforward", compensation="none", laps=0.25, **EXACT).metrics
+    vir = run_tracking(ROBOTS[robot], controller="feedforward", compensation="vir", laps=0.25, **EXACT).metrics
+    assert vir["rms_cross_track_m"] < RMS_BOUND and vir["max_cross_track_m"] < MAX_BOUND, vir
+    assert vir["max_cross_track_m"] < plain["max_cross_track_m"] / 3
 
 
 @pytest.mark.slow

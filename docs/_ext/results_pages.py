@@ -451,7 +451,9 @@ def _controllers() -> Page:
         "The thesis's five path controllers (feed-forward, pole placement, reactive, posture, line following) and the "
         "slip-compensated tracker drive a figure-eight through `mjtrack track`, on the tracked and on the wheeled "
         "MuJoCo robot, and on the kinematic model they were designed for. The feed-forward controller is open loop: "
-        "on the MuJoCo robot, whose tracks slip, nothing corrects its drift.",
+        "on the MuJoCo robot, whose tracks slip, nothing corrects its drift through the thesis's adapter "
+        "(V = v -+ w T/2); through the slip compensation vir (feedforward_vir: the inverse of the online ICR "
+        "estimate, `mjtrack track`'s default for it) its commands account for the slip and it follows the path.",
         [src], [*tables, load])
 
 
