@@ -453,7 +453,9 @@ def _controllers() -> Page:
         "MuJoCo robot, and on the kinematic model they were designed for. The feed-forward controller is open loop: "
         "on the MuJoCo robot, whose tracks slip, nothing corrects its drift through the thesis's adapter "
         "(V = v -+ w T/2); through the slip compensation vir (feedforward_vir: the inverse of the online ICR "
-        "estimate, `mjtrack track`'s default for it) its commands account for the slip and it follows the path.",
+        "estimate, `mjtrack track`'s default for it) its commands account for the slip: with exact measurements it "
+        "follows the path, with measurement noise its estimate of the slip is noisy and it strays further (the "
+        "noisy columns).",
         [src], [*tables, load])
 
 
