@@ -14,8 +14,11 @@ control) on
 
 then the feed-forward once more through the slip compensation vir (``feedforward_vir``: the
 inverse of the online ICR estimate, the ``track`` command's default for it; on the kinematic
-model it is the plain feed-forward), and the project's slip-compensated tracker (``tracker``,
-compensation vir) on the MuJoCo robots for reference. Reported per run: RMS and maximum cross-track error, final position error, CPU
+model it is the plain feed-forward) and through the same compensation started from the Coulomb
+reference's steady ICRs of the robot's description (``feedforward_coulomb``: ``track
+--reference-map coulomb``; the slip predicted by the physics, which a noisy online estimate
+then hardly moves), and the project's slip-compensated tracker (``tracker``, compensation vir)
+on the MuJoCo robots for reference. Reported per run: RMS and maximum cross-track error, final position error, CPU
 seconds. Also stored:
 
 * ``sensitivity``: the line follower with its sensors 0.15 m ahead in place of 0.3 m (exact
@@ -57,6 +60,7 @@ HUSKY = Robot(traction="wheels", track_gauge=0.555, wheelbase=0.512, sprocket_ra
 ROBOTS = {"tracked": Robot(), "wheeled": HUSKY}
 EXACT = {"pose_noise": (0.0, 0.0, 0.0), "twist_noise": (0.0, 0.0, 0.0), "track_speed_noise": 0.0}
 FF_COMPENSATED = "feedforward_vir"  # the feed-forward through the slip compensation vir
+FF_COULOMB = "feedforward_coulomb"  # the same, its map started from the Coulomb reference's steady ICRs
 
 # What the thesis reports for each controller's own test (chapter 3), quoted. "numbers" holds the
 # legible numbers of the case as printed.
@@ -110,20 +114,23 @@ def figure_eight(laps: float | None, seeds: int) -> dict:
         rows = {}
         # the thesis's five through the nominal adapter, the open-loop feed-forward once more through the
         # slip compensation (`mjtrack track`'s default for it), and the project's tracker
-        runs = [(n, n, "none") for n in THESIS_CONTROLLERS] + [(FF_COMPENSATED, "feedforward", "vir"),
-                                                              ("tracker", "tracker", "vir")]
-        for key, name, comp in runs:
-            row = {"controller": name, "compensation": comp}
+        runs = [(n, n, "none", "nominal") for n in THESIS_CONTROLLERS] + [
+            (FF_COMPENSATED, "feedforward", "vir", "nominal"), (FF_COULOMB, "feedforward", "vir", "coulomb"),
+            ("tracker", "tracker", "vir", "nominal")]
+        for key, name, comp, ref_map in runs:
+            row = {"controller": name, "compensation": comp, "reference_map": ref_map}
             if name != "tracker":
                 res, cpu = timed(lambda: run_kinematic_tracking(robot, controller=name, laps=laps))
                 row["kinematic"] = run_record(res, cpu)
                 row["settings"] = res.settings["controller_settings"]
                 row["cross_track_near"] = res.settings["cross_track_near"]
-            res, cpu = timed(lambda: run_tracking(robot, controller=name, compensation=comp, laps=laps, **EXACT))
+            res, cpu = timed(lambda: run_tracking(robot, controller=name, compensation=comp, laps=laps,
+                                                  reference_map=ref_map, **EXACT))
             row["mujoco_exact"] = run_record(res, cpu)
             noisy = []
             for seed in range(seeds):
-                res, cpu = timed(lambda: run_tracking(robot, controller=name, compensation=comp, laps=laps, seed=seed))
+                res, cpu = timed(lambda: run_tracking(robot, controller=name, compensation=comp, laps=laps,
+                                                      reference_map=ref_map, seed=seed))
                 noisy.append({"seed": seed, **run_record(res, cpu)})
             row["mujoco_noisy"] = noisy
             row["mujoco_noisy_summary"] = {

@@ -455,7 +455,9 @@ def _controllers() -> Page:
         "(V = v -+ w T/2); through the slip compensation vir (feedforward_vir: the inverse of the online ICR "
         "estimate, `mjtrack track`'s default for it) its commands account for the slip: with exact measurements it "
         "follows the path, with measurement noise its estimate of the slip is noisy and it strays further (the "
-        "noisy columns).",
+        "noisy columns). Started from the Coulomb reference's steady ICRs of the robot's description "
+        "(feedforward_coulomb: `mjtrack track --reference-map coulomb`), the compensation predicts the slip from the "
+        "physics, and the open-loop feed-forward follows the path with or without measurement noise.",
         [src], [*tables, load])
 
 
