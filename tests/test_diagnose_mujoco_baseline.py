@@ -154,6 +154,9 @@ def test_a_robot_calibrated_on_measured_speeds_is_diagnosed_on_them(monkeypatch)
     assert np.array_equal(seen["log"].v_left_cmd, lg.v_left_cmd)
     with pytest.raises(InputError, match="neither 'commanded' nor 'measured'"):
         diagnose(lg, robot, baseline="mujoco", drive_input="speeds")
+    # another baseline does not use it, and says so
+    d = diagnose(lg, NOMINAL, baseline="kinematic", drive_input="measured", effects=["track_speed_scale"])
+    assert any("applies to the MuJoCo baseline" in n for n in d.notes)
 
 
 def test_grids_extend_a_calibrated_robot():

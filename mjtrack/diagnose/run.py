@@ -290,6 +290,9 @@ def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, bas
         if mujoco_note is not None:
             choice["why"] = f"{mujoco_note}; {why}"
             notes.append(mujoco_note)
+        if drive_input is not None:
+            notes.append(f"drive input {drive_input!r} applies to the MuJoCo baseline; the {model.name} baseline "
+                         "does not use it")
     data = problem.data
     n_folds_used = 2 if test_log is not None else n_folds
     names = model.default_effects() if effects is None else list(effects)
