@@ -215,10 +215,10 @@ def contradicting_windows(log: DriveLog, ws: WindowSet) -> list[dict]:
 #: ``STUCK_PATH_M`` while neither point under the tracks' centres gets ``STUCK_SHARE`` of that away
 #: from where it was at the half's start.
 #: On level ground a track that slides under the body pushes it: in the steady state of Coulomb
-#: ground the points under the tracks move at least 0.17 times the faster track's speed for every
+#: ground the points under the tracks move by about a sixth of the faster track's speed or more, for every
 #: track length up to four times the gauge, pivot and spin turns included (docs/theory/simulator.md,
 #: "Windows of a log"), and from rest a ground of at least ``AGAINST_MU`` friction moves them by
-#: AGAINST_MU g tau^2 / 2, 0.25 m in a one-second half.
+#: AGAINST_MU g tau^2 / 2, about 0.25 m in a one-second half.
 STUCK_PATH_M = 0.5
 STUCK_SHARE = 0.1
 STUCK_WHY = (f"in one half of the window a track runs at least {STUCK_PATH_M:g} m while neither point under the "
