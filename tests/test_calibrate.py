@@ -313,6 +313,26 @@ def test_windows_whose_poses_move_against_the_tracks_are_left_out_and_listed():
     assert kept.before.rms > 3 * cal.before.rms  # the rewritten window dominates the error it is scored in
 
 
+def test_windows_in_which_the_robot_is_held_still_are_left_out_and_listed():
+    """One window of a simulated log rewritten as a robot caught on an obstacle would record it
+    (tracks spinning, poses still; mjtrack.testing.records), as in runs of windows of a real Husky
+    log: left out of the fit and of every score, listed as kind "stuck" and counted in the summary."""
+    from mjtrack.testing.records import with_held_window
+
+    lg = _log(Robot(cg_x=0.04), 16.0, 3, lag=0.0)
+    ws = make_windows(lg, 2.0)
+    held, (s, e) = with_held_window(lg, int(ws.starts[4]), int(ws.ends[4]))
+    cal = calibrate(held, Robot(), names=["cg_x"], fit_windows=None, max_iter=3)
+    assert len(cal.train_windows) == 7 and s not in cal.train_windows.starts.tolist()
+    assert "1 of 8 train windows were left out: 1 in which the robot was held still" in cal.sentence
+    (row,) = cal.to_json()["left_out"]["train"]["windows"]
+    assert row["kind"] == "stuck" and row["t0"] == pytest.approx(float(lg.t[s]))
+    assert row["body_path_m"] == pytest.approx([0.0, 0.0], abs=1e-12)
+    assert row["track_path_m"] == pytest.approx([0.8, 0.8])
+    # (the rewrite breaks the motion at the window's ends, so the windows beside it no longer hold the
+    # truth's cg_x: the fit's value is not checked here, the leaving out is)
+
+
 def test_the_calibrated_robot_file_records_the_drive_input(tmp_path):
     """A robot calibrated with its drives following the measured speeds says so under simulator,
     so that the MuJoCo diagnosis of a log drives it the same way; commanded drives add nothing."""

@@ -1,14 +1,19 @@
-"""Drive logs with a wrong record in one window, for the tests of the windows left out.
+"""Drive logs with a record the ground cannot explain in one window, for the tests of the windows
+left out.
 
-    from mjtrack.testing.records import with_backward_window
+    from mjtrack.testing.records import with_backward_window, with_held_window
 
     bad, (s, e) = with_backward_window(log, start_row=80, end_row=120)
+    held, (s, e) = with_held_window(log, start_row=80, end_row=120)
 
-The rows ``start_row .. end_row`` become a window in which both tracks drive forwards at a constant
-speed (commands, and measured speeds where the log has them) while the poses move backwards along
-the start heading at another constant speed, as a localisation that flipped would record it; the
-rows after the window are shifted so that the log continues from there as before. Written here,
-with no code of :mod:`mjtrack.sim.windows`, which finds such windows.
+``with_backward_window``: the rows ``start_row .. end_row`` become a window in which both tracks
+drive forwards at a constant speed (commands, and measured speeds where the log has them) while
+the poses move backwards along the start heading at another constant speed, as a localisation that
+flipped would record it; the rows after the window are shifted so that the log continues from
+there as before. ``with_held_window``: in those rows the tracks spin in opposite directions at a
+constant speed while the poses stay where the window starts, as a robot caught on an obstacle
+would record it. Written here, with no code of :mod:`mjtrack.sim.windows`, which finds such
+windows.
 """
 
 from __future__ import annotations
@@ -39,5 +44,27 @@ def with_backward_window(lg: DriveLog, start_row: int, end_row: int, *, track_sp
         if col is not None:
             col = col.copy()
             col[s:e] = track_speed
+            changes[name] = col
+    return lg.replace(**changes), (s, e)
+
+
+def with_held_window(lg: DriveLog, start_row: int, end_row: int, *, track_speed: float = 0.8
+                     ) -> tuple[DriveLog, tuple[int, int]]:
+    """``lg`` with rows ``start_row .. end_row`` (inclusive) rewritten as the module docstring says;
+    returns the new log and the row range."""
+    s, e = int(start_row), int(end_row)
+    if not 0 <= s < e < lg.n_samples:
+        raise ValueError(f"rows {s}..{e} are not inside the log's {lg.n_samples}")
+    x, y, yaw = lg.x.copy(), lg.y.copy(), lg.yaw.copy()
+    x[s:e + 1], y[s:e + 1], yaw[s:e + 1] = lg.x[s], lg.y[s], lg.yaw[s]
+    x[e + 1:] += x[e] - lg.x[e]  # the log goes on from where the robot was held
+    y[e + 1:] += y[e] - lg.y[e]
+    yaw[e + 1:] += yaw[e] - lg.yaw[e]
+    changes = {"x": x, "y": y, "yaw": yaw}
+    for name, sign in (("v_left_cmd", -1.0), ("v_right_cmd", 1.0), ("v_left", -1.0), ("v_right", 1.0)):
+        col = getattr(lg, name)
+        if col is not None:
+            col = col.copy()
+            col[s:e] = sign * track_speed
             changes[name] = col
     return lg.replace(**changes), (s, e)
