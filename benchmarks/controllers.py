@@ -18,8 +18,8 @@ model it is the plain feed-forward) and through the same compensation started fr
 reference's steady ICRs of the robot's description (``feedforward_coulomb``: ``track
 --reference-map coulomb``; the slip predicted by the physics, which a noisy online estimate
 then hardly moves), and the project's slip-compensated tracker (``tracker``, compensation vir)
-on the MuJoCo robots for reference. Reported per run: RMS and maximum cross-track error, final position error, CPU
-seconds. Also stored:
+on the MuJoCo robots for reference. Reported per run: RMS and maximum cross-track error, final
+position error, CPU seconds. Also stored:
 
 * ``sensitivity``: the line follower with its sensors 0.15 m ahead in place of 0.3 m (exact
   measurements), the posture law with Siegwart's k_rho = 3 in place of 1.6 (with noise);
@@ -112,8 +112,9 @@ def figure_eight(laps: float | None, seeds: int) -> dict:
     out = {}
     for robot_name, robot in ROBOTS.items():
         rows = {}
-        # the thesis's five through the nominal adapter, the open-loop feed-forward once more through the
-        # slip compensation (`mjtrack track`'s default for it), and the project's tracker
+        # the thesis's five through the nominal adapter; the open-loop feed-forward twice more through the
+        # slip compensation, its map started from the nominal one (`mjtrack track`'s default) and from the
+        # Coulomb reference; the project's tracker
         runs = [(n, n, "none", "nominal") for n in THESIS_CONTROLLERS] + [
             (FF_COMPENSATED, "feedforward", "vir", "nominal"), (FF_COULOMB, "feedforward", "vir", "coulomb"),
             ("tracker", "tracker", "vir", "nominal")]

@@ -200,14 +200,17 @@ def context_of_stored(name: str, spec: dict, *, rollers: int, worst: int = 10) -
     e_rest = errors(described, test, twists=np.zeros((len(tws), 3)))
     e_cal = errors(calibrated, test, variant=ground)
     order = np.argsort(e_cal)[::-1][:worst]
-    rms = lambda e: float(np.sqrt(np.mean(e ** 2)))
+
+    def rms(e):
+        return float(np.sqrt(np.mean(e ** 2)))
+
     with_left_out = {"windows": len(every), "before": rms(errors(described, test, ws=every)),
                      "after": rms(errors(calibrated, test, ws=every, variant=ground))}
     with_left_out["relative"] = 1.0 - with_left_out["after"] / with_left_out["before"]
     return {"kinematic": kin,
-            "start_at_rest": {"rms": float(np.sqrt(np.mean(e_rest ** 2))), "windows": len(tws)},
+            "start_at_rest": {"rms": rms(e_rest), "windows": len(tws)},
             "concentration": {"worst": worst, "share": float(np.sum(e_cal[order] ** 2) / np.sum(e_cal ** 2)),
-                              "median_m": float(np.median(e_cal)), "rms_m": float(np.sqrt(np.mean(e_cal ** 2))),
+                              "median_m": float(np.median(e_cal)), "rms_m": rms(e_cal),
                               "t0": [float(test.t[tws.starts[j]]) for j in order]},
             "with_left_out": with_left_out}
 
@@ -269,8 +272,8 @@ def main(argv=None) -> int:
     ap.add_argument("--diagnose", action="store_true", help="then diagnose the test part against the calibrated robot")
     ap.add_argument("--diagnose-only", action="store_true", help="only diagnose the stored calibrated robots")
     ap.add_argument("--context-only", action="store_true",
-                    help="only recompute, for the stored robots, the kinematic model, the start-state sensitivity "
-                         "and the error concentration (seconds)")
+                    help="only recompute, for the stored robots, the kinematic model, the start-state sensitivity, "
+                         "the error concentration and the errors over every test window (seconds to minutes)")
     args = ap.parse_args(argv)
     load0 = os.getloadavg()
     old = json.loads(RESULT.read_text()) if RESULT.exists() else {}
@@ -281,8 +284,7 @@ def main(argv=None) -> int:
             print(f"{spec['log']} not found (the shared data); skipped")
             continue
         if args.context_only:
-            robots[name] = {**{k: v for k, v in robots[name].items() if k != "kinematic_bound"},  # (its old name)
-                            **context_of_stored(name, spec, rollers=args.rollers)}
+            robots[name] = {**robots[name], **context_of_stored(name, spec, rollers=args.rollers)}
             r = robots[name]
             k, c = r["kinematic"], r["concentration"]
             print(f"== {name}: test error {r['test']['before']:.4f} -> {r['test']['after']:.4f} m; kinematic model "

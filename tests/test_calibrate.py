@@ -290,16 +290,24 @@ def test_the_calibrated_robot_file_carries_every_fitted_value(robot):
         assert got[k] == pytest.approx(v), k
 
 
-def test_windows_whose_poses_move_against_the_tracks_are_left_out_and_listed():
+@pytest.fixture(scope="module")
+def eight_windows():
+    """A simulated 16 s log of a robot with its centre of mass 4 cm ahead: eight 2 s windows, one of
+    which the tests below rewrite."""
+    lg = _log(Robot(cg_x=0.04), 16.0, 3, lag=0.0)
+    ws = make_windows(lg, 2.0)
+    assert len(ws) == 8
+    return lg, ws
+
+
+def test_windows_whose_poses_move_against_the_tracks_are_left_out_and_listed(eight_windows):
     """One window of a simulated log rewritten as a flipped localisation would record it (tracks
     forwards, poses backwards; mjtrack.testing.records), as in two windows of a real Warthog log: it
     is left out of the fit and of every score, listed under left_out and said in the summary; kept on
     request."""
     from mjtrack.testing.records import with_backward_window
 
-    lg = _log(Robot(cg_x=0.04), 16.0, 3, lag=0.0)
-    ws = make_windows(lg, 2.0)
-    assert len(ws) == 8
+    lg, ws = eight_windows
     bad, (s, e) = with_backward_window(lg, int(ws.starts[2]), int(ws.ends[2]))
     cal = calibrate(bad, Robot(), names=["cg_x"], fit_windows=None, max_iter=3)
     assert len(cal.train_windows) == 7 and s not in cal.train_windows.starts.tolist()
@@ -313,14 +321,13 @@ def test_windows_whose_poses_move_against_the_tracks_are_left_out_and_listed():
     assert kept.before.rms > 3 * cal.before.rms  # the rewritten window dominates the error it is scored in
 
 
-def test_windows_in_which_the_robot_is_held_still_are_left_out_and_listed():
+def test_windows_in_which_the_robot_is_held_still_are_left_out_and_listed(eight_windows):
     """One window of a simulated log rewritten as a robot caught on an obstacle would record it
     (tracks spinning, poses still; mjtrack.testing.records), as in runs of windows of a real Husky
     log: left out of the fit and of every score, listed as kind "stuck" and counted in the summary."""
     from mjtrack.testing.records import with_held_window
 
-    lg = _log(Robot(cg_x=0.04), 16.0, 3, lag=0.0)
-    ws = make_windows(lg, 2.0)
+    lg, ws = eight_windows
     held, (s, e) = with_held_window(lg, int(ws.starts[4]), int(ws.ends[4]))
     cal = calibrate(held, Robot(), names=["cg_x"], fit_windows=None, max_iter=3)
     assert len(cal.train_windows) == 7 and s not in cal.train_windows.starts.tolist()

@@ -180,6 +180,13 @@ def _middle_row(log: DriveLog, s: int, e: int) -> int | None:
     return m if s < m < e else None
 
 
+def _track_speeds(log: DriveLog) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's left and right track speed: measured where the log has it, else commanded."""
+    vl = log.v_left if log.has_track_speeds else log.v_left_cmd
+    vr = log.v_right if log.has_track_speeds else log.v_right_cmd
+    return np.where(np.isfinite(vl), vl, log.v_left_cmd), np.where(np.isfinite(vr), vr, log.v_right_cmd)
+
+
 def contradicting_windows(log: DriveLog, ws: WindowSet) -> list[dict]:
     """The windows whose measured poses move against the tracks in a way the ground cannot allow
     (:data:`AGAINST_WHY`), each as ``{"index", "t0", "track_path_m", "body_path_m"}``: the window's
@@ -188,9 +195,8 @@ def contradicting_windows(log: DriveLog, ws: WindowSet) -> list[dict]:
     heading."""
     if len(ws) == 0:
         return []
-    vl = log.v_left if log.has_track_speeds else log.v_left_cmd
-    vr = log.v_right if log.has_track_speeds else log.v_right_cmd
-    v = 0.5 * (np.where(np.isfinite(vl), vl, log.v_left_cmd) + np.where(np.isfinite(vr), vr, log.v_right_cmd))
+    vl, vr = _track_speeds(log)
+    v = 0.5 * (vl + vr)
     out = []
     for j, (s, e) in enumerate(zip(ws.starts, ws.ends)):
         m = _middle_row(log, s, e)
@@ -234,10 +240,7 @@ def stuck_windows(log: DriveLog, ws: WindowSet, gauge: float) -> list[dict]:
     points under the tracks' centres (at +-gauge/2 across the body) get from where they were at the
     half's start (the larger of the two; the farthest sample, so that a body that reverses within
     the half counts how far it went, and pose noise is not summed up as motion)."""
-    vl = log.v_left if log.has_track_speeds else log.v_left_cmd
-    vr = log.v_right if log.has_track_speeds else log.v_right_cmd
-    vl = np.abs(np.where(np.isfinite(vl), vl, log.v_left_cmd))
-    vr = np.abs(np.where(np.isfinite(vr), vr, log.v_right_cmd))
+    vl, vr = (np.abs(v) for v in _track_speeds(log))
     out = []
     for j, (s, e) in enumerate(zip(ws.starts, ws.ends)):
         m = _middle_row(log, s, e)
