@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mjtrack.control.compensation import run_tracking
+from mjtrack.control.runs import run_tracking
 from mjtrack.estimation.online import KnownICR
 from mjtrack.io.robot import Robot
 

@@ -34,7 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mjtrack.control.compensation import PSI_STD0, CoulombICRMap, run_tracking, track_speeds_from_psi
+from mjtrack.control.compensation import PSI_STD0, CoulombICRMap, track_speeds_from_psi
+from mjtrack.control.runs import run_tracking
 from mjtrack.estimation.icr_ekf import InverseICR, icr_from_psi
 from mjtrack.estimation.online import KnownICR, OnlineICREstimator
 from mjtrack.io.robot import Robot

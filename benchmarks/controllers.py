@@ -48,7 +48,7 @@ import numpy as np
 from mjtrack.control import (ConstantSpeedProfile, LineFollower, Plant, PolarPostureController, Polyline,
                              ReactiveController, Reference, TrajectoryTracker, circle_path, run_closed_loop,
                              tracking_error)
-from mjtrack.control.compensation import run_kinematic_tracking, run_tracking
+from mjtrack.control.runs import run_kinematic_tracking, run_tracking
 from mjtrack.control.feedforward import FeedForward
 from mjtrack.control.path_controllers import THESIS_CONTROLLERS
 from mjtrack.io.robot import Robot

@@ -29,7 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mjtrack.control.compensation import MODES, run_tracking
+from mjtrack.control.compensation import MODES
+from mjtrack.control.runs import run_tracking
 from mjtrack.io.robot import Robot
 from mjtrack.testing.repo import RESULTS
 

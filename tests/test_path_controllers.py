@@ -19,8 +19,7 @@ import numpy as np
 import pytest
 
 from mjtrack.control import Plant, PolarPostureController, run_closed_loop
-from mjtrack.control.compensation import (cross_track_errors, run_kinematic_tracking, run_tracking,
-                                          scenario_reference)
+from mjtrack.control.runs import cross_track_errors, run_kinematic_tracking, run_tracking, scenario_reference
 from mjtrack.control.path_controllers import THESIS_CONTROLLERS, path_controller
 from mjtrack.control.paths import figure_eight_path
 from mjtrack.errors import InputError

@@ -9,13 +9,11 @@ import pytest
 from mjtrack.control.compensation import (
     CoulombICRMap,
     SlipCompensation,
-    cross_track_errors,
     heading_correction,
     inverse_micr,
-    run_tracking,
-    scenario_reference,
     track_speeds_from_psi,
 )
+from mjtrack.control.runs import cross_track_errors, run_tracking, scenario_reference
 from mjtrack.control.interface import TrackSpeedAdapter
 from mjtrack.errors import InputError
 from mjtrack.estimation import icr_from_psi, run_icr_ekf

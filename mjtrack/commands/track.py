@@ -43,7 +43,8 @@ HELP = ("closed-loop path tracking on the MuJoCo robot, tracked or wheeled (the 
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from mjtrack.control.compensation import CONTROLLERS, MODES, TRACK_SCENARIOS
+    from mjtrack.control.compensation import CONTROLLERS, MODES
+    from mjtrack.control.runs import TRACK_SCENARIOS
     from mjtrack.control.path_controllers import DESCRIPTIONS
 
     parser.add_argument("--scenario", choices=list(TRACK_SCENARIOS), default="figure_eight",
@@ -87,7 +88,7 @@ def write_figure(result, path: Path) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from mjtrack.control.compensation import cross_track_errors
+    from mjtrack.control.runs import cross_track_errors
     from mjtrack.io.atomic import atomic_write_bytes
 
     ref = result.reference
@@ -118,7 +119,7 @@ def write_figure(result, path: Path) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mjtrack.control.compensation import run_tracking
+    from mjtrack.control.runs import run_tracking
     from mjtrack.io.atomic import atomic_write_text
 
     out = check_out_dir(args.out)
