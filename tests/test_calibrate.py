@@ -19,7 +19,7 @@ from mjtrack.calibrate.run import calibrate
 from mjtrack.io.logs import write_log
 from mjtrack.io.robot import Robot, read_robot, write_robot
 from mjtrack.sim import SimConfig, drive_log
-from mjtrack.sim.windows import make_windows
+from mjtrack.windows import make_windows
 from mjtrack.testing.cli import run_cli
 
 TRUTH = {"mu": 0.5, "cg_x": 0.04, "cg_y": -0.03}
@@ -152,7 +152,7 @@ def test_calibration_recovers_drivetrain_and_contact_length(tmp_path):
 def test_measured_drive_input_drives_with_the_measured_speeds_and_refuses_drive_keys():
     import dataclasses
 
-    from mjtrack.sim.windows import commanded_log, measured_drive_log
+    from mjtrack.windows import commanded_log, measured_drive_log
     from mjtrack.errors import InputError
 
     n = 50
@@ -276,7 +276,7 @@ def test_the_calibrated_robot_file_carries_every_fitted_value(robot):
     from mjtrack.calibrate.params import default_names, window_params
     from mjtrack.calibrate.run import calibrated_robot
     from mjtrack.sim import SimConfig
-    from mjtrack.sim.windows import robot_params
+    from mjtrack.windows import robot_params
 
     fitted = {"mu": 0.6, "mu_ratio": 1.2, "cg_x": 0.02, "cg_y": -0.01, "track_length": 0.45, "wheelbase": 0.6,
               "drive_lag": 0.1, "drive_delay": 0.05, "track_speed_scale": 0.95, "rolling_resistance": 0.07,

@@ -11,7 +11,7 @@ import numpy as np
 from mjtrack.calibrate.params import specs_for
 from mjtrack.diagnose import residuals as rs
 from mjtrack.report.html import Report
-from mjtrack.sim.windows import AGAINST_WHY, STUCK_WHY
+from mjtrack.windows.screen import AGAINST_WHY, STUCK_WHY
 
 TURN_EDGES = (-1.0, -0.6, -0.2, 0.2, 0.6, 1.0)
 
@@ -73,7 +73,7 @@ def _figure_paths(cal, k: int = 6):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from mjtrack.sim.windows import measured_window_poses
+    from mjtrack.windows.define import measured_window_poses
 
     lg, ws = (cal.test_log, cal.test_windows) if cal.test_log is not None else (cal.train_log, cal.train_windows)
     b, a = (cal.test_before, cal.test_after) if cal.test_log is not None else (cal.before, cal.after)

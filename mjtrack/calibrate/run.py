@@ -42,10 +42,10 @@ from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.config import SimConfig, sim_config
-from mjtrack.sim.windows import (AGAINST_WHY, DRIVE_DEFAULTS, STUCK_WHY, WARMUP_S, WindowResult, WindowSet,
-                                 WindowSim, commanded_log, geometry_robot, make_windows, measured_drive_log,
-                                 left_out_counts, measured_window_poses, simulate_windows,
-                                 without_contradicting)
+from mjtrack.sim.windows import WindowResult, WindowSim, simulate_windows
+from mjtrack.windows import (AGAINST_WHY, DRIVE_DEFAULTS, STUCK_WHY, WARMUP_S, WindowSet, commanded_log, geometry_robot,
+                             left_out_counts, make_windows, measured_drive_log, measured_window_poses,
+                             without_contradicting)
 
 log = logging.getLogger(__name__)
 
@@ -127,7 +127,7 @@ class Calibration:
     drive_input: str = "commanded"
     fit_windows: WindowSet | None = None  # the windows the fit used (None: every training window)
     #: windows left out because their poses move against the tracks (see
-    #: :func:`mjtrack.sim.windows.contradicting_windows`), by part ("train", "test")
+    #: :func:`mjtrack.windows.contradicting_windows`), by part ("train", "test")
     left_out: dict[str, list[dict]] = field(default_factory=dict)
 
     @property
