@@ -226,9 +226,11 @@ def test_a_fit_that_blows_up_on_an_unused_window_is_fitted_again_with_it(monkeyp
     and the fit runs again; a blow-up that stays is said in the summary and the findings."""
     import mjtrack.calibrate.run as run
 
+    import mjtrack.calibrate.fit as fit_module  # calibrate imports the fit when it runs (it loads MuJoCo)
+
     calls = _blow_up_window_1(monkeypatch, times=1)  # window 1 is not a fit window
     first_fits = []  # (start, multistart, max_iter, windows) of each attempt's first fit
-    real_fit = run.fit
+    real_fit = fit_module.fit
 
     fits_per_attempt = []
 
@@ -239,7 +241,7 @@ def test_a_fit_that_blows_up_on_an_unused_window_is_fitted_again_with_it(monkeyp
         fits_per_attempt[-1] += 1
         return real_fit(obj, start, **kw)
 
-    monkeypatch.setattr(run, "fit", spy)
+    monkeypatch.setattr(fit_module, "fit", spy)
     cal = calibrate(_log(Robot(cg_x=0.04), 16.0, 3, lag=0.0), Robot(), names=["cg_x", "track_speed_scale"],
                     fit_windows=3, max_iter=6)
     # the second attempt starts where the first ended, with one start and the refit's iterations, and

@@ -9,6 +9,11 @@ generator used.
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -377,3 +382,24 @@ def test_no_window_of_the_simulators_own_logs_is_taken_for_a_stuck_robot():
                 lg = make_log(c, duration=60.0, seed=seed)
                 _, rows = without_contradicting(lg, make_windows(lg, 2.0), described_robot(c).track_gauge)
                 assert rows == [], (g, change, seed)
+
+
+def _loaded_after_import(modules: str) -> set[str]:
+    """Which of mujoco and mjtrack.diagnose a fresh interpreter holds after importing ``modules``."""
+    import mjtrack
+
+    code = (f"import sys\nimport {modules}\n"
+            "print(' '.join(m for m in ('mujoco', 'mjtrack.diagnose') if m in sys.modules))")
+    root = str(Path(mjtrack.__file__).resolve().parents[1])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
+    return set(out.stdout.split())
+
+
+def test_the_window_layer_and_calibration_import_without_mujoco_or_diagnose():
+    assert _loaded_after_import("mjtrack.windows") == set()
+    assert _loaded_after_import("mjtrack.calibrate, mjtrack.calibrate.params, mjtrack.calibrate.identify, "
+                                "mjtrack.calibrate.causes, mjtrack.calibrate.run") == set()
+    # the probe sees MuJoCo where it is loaded: the window simulator needs it
+    assert "mujoco" in _loaded_after_import("mjtrack.sim.windows")
+

@@ -28,24 +28,27 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mjtrack.calibrate.causes import Cause, find_causes, summary
-from mjtrack.calibrate.fit import FitResult, central_jacobian, fit, objective
 from mjtrack.calibrate.identify import Linearised, ModelForm, Verdict, final_verdicts, fmt_value, select
 from mjtrack.calibrate.params import described_values, parse_names, specs_for, start_values, window_params
-from mjtrack.diagnose import residuals as rs
 from mjtrack.errors import InputError
 from mjtrack.geometry import _sinc_terms, relative_pose
 from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.config import SimConfig, sim_config
-from mjtrack.sim.windows import WindowResult, WindowSim, simulate_windows
+from mjtrack.windows import bins as rs
 from mjtrack.windows import (AGAINST_WHY, DRIVE_DEFAULTS, STUCK_WHY, WARMUP_S, WindowSet, commanded_log, geometry_robot,
                              left_out_counts, make_windows, measured_drive_log, measured_window_poses,
                              without_contradicting)
+
+if TYPE_CHECKING:  # MuJoCo is loaded by the functions that simulate, not by importing calibrate
+    from mjtrack.calibrate.fit import FitResult
+    from mjtrack.sim.windows import WindowResult, WindowSim
 
 log = logging.getLogger(__name__)
 
@@ -306,6 +309,8 @@ def calibrated_robot(robot: Robot, values: dict[str, float], config: SimConfig,
 
 def _score(sim: WindowSim, lg: DriveLog, ws: WindowSet, variants: list[dict], *, nthread: int,
            warmup_s: float) -> list[Scored]:
+    from mjtrack.sim.windows import simulate_windows
+
     res = simulate_windows(sim, lg, ws, variants, nthread=nthread, warmup_s=warmup_s)
     return [Scored.of(res, p) for p in range(len(variants))]
 
@@ -320,6 +325,8 @@ def model_form_sources(obj, values: dict[str, float], resid: np.ndarray, jac: np
       is left of the start state that the log does not hold.
 
     Returns the sources (g = J^T (r_other - r)) and each one's RMS residual change [m]."""
+    from mjtrack.sim.windows import WindowSim
+
     robot = obj.sim.robot
     wp = window_params(values, robot)
     out, size = [], {}
@@ -412,7 +419,9 @@ def fit_index_of(ws: WindowSet, n: int | None) -> np.ndarray:
 
 def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, quiet,
                train_path, test_path, warmup_s, drive_input, fit_windows, keep_contradicting) -> Calibration:
+    from mjtrack.calibrate.fit import central_jacobian, fit, objective
     from mjtrack.progress import Progress
+    from mjtrack.sim.windows import WindowSim, simulate_windows
 
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
