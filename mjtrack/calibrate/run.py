@@ -38,6 +38,7 @@ from mjtrack.calibrate.params import described_values, parse_names, specs_for, s
 from mjtrack.errors import InputError
 from mjtrack.geometry import _sinc_terms, relative_pose
 from mjtrack.io.atomic import atomic_write_text, make_output_dir
+from mjtrack.io.jsonfile import json_value
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.config import SimConfig, sim_config
@@ -679,16 +680,8 @@ def _without_contradicting(lg: DriveLog, ws: WindowSet, src: str, gauge: float) 
 
 
 def _clean(obj):
-    """JSON-safe copy: NaN -> None."""
-    if isinstance(obj, dict):
-        return {k: _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if isinstance(obj, np.floating):
-        return _clean(float(obj))
-    return obj
+    """JSON-safe copy (:func:`mjtrack.io.jsonfile.json_value`)."""
+    return json_value(obj)
 
 
 def write_outputs(cal: Calibration, out: str | os.PathLike) -> None:
