@@ -421,3 +421,38 @@ def write_robot(robot: Robot, path: str | os.PathLike) -> None:
     from mjtrack.io.atomic import atomic_write_text
 
     atomic_write_text(path, json.dumps(robot.to_dict(), indent=2, sort_keys=True) + "\n")
+
+#: keys on which the description of a test log must agree with the robot of the training log, which
+#: calibration and diagnosis use for both logs: the running gear, the mass and its centre, and the
+#: friction (neither can give the test log's robot its own). A key the test log's description does
+#: not give is not compared (it relies on the default: it says nothing).
+SAME_ROBOT_KEYS = ("traction", "track_gauge", "track_length", "track_width", "sprocket_radius", "wheelbase",
+                   "wheels_per_side", "mass", "cg_x", "cg_y", "cg_z", "mu", "mu_left", "mu_right")
+#: relative tolerance of that agreement: far above the round-off of a unit conversion or of a
+#: value printed with 7 digits, far below any difference between two robots (a millimetre on a metre)
+SAME_ROBOT_REL = 1e-6
+
+
+def check_same_robot(robot: Robot, other: Robot, where: str) -> None:
+    """Refuse ``other`` (the description given with a test log, ``where`` its file) when it
+    states, on a key of :data:`SAME_ROBOT_KEYS`, another value than ``robot`` (the training log's
+    robot as it is used, defaults included): InputError naming each key and both values."""
+    differ = []
+    for k in SAME_ROBOT_KEYS:
+        if other.provided is not None and k not in other.provided:
+            continue
+        if k in ("mu_left", "mu_right"):  # null: the same as mu
+            a, b = (r.friction_left if k == "mu_left" else r.friction_right for r in (robot, other))
+        else:
+            a, b = getattr(robot, k), getattr(other, k)
+        numbers = _is_finite_number(a) and _is_finite_number(b)
+        if not (a == b or numbers and math.isclose(a, b, rel_tol=SAME_ROBOT_REL, abs_tol=1e-12)):
+            differ.append(f"{k} {_shown(b)} in its description, {_shown(a)} for the training log")
+    if differ:
+        raise InputError(f"{where}: recorded with another robot ({'; '.join(differ)}): a test log must come "
+                         "from the robot of the training log")
+
+
+def _shown(value: Any) -> str:
+    return "null" if value is None else f"{value:g}" if _is_finite_number(value) else str(value)
+
