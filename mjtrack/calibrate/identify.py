@@ -8,7 +8,7 @@ A^-1 (sum_g s_g s_g^T) A^-1 G / (G - 1), A = J^T J, s_g = J_g^T r_g the score of
 consecutive windows, :func:`clusters`), with Student's t at G - 1 degrees of freedom. The
 simulator's own error does not average out over windows, so each interval also carries the
 *model-form shift* of every parameter: the change of the fitted value that replacing the fit's
-simulator by a better one would cause, linearised as A^-1 J^T (r_better - r) (:class:`ModelForm`;
+simulator by a better one would cause, linearised as A^-1 J^T (r_better - r) (:class:`ModelFormSource`;
 the sources are measured by :func:`mjtrack.calibrate.run.calibrate`). Half-width
 t sd + |shift| (a bias does not shrink with more windows, so it is added, not put in quadrature).
 
@@ -49,7 +49,7 @@ def clusters(n_windows: int, n_params: int) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class ModelForm:
+class ModelFormSource:
     """A model-form source: its name and g = J^T (r_better - r) (n,) in scaled units."""
 
     name: str
@@ -79,7 +79,7 @@ class Linearised:
     resid: np.ndarray
     rows_per_window: int
     specs: dict[str, ParamSpec]
-    model_form: list[ModelForm] = field(default_factory=list)
+    model_form: list[ModelFormSource] = field(default_factory=list)
     floors: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -321,4 +321,5 @@ def has_changed(value: float, described: float) -> bool:
     return not math.isclose(value, described, rel_tol=1e-12, abs_tol=1e-15)
 
 
-__all__ = ["Linearised", "ModelForm", "Selection", "Uncertainty", "Verdict", "clusters", "final_verdicts", "select"]
+__all__ = ["Linearised", "ModelFormSource", "Selection", "Uncertainty", "Verdict", "clusters", "final_verdicts",
+           "select"]

@@ -33,10 +33,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mjtrack.calibrate.causes import Cause, find_causes, summary
-from mjtrack.calibrate.identify import Linearised, ModelForm, Verdict, final_verdicts, fmt_value, select
+from mjtrack.calibrate.identify import Linearised, ModelFormSource, Verdict, final_verdicts, fmt_value, select
 from mjtrack.calibrate.params import described_values, parse_names, specs_for, start_values, window_params
 from mjtrack.errors import InputError
-from mjtrack.geometry import _sinc_terms, relative_pose
+from mjtrack.geometry import relative_pose
+from mjtrack.geometry import sinc_terms as _sinc_terms
 from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.jsonfile import json_value
 from mjtrack.io.logs import DriveLog
@@ -317,7 +318,7 @@ def _score(sim: WindowSim, lg: DriveLog, ws: WindowSet, variants: list[dict], *,
 
 
 def model_form_sources(obj, values: dict[str, float], resid: np.ndarray, jac: np.ndarray, config: SimConfig, *,
-                       refine: bool = True) -> tuple[list[ModelForm], dict[str, float]]:
+                       refine: bool = True) -> tuple[list[ModelFormSource], dict[str, float]]:
     """The model-form sources at ``values`` (the fit's residuals ``resid``, Jacobian ``jac``):
 
     * ``simulator``: the residuals of a finer simulator (time step halved, at least the default
@@ -334,11 +335,11 @@ def model_form_sources(obj, values: dict[str, float], resid: np.ndarray, jac: np
     if refine:
         finer = config.replace(timestep=config.timestep / 2, n_rollers=max(config.n_rollers, SimConfig().n_rollers))
         r_fine = obj.residuals_of([wp], one=True, sim=WindowSim(robot, finer, resisted=obj.sim.resisted))
-        out.append(ModelForm("simulator", jac.T @ (r_fine - resid)))
+        out.append(ModelFormSource("simulator", jac.T @ (r_fine - resid)))
         size["simulator"] = float(np.sqrt(np.sum((r_fine - resid) ** 2)))
     if obj.warmup_s > 0:
         r_warm = obj.residuals_of([wp], one=True, warmup_s=2 * obj.warmup_s)
-        out.append(ModelForm("warm_up", jac.T @ (r_warm - resid)))
+        out.append(ModelFormSource("warm_up", jac.T @ (r_warm - resid)))
         size["warm_up"] = float(np.sqrt(np.sum((r_warm - resid) ** 2)))
     return out, size
 
@@ -540,7 +541,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
                 kidx = [names.index(n) for n in kept]
                 klin = Linearised(names=list(kept), theta=theta[kidx], jac=jac[:, kidx], resid=resid,
                                   rows_per_window=obj.rows_per_window, specs=specs,
-                                  model_form=[ModelForm(m.name, m.g[kidx]) for m in sources], floors=floors)
+                                  model_form=[ModelFormSource(m.name, m.g[kidx]) for m in sources], floors=floors)
                 final, u, rest = final_verdicts(klin, described, ties)
                 verdicts.update(final)
                 values.update({n: point[n] for n in kept})

@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjtrack.errors import InputError
-from mjtrack.geometry import _sinc_terms, compose, relative_pose, wrap_angle
+from mjtrack.geometry import compose, relative_pose, wrap_angle
+from mjtrack.geometry import sinc_terms as _sinc_terms
 from mjtrack.io.logs import DriveLog
 from mjtrack.windows.bins import BinTable, bin_errors, turn_ratio, window_means  # noqa: F401 (diagnose reads them here)
 

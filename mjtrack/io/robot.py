@@ -5,7 +5,7 @@ A :class:`Robot` is what every simulating command takes, what ``simulate`` write
 its log (``LOG.json``) and what ``diagnose`` reads. SI units; angles in radians.
 
 Keys beyond the fields: a key close to a known one (``drive_lags``) is refused as a typo, with
-the known key it resembles; the wheeled robot keys (:data:`WHEELED_KEYS`) and the keys mjtrack writes
+the known key it resembles; the fields, ``wheel_radius`` (the alias of ``sprocket_radius``) and the keys mjtrack writes
 itself (:data:`RECORD_KEYS`: ``terrain``, ``simulator``) are known; any other key (a data set's metadata such as ``robot``, ``note``,
 ``sample_rate_hz``) is kept in ``extra``, so that a description round-trips, and listed once in a
 warning. A description file is at most :data:`MAX_FILE_BYTES` and nested at most
@@ -31,9 +31,10 @@ logger = logging.getLogger(__name__)
 
 MAX_FILE_BYTES = 1 << 20  # [bytes] a description is a few hundred bytes; a megabyte is not a robot
 MAX_DEPTH = 6  # nesting: description > terrain > patches > patch (LOG.json of a run on terrain) is 4
-# keys of wheeled robots (traction "tracks" | "wheels", wheel_radius = sprocket_radius's alias,
-# wheelbase, wheels_per_side): known, never a typo of each other or of the track keys
-WHEELED_KEYS = ("traction", "wheel_radius", "wheelbase", "wheels_per_side")
+# fields of wheeled robots only (traction "tracks" | "wheels", wheelbase, wheels_per_side): a tracked
+# robot's description does not write them
+WHEEL_KEYS = ("traction", "wheelbase", "wheels_per_side")
+WHEEL_RADIUS = "wheel_radius"  # a wheeled robot's sprocket_radius, read and written under this name too
 # written by mjtrack itself: "terrain" beside a simulated log (the terrain it ran on; text in some
 # data sets), "simulator" by calibrate (the simulator settings the parameters were fitted with)
 RECORD_KEYS = ("terrain", "simulator")
@@ -373,7 +374,7 @@ class Robot:
 
 def _check_extra_keys(extra: dict[str, Any], names: set[str], source: str) -> None:
     """Refuse a key that looks like a misspelt known key; warn once about the other unknown keys."""
-    targets = sorted(names | set(WHEELED_KEYS) | set(RECORD_KEYS))
+    targets = sorted(names | {WHEEL_RADIUS} | set(RECORD_KEYS))
     lowered = {t.lower(): t for t in targets}
     unknown = []
     for key in extra:
@@ -387,9 +388,6 @@ def _check_extra_keys(extra: dict[str, Any], names: set[str], source: str) -> No
     if unknown and (source, tuple(unknown)) not in _warned:
         _warned.add((source, tuple(unknown)))
         logger.warning("%s: key(s) %s not used by mjtrack; kept in the description", source, ", ".join(unknown))
-
-
-WHEEL_KEYS = ("traction", "wheelbase", "wheels_per_side")  # fields written for wheeled robots only
 
 
 def _wheel_radius_alias(data: dict[str, Any], source: str) -> dict[str, Any]:
@@ -421,6 +419,7 @@ def write_robot(robot: Robot, path: str | os.PathLike) -> None:
     from mjtrack.io.atomic import atomic_write_text
 
     atomic_write_text(path, json.dumps(robot.to_dict(), indent=2, sort_keys=True) + "\n")
+
 
 #: keys on which the description of a test log must agree with the robot of the training log, which
 #: calibration and diagnosis use for both logs: the running gear, the mass and its centre, and the

@@ -40,9 +40,9 @@ from mjtrack.windows.transforms import commanded_log as commanded_log
 from mjtrack.windows.transforms import measured_drive_log as measured_drive_log
 
 __all__ = [
-    "AGAINST_WHY", "COMMAND_PARAMS", "DRIVE_DEFAULTS", "GEOMETRY_PARAMS", "LOGGED_COMMANDS", "MODEL_PARAMS", "STUCK_WHY",
-    "WARMUP_S", "WINDOW_PARAMS", "BinTable", "WindowSet", "bin_errors", "commanded_log", "contradicting_windows",
-    "drive_params", "geometry_robot", "left_out_counts", "make_windows", "measured_drive_log", "measured_window_poses",
-    "robot_params", "slope_of", "start_speeds", "start_twists", "stuck_windows", "turn_ratio", "window_errors",
-    "window_means", "without_contradicting",
+    "AGAINST_WHY", "COMMAND_PARAMS", "DRIVE_DEFAULTS", "GEOMETRY_PARAMS", "LOGGED_COMMANDS", "MODEL_PARAMS",
+    "STUCK_WHY", "WARMUP_S", "WINDOW_PARAMS", "BinTable", "WindowSet", "bin_errors", "commanded_log",
+    "contradicting_windows", "drive_params", "geometry_robot", "left_out_counts", "make_windows",
+    "measured_drive_log", "measured_window_poses", "robot_params", "slope_of", "start_speeds", "start_twists",
+    "stuck_windows", "turn_ratio", "window_errors", "window_means", "without_contradicting",
 ]
