@@ -39,7 +39,7 @@ import numpy as np
 from mjtrack.calibrate.run import calibrate, write_outputs
 from mjtrack.io import read_log_with_robot
 from mjtrack.io.robot import Robot, read_robot
-from mjtrack.sim.windows import left_out_counts
+from mjtrack.windows import left_out_counts
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[1] / "shared" / "data"
@@ -127,7 +127,7 @@ def kinematic_model(train, train_ws, test, test_ws, gauge: float) -> dict:
     beat there."""
     from scipy.optimize import least_squares
 
-    from mjtrack.sim.windows import window_errors
+    from mjtrack.windows import window_errors
 
     def errors(lg, ws, p):
         n = ws.ends - ws.starts
@@ -172,8 +172,8 @@ def context_of_stored(name: str, spec: dict, *, rollers: int, worst: int = 10) -
     robot's test error over every test window, the windows the ground cannot explain included (what
     leaving them out does to the comparison)."""
     from mjtrack.sim.config import robot_sim_settings, sim_config
-    from mjtrack.sim.windows import (WARMUP_S, WindowSim, make_windows, measured_drive_log, simulate_windows,
-                                     without_contradicting)
+    from mjtrack.sim.windows import WindowSim, simulate_windows
+    from mjtrack.windows import WARMUP_S, make_windows, measured_drive_log, without_contradicting
 
     log, base = read_log_with_robot(spec["log"])
     parts = list(split(log, *spec["split"]))
@@ -249,7 +249,7 @@ def diagnose_robot(name: str, spec: dict) -> dict:
     """``diagnose --baseline mujoco`` of the test part against the stored calibrated robot (its drives
     following what they followed in the calibration: the commands, or the measured track speeds)."""
     from mjtrack.diagnose import diagnose
-    from mjtrack.sim.windows import measured_drive_log
+    from mjtrack.windows import measured_drive_log
 
     log, _ = read_log_with_robot(spec["log"])
     _, test = split(log, *spec["split"])

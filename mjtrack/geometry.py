@@ -43,7 +43,7 @@ def point_velocity(twist: np.ndarray, px, py) -> tuple[np.ndarray, np.ndarray]:
     return vx - wz * py, vy + wz * px
 
 
-def _sinc_terms(phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def sinc_terms(phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """S = sin(phi)/phi and C = (1 - cos(phi))/phi, with series near phi = 0."""
     phi = np.asarray(phi, dtype=float)
     small = np.abs(phi) < _SMALL_ANGLE
@@ -72,7 +72,7 @@ def se2_step(pose: np.ndarray, twist: np.ndarray, dt) -> np.ndarray:
     twist = np.asarray(twist, dtype=float)
     vx, vy, wz = twist[..., 0], twist[..., 1], twist[..., 2]
     phi = wz * dt
-    s, c = _sinc_terms(phi)
+    s, c = sinc_terms(phi)
     dxb = dt * (s * vx - c * vy)
     dyb = dt * (c * vx + s * vy)
     dxw, dyw = body_to_world_velocity(pose[..., 2], dxb, dyb)

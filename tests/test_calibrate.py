@@ -19,7 +19,7 @@ from mjtrack.calibrate.run import calibrate
 from mjtrack.io.logs import write_log
 from mjtrack.io.robot import Robot, read_robot, write_robot
 from mjtrack.sim import SimConfig, drive_log
-from mjtrack.sim.windows import make_windows
+from mjtrack.windows import make_windows
 from mjtrack.testing.cli import run_cli
 
 TRUTH = {"mu": 0.5, "cg_x": 0.04, "cg_y": -0.03}
@@ -152,7 +152,7 @@ def test_calibration_recovers_drivetrain_and_contact_length(tmp_path):
 def test_measured_drive_input_drives_with_the_measured_speeds_and_refuses_drive_keys():
     import dataclasses
 
-    from mjtrack.sim.windows import commanded_log, measured_drive_log
+    from mjtrack.windows import commanded_log, measured_drive_log
     from mjtrack.errors import InputError
 
     n = 50
@@ -226,9 +226,11 @@ def test_a_fit_that_blows_up_on_an_unused_window_is_fitted_again_with_it(monkeyp
     and the fit runs again; a blow-up that stays is said in the summary and the findings."""
     import mjtrack.calibrate.run as run
 
+    import mjtrack.calibrate.fit as fit_module  # calibrate imports the fit when it runs (it loads MuJoCo)
+
     calls = _blow_up_window_1(monkeypatch, times=1)  # window 1 is not a fit window
     first_fits = []  # (start, multistart, max_iter, windows) of each attempt's first fit
-    real_fit = run.fit
+    real_fit = fit_module.fit
 
     fits_per_attempt = []
 
@@ -239,7 +241,7 @@ def test_a_fit_that_blows_up_on_an_unused_window_is_fitted_again_with_it(monkeyp
         fits_per_attempt[-1] += 1
         return real_fit(obj, start, **kw)
 
-    monkeypatch.setattr(run, "fit", spy)
+    monkeypatch.setattr(fit_module, "fit", spy)
     cal = calibrate(_log(Robot(cg_x=0.04), 16.0, 3, lag=0.0), Robot(), names=["cg_x", "track_speed_scale"],
                     fit_windows=3, max_iter=6)
     # the second attempt starts where the first ended, with one start and the refit's iterations, and
@@ -276,7 +278,7 @@ def test_the_calibrated_robot_file_carries_every_fitted_value(robot):
     from mjtrack.calibrate.params import default_names, window_params
     from mjtrack.calibrate.run import calibrated_robot
     from mjtrack.sim import SimConfig
-    from mjtrack.sim.windows import robot_params
+    from mjtrack.windows import robot_params
 
     fitted = {"mu": 0.6, "mu_ratio": 1.2, "cg_x": 0.02, "cg_y": -0.01, "track_length": 0.45, "wheelbase": 0.6,
               "drive_lag": 0.1, "drive_delay": 0.05, "track_speed_scale": 0.95, "rolling_resistance": 0.07,

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjtrack.calibrate.identify import Linearised, ModelForm, select
+from mjtrack.calibrate.identify import Linearised, ModelFormSource, select
 from mjtrack.calibrate.params import ParamSpec
 
 ROWS = 12  # residual components per window
@@ -93,7 +93,7 @@ def test_a_model_form_shift_widens_the_interval_by_its_size():
     J_, theta, resid = _problem(J, np.array([0.1, 0.2]), 6, noise=1e-4, shared=0.0)
     dr = J_[:, 0] * 0.05  # a better simulator would move the first parameter by 0.05
     plain = _lin(["a", "b"], J_, theta, resid).uncertainty([0, 1])
-    with_mf = _lin(["a", "b"], J_, theta, resid, model_form=[ModelForm("finer", J_.T @ dr)]).uncertainty([0, 1])
+    with_mf = _lin(["a", "b"], J_, theta, resid, model_form=[ModelFormSource("finer", J_.T @ dr)]).uncertainty([0, 1])
     assert np.allclose(with_mf.shift, [0.05, 0.0], atol=1e-9)
     assert np.allclose(with_mf.half - plain.half, [0.05, 0.0], atol=1e-9)
 

@@ -20,7 +20,7 @@ from mjtrack.diagnose.mujoco_baseline import GRIDS, NOMINAL as NO_EFFECT, Mujoco
 from mjtrack.errors import InputError
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
-from mjtrack.sim.windows import make_windows
+from mjtrack.windows import make_windows
 from mjtrack.testing.mujoco_effects import HIDDEN, ROBOT, make_log
 
 NOMINAL = Robot.from_dict({**ROBOT.to_dict(), "drive_force_limit": 600.0 / ROBOT.sprocket_radius})

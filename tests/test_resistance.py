@@ -18,7 +18,8 @@ from mjtrack.io.robot import G, Robot
 from mjtrack.sim import drive_log
 from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.steady import steady_state
-from mjtrack.sim.windows import WindowSim, make_windows, simulate_windows
+from mjtrack.sim.windows import WindowSim, simulate_windows
+from mjtrack.windows import make_windows
 
 WHEELED = Robot(traction="wheels", track_gauge=0.55, wheelbase=0.5, sprocket_radius=0.165, mass=50.0, mu=0.6,
                 cg_z=0.2, track_width=0.1)

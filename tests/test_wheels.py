@@ -191,7 +191,8 @@ def test_the_wheel_spin_inertia_has_no_gyroscopic_moment(model):
 
 # -- windows and the video ------------------------------------------------------------------------
 def test_windows_replay_a_wheeled_log_and_move_with_its_wheelbase():
-    from mjtrack.sim.windows import WindowSim, make_windows, simulate_windows
+    from mjtrack.sim.windows import WindowSim, simulate_windows
+    from mjtrack.windows import make_windows
 
     robot = husky(cg_x=0.03, drive_lag=0.05)
     table = (np.array([0.0, 1.3, 3.0, 4.65]), np.array([0.0, 0.5, -0.4, 0.6]), np.array([0.0, 0.7, 0.4, -0.2]))

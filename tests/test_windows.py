@@ -9,14 +9,19 @@ generator used.
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from mjtrack.errors import InputError
 from mjtrack.io.robot import Robot
 from mjtrack.sim import SimConfig, drive_log
-from mjtrack.sim.windows import (WindowSim, make_windows, simulate_windows, start_speeds, start_twists,
-                                 window_commands)
+from mjtrack.sim.windows import WindowSim, simulate_windows, window_commands
+from mjtrack.windows import make_windows, start_speeds, start_twists
 
 TABLE = (np.array([0.0, 1.3, 3.0, 4.65, 6.1]),
          np.array([0.0, 0.5, -0.4, 0.6, 0.3]),
@@ -218,7 +223,7 @@ def _straight(v_track: float, v_body: float, decel: float = 0.0, n: int = 41, dt
     (-3.0, 2.0, 1.0, False),   # braked at 0.1 g from 2 m/s: 1.5 m then 0.5 m
 ])
 def test_windows_whose_poses_move_against_the_tracks_are_found(v_track, v_body, decel, flagged):
-    from mjtrack.sim.windows import contradicting_windows
+    from mjtrack.windows import contradicting_windows
 
     lg = _straight(v_track, v_body, decel)
     ws = make_windows(lg, 2.0)
@@ -234,7 +239,7 @@ def test_windows_whose_poses_move_against_the_tracks_are_found(v_track, v_body, 
 def test_against_the_tracks_is_measured_along_the_body_heading():
     """Reversing while facing -x: the world x grows, the body goes backwards with its tracks."""
     from mjtrack.io.logs import DriveLog
-    from mjtrack.sim.windows import contradicting_windows
+    from mjtrack.windows import contradicting_windows
 
     t = np.arange(41) * 0.05
     z = np.zeros(41)
@@ -248,7 +253,7 @@ def test_tracks_that_reverse_mid_window_flag_nothing():
     """Tracks forward then backward, the body coasting forward throughout: the tracks do not push
     one way over the window, so a body against them in the second half is not a contradiction."""
     from mjtrack.io.logs import DriveLog
-    from mjtrack.sim.windows import contradicting_windows
+    from mjtrack.windows import contradicting_windows
 
     t = np.arange(41) * 0.05
     z = np.zeros(41)
@@ -288,7 +293,7 @@ def _turning(v_left: float, v_right: float, wz, vx=0.0, n: int = 41, dt: float =
     (0.8, 0.8, 0.0, lambda t: -0.25 * np.sin(np.pi * t), False),     # reversing: 0.25 m back and return in each half
 ])
 def test_windows_in_which_the_robot_is_held_still_are_found(v_left, v_right, wz, vx, flagged):
-    from mjtrack.sim.windows import stuck_windows
+    from mjtrack.windows import stuck_windows
 
     lg = _turning(v_left, v_right, wz, vx)
     ws = make_windows(lg, 2.0)
@@ -312,7 +317,7 @@ def test_windows_in_which_the_robot_is_held_still_are_found(v_left, v_right, wz,
 
 def test_a_window_both_rules_find_is_left_out_once_and_listed_in_time_order():
     from mjtrack.io.logs import DriveLog
-    from mjtrack.sim.windows import without_contradicting
+    from mjtrack.windows import without_contradicting
 
     pieces = [_turning(-1.0, 1.0, 1.6), _straight(1.0, -0.9), _turning(-1.0, 1.0, 0.0)]  # fine, against, held
     cols = {k: np.concatenate([getattr(p, k) for p in pieces])
@@ -329,11 +334,11 @@ def test_a_window_both_rules_find_is_left_out_once_and_listed_in_time_order():
 
 
 def test_on_coulomb_ground_the_body_under_sliding_tracks_moves_more_than_the_stuck_rule_allows():
-    """The stuck rule's premise (mjtrack.sim.windows.STUCK_WHY), checked on the independent steady
+    """The stuck rule's premise (mjtrack.windows.STUCK_WHY), checked on the independent steady
     balance of Coulomb ground (mjtrack.testing.ground_balance): for track lengths up to four times
     the gauge, spread and point loads, straight, turning, pivot and spin turns, the points under the
     tracks' centres move at least 0.16 times the faster track's speed, above the rule's 0.1."""
-    from mjtrack.sim.windows import STUCK_SHARE
+    from mjtrack.windows.screen import STUCK_SHARE
     from mjtrack.testing.ground_balance import steady_twist
 
     T = 1.0
@@ -354,7 +359,7 @@ def test_on_coulomb_ground_the_body_under_sliding_tracks_moves_more_than_the_stu
 def test_a_lagged_reversal_of_the_simulated_robot_is_not_taken_for_a_stuck_robot():
     """The battery's drive-lag log reverses at t = 58.24 s: the tracks run 0.63 m in that half while
     the body goes back 0.27 m and returns; the body was never still."""
-    from mjtrack.sim.windows import stuck_windows
+    from mjtrack.windows import stuck_windows
     from mjtrack.testing.battery import case, described_robot, make_log
 
     c = case("default", "drive_lag")
@@ -367,7 +372,7 @@ def test_a_lagged_reversal_of_the_simulated_robot_is_not_taken_for_a_stuck_robot
 @pytest.mark.slow
 def test_no_window_of_the_simulators_own_logs_is_taken_for_a_stuck_robot():
     """Every log of the calibration battery (three geometries, every change, both seeds)."""
-    from mjtrack.sim.windows import without_contradicting
+    from mjtrack.windows import without_contradicting
     from mjtrack.testing.battery import CHANGES, GEOMETRIES, case, described_robot, make_log
 
     for g in GEOMETRIES:
@@ -377,3 +382,24 @@ def test_no_window_of_the_simulators_own_logs_is_taken_for_a_stuck_robot():
                 lg = make_log(c, duration=60.0, seed=seed)
                 _, rows = without_contradicting(lg, make_windows(lg, 2.0), described_robot(c).track_gauge)
                 assert rows == [], (g, change, seed)
+
+
+def _loaded_after_import(modules: str) -> set[str]:
+    """Which of mujoco and mjtrack.diagnose a fresh interpreter holds after importing ``modules``."""
+    import mjtrack
+
+    code = (f"import sys\nimport {modules}\n"
+            "print(' '.join(m for m in ('mujoco', 'mjtrack.diagnose') if m in sys.modules))")
+    root = str(Path(mjtrack.__file__).resolve().parents[1])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
+    return set(out.stdout.split())
+
+
+def test_the_window_layer_and_calibration_import_without_mujoco_or_diagnose():
+    assert _loaded_after_import("mjtrack.windows") == set()
+    assert _loaded_after_import("mjtrack.calibrate, mjtrack.calibrate.params, mjtrack.calibrate.identify, "
+                                "mjtrack.calibrate.causes, mjtrack.calibrate.run") == set()
+    # the probe sees MuJoCo where it is loaded: the window simulator needs it
+    assert "mujoco" in _loaded_after_import("mjtrack.sim.windows")
+

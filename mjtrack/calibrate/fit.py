@@ -6,7 +6,7 @@ measured pose at ``CHECKPOINTS`` fractions of the window (position in the start 
 times ``yaw_length`` [m]), divided by sqrt(number of windows) so that the cost is a mean. A
 window whose simulation blew up gets ``DIVERGED_RESIDUAL`` in every component. Windows start
 with hidden states warmed up over the log's own past where their segment allows
-(:data:`mjtrack.sim.windows.WARMUP_S`).
+(:data:`mjtrack.windows.WARMUP_S`).
 
 What ``mujoco.sysid`` does here: the parameters are a ``sysid.ParameterDict`` (in units of each
 parameter's typical change, so one finite-difference step suits all), ``sysid.optimize`` runs
@@ -38,7 +38,8 @@ import numpy as np
 from mjtrack.calibrate.params import ParamSpec, specs_for, window_params
 from mjtrack.geometry import relative_pose
 from mjtrack.io.logs import DriveLog
-from mjtrack.sim.windows import WARMUP_S, WindowSet, WindowSim, measured_window_poses, simulate_windows
+from mjtrack.sim.windows import WindowSim, simulate_windows
+from mjtrack.windows.define import WARMUP_S, WindowSet, measured_window_poses
 
 log = logging.getLogger(__name__)
 

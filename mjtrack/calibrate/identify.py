@@ -8,7 +8,7 @@ A^-1 (sum_g s_g s_g^T) A^-1 G / (G - 1), A = J^T J, s_g = J_g^T r_g the score of
 consecutive windows, :func:`clusters`), with Student's t at G - 1 degrees of freedom. The
 simulator's own error does not average out over windows, so each interval also carries the
 *model-form shift* of every parameter: the change of the fitted value that replacing the fit's
-simulator by a better one would cause, linearised as A^-1 J^T (r_better - r) (:class:`ModelForm`;
+simulator by a better one would cause, linearised as A^-1 J^T (r_better - r) (:class:`ModelFormSource`;
 the sources are measured by :func:`mjtrack.calibrate.run.calibrate`). Half-width
 t sd + |shift| (a bias does not shrink with more windows, so it is added, not put in quadrature).
 
@@ -32,9 +32,9 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 
 from mjtrack.calibrate.params import ParamSpec
+from mjtrack.stats import cluster_sandwich, gram_inverse, t_quantile
 
 TIE = 0.9  # |correlation| above which a parameter removed as undetermined trades with the other
 EIG_FLOOR = 1e-12  # eigenvalues of A below this share of the largest count as zero (infinite variance)
@@ -49,7 +49,7 @@ def clusters(n_windows: int, n_params: int) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class ModelForm:
+class ModelFormSource:
     """A model-form source: its name and g = J^T (r_better - r) (n,) in scaled units."""
 
     name: str
@@ -79,7 +79,7 @@ class Linearised:
     resid: np.ndarray
     rows_per_window: int
     specs: dict[str, ParamSpec]
-    model_form: list[ModelForm] = field(default_factory=list)
+    model_form: list[ModelFormSource] = field(default_factory=list)
     floors: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -114,29 +114,18 @@ class Linearised:
         self.resid = self.resid + self.jac @ d
         return d
 
-    @staticmethod
-    def _inv(J: np.ndarray) -> np.ndarray:
-        """(J^T J)^-1 from the singular values of J (forming J^T J first loses the small ones)."""
-        _, sv, Vt = np.linalg.svd(J, full_matrices=False)
-        sv = np.maximum(sv, max(float(sv.max(initial=0.0)), 1e-300) * math.sqrt(EIG_FLOOR))
-        return (Vt.T / sv ** 2) @ Vt
-
     def uncertainty(self, idx: list[int], resid: np.ndarray | None = None) -> "Uncertainty":
         """Intervals of the parameters ``idx`` (positions in ``names``) with the others held."""
         r = self.resid if resid is None else resid
         J = self.jac[:, idx]
-        Ainv = self._inv(J)
+        Ainv = gram_inverse(J, eig_floor=EIG_FLOOR)
         lab = clusters(self.M, len(idx))
         G = int(lab.max()) + 1
-        scores = (J * r[:, None]).reshape(self.M, self.rows_per_window, len(idx)).sum(axis=1)
-        S = np.zeros((G, len(idx)))
-        np.add.at(S, lab, scores)
-        W = S @ Ainv * math.sqrt(G / max(G - 1, 1))  # cov = W^T W: never negative, even for a near-singular A
-        cov = W.T @ W
+        cov = cluster_sandwich(J, r, np.repeat(lab, self.rows_per_window), eig_floor=EIG_FLOOR)
         sd = np.sqrt(np.diag(cov))
         shifts = np.array([Ainv @ m.g[idx] for m in self.model_form]).reshape(len(self.model_form), len(idx))
         shift = np.sqrt(np.sum(shifts ** 2, axis=0)) if len(self.model_form) else np.zeros(len(idx))
-        t = float(stats.t.ppf(0.975, max(G - 1, 1)))
+        t = t_quantile(G)
         corr = cov / np.maximum(np.outer(sd, sd), 1e-300)
         sc = self.scales[idx]
         floor = np.array([self.floors.get(self.names[i], 0.0) for i in idx])
@@ -332,4 +321,5 @@ def has_changed(value: float, described: float) -> bool:
     return not math.isclose(value, described, rel_tol=1e-12, abs_tol=1e-15)
 
 
-__all__ = ["Linearised", "ModelForm", "Selection", "Uncertainty", "Verdict", "clusters", "final_verdicts", "select"]
+__all__ = ["Linearised", "ModelFormSource", "Selection", "Uncertainty", "Verdict", "clusters", "final_verdicts",
+           "select"]

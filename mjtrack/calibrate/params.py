@@ -26,7 +26,7 @@ from mjtrack.errors import InputError
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import G, Robot
 from mjtrack.sim.config import SimConfig
-from mjtrack.sim.windows import WINDOW_PARAMS, drive_params, robot_params
+from mjtrack.windows.params import WINDOW_PARAMS, drive_params, robot_params
 
 
 @dataclass(frozen=True)
@@ -200,7 +200,7 @@ def start_values(robot: Robot, names: list[str], config: SimConfig) -> dict[str,
 
 
 def window_params(values: dict[str, float], robot: Robot) -> dict[str, float]:
-    """The :mod:`mjtrack.sim.windows` parameters of fitted ``values`` (friction level and split
+    """The :mod:`mjtrack.windows.params` parameters of fitted ``values`` (friction level and split
     become the two sides' coefficients)."""
     out = {k: v for k, v in values.items() if k not in ("mu", "mu_ratio")}
     if "mu" in values or "mu_ratio" in values:

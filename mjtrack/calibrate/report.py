@@ -9,17 +9,17 @@ from __future__ import annotations
 import numpy as np
 
 from mjtrack.calibrate.params import specs_for
-from mjtrack.diagnose import residuals as rs
 from mjtrack.report.html import Report
-from mjtrack.sim.windows import AGAINST_WHY, STUCK_WHY
+from mjtrack.windows import bins
+from mjtrack.windows.screen import AGAINST_WHY, STUCK_WHY
 
 TURN_EDGES = (-1.0, -0.6, -0.2, 0.2, 0.6, 1.0)
 
 
 def _window_inputs(lg, ws):
     cmd = np.stack([lg.v_left_cmd, lg.v_right_cmd], -1).astype(float)
-    mean = rs.window_means(cmd, ws.starts, ws.ends + 1)
-    turn = rs.turn_ratio(mean)
+    mean = bins.window_means(cmd, ws.starts, ws.ends + 1)
+    turn = bins.turn_ratio(mean)
     speed = 0.5 * np.abs(mean).sum(axis=1)
     direction = np.sign(np.array([lg.yaw[e] - lg.yaw[s] for s, e in zip(ws.starts, ws.ends)]))
     return turn, speed, direction, lg.t[ws.starts] - lg.t[0]
@@ -35,8 +35,8 @@ def _bins(lg, ws, before, after):
               ("time in the log", t, np.linspace(0, tmax * 1.0001, 5), " s")]
     out = []
     for label, x, edges, unit in groups:
-        b = rs.bin_errors(label, x, before, edges)
-        a = rs.bin_errors(label, x, after, edges)
+        b = bins.bin_errors(label, x, before, edges)
+        a = bins.bin_errors(label, x, after, edges)
         rows = []
         for i in range(b.count.size):
             if b.count[i]:
@@ -73,7 +73,7 @@ def _figure_paths(cal, k: int = 6):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from mjtrack.sim.windows import measured_window_poses
+    from mjtrack.windows.define import measured_window_poses
 
     lg, ws = (cal.test_log, cal.test_windows) if cal.test_log is not None else (cal.train_log, cal.train_windows)
     b, a = (cal.test_before, cal.test_after) if cal.test_log is not None else (cal.before, cal.after)

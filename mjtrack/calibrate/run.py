@@ -28,24 +28,29 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mjtrack.calibrate.causes import Cause, find_causes, summary
-from mjtrack.calibrate.fit import FitResult, central_jacobian, fit, objective
-from mjtrack.calibrate.identify import Linearised, ModelForm, Verdict, final_verdicts, fmt_value, select
+from mjtrack.calibrate.identify import Linearised, ModelFormSource, Verdict, final_verdicts, fmt_value, select
 from mjtrack.calibrate.params import described_values, parse_names, specs_for, start_values, window_params
-from mjtrack.diagnose import residuals as rs
 from mjtrack.errors import InputError
-from mjtrack.geometry import _sinc_terms, relative_pose
+from mjtrack.geometry import relative_pose
+from mjtrack.geometry import sinc_terms as _sinc_terms
 from mjtrack.io.atomic import atomic_write_text, make_output_dir
+from mjtrack.io.jsonfile import json_value
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.config import SimConfig, sim_config
-from mjtrack.sim.windows import (AGAINST_WHY, DRIVE_DEFAULTS, STUCK_WHY, WARMUP_S, WindowResult, WindowSet,
-                                 WindowSim, commanded_log, geometry_robot, make_windows, measured_drive_log,
-                                 left_out_counts, measured_window_poses, simulate_windows,
-                                 without_contradicting)
+from mjtrack.windows import bins as rs
+from mjtrack.windows import (AGAINST_WHY, DRIVE_DEFAULTS, STUCK_WHY, WARMUP_S, WindowSet, commanded_log, geometry_robot,
+                             left_out_counts, make_windows, measured_drive_log, measured_window_poses,
+                             without_contradicting)
+
+if TYPE_CHECKING:  # MuJoCo is loaded by the functions that simulate, not by importing calibrate
+    from mjtrack.calibrate.fit import FitResult
+    from mjtrack.sim.windows import WindowResult, WindowSim
 
 log = logging.getLogger(__name__)
 
@@ -127,7 +132,7 @@ class Calibration:
     drive_input: str = "commanded"
     fit_windows: WindowSet | None = None  # the windows the fit used (None: every training window)
     #: windows left out because their poses move against the tracks (see
-    #: :func:`mjtrack.sim.windows.contradicting_windows`), by part ("train", "test")
+    #: :func:`mjtrack.windows.contradicting_windows`), by part ("train", "test")
     left_out: dict[str, list[dict]] = field(default_factory=dict)
 
     @property
@@ -306,12 +311,14 @@ def calibrated_robot(robot: Robot, values: dict[str, float], config: SimConfig,
 
 def _score(sim: WindowSim, lg: DriveLog, ws: WindowSet, variants: list[dict], *, nthread: int,
            warmup_s: float) -> list[Scored]:
+    from mjtrack.sim.windows import simulate_windows
+
     res = simulate_windows(sim, lg, ws, variants, nthread=nthread, warmup_s=warmup_s)
     return [Scored.of(res, p) for p in range(len(variants))]
 
 
 def model_form_sources(obj, values: dict[str, float], resid: np.ndarray, jac: np.ndarray, config: SimConfig, *,
-                       refine: bool = True) -> tuple[list[ModelForm], dict[str, float]]:
+                       refine: bool = True) -> tuple[list[ModelFormSource], dict[str, float]]:
     """The model-form sources at ``values`` (the fit's residuals ``resid``, Jacobian ``jac``):
 
     * ``simulator``: the residuals of a finer simulator (time step halved, at least the default
@@ -320,17 +327,19 @@ def model_form_sources(obj, values: dict[str, float], resid: np.ndarray, jac: np
       is left of the start state that the log does not hold.
 
     Returns the sources (g = J^T (r_other - r)) and each one's RMS residual change [m]."""
+    from mjtrack.sim.windows import WindowSim
+
     robot = obj.sim.robot
     wp = window_params(values, robot)
     out, size = [], {}
     if refine:
         finer = config.replace(timestep=config.timestep / 2, n_rollers=max(config.n_rollers, SimConfig().n_rollers))
         r_fine = obj.residuals_of([wp], one=True, sim=WindowSim(robot, finer, resisted=obj.sim.resisted))
-        out.append(ModelForm("simulator", jac.T @ (r_fine - resid)))
+        out.append(ModelFormSource("simulator", jac.T @ (r_fine - resid)))
         size["simulator"] = float(np.sqrt(np.sum((r_fine - resid) ** 2)))
     if obj.warmup_s > 0:
         r_warm = obj.residuals_of([wp], one=True, warmup_s=2 * obj.warmup_s)
-        out.append(ModelForm("warm_up", jac.T @ (r_warm - resid)))
+        out.append(ModelFormSource("warm_up", jac.T @ (r_warm - resid)))
         size["warm_up"] = float(np.sqrt(np.sum((r_warm - resid) ** 2)))
     return out, size
 
@@ -412,7 +421,9 @@ def fit_index_of(ws: WindowSet, n: int | None) -> np.ndarray:
 
 def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, quiet,
                train_path, test_path, warmup_s, drive_input, fit_windows, keep_contradicting) -> Calibration:
+    from mjtrack.calibrate.fit import central_jacobian, fit, objective
     from mjtrack.progress import Progress
+    from mjtrack.sim.windows import WindowSim, simulate_windows
 
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
@@ -530,7 +541,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
                 kidx = [names.index(n) for n in kept]
                 klin = Linearised(names=list(kept), theta=theta[kidx], jac=jac[:, kidx], resid=resid,
                                   rows_per_window=obj.rows_per_window, specs=specs,
-                                  model_form=[ModelForm(m.name, m.g[kidx]) for m in sources], floors=floors)
+                                  model_form=[ModelFormSource(m.name, m.g[kidx]) for m in sources], floors=floors)
                 final, u, rest = final_verdicts(klin, described, ties)
                 verdicts.update(final)
                 values.update({n: point[n] for n in kept})
@@ -670,16 +681,8 @@ def _without_contradicting(lg: DriveLog, ws: WindowSet, src: str, gauge: float) 
 
 
 def _clean(obj):
-    """JSON-safe copy: NaN -> None."""
-    if isinstance(obj, dict):
-        return {k: _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if isinstance(obj, np.floating):
-        return _clean(float(obj))
-    return obj
+    """JSON-safe copy (:func:`mjtrack.io.jsonfile.json_value`)."""
+    return json_value(obj)
 
 
 def write_outputs(cal: Calibration, out: str | os.PathLike) -> None:
@@ -694,14 +697,4 @@ def write_outputs(cal: Calibration, out: str | os.PathLike) -> None:
     report.write(out / "report.html")
 
 
-def check_same_robot(train_robot: Robot, test_robot: Robot, test_path: str) -> None:
-    """Refuse a test log recorded with another robot (gauge or sprocket radius differ)."""
-    for k in ("track_gauge", "sprocket_radius"):
-        a, b = getattr(train_robot, k), getattr(test_robot, k)
-        provided = test_robot.provided is None or k in test_robot.provided
-        if provided and not math.isclose(a, b, rel_tol=1e-6, abs_tol=1e-9):
-            raise InputError(f"{test_path}: recorded with another robot ({k} {b:g} m in its description, "
-                             f"{a:g} m for the training log)")
-
-
-__all__ = ["Calibration", "calibrate", "calibrated_robot", "check_same_robot", "write_outputs"]
+__all__ = ["Calibration", "calibrate", "calibrated_robot", "write_outputs"]

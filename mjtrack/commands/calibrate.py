@@ -75,7 +75,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mjtrack.calibrate.run import calibrate, check_same_robot, write_outputs
+    from mjtrack.calibrate.run import calibrate, write_outputs
+    from mjtrack.io.robot import check_same_robot
 
     out = check_out_dir(args.out)
     check_overwrite([out / name for name in OUTPUTS], args.force)

@@ -3,7 +3,7 @@
 What is diagnosed is the simulation: the log is cut into windows (default 2 s, inside its
 segments, not overlapping), each one simulated by the MuJoCo roller-chain robot from the
 measured state at its start (pose, twist, moving tracks; the states a log does not hold warmed
-up over the log's last :data:`mjtrack.sim.windows.WARMUP_S` before it, as calibration does;
+up over the log's last :data:`mjtrack.windows.WARMUP_S` before it, as calibration does;
 :mod:`mjtrack.sim.windows`) under the logged commands, with the simulator settings the robot
 description records (a calibrated robot's, :func:`mjtrack.sim.config.sim_config`). The metric is the RMS position error at the window's end, in the measured
 start frame (``pos_err_m`` of diagnosis.json). Every candidate effect is an *extension of the MuJoCo
@@ -38,8 +38,8 @@ from mjtrack.errors import InputError
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.config import SimConfig, sim_config
-from mjtrack.sim.windows import (WARMUP_S, WindowSim, drive_params, make_windows, simulate_windows,
-                                 without_contradicting)
+from mjtrack.sim.windows import WindowSim, simulate_windows
+from mjtrack.windows import WARMUP_S, drive_params, make_windows, without_contradicting
 
 N_BOOT = 1000  # blocked bootstrap replicates of the estimates (the gain test draws its own, stats.N_BOOT)
 # The MuJoCo baseline's own error on an effect's size, 1 sigma, as a share of the size |theta - nominal|

@@ -36,7 +36,7 @@ from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import G, Robot
 from mjtrack.sim.config import robot_sim_settings
 from mjtrack.sim.rollout import summarised_mujoco_warnings
-from mjtrack.sim.windows import AGAINST_WHY, STUCK_WHY, left_out_counts, measured_drive_log
+from mjtrack.windows import AGAINST_WHY, STUCK_WHY, left_out_counts, measured_drive_log
 
 log = logging.getLogger(__name__)
 

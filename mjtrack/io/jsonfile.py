@@ -1,5 +1,6 @@
 """The one JSON reader behind every JSON input (robot descriptions, terrain specs and patches,
-sweep grids): bounded in size and nesting, every failure a one-line InputError.
+sweep grids): bounded in size and nesting, every failure a one-line InputError; and the one JSON
+writer of results (:func:`write_json`, :func:`json_value`).
 
 A file larger than its kind needs is refused before it is read (and at most that much is ever
 read, so a device or a growing file cannot exhaust memory); nesting deeper than the kind needs is
@@ -9,11 +10,15 @@ refused after parsing (Python's parser itself gives up near a depth of 1000, cau
 from __future__ import annotations
 
 import json
+import math
 import os
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from mjtrack.errors import InputError
+from mjtrack.io.atomic import atomic_write_text
 
 MAX_PARSER_DEPTH = 1000  # about where Python's json parser raises RecursionError
 
@@ -67,3 +72,30 @@ def read_json(path: str | os.PathLike, *, what: str, max_bytes: int, max_depth: 
     if depth > max_depth:
         raise InputError(f"{where}: nested {depth} deep; a {what} is nested at most {max_depth} deep")
     return data
+
+
+def json_value(value: Any) -> Any:
+    """A copy of ``value`` that strict JSON can hold: numpy floats, integers and booleans as
+    Python's, arrays and tuples as lists, mapping keys as strings, NaN and infinities as null
+    (JSON has no such numbers; null says "no value")."""
+    if isinstance(value, dict):
+        return {str(k): json_value(v) for k, v in value.items()}
+    if isinstance(value, np.ndarray):
+        return json_value(value.tolist())
+    if isinstance(value, (list, tuple)):
+        return [json_value(v) for v in value]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    return value
+
+
+def write_json(path: str | os.PathLike, value: Any, *, sort_keys: bool = False) -> None:
+    """Write ``value`` (through :func:`json_value`) as indented JSON with a final newline,
+    atomically (a reader never sees half a file)."""
+    text = json.dumps(json_value(value), indent=2, sort_keys=sort_keys, allow_nan=False)
+    atomic_write_text(path, text + "\n")
+

@@ -5,7 +5,7 @@ A :class:`Robot` is what every simulating command takes, what ``simulate`` write
 its log (``LOG.json``) and what ``diagnose`` reads. SI units; angles in radians.
 
 Keys beyond the fields: a key close to a known one (``drive_lags``) is refused as a typo, with
-the known key it resembles; the wheeled robot keys (:data:`WHEELED_KEYS`) and the keys mjtrack writes
+the known key it resembles; the fields, ``wheel_radius`` (the alias of ``sprocket_radius``) and the keys mjtrack writes
 itself (:data:`RECORD_KEYS`: ``terrain``, ``simulator``) are known; any other key (a data set's metadata such as ``robot``, ``note``,
 ``sample_rate_hz``) is kept in ``extra``, so that a description round-trips, and listed once in a
 warning. A description file is at most :data:`MAX_FILE_BYTES` and nested at most
@@ -31,9 +31,10 @@ logger = logging.getLogger(__name__)
 
 MAX_FILE_BYTES = 1 << 20  # [bytes] a description is a few hundred bytes; a megabyte is not a robot
 MAX_DEPTH = 6  # nesting: description > terrain > patches > patch (LOG.json of a run on terrain) is 4
-# keys of wheeled robots (traction "tracks" | "wheels", wheel_radius = sprocket_radius's alias,
-# wheelbase, wheels_per_side): known, never a typo of each other or of the track keys
-WHEELED_KEYS = ("traction", "wheel_radius", "wheelbase", "wheels_per_side")
+# fields of wheeled robots only (traction "tracks" | "wheels", wheelbase, wheels_per_side): a tracked
+# robot's description does not write them
+WHEEL_KEYS = ("traction", "wheelbase", "wheels_per_side")
+WHEEL_RADIUS = "wheel_radius"  # a wheeled robot's sprocket_radius, read and written under this name too
 # written by mjtrack itself: "terrain" beside a simulated log (the terrain it ran on; text in some
 # data sets), "simulator" by calibrate (the simulator settings the parameters were fitted with)
 RECORD_KEYS = ("terrain", "simulator")
@@ -373,7 +374,7 @@ class Robot:
 
 def _check_extra_keys(extra: dict[str, Any], names: set[str], source: str) -> None:
     """Refuse a key that looks like a misspelt known key; warn once about the other unknown keys."""
-    targets = sorted(names | set(WHEELED_KEYS) | set(RECORD_KEYS))
+    targets = sorted(names | {WHEEL_RADIUS} | set(RECORD_KEYS))
     lowered = {t.lower(): t for t in targets}
     unknown = []
     for key in extra:
@@ -387,9 +388,6 @@ def _check_extra_keys(extra: dict[str, Any], names: set[str], source: str) -> No
     if unknown and (source, tuple(unknown)) not in _warned:
         _warned.add((source, tuple(unknown)))
         logger.warning("%s: key(s) %s not used by mjtrack; kept in the description", source, ", ".join(unknown))
-
-
-WHEEL_KEYS = ("traction", "wheelbase", "wheels_per_side")  # fields written for wheeled robots only
 
 
 def _wheel_radius_alias(data: dict[str, Any], source: str) -> dict[str, Any]:
@@ -421,3 +419,39 @@ def write_robot(robot: Robot, path: str | os.PathLike) -> None:
     from mjtrack.io.atomic import atomic_write_text
 
     atomic_write_text(path, json.dumps(robot.to_dict(), indent=2, sort_keys=True) + "\n")
+
+
+#: keys on which the description of a test log must agree with the robot of the training log, which
+#: calibration and diagnosis use for both logs: the running gear, the mass and its centre, and the
+#: friction (neither can give the test log's robot its own). A key the test log's description does
+#: not give is not compared (it relies on the default: it says nothing).
+SAME_ROBOT_KEYS = ("traction", "track_gauge", "track_length", "track_width", "sprocket_radius", "wheelbase",
+                   "wheels_per_side", "mass", "cg_x", "cg_y", "cg_z", "mu", "mu_left", "mu_right")
+#: relative tolerance of that agreement: far above the round-off of a unit conversion or of a
+#: value printed with 7 digits, far below any difference between two robots (a millimetre on a metre)
+SAME_ROBOT_REL = 1e-6
+
+
+def check_same_robot(robot: Robot, other: Robot, where: str) -> None:
+    """Refuse ``other`` (the description given with a test log, ``where`` its file) when it
+    states, on a key of :data:`SAME_ROBOT_KEYS`, another value than ``robot`` (the training log's
+    robot as it is used, defaults included): InputError naming each key and both values."""
+    differ = []
+    for k in SAME_ROBOT_KEYS:
+        if other.provided is not None and k not in other.provided:
+            continue
+        if k in ("mu_left", "mu_right"):  # null: the same as mu
+            a, b = (r.friction_left if k == "mu_left" else r.friction_right for r in (robot, other))
+        else:
+            a, b = getattr(robot, k), getattr(other, k)
+        numbers = _is_finite_number(a) and _is_finite_number(b)
+        if not (a == b or numbers and math.isclose(a, b, rel_tol=SAME_ROBOT_REL, abs_tol=1e-12)):
+            differ.append(f"{k} {_shown(b)} in its description, {_shown(a)} for the training log")
+    if differ:
+        raise InputError(f"{where}: recorded with another robot ({'; '.join(differ)}): a test log must come "
+                         "from the robot of the training log")
+
+
+def _shown(value: Any) -> str:
+    return "null" if value is None else f"{value:g}" if _is_finite_number(value) else str(value)
+

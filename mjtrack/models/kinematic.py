@@ -33,7 +33,7 @@ from typing import ClassVar
 import numpy as np
 
 from mjtrack.errors import InputError
-from mjtrack.geometry import _sinc_terms, euler_step
+from mjtrack.geometry import euler_step, sinc_terms
 from mjtrack.icr import twist_from_icr
 
 
@@ -233,7 +233,7 @@ def integrate_twist(pose0, t, twist, *, method: str = "exact") -> np.ndarray:
         raise InputError(f"integrate: method must be 'exact' or 'euler', got {method!r}")
     dyaw = twist[:, 2] * dt
     yaw = pose0[2] + np.concatenate([[0.0], np.cumsum(dyaw)])
-    s, c = _sinc_terms(dyaw)
+    s, c = sinc_terms(dyaw)
     dxb = dt * (s * twist[:, 0] - c * twist[:, 1])
     dyb = dt * (c * twist[:, 0] + s * twist[:, 1])
     cy, sy = np.cos(yaw[:-1]), np.sin(yaw[:-1])

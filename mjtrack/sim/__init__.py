@@ -13,20 +13,29 @@ idlers, solver options) in :mod:`mjtrack.sim.scene`; ``terrain`` parses ``--terr
 config, terrain, drivetrain -> scene -> chassis -> ground, surfacevel -> builder -> rollout -> steady.
 """
 
-from mjtrack.sim.builder import build_model as build_model
-from mjtrack.sim.builder import build_spec as build_spec
-from mjtrack.sim.builder import control_matrix as control_matrix
-from mjtrack.sim.config import SimConfig as SimConfig
-from mjtrack.sim.rollout import drive_log as drive_log
-from mjtrack.sim.rollout import log_icrs as log_icrs
-from mjtrack.sim.rollout import run_batch as run_batch
-from mjtrack.sim.rollout import simulate as simulate
-from mjtrack.sim.scenarios import SCENARIOS as SCENARIOS
-from mjtrack.sim.scenarios import read_commands as read_commands
-from mjtrack.sim.scenarios import scenario_commands as scenario_commands
-from mjtrack.sim.steady import SteadyResult as SteadyResult
-from mjtrack.sim.steady import steady_batch as steady_batch
-from mjtrack.sim.steady import steady_state as steady_state
+from importlib import import_module
+
+# The package's names are loaded on first use (PEP 562), so that its module without MuJoCo
+# (``config``, the simulator settings) can be imported by the layers that must not load it.
+_WHERE = {
+    "build_model": "builder", "build_spec": "builder", "control_matrix": "builder", "SimConfig": "config",
+    "drive_log": "rollout", "log_icrs": "rollout", "run_batch": "rollout", "simulate": "rollout",
+    "SCENARIOS": "scenarios", "read_commands": "scenarios", "scenario_commands": "scenarios",
+    "SteadyResult": "steady", "steady_batch": "steady", "steady_state": "steady",
+}
+
+
+def __getattr__(name: str):
+    if name in _WHERE:
+        value = getattr(import_module(f"mjtrack.sim.{_WHERE[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'mjtrack.sim' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_WHERE))
+
 
 __all__ = [
     "SCENARIOS", "SimConfig", "SteadyResult", "build_model", "build_spec", "control_matrix", "drive_log", "log_icrs",

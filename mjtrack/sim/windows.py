@@ -20,13 +20,15 @@ simulated over short windows of the log (default 2 s), each one:
   a segment shorter than the horizon but at least ``min_fraction`` of it still gives one window
   that ends at its last sample (the Marmotte log is 432 segments of 1.90-2.06 s).
 
+The windows, their start states and errors, the screening rules and the window parameters are
+:mod:`mjtrack.windows` (no MuJoCo); this module only simulates them.
+
 Derivation and measurements: docs/theory/simulator.md, "Windows of a log".
 """
 
 from __future__ import annotations
 
 import copy
-import dataclasses
 import logging
 import math
 from dataclasses import dataclass
@@ -36,7 +38,6 @@ import mujoco
 import numpy as np
 
 from mjtrack.errors import InputError, MjtrackError
-from mjtrack.geometry import relative_pose, wrap_angle, world_to_body_velocity
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import MAX_RESISTANCE, G, Robot
 from mjtrack.sim.builder import apply_rest_margins, build_model, control_matrix, track_model_for
@@ -44,324 +45,14 @@ from mjtrack.sim.chassis import (chassis_mass_properties, resistance_forces, set
                                  set_rest_springs)
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.rollout import STATE_SPEC, SensorMap, aligned_rollout, collected_mujoco_warnings, settled_state, yaw_of
+from mjtrack.windows.define import WindowSet, start_speeds, start_twists, window_errors
+from mjtrack.windows.params import WINDOW_PARAMS, drive_params, geometry_robot, robot_params, slope_of
 
 logger = logging.getLogger(__name__)
 
-#: parameters that :meth:`WindowSim.variant_model` sets on a compiled model (``lateral_ratio``: the
-#: anisotropic ground's lateral / longitudinal friction, on a robot built with that ground;
-#: ``slope_x``, ``slope_y``: an inclined ground as the gravity of the plane, a = sin(slope) times
-#: the uphill unit vector in the log's world frame, the log's x, y read as in-plane coordinates)
-MODEL_PARAMS = ("mu", "mu_left", "mu_right", "cg_x", "cg_y", "drive_lag", "drive_force_limit", "lateral_ratio",
-                "slope_x", "slope_y", "rolling_resistance")
-#: parameters applied to the commands
-COMMAND_PARAMS = ("drive_delay", "track_speed_scale")
-#: parameters that change the model's structure: a robot rebuilt per distinct value (contact
-#: length: a track's, a wheeled robot's wheelbase; the road-wheel ground's load concentration and span)
-GEOMETRY_PARAMS = ("track_length", "wheelbase", "concentration", "span")
-WINDOW_PARAMS = MODEL_PARAMS + COMMAND_PARAMS + GEOMETRY_PARAMS
-#: drivetrain keys of the robot description; None: as the model was built (no delay, no scale)
-DRIVE_DEFAULTS = {"drive_lag": None, "drive_delay": None, "drive_force_limit": None, "track_speed_scale": None}
 MIN_LAG = 1e-4  # [s] a lag this short acts as none (the filtered drive needs lag > 0)
 DIVERGED_SPEED = 20.0  # [m/s] a tracked robot's body this fast has left the physics (explicit-Euler blow-up)
 CHUNK = 48  # windows per rollout call (bounds the state output's memory)
-#: [s] history over which calibration and diagnosis warm up a window's hidden states
-#: (:func:`warm_states`): on the simulator's own 60 s logs it takes the replay error at 2 s from
-#: 0.40 mm RMS (2 mm worst, a start mid-reversal) to 0.0003 mm; 1 s gains nothing more
-WARMUP_S = 0.5
-
-
-# -- windows ------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class WindowSet:
-    """Windows of a log: ``starts``/``ends`` (M,) row indices (first and last sample, both in the
-    window), ``segment`` (M,) the segment index of each, ``horizon_s`` the nominal horizon [s]."""
-
-    starts: np.ndarray
-    ends: np.ndarray
-    segment: np.ndarray
-    horizon_s: float
-
-    def __len__(self) -> int:
-        return int(self.starts.size)
-
-    def subset(self, index) -> "WindowSet":
-        """The windows selected by an index array or mask."""
-        return WindowSet(self.starts[index], self.ends[index], self.segment[index], self.horizon_s)
-
-
-def make_windows(log: DriveLog, horizon_s: float = 2.0, *, stride_s: float | None = None,
-                 min_fraction: float = 0.9) -> WindowSet:
-    """Windows of ``horizon_s`` inside each segment, starting every ``stride_s`` (default: the
-    horizon, non-overlapping). A window ends at the first sample at or after start + horizon; a
-    segment's last window may end earlier, at its last sample, if that is at least
-    ``min_fraction`` of the horizon after the start."""
-    if not (horizon_s > 0 and math.isfinite(horizon_s)):
-        raise InputError(f"windows: horizon must be a positive number of seconds, got {horizon_s!r}")
-    stride = horizon_s if stride_s is None else float(stride_s)
-    if not stride > 0:
-        raise InputError(f"windows: stride must be > 0 s, got {stride_s!r}")
-    starts, ends, segs = [], [], []
-    for k, sl in enumerate(log.segment_slices()):
-        t = log.t[sl]
-        t_next = t[0]
-        for i in range(t.size):
-            if t[i] < t_next - 1e-9:
-                continue
-            e = int(np.searchsorted(t, t[i] + horizon_s - 1e-9))
-            if e >= t.size:
-                if t[-1] - t[i] >= min_fraction * horizon_s - 1e-9:
-                    e = t.size - 1
-                else:
-                    break
-            starts.append(sl.start + i)
-            ends.append(sl.start + e)
-            segs.append(k)
-            t_next = t[i] + stride
-    return WindowSet(np.array(starts, int), np.array(ends, int), np.array(segs, int), float(horizon_s))
-
-
-def start_twists(log: DriveLog, ws: WindowSet, *, fit_s: float = 0.3) -> np.ndarray:
-    """Body twist (M, 3) at each window's first sample: the log's ``vx, vy, wz`` when present,
-    else the derivative at t0 of a quadratic least-squares fit to the poses within ``fit_s``
-    seconds (centred on t0 where the segment allows, one-sided at the segment's edges)."""
-    if log.has_twist and np.all(np.isfinite(log.vx[ws.starts])):
-        return np.stack([log.vx[ws.starts], log.vy[ws.starts], log.wz[ws.starts]], -1).astype(float)
-    out = np.zeros((len(ws), 3))
-    slices = log.segment_slices()
-    for j, (s, k) in enumerate(zip(ws.starts, ws.segment)):
-        sl = slices[k]
-        t = log.t[sl] - log.t[s]
-        yaw = np.unwrap(log.yaw[sl])
-        lo, hi = -fit_s / 2, fit_s / 2
-        if t[0] > lo:  # near the segment's start: one-sided
-            lo, hi = t[0], t[0] + fit_s
-        elif t[-1] < hi:
-            lo, hi = t[-1] - fit_s, t[-1]
-        m = (t >= lo - 1e-9) & (t <= hi + 1e-9)
-        if m.sum() < 3:  # too few samples for a quadratic: a straight line through two
-            m = np.zeros_like(m)
-            i0 = s - sl.start
-            m[max(0, min(i0, t.size - 2)):max(0, min(i0, t.size - 2)) + 2] = True
-        deg = 2 if m.sum() >= 3 else 1
-        d = [np.polyfit(t[m], v[m], deg)[-2] for v in (log.x[sl], log.y[sl], yaw)]
-        vx, vy = world_to_body_velocity(log.yaw[s], d[0], d[1])
-        out[j] = (vx, vy, d[2])
-    return out
-
-
-def start_speeds(log: DriveLog, ws: WindowSet) -> np.ndarray:
-    """Track speeds (M, 2) at each window's first sample: measured when present, else commanded."""
-    cmd = np.stack([log.v_left_cmd[ws.starts], log.v_right_cmd[ws.starts]], -1).astype(float)
-    if not log.has_track_speeds:
-        return cmd
-    meas = np.stack([log.v_left[ws.starts], log.v_right[ws.starts]], -1).astype(float)
-    return np.where(np.isfinite(meas), meas, cmd)
-
-
-#: A window's poses contradict its tracks when, with the tracks' path pointing the same way in both
-#: halves of the window, the body moves at least ``AGAINST_PATH_M`` against it in the second half
-#: without having slowed down: a body moving against its tracks on level ground is braked by the
-#: ground, at ``AGAINST_MU`` or more times g, so its second-half path against them is at least
-#: AGAINST_MU g tau^2 shorter than its first-half path (halves of tau seconds). A body still
-#: coasting against tracks that reversed (a DRIVE window that starts at speed) slows down and is not
-#: flagged; a record whose localisation jumped or flipped, or whose speeds have the wrong sign, is.
-#: A robot sliding down a slope its tracks cannot climb is flagged too (the docs say so).
-AGAINST_PATH_M = 0.5
-AGAINST_MU = 0.05
-AGAINST_WHY = (f"in the second half of the window the poses move at least {AGAINST_PATH_M:g} m against the tracks, "
-               f"which push the same way in both halves, without the slowing down that ground friction (at least "
-               f"{AGAINST_MU:g} g) forces on a body moving against its tracks on level ground: the window's pose or "
-               "speed record is wrong")
-
-
-def _middle_row(log: DriveLog, s: int, e: int) -> int | None:
-    """The first row at or after the middle of rows s..e in time; None when it is an end row."""
-    m = int(np.searchsorted(log.t[s:e + 1], log.t[s] + 0.5 * float(log.t[e] - log.t[s]) - 1e-9)) + s
-    return m if s < m < e else None
-
-
-def _track_speeds(log: DriveLog) -> tuple[np.ndarray, np.ndarray]:
-    """Each row's left and right track speed: measured where the log has it, else commanded."""
-    vl = log.v_left if log.has_track_speeds else log.v_left_cmd
-    vr = log.v_right if log.has_track_speeds else log.v_right_cmd
-    return np.where(np.isfinite(vl), vl, log.v_left_cmd), np.where(np.isfinite(vr), vr, log.v_right_cmd)
-
-
-def contradicting_windows(log: DriveLog, ws: WindowSet) -> list[dict]:
-    """The windows whose measured poses move against the tracks in a way the ground cannot allow
-    (:data:`AGAINST_WHY`), each as ``{"index", "t0", "track_path_m", "body_path_m"}``: the window's
-    index in ``ws``, its start time, and, per half of the window, the signed path of the mean track
-    speed (measured when present, else commanded) and the signed path of the poses along their own
-    heading."""
-    if len(ws) == 0:
-        return []
-    vl, vr = _track_speeds(log)
-    v = 0.5 * (vl + vr)
-    out = []
-    for j, (s, e) in enumerate(zip(ws.starts, ws.ends)):
-        m = _middle_row(log, s, e)
-        if m is None:
-            continue
-        tau = 0.5 * float(log.t[e] - log.t[s])
-        track, body = [], []
-        for a, b in ((s, m), (m, e)):
-            track.append(float(np.sum(v[a:b] * np.diff(log.t[a:b + 1]))))
-            yaw = log.yaw[a:b]
-            body.append(float(np.sum(np.diff(log.x[a:b + 1]) * np.cos(yaw) + np.diff(log.y[a:b + 1]) * np.sin(yaw))))
-        if track[0] * track[1] <= 0:
-            continue
-        against = [-np.sign(track[0]) * b for b in body]
-        if against[1] >= AGAINST_PATH_M and against[1] > against[0] - AGAINST_MU * G * tau ** 2:
-            out.append({"index": j, "t0": float(log.t[s]), "track_path_m": track, "body_path_m": body})
-    return out
-
-
-#: A window's robot is held by something the simulation does not have (an obstacle, a rut, a
-#: ledge it is high-centred on) when, in one half of the window, a track runs at least
-#: ``STUCK_PATH_M`` while neither point under the tracks' centres gets ``STUCK_SHARE`` of that away
-#: from where it was at the half's start.
-#: On level ground a track that slides under the body pushes it: in the steady state of Coulomb
-#: ground the points under the tracks move by about a sixth of the faster track's speed or more, for every
-#: track length up to four times the gauge, pivot and spin turns included (docs/theory/simulator.md,
-#: "Windows of a log"), and from rest a ground of at least ``AGAINST_MU`` friction moves them by
-#: AGAINST_MU g tau^2 / 2, about 0.25 m in a one-second half.
-STUCK_PATH_M = 0.5
-STUCK_SHARE = 0.1
-STUCK_WHY = (f"in one half of the window a track runs at least {STUCK_PATH_M:g} m while neither point under the "
-             f"tracks' centres gets {STUCK_SHARE:g} of that away from where it was: on level ground a track that "
-             "slides under the body pushes it, so something the simulation does not have (an obstacle, a rut, a "
-             "ledge) held the robot")
-
-
-def stuck_windows(log: DriveLog, ws: WindowSet, gauge: float) -> list[dict]:
-    """The windows in which the robot is held still while a track runs under it (:data:`STUCK_WHY`),
-    each as ``{"index", "t0", "track_path_m", "body_path_m"}``: per half of the window, the longer
-    of the two tracks' paths (measured speeds when present, else commanded; unsigned) and how far the
-    points under the tracks' centres (at +-gauge/2 across the body) get from where they were at the
-    half's start (the larger of the two; the farthest sample, so that a body that reverses within
-    the half counts how far it went, and pose noise is not summed up as motion)."""
-    vl, vr = (np.abs(v) for v in _track_speeds(log))
-    out = []
-    for j, (s, e) in enumerate(zip(ws.starts, ws.ends)):
-        m = _middle_row(log, s, e)
-        if m is None:
-            continue
-        track, body = [], []
-        for a, b in ((s, m), (m, e)):
-            dt = np.diff(log.t[a:b + 1])
-            track.append(float(max(np.sum(vl[a:b] * dt), np.sum(vr[a:b] * dt))))
-            moved = 0.0
-            for y in (0.5 * gauge, -0.5 * gauge):  # the point under each track's centre, in the world
-                px = log.x[a:b + 1] - y * np.sin(log.yaw[a:b + 1])
-                py = log.y[a:b + 1] + y * np.cos(log.yaw[a:b + 1])
-                moved = max(moved, float(np.max(np.hypot(px - px[0], py - py[0]))))
-            body.append(moved)
-        if any(tp >= STUCK_PATH_M and bp <= STUCK_SHARE * tp for tp, bp in zip(track, body)):
-            out.append({"index": j, "t0": float(log.t[s]), "track_path_m": track, "body_path_m": body})
-    return out
-
-
-def without_contradicting(log: DriveLog, ws: WindowSet, gauge: float) -> tuple[WindowSet, list[dict]]:
-    """``ws`` less the windows the ground cannot explain, and those windows, in time order: each
-    with ``kind`` ("against": :func:`contradicting_windows`; "stuck": :func:`stuck_windows` for a
-    robot of track gauge ``gauge`` [m]), ``t0``, ``track_path_m``, ``body_path_m``. A window both
-    rules find is listed once, as "against"."""
-    rows = {b["index"]: {"kind": "against", **b} for b in contradicting_windows(log, ws)}
-    for b in stuck_windows(log, ws, gauge):
-        rows.setdefault(b["index"], {"kind": "stuck", **b})
-    keep = np.ones(len(ws), bool)
-    keep[list(rows)] = False
-    return ws.subset(keep), [{k: v for k, v in rows[i].items() if k != "index"} for i in sorted(rows)]
-
-
-def left_out_counts(rows: Sequence[Mapping]) -> str:
-    """"2 whose poses move against the tracks, 6 in which the robot was held still" (the kinds present)."""
-    words = {"against": "whose poses move against the tracks", "stuck": "in which the robot was held still"}
-    n = {k: sum(r["kind"] == k for r in rows) for k in words}
-    return ", ".join(f"{n[k]} {w}" for k, w in words.items() if n[k])
-
-
-def measured_drive_log(lg: DriveLog, name: str) -> DriveLog:
-    """The log with its measured track speeds in place of the commands (a track without a measured
-    speed on a row keeps its command there); InputError when it has no measured speeds. A log it
-    made already is returned as it is."""
-    if LOGGED_COMMANDS[0] in lg.extra:
-        return lg
-    if lg.v_left is None or lg.v_right is None:
-        raise InputError(f"{name}: driving by the measured speeds needs the measured track speeds (v_left, v_right)")
-    ok = np.isfinite(lg.v_left) & np.isfinite(lg.v_right)
-    if ok.mean() < 0.5:  # mostly commands: that is the commanded calibration, mislabelled
-        raise InputError(f"{name}: measured track speeds on only {100 * ok.mean():.0f} % of the rows; "
-                         f"driving by the measured speeds needs them on most rows")
-    return dataclasses.replace(lg, v_left_cmd=np.where(np.isfinite(lg.v_left), lg.v_left, lg.v_left_cmd),
-                               v_right_cmd=np.where(np.isfinite(lg.v_right), lg.v_right, lg.v_right_cmd),
-                               extra={**lg.extra, LOGGED_COMMANDS[0]: lg.v_left_cmd,
-                                      LOGGED_COMMANDS[1]: lg.v_right_cmd})
-
-
-LOGGED_COMMANDS = ("logged_v_left_cmd", "logged_v_right_cmd")  # where measured_drive_log keeps the commands
-
-
-def commanded_log(lg: DriveLog) -> DriveLog:
-    """The log with its logged commands (undoes :func:`measured_drive_log`): which windows are
-    steady turns is a property of the commands."""
-    if LOGGED_COMMANDS[0] not in lg.extra:
-        return lg
-    return dataclasses.replace(lg, v_left_cmd=lg.extra[LOGGED_COMMANDS[0]], v_right_cmd=lg.extra[LOGGED_COMMANDS[1]])
-
-
-# -- the simulator of windows ---------------------------------------------------------------------
-def drive_params(robot: Robot) -> dict[str, float | None]:
-    """The robot's drivetrain keys (attributes or description keys), None where absent."""
-    out = {}
-    for k in DRIVE_DEFAULTS:
-        v = getattr(robot, k, None)
-        if v is None:
-            v = robot.extra.get(k)
-        out[k] = None if v is None else float(v)
-    if not out["drive_lag"]:  # 0: no lag of the robot's own; the model keeps the lag it was built with
-        out["drive_lag"] = None
-    return out
-
-
-def robot_params(robot: Robot) -> dict[str, float | None]:
-    """Every window parameter's value for ``robot`` as described (the baseline variant)."""
-    g = dict(robot.ground.params)
-    return {"mu": robot.mu, "mu_left": robot.mu_left, "mu_right": robot.mu_right,
-            "cg_x": robot.cg_x, "cg_y": robot.cg_y, **drive_params(robot), "track_length": robot.track_length,
-            "wheelbase": robot.wheelbase, "lateral_ratio": g.get("lateral_ratio"), "concentration": g.get("concentration"),
-            "span": g.get("span"), "slope_x": 0.0, "slope_y": 0.0, "rolling_resistance": robot.rolling_resistance}
-
-
-def slope_of(params: Mapping[str, float | None]) -> tuple[float, float]:
-    """The in-plane gravity direction (a_x, a_y) = sin(slope) (cos dir, sin dir) of ``params``
-    (0 where absent); InputError when it is not a plane's (|a| >= sin 60 deg)."""
-    ax, ay = float(params.get("slope_x") or 0.0), float(params.get("slope_y") or 0.0)
-    if not (math.isfinite(ax) and math.isfinite(ay)) or math.hypot(ax, ay) >= math.sin(math.radians(60)):
-        raise InputError(f"windows: slope (slope_x, slope_y) = ({ax!r}, {ay!r}) is not an incline below 60 deg")
-    return ax, ay
-
-
-def geometry_robot(robot: Robot, params: Mapping[str, float | None]) -> Robot:
-    """``robot`` with the structural parameters of ``params`` (:data:`GEOMETRY_PARAMS`) applied."""
-    changes: dict = {}
-    if params.get("track_length") is not None and params["track_length"] != robot.track_length:
-        if robot.traction == "wheels":
-            raise InputError("windows: a wheeled robot has no track length; its contact length is 'wheelbase'")
-        changes["track_length"] = float(params["track_length"])
-    if params.get("wheelbase") is not None and params["wheelbase"] != robot.wheelbase:
-        if robot.traction != "wheels":
-            raise InputError("windows: 'wheelbase' needs a wheeled robot (robot key traction: \"wheels\")")
-        changes["wheelbase"] = float(params["wheelbase"])
-    ground = dict(robot.ground.params)
-    new = {k: float(params[k]) for k in ("concentration", "span") if params.get(k) is not None}
-    if new:
-        if robot.ground.model != "road_wheels":
-            raise InputError(f"windows: {sorted(new)} need a robot built with the road_wheels ground "
-                             "(robot key ground: {\"model\": \"road_wheels\"})")
-        if any(ground[k] != v for k, v in new.items()):
-            changes["ground"] = type(robot.ground)(robot.ground.model, tuple({**ground, **new}.items()))
-    return robot.replace(**changes) if changes else robot
 
 
 class WindowSim:
@@ -740,31 +431,5 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
     return WindowResult(poses=poses, errors=errors, speeds=speeds, diverged=diverged)
 
 
-def window_errors(log: DriveLog, ws: WindowSet, poses: np.ndarray) -> np.ndarray:
-    """(P, M, 3) errors at each window's last sample in its measured start frame (along, across,
-    yaw) for predicted poses (P, M, K, 3) as :func:`simulate_windows` returns them."""
-    n = ws.ends - ws.starts
-    M = len(ws)
-    pred = poses[:, np.arange(M), n]  # (P, M, 3)
-    start = np.stack([log.x[ws.starts], log.y[ws.starts], log.yaw[ws.starts]], -1).astype(float)
-    yaw_meas = np.array([log.yaw[ws.starts[j]] + np.sum(wrap_angle(np.diff(log.yaw[ws.starts[j]:ws.ends[j] + 1])))
-                         for j in range(M)])
-    end = np.stack([log.x[ws.ends], log.y[ws.ends], yaw_meas], -1).astype(float)
-    err = relative_pose(start[None], pred) - relative_pose(start, end)[None]
-    err[..., 2] = pred[..., 2] - end[:, 2][None]
-    return err
+__all__ = ["MIN_LAG", "WindowResult", "WindowSim", "simulate_windows", "warm_states", "window_commands"]
 
-
-def measured_window_poses(log: DriveLog, ws: WindowSet) -> np.ndarray:
-    """(M, K, 3) measured poses of each window (yaw unwrapped, NaN beyond its end)."""
-    K = int((ws.ends - ws.starts).max()) + 1
-    out = np.full((len(ws), K, 3), np.nan)
-    for j in range(len(ws)):
-        sl = slice(ws.starts[j], ws.ends[j] + 1)
-        out[j, :sl.stop - sl.start] = np.column_stack([log.x[sl], log.y[sl], np.unwrap(log.yaw[sl])])
-    return out
-
-
-__all__ = ["COMMAND_PARAMS", "GEOMETRY_PARAMS", "MODEL_PARAMS", "WINDOW_PARAMS", "geometry_robot", "WindowResult", "WindowSet", "WindowSim",
-           "drive_params", "make_windows", "measured_window_poses", "robot_params", "simulate_windows",
-           "start_speeds", "start_twists", "window_commands", "window_errors"]

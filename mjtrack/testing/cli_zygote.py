@@ -118,9 +118,11 @@ def main() -> None:
     import mujoco  # noqa: F401
     import scipy.optimize  # noqa: F401
 
+    import mjtrack.calibrate.fit  # noqa: F401
     import mjtrack.calibrate.run  # noqa: F401
     import mjtrack.diagnose  # noqa: F401
     import mjtrack.sim.rollout  # noqa: F401
+    import mjtrack.sim.windows  # noqa: F401
     import mjtrack.validate  # noqa: F401
 
     sys.stdout.write("ready\n")

@@ -12,7 +12,7 @@ the poses move backwards along the start heading at another constant speed, as a
 flipped would record it; the rows after the window are shifted so that the log continues from
 there as before. ``with_held_window``: in those rows the tracks spin in opposite directions at a
 constant speed while the poses stay where the window starts, as a robot caught on an obstacle
-would record it. Written here, with no code of :mod:`mjtrack.sim.windows`, which finds such
+would record it. Written here, with no code of :mod:`mjtrack.windows.screen`, which finds such
 windows.
 """
 

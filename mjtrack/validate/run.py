@@ -23,9 +23,8 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from mjtrack.io.atomic import atomic_write_text, make_output_dir
+from mjtrack.io.jsonfile import json_value
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.progress import Progress
@@ -50,20 +49,6 @@ class Validation:
     report_path: Path
     metrics_path: Path
     wheeled: WheeledResult | None = None
-
-
-def _json_safe(x):
-    if isinstance(x, dict):
-        return {str(k): _json_safe(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_json_safe(v) for v in x]
-    if isinstance(x, (np.floating, float)):
-        return float(x) if math.isfinite(x) else None
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, np.bool_):
-        return bool(x)
-    return x
 
 
 def validate(
@@ -134,7 +119,7 @@ def validate(
                                     f"{est.twist_std[1]:.3g} m/s, {est.twist_std[2]:.3g} rad/s on the twist")
         report = build_report(results, robot, setup, verdict, wheeled=wheeled)
         bar.update(note="report")
-        metrics = _json_safe({
+        metrics = json_value({
             "setup": setup, "definitions": DEFINITIONS, "verdicts": verdict,
             "headline": {"horizon_s": VERDICT_HORIZON,
                          "pos_rmse_m": {n: {k: v["horizons"][f"{VERDICT_HORIZON:g}"]["pos_rmse_m"]
