@@ -1,4 +1,5 @@
-"""Windows of a log simulated by the MuJoCo robot from the measured state (mjtrack.sim.windows).
+"""Windows of a log (mjtrack.windows: definition, start states, screening rules) simulated by the
+MuJoCo robot from the measured state (mjtrack.sim.windows).
 
 The reference logs come from ``mjtrack.sim.drive_log`` (one rollout from rest over the whole log,
 the robot built with its parameters in the description); the window simulator restarts the robot
