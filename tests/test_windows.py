@@ -1,4 +1,5 @@
-"""Windows of a log simulated by the MuJoCo robot from the measured state (mjtrack.sim.windows).
+"""Windows of a log (mjtrack.windows: definition, start states, screening rules) simulated by the
+MuJoCo robot from the measured state (mjtrack.sim.windows).
 
 The reference logs come from ``mjtrack.sim.drive_log`` (one rollout from rest over the whole log,
 the robot built with its parameters in the description); the window simulator restarts the robot
@@ -384,22 +385,18 @@ def test_no_window_of_the_simulators_own_logs_is_taken_for_a_stuck_robot():
                 assert rows == [], (g, change, seed)
 
 
-def _loaded_after_import(modules: str) -> set[str]:
-    """Which of mujoco and mjtrack.diagnose a fresh interpreter holds after importing ``modules``."""
+def test_the_window_layer_and_calibration_import_without_mujoco_or_diagnose():
+    """One fresh interpreter imports, in turn, the window layer, calibration and the window
+    simulator, and says after each which of MuJoCo and the diagnosis it holds."""
     import mjtrack
 
-    code = (f"import sys\nimport {modules}\n"
-            "print(' '.join(m for m in ('mujoco', 'mjtrack.diagnose') if m in sys.modules))")
+    steps = ["mjtrack.windows", "mjtrack.calibrate, mjtrack.calibrate.params, mjtrack.calibrate.identify, "
+             "mjtrack.calibrate.causes, mjtrack.calibrate.run", "mjtrack.sim.windows"]
+    code = "import sys\n" + "".join(
+        f"import {m}\nprint(' '.join(n for n in ('mujoco', 'mjtrack.diagnose') if n in sys.modules) or '-')\n"
+        for m in steps)
     root = str(Path(mjtrack.__file__).resolve().parents[1])
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
-    return set(out.stdout.split())
-
-
-def test_the_window_layer_and_calibration_import_without_mujoco_or_diagnose():
-    assert _loaded_after_import("mjtrack.windows") == set()
-    assert _loaded_after_import("mjtrack.calibrate, mjtrack.calibrate.params, mjtrack.calibrate.identify, "
-                                "mjtrack.calibrate.causes, mjtrack.calibrate.run") == set()
-    # the probe sees MuJoCo where it is loaded: the window simulator needs it
-    assert "mujoco" in _loaded_after_import("mjtrack.sim.windows")
-
+    # the last line shows that the probe sees MuJoCo where it is loaded: the window simulator needs it
+    assert out.stdout.split("\n")[:3] == ["-", "-", "mujoco"]

@@ -16,15 +16,14 @@ pos_max_m, yaw_median_deg, yaw_max_deg, pos_rmse_m, yaw_rmse_deg, n}`` and ``whe
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from mjtrack.io.atomic import atomic_write_text, make_output_dir
-from mjtrack.io.jsonfile import json_value
+from mjtrack.io.atomic import make_output_dir
+from mjtrack.io.jsonfile import json_value, write_json
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.progress import Progress
@@ -132,7 +131,7 @@ def validate(
         out = Path(out_dir)
         make_output_dir(out)
         report.write(out / REPORT_NAME)
-        atomic_write_text(out / METRICS_NAME, json.dumps(metrics, indent=2, allow_nan=False) + "\n")
+        write_json(out / METRICS_NAME, metrics)
     finally:
         if own_bar:
             bar.close()
