@@ -116,3 +116,53 @@ def horizon_errors(
         yaw_err=wrap_angle(pred[:, 2] - meas[:, 2]),
         predicted=pred,
     )
+
+
+@dataclass(frozen=True)
+class WindowPredictionErrors:
+    """Errors of predictions over whole windows, each started from its measured start pose.
+
+    Attributes:
+        end: (M,) distance between predicted and measured position at each window's last sample [m].
+        mean_distance: (M,) that distance averaged over the window's samples, its start included
+            (the metric of DRIVE's authors) [m].
+        yaw: (M,) predicted minus measured yaw at the last sample, both continuous from the start [rad].
+    """
+
+    end: np.ndarray
+    mean_distance: np.ndarray
+    yaw: np.ndarray
+
+    @property
+    def end_rms(self) -> float:
+        """RMS over the windows of the end-of-window position error [m]."""
+        return float(np.sqrt(np.mean(self.end ** 2))) if self.end.size else float("nan")
+
+    @property
+    def mean_distance_mean(self) -> float:
+        """Mean over the windows of the mean position distance over the window [m]."""
+        return float(np.mean(self.mean_distance)) if self.mean_distance.size else float("nan")
+
+    @property
+    def yaw_rms(self) -> float:
+        """RMS over the windows of the end-of-window yaw error [rad]."""
+        return float(np.sqrt(np.mean(self.yaw ** 2))) if self.yaw.size else float("nan")
+
+    def summary(self) -> dict:
+        return {"windows": int(self.end.size), "end_rms_m": self.end_rms,
+                "mean_distance_m": self.mean_distance_mean, "yaw_rms_rad": self.yaw_rms}
+
+
+def window_prediction_errors(predicted, measured, last) -> WindowPredictionErrors:
+    """Errors of predicted poses (M, K, 3) against measured poses (M, K, 3) over windows whose last
+    sample is ``last`` (M,) (samples beyond it are ignored; yaws continuous within each window)."""
+    predicted, measured = np.asarray(predicted, float), np.asarray(measured, float)
+    if predicted.shape != measured.shape or predicted.ndim != 3 or predicted.shape[2] != 3:
+        raise InputError(f"window errors: predicted {predicted.shape} and measured {measured.shape} poses must "
+                         "both have shape (M, K, 3)")
+    last = np.asarray(last, int)
+    rows = np.arange(predicted.shape[0])
+    inside = np.arange(predicted.shape[1])[None, :] <= last[:, None]
+    dist = np.hypot(predicted[..., 0] - measured[..., 0], predicted[..., 1] - measured[..., 1])
+    mean = np.sum(np.where(inside, dist, 0.0), axis=1) / (last + 1)
+    return WindowPredictionErrors(dist[rows, last], mean, predicted[rows, last, 2] - measured[rows, last, 2])
