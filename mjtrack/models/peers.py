@@ -230,13 +230,18 @@ class Drive:
     bounds: tuple[tuple[float, float], tuple[float, float]]
     slip: dict
 
-    def track_speeds(self, cmd, v0, pre, dt) -> np.ndarray:
-        """(M, K, 2) powertrain track speeds from commands (M, K, 2), the measured speeds (M, 2) at
-        each window's start and the input (M, 2) in force before it."""
+    def track_speeds(self, cmd, v0, dt, step) -> np.ndarray:
+        """(M, K, 2) track speeds from commands (M, K, 2): in a window that starts with a command
+        step (``step`` (M,) bool) the powertrain from the measured speeds ``v0`` (M, 2) at its start,
+        the speed held through the dead time; in the others the powertrain has settled on the
+        command held in the bounds (the authors' ideal velocities of the windows after a step)."""
         cmd, dt = _windows_arrays(cmd, dt)
-        v0, pre = np.asarray(v0, float), np.asarray(pre, float)
-        return np.stack([powertrain_speeds(cmd[..., i], v0[:, i], pre[:, i], self.tau[i], self.delay[i],
-                                           *self.bounds[i], dt) for i in range(2)], -1)
+        v0, step = np.asarray(v0, float), np.asarray(step, bool)
+        out = np.clip(cmd, [b[0] for b in self.bounds], [b[1] for b in self.bounds])
+        if step.any():
+            out[step] = np.stack([powertrain_speeds(cmd[step][..., i], v0[step][:, i], v0[step][:, i], self.tau[i],
+                                                    self.delay[i], *self.bounds[i], dt[step]) for i in range(2)], -1)
+        return out
 
     def slip_of(self, ideal) -> np.ndarray:
         """(..., 3) predicted body-velocity slip (ideal minus actual) at ideal twists (..., 3)."""
@@ -244,9 +249,10 @@ class Drive:
         s = [self.slip[k].predict(f[k])[0] for k in ("x", "y", "yaw")]
         return np.stack(s, -1)
 
-    def twist(self, cmd, v0, pre, dt) -> np.ndarray:
-        """(M, K, 3) predicted body twists: the ideal twist of the powertrain's speeds less the slip."""
-        ideal = ideal_twist(self.track_speeds(cmd, v0, pre, dt), self.gauge)
+    def twist(self, cmd, v0, dt, step) -> np.ndarray:
+        """(M, K, 3) predicted body twists: the ideal twist of the track speeds (:meth:`track_speeds`)
+        less the slip."""
+        ideal = ideal_twist(self.track_speeds(cmd, v0, dt, step), self.gauge)
         return ideal - self.slip_of(ideal)
 
     def to_json(self) -> dict:
@@ -256,7 +262,7 @@ class Drive:
                 "slip_noise_std": {k: float(np.sqrt(p.noise_var)) for k, p in self.slip.items()}}
 
 
-def fit_drive(cmd, meas, body, dt, gauge: float, *, step, steady, pre=None,
+def fit_drive(cmd, meas, body, dt, gauge: float, *, step, steady,
               delay: float | None = AUTHORS_DELAY) -> Drive:
     """DRIVE fitted to windows: commands ``cmd`` and measured track speeds ``meas`` (M, K, 2), the
     measured body twists ``body`` (M, K, 3) (:func:`body_velocities`), periods ``dt`` (M,).
@@ -266,19 +272,17 @@ def fit_drive(cmd, meas, body, dt, gauge: float, *, step, steady, pre=None,
     extremes of the measured speeds; ``steady`` (M,) bool: windows whose command has held since
     before their start -- the slip regressions are fitted on their samples, the slip being the
     ideal twist of the commands held in the bounds less the measured twist (the powertrain's steady
-    state: the authors' targets). ``pre`` (M, 2): the input before each window (default: the
-    measured start speed in a step window, the window's own first command in the others)."""
+    state: the authors' targets)."""
     cmd, dt = _windows_arrays(cmd, dt)
     meas = np.asarray(meas, float)
     step, steady = np.asarray(step, bool), np.asarray(steady, bool)
     if not step.any() or not steady.any():
         raise InputError("DRIVE: fitting needs windows that start with a command step and steady windows")
-    if pre is None:
-        pre = np.where(step[:, None], meas[:, 0], cmd[:, 0])
     bounds, tau, delays = [], [], []
     for i in range(2):
         b = (float(np.nanmin(meas[..., i])), float(np.nanmax(meas[..., i])))
-        t, d, _ = fit_powertrain(cmd[step][..., i], meas[step][..., i], pre[step][:, i], dt[step], *b, delay=delay)
+        # the speed before the step is held through the dead time
+        t, d, _ = fit_powertrain(cmd[step][..., i], meas[step][..., i], meas[step][:, 0, i], dt[step], *b, delay=delay)
         bounds.append(b), tau.append(t), delays.append(d)
     held = np.clip(cmd[steady], [b[0] for b in bounds], [b[1] for b in bounds])
     ideal = ideal_twist(held, gauge)
