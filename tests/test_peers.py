@@ -203,3 +203,24 @@ def test_drive_on_a_whole_shared_log_reproduces_the_authors_parameters(name):
     assert np.allclose(m.tau, tau, rtol=0.05), m.tau
     for k, w in (("x", wx), ("y", wy), ("yaw", wyaw)):
         assert np.allclose(m.slip[k].weights, w, rtol=0.05, atol=0.005), (k, m.slip[k].weights)
+
+
+def test_bad_input_is_an_input_error():
+    from mjtrack.errors import InputError
+    from mjtrack.metrics import fit_end_regions
+
+    cmd, meas, body, _, step, steady = drive_protocol(steps=2)
+    with pytest.raises(InputError, match="shape"):
+        peers.fit_drive(cmd[..., 0], meas, body, DT, GAUGE, step=step, steady=steady)
+    with pytest.raises(InputError, match="step"):
+        peers.fit_drive(cmd, meas, body, DT, GAUGE, step=np.zeros(len(cmd), bool), steady=steady)
+    with pytest.raises(InputError, match="period"):
+        peers.fit_drive(cmd, meas, body, 0.0, GAUGE, step=step, steady=steady)
+    with pytest.raises(InputError, match="time constant"):
+        peers.powertrain_speeds(cmd[..., 0], meas[:, 0, 0], meas[:, 0, 0], 0.0, 0.05, -1, 1, DT)
+    with pytest.raises(InputError, match="more than"):
+        peers.bayesian_linear(np.ones((2, 3)), np.ones(2))
+    with pytest.raises(InputError, match="shape"):
+        window_prediction_errors(np.zeros((2, 4, 3)), np.zeros((2, 5, 3)), np.array([3, 3]))
+    with pytest.raises(InputError, match="level"):
+        fit_end_regions(np.zeros((5, 2)), np.ones(5), np.zeros(5), level=1.0)
