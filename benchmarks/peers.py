@@ -40,7 +40,7 @@ from mjtrack.diagnose.residuals import turn_ratio
 from mjtrack.io import read_log_with_robot
 from mjtrack.metrics import fit_end_regions, window_prediction_errors
 from mjtrack.models import peers
-from mjtrack.sim.windows import left_out_counts, make_windows, without_contradicting
+from mjtrack.sim.windows import left_out_counts, make_windows, measured_window_poses, without_contradicting
 
 from mjtrack.testing.repo import load_benchmark
 
@@ -83,13 +83,10 @@ def window_arrays(log, ws) -> dict:
         return out
 
     t = take(log.t)
-    yaw = take(log.yaw)
-    for j in range(M):
-        yaw[j, :last[j] + 1] = np.unwrap(yaw[j, :last[j] + 1])
     steady = np.asarray(log.extra["steady"])[ws.starts] == 1 if "steady" in log.extra else np.ones(M, bool)
     return {"cmd": np.stack([take(log.v_left_cmd), take(log.v_right_cmd)], -1),
             "meas": np.stack([take(log.v_left), take(log.v_right)], -1),
-            "poses": np.stack([take(log.x), take(log.y), yaw], -1), "t": t - t[:, :1],
+            "poses": measured_window_poses(log, ws), "t": t - t[:, :1],
             "gyro": take(np.asarray(log.extra["wz_imu"], float)) if "wz_imu" in log.extra else None,
             "last": last, "dt": (log.t[ws.ends] - log.t[ws.starts]) / last, "step": ~steady}
 
