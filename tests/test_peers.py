@@ -224,3 +224,25 @@ def test_bad_input_is_an_input_error():
         window_prediction_errors(np.zeros((2, 4, 3)), np.zeros((2, 5, 3)), np.array([3, 3]))
     with pytest.raises(InputError, match="level"):
         fit_end_regions(np.zeros((5, 2)), np.ones(5), np.zeros(5), level=1.0)
+
+
+def test_benchmark_end_errors_are_calibrates_window_errors_turned_round():
+    """The peers benchmark's end errors (measured minus predicted, in the start frame) against the
+    windows' errors the calibration scores (predicted minus measured), computed by other code."""
+    from mjtrack.io.logs import DriveLog
+    from mjtrack.sim.windows import make_windows, window_errors
+    from mjtrack.testing.repo import load_benchmark
+
+    rng = np.random.default_rng(7)
+    n = 3 * K
+    t = np.arange(n) * DT
+    yaw = np.cumsum(rng.uniform(-0.1, 0.1, n))
+    log = DriveLog.from_columns({"t": t, "v_left_cmd": np.ones(n), "v_right_cmd": np.ones(n),
+                                 "x": np.cumsum(np.cos(yaw)) * 0.05, "y": np.cumsum(np.sin(yaw)) * 0.05, "yaw": yaw,
+                                 "v_left": np.ones(n), "v_right": np.ones(n),
+                                 "window": np.repeat(np.arange(3), K)})
+    ws = make_windows(log, 1.9)
+    bench = load_benchmark("peers")
+    a = bench.window_arrays(log, ws)
+    pred = a["poses"] + rng.normal(0, 0.2, a["poses"].shape)
+    assert np.allclose(bench.end_errors(a, pred), -window_errors(log, ws, pred[None])[0][:, :2])
