@@ -63,7 +63,7 @@ def test_delayed_input_holds_whole_periods_and_is_continuous_between():
 
 
 def test_powertrain_fit_recovers_the_time_constants_and_dead_time():
-    cmd, meas, _, _, step, _ = drive_protocol()
+    cmd, meas, _, _, step, _ = drive_protocol(steps=12)
     for i in range(2):
         pre = meas[step][:, 0, i]
         tau, delay, cost = peers.fit_powertrain(cmd[step][..., i], meas[step][..., i], pre, np.full(step.sum(), DT),
