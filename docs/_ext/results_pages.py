@@ -558,8 +558,102 @@ def _calibration() -> Page:
         "state.", [bat, real], [cases, rows, robots, context, speed, params, summaries])
 
 
+#: the peer models of benchmarks/peers.py, in the order and words of the page
+PEER_MODELS = {"drive": "DRIVE (the authors' dead time)", "drive_dead_time_fitted": "DRIVE, dead time fitted",
+               "ideal_commands": "ideal diff-drive, commands", "ideal_measured": "ideal diff-drive, measured speeds",
+               "icr_commands": "ICR model, commands", "icr_measured": "ICR model, measured speeds",
+               "calibrated_mujoco": "calibrated MuJoCo robot"}
+
+
+def _peers() -> Page:
+    from mjtrack.calibrate.run import TURN_CLASSES
+
+    src = Source(RESULTS / "peers.json")
+    class_names = dict(zip((f"{lo:g}-{hi:g}" for lo, hi in TURN_CLASSES), ("straight", "turning", "sharp turns")))
+    rep = Table("DRIVE fitted on every window of each whole shared log, beside the values the authors' code gives on "
+                "the same log: powertrain time constant and dead time per side [s], slip weights on [v_x]; [v_x w]; "
+                "[v_x w, v_x, w]. Ours on the authors' nominal clock (every sample taken one period of the nominal "
+                "rate after the last, as their code takes them) and on the log's own times; and with the dead time "
+                "fitted instead of left where the authors' optimiser leaves it.",
+                ["robot", "fit", "tau left", "tau right", "dead time left", "dead time right", "w x", "w y",
+                 "w yaw (v_x w)", "w yaw (v_x)", "w yaw (w)"])
+    split = Table("The held-out split: shares of the log's segments for training and test (the same for the three "
+                  "robots), windows of each part and those kept; a window the ground cannot explain (poses against the "
+                  "tracks, or the robot held still under a running track) is left out for every model.",
+                  ["robot", "train share", "test share", "train windows", "train kept", "test windows", "test kept",
+                   "left out of test"])
+    models = Table("Every model on the same held-out windows, each started from the window's measured pose: "
+                   "end-of-window position error RMS [m], the mean over windows of the position distance averaged over "
+                   "the window (the authors' metric) [m], end-of-window yaw error RMS [rad], and the steady-turn yaw "
+                   "ratio (yaw rate over (v_R - v_L)/T of the measured track speeds; calibrate's definition) of the "
+                   "model and of the measurement.",
+                   ["robot", "model", "windows", "end RMS", "mean distance", "yaw RMS", "yaw ratio", "yaw ratio measured"])
+    turns = Table("The steady-turn yaw ratio per class of |turn ratio| = |v_R - v_L| / (|v_L| + |v_R|) of the measured "
+                  "track speeds (straight, turning, sharp turns: calibrate's classes of the forward speed ratio): "
+                  "measured and per model; n/a where the class has no steady turn fast enough to count.",
+                  ["robot", "turn class", "steady turns", "measured", "model", "model's yaw ratio"])
+    regions = Table("Prediction regions for the end position at the level shown, per model: fitted on the scatter of "
+                    "its training windows' end errors (per turn class of the commands, growing with the commanded "
+                    "path; mjtrack.metrics.fit_end_regions), the share of held-out windows whose measured end they "
+                    "hold, the same share on the training windows, and their mean area [m^2].",
+                    ["robot", "model", "level", "held-out coverage", "training coverage", "mean area"])
+    theirs = Table("The authors' DRIVE on the last part of each run, which the shared folders do not hold (other "
+                   "windows than ours): end-of-window RMS [m], mean distance over the window [m], windows.",
+                   ["robot", "end RMS", "mean distance", "windows"])
+    for name, r in src.data["robots"].items():
+        q = f"/robots/{name}"
+        for fit in ("authors", "nominal_clock", "log_clock", "dead_time_fitted"):
+            f = f"{q}/reproduction/{fit}"
+            x = r["reproduction"][fit]
+            w = ([number(src, f"{f}/slip_weights/{k}/{i}") for k, n in (("x", 1), ("y", 1), ("yaw", 3)) for i in range(n)]
+                 if "slip_weights" in x else ["as above"] * 5)
+            rep.add(name, {"authors": "the authors' code", "nominal_clock": "ours, nominal clock",
+                           "log_clock": "ours, the log's times", "dead_time_fitted": "ours, dead time fitted"}[fit],
+                    *(number(src, f"{f}/{k}/{i}") for k in ("tau", "delay") for i in (0, 1)), *w)
+        split.add(name, number(src, q + "/split/train"), number(src, q + "/split/test"),
+                  number(src, q + "/windows/train/windows"), number(src, q + "/windows/train/kept"),
+                  number(src, q + "/windows/test/windows"), number(src, q + "/windows/test/kept"),
+                  number(src, q + "/windows/test/left_out"))
+        for m in PEER_MODELS:
+            if m not in r["models"]:
+                continue
+            p = f"{q}/models/{m}"
+            label = PEER_MODELS[m] + (f" (drives follow the {r['calibrated']['drive_input']} speeds)"
+                                      if m == "calibrated_mujoco" and "calibrated" in r else "")
+            g = f"{q}/regions/{m}"
+            if m in r.get("regions", {}):
+                regions.add(name, label, number(src, g + "/level"), number(src, g + "/coverage"),
+                            number(src, g + "/train_coverage"), number(src, g + "/mean_area_m2"))
+            models.add(name, label, number(src, p + "/windows"), number(src, p + "/end_rms_m"),
+                       number(src, p + "/mean_distance_m"), number(src, p + "/yaw_rms_rad"),
+                       number(src, f"{q}/yaw_ratio/all/{m}"), number(src, f"{q}/yaw_ratio/all/measured"))
+        for cls, row in r["yaw_ratio"].items():
+            if cls == "all":
+                continue
+            for m in PEER_MODELS:
+                if m in row:
+                    c = f"{q}/yaw_ratio/{cls}"
+                    turns.add(name, class_names.get(cls, cls), number(src, c + "/windows"), number(src, c + "/measured"),
+                              PEER_MODELS[m], number(src, f"{c}/{m}"))
+        theirs.add(name, number(src, q + "/authors_held_out/end_rms_m"), number(src, q + "/authors_held_out/mean_distance_m"),
+                   number(src, q + "/authors_held_out/windows"))
+    load = Table("The machine's load during the run.", ["what", "value"])
+    add_load(load, src, "/load_before", "/load_after")
+    return Page(
+        "peers", "Real robots against peers",
+        "The field's models of a skid-steer robot on the three shared real logs (Marmotte, tracked; Husky and Warthog, "
+        "wheeled): DRIVE, the learned model of Baril et al. (`ICRA 2024`), implemented from its published description "
+        "(`mjtrack.models.peers`); the ideal differential drive from the commands and from the measured track speeds; "
+        "the ICR kinematic model with a speed scale, fitted on the training windows; and, where the run scored one, "
+        "the calibrated MuJoCo robot. Every model is scored on the same held-out windows, the first part of each log "
+        "training and the last part testing. DRIVE and the models driven by the commands predict what a planner can "
+        "know; those driven by the measured speeds see the drives' response and score the contact alone. The "
+        "derivation and what the reproduction shows: the theory page on the peers.",
+        [src], [rep, split, models, turns, regions, theirs, load])
+
+
 PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _implementations, _filters, _speed, _wheeled,
-                                          _wheeled_models, _controllers, _calibration)
+                                          _wheeled_models, _controllers, _calibration, _peers)
 
 
 # -- writing -----------------------------------------------------------------------------------

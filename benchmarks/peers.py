@@ -1,0 +1,316 @@
+"""Three real robots against the field's peer models, on the same held-out windows.
+
+    python benchmarks/peers.py [--robots marmotte,husky,warthog] [--calibrated husky:DIR ...]
+
+For each shared DRIVE log (../shared/data/, BSD-3; see each folder's README):
+
+* **reproduction**: DRIVE (mjtrack.models.peers) fitted on every window of the whole log, its
+  powertrain time constants, dead times and slip weights set against those the authors' code gives
+  on the same log (``AUTHORS``), fitted twice: on the authors' nominal 20 Hz clock (every window's
+  samples taken 0.05 s apart, as their code takes them) and on the log's own times;
+* **peers on held-out windows**: train on the first 70 % of the log's segments, test on the last
+  30 % (``SPLIT``, the same for all three robots), 2 s windows (``make_windows``), the windows
+  the ground cannot explain (``without_contradicting``) left out of both parts for every model and
+  counted. Models: DRIVE as its authors fit it (dead time on the plateau their optimiser stays on)
+  and with its dead time fitted; the ideal differential drive from the commands and from the
+  measured track speeds; the ICR model with a speed scale, fitted on the training windows, from the
+  measured speeds and from the commands. Metrics per model: end-of-window RMS position error, the
+  mean over windows of the mean position distance over the window, the end-of-window yaw RMS, and
+  the steady-turn yaw ratio per turn class against the measured one;
+* ``--calibrated ROBOT:DIR``: the calibration directory's robot.json simulated by MuJoCo on the same
+  test windows (from each window's measured state, the commands as drive input unless the robot's
+  ``simulator.drive_input`` says measured), one more row.
+
+Writes benchmarks/results/peers.json and prints the tables and the machine's load.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mjtrack.calibrate.run import TURN_CLASSES, turn_measures
+from mjtrack.diagnose.residuals import turn_ratio
+from mjtrack.io import read_log_with_robot
+from mjtrack.metrics import fit_end_regions, window_prediction_errors
+from mjtrack.models import peers
+from mjtrack.sim.windows import left_out_counts, make_windows, measured_window_poses, without_contradicting
+
+from mjtrack.testing.repo import load_benchmark
+
+# the same split, data folder and JSON values as the calibration of the real robots
+_real = load_benchmark("real_robots")
+DATA, split, _plain = _real.DATA, _real.split, _real._plain
+HERE = Path(__file__).resolve().parent
+
+RESULT = HERE / "results" / "peers.json"
+SPLIT = (0.7, 0.3)
+HORIZON_S = 2.0
+LOGS = {"marmotte": DATA / "marmotte" / "marmotte_boreal.csv", "husky": DATA / "husky" / "husky_drive.csv",
+        "warthog": DATA / "warthog" / "warthog_drive.csv"}
+#: what the authors' code gives, trained on all of each shared log: time constants and dead times
+#: (left, right) [s], slip weights on [vx]; [vx wz]; [vx wz, vx, wz]
+AUTHORS = {
+    "husky": {"tau": [1.87, 1.71], "delay": [0.067, 0.067],
+              "slip_weights": {"x": [-0.155], "y": [0.056], "yaw": [0.013, -0.004, 0.811]}},
+    "warthog": {"tau": [1.32, 1.08], "delay": [0.059, 0.057],
+                "slip_weights": {"x": [0.274], "y": [0.076], "yaw": [-0.008, 0.006, 0.606]}},
+    "marmotte": {"tau": [0.37, 0.41], "delay": [0.057, 0.050],
+                 "slip_weights": {"x": [0.118], "y": [0.039], "yaw": [-0.039, 0.011, -0.001]}},
+}
+#: the authors' DRIVE on the last 30 % of each run (not in the shared folder: other windows than
+#: ours), with their metric: end-of-window RMS [m], mean distance over the window [m], windows
+AUTHORS_HELD_OUT = {"husky": (0.451, 0.188, 183), "warthog": (1.235, 0.506, 108), "marmotte": (0.307, 0.125, 186)}
+
+
+def window_arrays(log, ws) -> dict:
+    """The windows of ``log`` as NaN-padded arrays (M, K, ...): commands, measured speeds, poses
+    (yaw continuous), times, the gyro; ``last`` (M,) each window's last sample, ``dt`` (M,) its mean
+    period, ``step`` (M,) whether it starts with a command step (the log's ``steady`` column is 0)."""
+    last = ws.ends - ws.starts
+    M, K = len(ws), int(last.max()) + 1
+
+    def take(col):
+        out = np.full((M, K), np.nan)
+        for j, (s, e) in enumerate(zip(ws.starts, ws.ends)):
+            out[j, :e - s + 1] = col[s:e + 1]
+        return out
+
+    t = take(log.t)
+    steady = np.asarray(log.extra["steady"])[ws.starts] == 1 if "steady" in log.extra else np.ones(M, bool)
+    return {"cmd": np.stack([take(log.v_left_cmd), take(log.v_right_cmd)], -1),
+            "meas": np.stack([take(log.v_left), take(log.v_right)], -1),
+            "poses": measured_window_poses(log, ws), "t": t - t[:, :1],
+            "gyro": take(np.asarray(log.extra["wz_imu"], float)) if "wz_imu" in log.extra else None,
+            "last": last, "dt": (log.t[ws.ends] - log.t[ws.starts]) / last, "step": ~steady}
+
+
+def gyro_sign(a: dict) -> float:
+    """+1 when the gyro turns the way the poses' yaw does, -1 when it is mounted the other way
+    round (the sign of their correlation over every sample)."""
+    yr = np.diff(a["poses"][..., 2], axis=1) / np.diff(a["t"], axis=1)
+    g = a["gyro"][:, :-1]
+    ok = np.isfinite(yr) & np.isfinite(g)
+    return float(np.sign(np.sum(g[ok] * yr[ok])))
+
+
+def measured_body(a: dict, sign: float, *, nominal_clock: bool = False) -> np.ndarray:
+    t = np.where(np.isfinite(a["t"]), np.arange(a["t"].shape[1]) * 0.05, np.nan) if nominal_clock else a["t"]
+    return peers.body_velocities(a["poses"], t, None if a["gyro"] is None else sign * a["gyro"])
+
+
+def fit_on(a: dict, gauge: float, sign: float, *, delay=peers.AUTHORS_DELAY, nominal_clock=False) -> peers.Drive:
+    dt = np.full(len(a["dt"]), 0.05) if nominal_clock else a["dt"]
+    return peers.fit_drive(a["cmd"], a["meas"], measured_body(a, sign, nominal_clock=nominal_clock), dt, gauge,
+                           step=a["step"], steady=~a["step"], delay=delay)
+
+
+def reproduction(log, gauge: float, name: str) -> dict:
+    """DRIVE on every window of the whole log, on the nominal clock and the log's own, beside the
+    authors' values; ``ratio``: ours over theirs, per value."""
+    a = window_arrays(log, make_windows(log, HORIZON_S))
+    sign = gyro_sign(a)
+    out = {"windows": len(a["last"]), "gyro_sign": sign, "authors": AUTHORS.get(name)}
+    for key, nominal in (("nominal_clock", True), ("log_clock", False)):
+        d = fit_on(a, gauge, sign, nominal_clock=nominal).to_json()
+        out[key] = {k: d[k] for k in ("tau", "delay", "slip_weights", "bounds")}
+    free = fit_on(a, gauge, sign, delay=None).to_json()
+    out["dead_time_fitted"] = {k: free[k] for k in ("tau", "delay")}
+    return out
+
+
+def yaw_ratios(lg, ws, robot, a: dict, poses: dict) -> dict:
+    """Steady-turn yaw ratio (calibrate's definition: turn_measures) per turn class of the measured
+    track speeds, measured and for every model's predicted poses (None where no steady turn counts)."""
+    def ratio(ws_, p, m=slice(None)):
+        r = turn_measures(lg, ws_, robot, p[m], a["meas"][m])
+        return (None if not np.isfinite(r["yaw_ratio"]) else r["yaw_ratio"]), r["yaw_windows"]
+
+    v = np.array([np.nanmean(a["meas"][j, :a["last"][j] + 1], axis=0) for j in range(len(ws))])
+    turn = np.abs(turn_ratio(v))
+    out = {}
+    for lo, hi in TURN_CLASSES:
+        m = (turn >= lo) & ((turn < hi) | (hi >= 1.0))
+        if not m.any():
+            continue
+        sub = ws.subset(m)
+        measured, n = ratio(sub, a["poses"], m)
+        out[f"{lo:g}-{hi:g}"] = {"windows": n, "measured": measured, **{k: ratio(sub, p, m)[0] for k, p in poses.items()}}
+    measured, n = ratio(ws, a["poses"])
+    return {"all": {"windows": n, "measured": measured, **{k: ratio(ws, p)[0] for k, p in poses.items()}}, **out}
+
+
+def _speeds(a: dict) -> np.ndarray:
+    """Measured track speeds, the commands where a sample has none."""
+    return np.where(np.isfinite(a["meas"]), a["meas"], a["cmd"])
+
+
+def end_errors(a: dict, poses: np.ndarray) -> np.ndarray:
+    """(M, 2) measured minus predicted end position of each window, in its measured start frame."""
+    rows = np.arange(len(a["last"]))
+    d = a["poses"][rows, a["last"], :2] - poses[rows, a["last"], :2]
+    yaw0 = a["poses"][:, 0, 2]
+    return np.stack([np.cos(yaw0) * d[:, 0] + np.sin(yaw0) * d[:, 1], -np.sin(yaw0) * d[:, 0] + np.cos(yaw0) * d[:, 1]],
+                    -1)
+
+
+def region_scale_groups(a: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Each window's length scale [m] (the path of its mean commanded track speed: what a planner
+    knows) and turn class (index into calibrate's classes of |turn ratio| of its mean commands)."""
+    c = np.array([np.mean(a["cmd"][j, :a["last"][j] + 1], axis=0) for j in range(len(a["last"]))])
+    scale = 0.5 * (np.abs(c[:, 0]) + np.abs(c[:, 1])) * a["dt"] * a["last"]
+    turn = np.abs(turn_ratio(c))
+    groups = np.array([next(i for i, (lo, hi) in enumerate(TURN_CLASSES) if t < hi or hi >= 1.0) for t in turn])
+    return scale, groups
+
+
+def end_regions(train: dict, train_poses, test: dict, test_poses, level: float = 0.9) -> dict:
+    """A model's 90 % end-position regions (mjtrack.metrics.fit_end_regions) fitted on the scatter
+    of its training windows' end errors, per turn class of the commands and growing with the
+    commanded path; their coverage of the held-out windows' measured ends, and their mean area."""
+    reg = fit_end_regions(end_errors(train, train_poses), *region_scale_groups(train), level=level)
+    s, g = region_scale_groups(test)
+    inside = reg.contains(end_errors(test, test_poses), s, g)
+    return {"level": level, "coverage": float(inside.mean()), "windows": int(inside.size),
+            "train_coverage": float(reg.contains(end_errors(train, train_poses), *region_scale_groups(train)).mean()),
+            "mean_area_m2": float(np.mean(reg.area(s, g))),
+            "per_class": {f"{lo:g}-{hi:g}": {"windows": int((g == i).sum()),
+                                             "coverage": float(inside[g == i].mean()) if (g == i).any() else None}
+                          for i, (lo, hi) in enumerate(TURN_CLASSES)}}
+
+
+def calibrated_poses(directory: Path, part, tws, *, setting_only: bool = False):
+    """(M, K, 3) poses of the calibration's robot.json simulated by MuJoCo on the windows ``tws`` of
+    ``part``, and the drive input it follows; with ``setting_only`` only the drive input."""
+    from mjtrack.io.robot import read_robot
+    from mjtrack.sim.config import robot_sim_settings, sim_config
+    from mjtrack.sim.windows import WARMUP_S, WindowSim, measured_drive_log, simulate_windows
+
+    robot = read_robot(directory / "robot.json")
+    drive_input = robot_sim_settings(robot).get("drive_input", "commanded")
+    if setting_only:
+        return drive_input
+    lg = measured_drive_log(part, "log part") if drive_input == "measured" else part
+    cal = json.loads((directory / "calibration.json").read_text()) if (directory / "calibration.json").exists() else {}
+    ground = {k: cal.get("parameters", {})[k] for k in ("slope_x", "slope_y") if k in cal.get("parameters", {})}
+    res = simulate_windows(WindowSim(robot, sim_config(None, robot=robot), resisted=True), lg, tws, [ground],
+                           warmup_s=WARMUP_S)
+    return res.poses[0], drive_input
+
+
+def run_robot(name: str, calibrated: dict[str, Path]) -> dict:
+    log, robot = read_log_with_robot(LOGS[name])
+    gauge = robot.track_gauge
+    out = {"traction": robot.traction, "gauge": gauge, "reproduction": reproduction(log, gauge, name)}
+    sign = out["reproduction"]["gyro_sign"]
+    parts = split(log, *SPLIT)
+    kept, left = [], {}
+    for label, lg in zip(("train", "test"), parts):
+        every = make_windows(lg, HORIZON_S)
+        ws, rows = without_contradicting(lg, every, gauge)
+        kept.append(ws)
+        left[label] = {"windows": len(every), "kept": len(ws), "left_out": len(rows), "why": left_out_counts(rows),
+                       "t0": [r["t0"] for r in rows]}
+    train, test = (window_arrays(lg, ws) for lg, ws in zip(parts, kept))
+    drive = fit_on(train, gauge, sign)
+    drive_free = fit_on(train, gauge, sign, delay=None)
+    icr_meas = peers.fit_icr(_speeds(train), train["poses"], train["dt"], train["last"], gauge)
+    icr_cmd = peers.fit_icr(train["cmd"], train["poses"], train["dt"], train["last"], gauge)
+
+    def predicted(a: dict, part: int) -> dict:
+        meas = _speeds(a)
+        twists = {
+            "drive": drive.twist(a["cmd"], meas[:, 0], a["dt"], a["step"]),
+            "drive_dead_time_fitted": drive_free.twist(a["cmd"], meas[:, 0], a["dt"], a["step"]),
+            "ideal_commands": peers.ideal_twist(a["cmd"], gauge),
+            "ideal_measured": peers.ideal_twist(meas, gauge),
+            "icr_measured": icr_meas.twist(meas),
+            "icr_commands": icr_cmd.twist(a["cmd"]),
+        }
+        out = {k: peers.integrate_windows(a["poses"][:, 0], tw, a["dt"]) for k, tw in twists.items()}
+        if name in calibrated:
+            sim = calibrated_poses(calibrated[name], parts[part], kept[part])[0]
+            out["calibrated_mujoco"] = sim[:, :a["poses"].shape[1]]
+        return out
+
+    t0 = time.time()
+    poses = predicted(test, 1)
+    fitted = predicted(train, 0)
+    if name in calibrated:
+        out["calibrated"] = {"directory": str(calibrated[name].relative_to(HERE.parent)),
+                             "drive_input": calibrated_poses(calibrated[name], None, None, setting_only=True),
+                             "seconds": time.time() - t0}
+    out["regions"] = {k: end_regions(train, fitted[k], test, poses[k]) for k in poses}
+    a = test
+    models = {k: window_prediction_errors(p, a["poses"], a["last"]).summary() for k, p in poses.items()}
+    out.update({
+        "split": {"train": SPLIT[0], "test": SPLIT[1]}, "horizon_s": HORIZON_S, "windows": left,
+        "drive": drive.to_json(), "drive_dead_time_fitted": drive_free.to_json(),
+        "icr_measured": vars(icr_meas), "icr_commands": vars(icr_cmd),
+        "models": models, "yaw_ratio": yaw_ratios(parts[1], kept[1], robot, a, poses),
+        "authors_held_out": dict(zip(("end_rms_m", "mean_distance_m", "windows"), AUTHORS_HELD_OUT[name])),
+    })
+    return out
+
+
+def _f3(v) -> str:
+    return "n/a" if v is None else f"{v:.3f}"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--robots", default=",".join(LOGS))
+    ap.add_argument("--calibrated", action="append", default=[], metavar="ROBOT:DIR",
+                    help="score a calibration directory's robot.json (MuJoCo) on the same test windows")
+    args = ap.parse_args(argv)
+    calibrated = {}
+    for c in args.calibrated:
+        name, _, d = c.partition(":")
+        if name not in LOGS or not (Path(d) / "robot.json").exists():
+            ap.error(f"--calibrated {c}: expected ROBOT:DIR with ROBOT one of {', '.join(LOGS)} and DIR holding robot.json")
+        calibrated[name] = Path(d).resolve()
+    load0 = os.getloadavg()
+    stored = json.loads(RESULT.read_text()) if RESULT.exists() else {}
+    robots = stored.get("robots", {})
+    for name in args.robots.split(","):
+        if not LOGS[name].exists():
+            print(f"{LOGS[name]} not found (the shared data); skipped")
+            continue
+        t0 = time.time()
+        r = robots[name] = run_robot(name, calibrated)
+        r["seconds"] = time.time() - t0
+        rep = r["reproduction"]
+        print(f"\n== {name} ({r['seconds']:.0f} s); gyro sign {rep['gyro_sign']:+.0f}")
+        for key in ("authors", "nominal_clock", "log_clock"):
+            x = rep[key]
+            print(f"  {key:14s} tau {np.round(x['tau'], 3)}  delay {np.round(x['delay'], 3)}  "
+                  + "  ".join(f"{k} {np.round(v, 3)}" for k, v in x["slip_weights"].items()))
+        print(f"  dead time fitted: tau {np.round(rep['dead_time_fitted']['tau'], 3)}, "
+              f"delay {np.round(rep['dead_time_fitted']['delay'], 3)}")
+        w = r["windows"]
+        print(f"  windows: train {w['train']['kept']} of {w['train']['windows']}, test {w['test']['kept']} of "
+              f"{w['test']['windows']} (left out: {w['test']['why'] or 'none'})")
+        for k, m in r["models"].items():
+            y = r["yaw_ratio"]["all"]
+            g = r["regions"][k]
+            print(f"  {k:24s} end RMS {m['end_rms_m']:.3f} m  mean distance {m['mean_distance_m']:.3f} m  "
+                  f"yaw RMS {m['yaw_rms_rad']:.3f} rad  yaw ratio {_f3(y[k])} (measured {_f3(y['measured'])})  "
+                  f"90 % regions cover {g['coverage']:.3f} (train {g['train_coverage']:.3f}), "
+                  f"mean area {g['mean_area_m2']:.3f} m2")
+        RESULT.parent.mkdir(parents=True, exist_ok=True)
+        RESULT.write_text(json.dumps({"command": "python benchmarks/peers.py " + " ".join(sys.argv[1:] if argv is None
+                                                                                          else argv),
+                                      "robots": robots, "load_before": load0[0], "load_after": os.getloadavg()[0]},
+                                     indent=1, default=_plain) + "\n")
+    print(f"\nload average before {load0}, after {os.getloadavg()} ({os.cpu_count()} cores)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
