@@ -40,7 +40,7 @@ from mjtrack.diagnose.residuals import turn_ratio
 from mjtrack.io import read_log_with_robot
 from mjtrack.metrics import fit_end_regions, window_prediction_errors
 from mjtrack.models import peers
-from mjtrack.sim.windows import left_out_counts, make_windows, measured_window_poses, without_contradicting
+from mjtrack.windows import left_out_counts, make_windows, measured_window_poses, without_contradicting
 
 from mjtrack.testing.repo import load_benchmark
 
@@ -190,7 +190,8 @@ def calibrated_poses(directory: Path, part, tws, *, setting_only: bool = False):
     ``part``, and the drive input it follows; with ``setting_only`` only the drive input."""
     from mjtrack.io.robot import read_robot
     from mjtrack.sim.config import robot_sim_settings, sim_config
-    from mjtrack.sim.windows import WARMUP_S, WindowSim, measured_drive_log, simulate_windows
+    from mjtrack.sim.windows import WindowSim, simulate_windows
+    from mjtrack.windows import WARMUP_S, measured_drive_log
 
     robot = read_robot(directory / "robot.json")
     drive_input = robot_sim_settings(robot).get("drive_input", "commanded")

@@ -190,7 +190,7 @@ def test_drive_on_a_whole_shared_log_reproduces_the_authors_parameters(name):
     """Within 5 % (0.005 absolute for the weights near 0), on the authors' nominal clock; the dead
     time is theirs (a plateau of their loss, docs/theory/peers.md)."""
     from mjtrack.io import read_log_with_robot
-    from mjtrack.sim.windows import make_windows
+    from mjtrack.windows import make_windows
     from mjtrack.testing.repo import load_benchmark
 
     bench = load_benchmark("peers")
@@ -230,7 +230,7 @@ def test_benchmark_end_errors_are_calibrates_window_errors_turned_round():
     """The peers benchmark's end errors (measured minus predicted, in the start frame) against the
     windows' errors the calibration scores (predicted minus measured), computed by other code."""
     from mjtrack.io.logs import DriveLog
-    from mjtrack.sim.windows import make_windows, window_errors
+    from mjtrack.windows import make_windows, window_errors
     from mjtrack.testing.repo import load_benchmark
 
     rng = np.random.default_rng(7)
