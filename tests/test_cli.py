@@ -108,3 +108,37 @@ def test_thesis_bad_out_is_refused(tmp_path):
     afile.write_text("x")
     assert_usage_error(run_cli(["thesis", "--out", str(afile)]), "must be a folder")
     assert afile.read_text() == "x"
+
+
+def test_an_output_never_replaces_the_robot_file_it_reads_even_with_force(tmp_path):
+    robot = tmp_path / "typo.json"
+    robot.write_text('{"track_gauge": 0.4}\n')
+    before = robot.read_bytes()
+    for extra in ([], ["--force"]):
+        res = run_cli(["simulate", "--scenario", "straight", "--duration", "0.1", "--robot", robot,
+                       "--out", tmp_path / "typo.csv", *extra])
+        assert_usage_error(res, r"typo\.json: is an input of this command", "not even with --force")
+    assert robot.read_bytes() == before and not (tmp_path / "typo.csv").exists()
+
+
+def test_a_robot_file_error_is_reported_before_an_output_clash(tmp_path):
+    robot = tmp_path / "typo.json"
+    robot.write_text('{"track_gauge": 0.4, "drive_lags": 0.1}\n')
+    (tmp_path / "typo.csv").write_text("t\n")  # the output exists too: the robot file speaks first
+    res = run_cli(["simulate", "--scenario", "straight", "--robot", robot, "--out", tmp_path / "typo.csv"])
+    assert_usage_error(res, r"typo\.json: key 'drive_lags': did you mean 'drive_lag'")
+
+
+def test_a_log_and_its_robot_file_are_inputs_of_the_folder_commands(tmp_path):
+    from mjtrack.commands._common import check_overwrite
+    from mjtrack.errors import InputError
+
+    log = tmp_path / "report.html"  # a log named like an output, in the output folder
+    log.write_text("x")
+    with pytest.raises(InputError, match="is an input of this command"):
+        check_overwrite([tmp_path / "report.html"], True, [log])
+    link = tmp_path / "link.html"
+    link.symlink_to(log)
+    with pytest.raises(InputError, match="is an input of this command"):  # through a link too
+        check_overwrite([link], True, [log])
+    check_overwrite([tmp_path / "other.html"], False, [log])  # another name: allowed

@@ -6,8 +6,10 @@ speeds and robot values reuse the plausibility limits of the drive-log and robot
 outside is a usage error, exit 2, one line naming the option, its value and the range.
 
 Overwrites, one rule for every command: an output that already exists is not replaced unless
-``--force`` is given (exit 2, one line naming the file and the flag, before any work;
-:func:`check_overwrite`). :class:`mjtrack.io.atomic.OutputTransaction` guards the same rule
+``--force`` is given, and an output that is one of the command's inputs (:func:`command_inputs`)
+is never replaced, not even with ``--force`` (exit 2, one line naming the file, before any work;
+:func:`check_overwrite`). The inputs are read before the outputs are checked, so that an error in
+the robot file is reported before a clash of names. :class:`mjtrack.io.atomic.OutputTransaction` guards the same rule
 when the files are written.
 
 Robot options on every command that simulates::
@@ -235,13 +237,64 @@ def add_force_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--force", action="store_true", help=FORCE_HELP)
 
 
-def check_overwrite(paths: Iterable[str | os.PathLike], force: bool) -> None:
-    """Refuse, before any work, to replace any of ``paths`` that exists, unless ``force``."""
+def check_overwrite(paths: Iterable[str | os.PathLike], force: bool,
+                    inputs: Iterable[str | os.PathLike] = ()) -> None:
+    """Refuse, before any work, to replace any of ``paths`` that is one of ``inputs`` (even with
+    ``force``: a user's robot file or log is never replaced by an output), or that exists, unless
+    ``force``."""
+    paths = [Path(p) for p in paths]
+    inputs = [Path(p) for p in inputs]
+    for path in paths:
+        for other in inputs:
+            if _same_file(path, other):
+                raise InputError(f"{path}: is an input of this command ({other}); an output never replaces "
+                                 "an input, not even with --force: choose another output name")
     if force:
         return
     for path in paths:
         if os.path.lexists(path):
             raise InputError(f"{path}: exists; pass --force to replace it")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """``a`` and ``b`` name one file (the same path, a link to it, or a hard link)."""
+    if a.absolute() == b.absolute() or a.resolve() == b.resolve():
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist
+        return False
+
+
+# options that name files a command reads
+_INPUT_OPTIONS = ("robot", "log", "test", "commands", "grid", "bag")
+
+
+def check_robot_file(args: argparse.Namespace) -> None:
+    """Read ``--robot FILE`` when given, so that an error in it is reported before the outputs are
+    checked (for commands that build their robot only later, after a rollout's work estimate)."""
+    if getattr(args, "robot", None) is not None:
+        read_robot(args.robot)
+
+
+def command_inputs(args: argparse.Namespace) -> list[Path]:
+    """The files a command reads: the input options' files, the robot description beside a log
+    (``LOG.json``, read when no ``--robot`` is given) and a ``--terrain`` file."""
+    paths = []
+    for name in _INPUT_OPTIONS:
+        value = getattr(args, name, None)
+        if isinstance(value, (str, os.PathLike)):
+            paths.append(Path(value))
+            if name in ("log", "test"):
+                paths.append(robot_path_for(value))
+    spec = getattr(args, "terrain", None)
+    if isinstance(spec, str):
+        kind, _, rest = spec.partition(":")
+        if kind in ("hfield", "patches") and rest:
+            paths.append(Path(rest.split(":")[0]))
+        elif spec.endswith(".json"):
+            paths.append(Path(spec))
+    return paths
 
 
 _TMP_EXTRA = 16  # characters atomic writes add to a name (".NAME.xxxxxxxx.tmp")
@@ -313,7 +366,7 @@ def check_out_file(
     if path.is_dir():
         raise InputError(f"{path}: --out is an existing folder, expected a file name")
     for other in inputs:
-        if Path(other).exists() and path.exists() and path.resolve() == Path(other).resolve():
+        if _same_file(path, Path(other)):
             raise InputError(f"{path}: --out would overwrite the input {other}")
     if path.parent.exists():
         if not path.parent.is_dir():

@@ -16,7 +16,7 @@ import argparse
 from pathlib import Path
 
 from mjtrack.commands._common import (ROBOT_OPTIONS, TERRAIN_HELP, add_output_options, add_robot_options,
-                                      check_out_dir, check_overwrite, robot_from_args, terrain_from_args)
+                                      check_out_dir, check_overwrite, command_inputs, robot_from_args, terrain_from_args)
 
 OUTPUTS = ("report.html", "metrics.json", "rollout.csv", "rollout.json", "video.mp4")
 
@@ -35,10 +35,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from mjtrack.demo import DEMO_ROBOT, run_demo
 
-    out = check_out_dir(args.out)
-    check_overwrite([out / name for name in OUTPUTS], args.force)
     given = args.robot is not None or any(getattr(args, k, None) is not None for k in ROBOT_OPTIONS)
-    robot = robot_from_args(args, DEMO_ROBOT) if given else None
+    robot = robot_from_args(args, DEMO_ROBOT) if given else None  # robot file errors before name clashes
+    out = check_out_dir(args.out)
+    check_overwrite([out / name for name in OUTPUTS], args.force, command_inputs(args))
     res = run_demo(out, video=not args.no_video, quiet=args.quiet, terrain=terrain_from_args(args), robot=robot)
     head = res.headline
     if not args.quiet:

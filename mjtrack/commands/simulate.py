@@ -21,7 +21,7 @@ import argparse
 from pathlib import Path
 
 from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, bounded,
-                                      check_out_file, check_overwrite, robot_from_args, scenario_help,
+                                      check_out_file, check_overwrite, command_inputs, robot_from_args, scenario_help,
                                       terrain_from_args)
 
 HELP = "headless MuJoCo rollout: scenario or command CSV -> drive log CSV + robot JSON"
@@ -56,11 +56,11 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.sim.scenarios import read_commands, scenario_commands
     from mjtrack.sim.terrain import with_terrain
 
-    inputs = [args.commands] if args.commands else []
-    out = check_out_file(args.out, suffixes=(".csv",), inputs=inputs)
-    check_overwrite([out, robot_path_for(out)], args.force)
-    robot = robot_from_args(args)
+    robot = robot_from_args(args)  # an error in the robot file before a clash of output names
     terrain = terrain_from_args(args, args.scenario)
+    inputs = command_inputs(args)
+    out = check_out_file(args.out, suffixes=(".csv",), inputs=inputs)
+    check_overwrite([out, robot_path_for(out)], args.force, inputs)
     config = sim_config(args.track_model, timestep=args.timestep)
     if args.scenario:
         table, duration = scenario_commands(args.scenario, robot, duration=args.duration, seed=args.seed)

@@ -25,7 +25,7 @@ from __future__ import annotations
 import argparse
 
 from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, bounded, check_out_dir,
-                                      check_overwrite, robot_from_args, terrain_from_args)
+                                      check_overwrite, command_inputs, robot_from_args, terrain_from_args)
 
 ON_INTERRUPT = "the finished cases are kept: run the same command again to resume"
 HELP = "steady states over a grid of commands and robots on a dask cluster: sweep.csv, sweep.json, icr_map.png"
@@ -53,9 +53,9 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.sweep import read_grid, run_sweep
     from mjtrack.sweep.run import OUTPUTS
 
-    out = check_out_dir(args.out)
-    check_overwrite([out / name for name in OUTPUTS], args.force)
     grid = read_grid(args.grid, base=robot_from_args(args))
+    out = check_out_dir(args.out)
+    check_overwrite([out / name for name in OUTPUTS], args.force, command_inputs(args))
     s = run_sweep(grid, out, workers=args.workers, scheduler=args.scheduler, track_model=args.track_model,
                   settle_s=args.settle, window_s=args.window, terrain=terrain_from_args(args), quiet=args.quiet,
                   restart=args.force)

@@ -36,7 +36,7 @@ import json
 from pathlib import Path
 
 from mjtrack.commands._common import (TERRAIN_HELP, add_output_options, add_robot_options, bounded, check_out_dir,
-                                      check_overwrite, robot_from_args, terrain_from_args)
+                                      check_overwrite, command_inputs, robot_from_args, terrain_from_args)
 
 HELP = ("closed-loop path tracking on the MuJoCo robot, tracked or wheeled (the slip-compensated tracker or the "
         "thesis's five controllers) -> tracking.json + tracking.png")
@@ -121,11 +121,11 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.control.compensation import run_tracking
     from mjtrack.io.atomic import atomic_write_text
 
-    out = check_out_dir(args.out)
-    check_overwrite([out / "tracking.json", out / "tracking.png"], args.force)
-    compensation = args.compensation or ("vir" if args.controller in ("tracker", "feedforward") else "none")
-    robot = robot_from_args(args)
+    robot = robot_from_args(args)  # an error in the robot file before a clash of output names
     terrain = terrain_from_args(args)
+    out = check_out_dir(args.out)
+    check_overwrite([out / "tracking.json", out / "tracking.png"], args.force, command_inputs(args))
+    compensation = args.compensation or ("vir" if args.controller in ("tracker", "feedforward") else "none")
     noise = {} if not args.no_noise else {"pose_noise": (0.0, 0.0, 0.0), "twist_noise": (0.0, 0.0, 0.0)}
     result = run_tracking(robot, scenario=args.scenario, compensation=compensation, controller=args.controller,
                           control_dt=1.0 / args.control_rate, speed=args.speed, laps=args.laps, seed=args.seed,

@@ -28,7 +28,7 @@ import argparse
 from pathlib import Path
 
 from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, bounded, check_out_dir,
-                                      check_overwrite, robot_from_args, scenario_help, terrain_from_args)
+                                      check_overwrite, check_robot_file, command_inputs, robot_from_args, scenario_help, terrain_from_args)
 from mjtrack.errors import InputError
 
 HELP = "model-vs-physics validation of the kinematic models and filters: report.html + metrics.json"
@@ -104,8 +104,9 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.validate import Noise, validate
     from mjtrack.validate.run import METRICS_NAME, REPORT_NAME
 
+    check_robot_file(args)
     out = check_out_dir(args.out)
-    check_overwrite([out / REPORT_NAME, out / METRICS_NAME], args.force)
+    check_overwrite([out / REPORT_NAME, out / METRICS_NAME], args.force, command_inputs(args))
     noise = Noise(scale=args.noise_scale)
     drive, robot, words, title = source_from_args(args)
     val = validate(drive, robot, out, source=words, truth_title=title, noise=noise, seed=args.seed, speeds=args.speeds,
