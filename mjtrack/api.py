@@ -57,7 +57,8 @@ def simulate_log(robot: "Robot", *, scenario: str | None = None,
         commands: a command table ``(t [s], v_left [m/s], v_right [m/s])`` of equal-length
             arrays, or the path of a CSV with columns ``t, v_left_cmd, v_right_cmd``.
         duration: simulated time [s]; default the scenario's, or the last command time + 1 s.
-        seed, log_rate: seed of the random scenarios; log sample rate [Hz], dividing the sim rate.
+        seed: seed of the random scenarios (the same seed gives the same log).
+        log_rate: log sample rate [Hz], a divisor of the simulation rate.
         terrain: a ``--terrain`` spec (``"incline:0.1"``) or a Terrain; default the scenario's, else flat.
         track_model: ``"rollers"`` (sprung roller chain, default) or ``"surfacevel"``.
         timestep: simulation time step [s]; default 5 ms (smaller on terrain with edges).
@@ -151,7 +152,8 @@ def mujoco_steady_state(robot: "Robot", v_left: float, v_right: float, *, terrai
 
     Args:
         robot: the robot description.
-        v_left, v_right: commanded track speeds [m/s].
+        v_left: commanded left track speed [m/s].
+        v_right: commanded right track speed [m/s].
         terrain: a ``--terrain`` spec or a :class:`~mjtrack.sim.terrain.Terrain`; default flat.
         track_model: ``"rollers"`` (default) or ``"surfacevel"``.
         settle_s: time under the constant commands before the averaging window [s].
@@ -188,7 +190,8 @@ def coulomb_steady_state(robot: "Robot", v_left: float, v_right: float, *, inert
     Args:
         robot: the robot description (``track_gauge``, ``track_length``, ``mass``, centre of
             mass, friction and ``ground`` are used).
-        v_left, v_right: track speeds [m/s].
+        v_left: left track speed [m/s].
+        v_right: right track speed [m/s].
         inertial: include the centripetal force m v w (False: the quasi-static balance).
         load_transfer: shift the normal loads by the centripetal force at height ``cg_z``.
 
@@ -311,7 +314,10 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
         horizon_s: window length [s].
         max_iter: optimiser iterations.
         out_dir: when given, ``robot.json``, ``calibration.json`` and ``report.html`` are written.
-        quiet: no progress display. drive_input: ``"commanded"`` or ``"measured"`` (``--drive-input``).
+        quiet: no progress display.
+        drive_input: what the simulated drives follow: ``"commanded"`` (the logged commands; the
+            drive's lag, delay and speed scale are fitted too) or ``"measured"`` (the logged track
+            speeds, for a robot whose own speed controller caps its commands; ``--drive-input``).
         fit_windows: windows the fit uses, spread over the log (``--fit-windows``; None: all;
             default: the command's).
 
