@@ -43,7 +43,7 @@ def _terrain(terrain: "str | Terrain | None", scenario: str | None = None) -> "T
 def simulate_log(robot: "Robot", *, scenario: str | None = None,
                  commands: "tuple[np.ndarray, np.ndarray, np.ndarray] | str | os.PathLike | None" = None,
                  duration: float | None = None, seed: int = 0, log_rate: float = 50.0,
-                 terrain: "str | Terrain | None" = None, track_model: str = "rollers",
+                 terrain: "str | Terrain | None" = None, track_model: str | None = None,
                  timestep: float | None = None) -> "DriveLog":
     """Drive the MuJoCo robot with a scenario or a command table and return its drive log.
 
@@ -60,8 +60,10 @@ def simulate_log(robot: "Robot", *, scenario: str | None = None,
         seed: seed of the random scenarios (the same seed gives the same log).
         log_rate: log sample rate [Hz], a divisor of the simulation rate.
         terrain: a ``--terrain`` spec (``"incline:0.1"``) or a Terrain; default the scenario's, else flat.
-        track_model: ``"rollers"`` (sprung roller chain, default) or ``"surfacevel"``.
-        timestep: simulation time step [s]; default 5 ms (smaller on terrain with edges).
+        track_model: ``"rollers"`` (sprung roller chain) or ``"surfacevel"``; default the robot's
+            ``simulator`` settings (what a calibrated robot was fitted with), else rollers.
+        timestep: simulation time step [s]; default the robot's ``simulator`` timestep, else 5 ms
+            (smaller on terrain with edges).
 
     Returns:
         The :class:`~mjtrack.io.logs.DriveLog` (plus ``z``, ``roll``, ``pitch`` on terrain).
@@ -83,7 +85,7 @@ def simulate_log(robot: "Robot", *, scenario: str | None = None,
 
     if (scenario is None) == (commands is None):
         raise InputError("simulate_log: give exactly one of scenario and commands")
-    config = sim_config(track_model, timestep=timestep)
+    config = sim_config(track_model, timestep=timestep, robot=robot)
     if scenario is not None:
         table, duration = scenario_commands(scenario, robot, duration=duration, seed=seed)
     else:
@@ -141,7 +143,7 @@ def log_icrs(log: "DriveLog", *, wz_min: float = 1e-3) -> "ICR":
 
 
 def mujoco_steady_state(robot: "Robot", v_left: float, v_right: float, *, terrain: "str | Terrain | None" = None,
-                        track_model: str = "rollers", settle_s: float = 3.0, window_s: float = 2.0
+                        track_model: str | None = None, settle_s: float = 3.0, window_s: float = 2.0
                         ) -> "SteadyResult":
     """Steady-state twist and ICRs of the MuJoCo robot under constant track speeds.
 
@@ -155,7 +157,8 @@ def mujoco_steady_state(robot: "Robot", v_left: float, v_right: float, *, terrai
         v_left: commanded left track speed [m/s].
         v_right: commanded right track speed [m/s].
         terrain: a ``--terrain`` spec or a :class:`~mjtrack.sim.terrain.Terrain`; default flat.
-        track_model: ``"rollers"`` (default) or ``"surfacevel"``.
+        track_model: ``"rollers"`` or ``"surfacevel"``; default the robot's ``simulator`` settings
+            (with their timestep), else rollers.
         settle_s: time under the constant commands before the averaging window [s].
         window_s: averaging window [s].
 
@@ -163,7 +166,7 @@ def mujoco_steady_state(robot: "Robot", v_left: float, v_right: float, *, terrai
         A :class:`~mjtrack.sim.steady.SteadyResult`: ``vx, vy`` [m/s], ``wz`` [rad/s] and their
         window standard deviations, ``y_l, y_r, x_c`` [m] (NaN, with the reason in
         ``icr_undefined``, where the robot does not turn), the measured track speeds and the
-        contact fractions.
+        contact fractions; ``unsettled`` says why the window is not a steady state (None when it is).
 
     Examples:
         >>> import mjtrack as mt
@@ -174,7 +177,7 @@ def mujoco_steady_state(robot: "Robot", v_left: float, v_right: float, *, terrai
     from mjtrack.sim.config import sim_config
     from mjtrack.sim.steady import steady_state
 
-    return steady_state(robot, v_left, v_right, config=sim_config(track_model), settle_s=settle_s,
+    return steady_state(robot, v_left, v_right, config=sim_config(track_model, robot=robot), settle_s=settle_s,
                         window_s=window_s, terrain=_terrain(terrain))
 
 

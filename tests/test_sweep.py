@@ -114,7 +114,7 @@ def test_sweep_numbers_are_those_of_steady(swept, capsys):
     assert (row["speed"], row["turn_radius"], row["mu"]) == ("-0.6", "0.5", "0.5")
     capsys.readouterr()
     assert main(["steady", "--v-left", row["v_left_cmd"], "--v-right", row["v_right_cmd"], "--mu", "0.5",
-                 *SHORT]) == 0
+                 *SHORT, "--json"]) == 0
     steady = json.loads(capsys.readouterr().out)
     for k in ("v_left_cmd", "v_right_cmd", "v_left", "v_right", "vx", "vy", "wz", "y_l", "y_r", "x_c"):
         assert float(row[k]) == steady[k], k  # bit-identical: same model, same state, same steps
@@ -214,12 +214,12 @@ def test_sweep_on_terrain_is_steady_on_terrain(tmp_path, cluster, capsys):
     row = _rows(tmp_path / "o" / "sweep.csv")[1]
     assert json.loads((tmp_path / "o" / "sweep.json").read_text())["terrain"]["spec"] == "incline:0.1:1.0"
     capsys.readouterr()
-    assert main(["steady", "--v-left", "0.3", "--v-right", "0.6", *terrain, *SHORT]) == 0
+    assert main(["steady", "--v-left", "0.3", "--v-right", "0.6", *terrain, *SHORT, "--json"]) == 0
     steady = json.loads(capsys.readouterr().out)
     for k in ("vx", "vy", "wz", "y_l", "y_r", "x_c"):
         assert float(row[k]) == steady[k], k
     flat = _rows(tmp_path / "o" / "sweep.csv")  # and the slope did change the motion
-    assert main(["steady", "--v-left", "0.3", "--v-right", "0.6", *SHORT]) == 0
+    assert main(["steady", "--v-left", "0.3", "--v-right", "0.6", *SHORT, "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["vy"] != float(flat[1]["vy"])
 
 

@@ -56,6 +56,13 @@ ROBOT_OPTIONS: dict[str, tuple[str, str, str]] = {
 }
 
 
+# the bounds that depend on the rest of the robot, as its check states them (io/robot.py)
+ROBOT_BOUND_TEXT = {
+    "cg_x": "|cg_x| < track_length/2 (wheelbase/2 on wheels)",
+    "cg_y": "|cg_y| < track_gauge/2",
+}
+
+
 @dataclass(frozen=True)
 class Bound:
     """The allowed range of an option: low <= value <= high (low < value when ``low_open``)."""
@@ -74,7 +81,9 @@ class Bound:
 
 
 _SPEED = PLAUSIBLE["v_left_cmd"][0]  # [m/s] the drive-log bound of a track speed
-_COORD = 100.0  # [m] the robot reader's bound of a centre-of-mass height, used for cg_x, cg_y too
+# [m] half the longest plausible track or gauge: no centre-of-mass offset can be larger (the robot's
+# own bound, checked with the rest of the robot, is |cg_x| < track_length/2, |cg_y| < track_gauge/2)
+_COORD = PLAUSIBLE_ROBOT["track_length"][1] / 2
 DAY_S = 86_400.0  # [s] longest simulated time an option takes (the rollout's step budget still applies)
 
 #: kind -> bound; the one table behind every numeric option of every command
@@ -149,14 +158,16 @@ def add_robot_options(parser: argparse.ArgumentParser) -> None:
     """Add ``--robot FILE`` and the per-field overrides (all default to ``None``: not given)."""
     group = parser.add_argument_group(
         "robot", "the robot: --robot FILE (a JSON object of SI values: track_gauge [m, required], track_length, "
-        "track_width, sprocket_radius [m], mass [kg], cg_x, cg_y, cg_z [m], mu, mu_left, mu_right; a wheeled robot: "
+        "track_width, sprocket_radius [m], mass [kg], cg_x, cg_y [m] (from the geometric centre), cg_z [m] (height "
+        "above the ground), mu, mu_left, mu_right; a wheeled robot: "
         "traction \"wheels\", wheel_radius, wheelbase [m], wheels_per_side), then each option below overrides one field"
     )
     group.add_argument("--robot", metavar="FILE", type=Path, default=None,
                        help="robot description JSON (at least 'track_gauge' [m])")
     for dest, (_, metavar, text) in ROBOT_OPTIONS.items():
+        bound = ROBOT_BOUND_TEXT.get(dest, f"in {OPTION_BOUNDS[dest].text()}")
         group.add_argument("--" + dest.replace("_", "-"), dest=dest, metavar=metavar,
-                           type=bounded(dest), default=None, help=f"{text}, in {OPTION_BOUNDS[dest].text()}")
+                           type=bounded(dest), default=None, help=f"{text}, {bound}")
 
 
 def robot_from_args(args: argparse.Namespace, base: Robot | None = None) -> Robot:

@@ -8,7 +8,10 @@ than flat) and LOG.json (the robot used, and the terrain under key "terrain" whe
 flat). The same arguments and
 seed give a byte-identical log.
 
-Time step of the roller chain (without --timestep): 5 ms (smaller on terrain edges), the step at
+A robot file's simulator settings (simulator.track_model, n_rollers, timestep: what a calibrated
+robot was fitted with) are used; --track-model and --timestep override them.
+
+Time step of the roller chain (without --timestep, nor one in the robot file): 5 ms (smaller on terrain edges), the step at
 which calibrate and diagnose simulate a log's windows. With fast commands on short tracks a turn's
 x_c (where the tracks slip only along themselves) then sits about v dt behind the rigid-track
 Coulomb reference, because MuJoCo's friction opposes the slip one step ahead (`steady` shortens
@@ -40,8 +43,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="log sample rate [Hz], a divisor of the simulation rate (default 50)")
     parser.add_argument("--timestep", metavar="S", type=bounded("timestep"), default=None,
                         help="simulation time step [s] (default 5 ms; see above for fast commands on short tracks)")
-    parser.add_argument("--track-model", choices=["rollers", "surfacevel"], default="rollers",
-                        help="MuJoCo track model: sprung roller chain (default) or surfacevel row")
+    parser.add_argument("--track-model", choices=["rollers", "surfacevel"], default=None,
+                        help="MuJoCo track model: sprung roller chain or surfacevel row (default: the robot file's "
+                             "simulator.track_model, else rollers)")
     parser.add_argument("--out", metavar="LOG.csv", type=Path, required=True, help="output drive log")
     add_robot_options(parser)
     add_terrain_option(parser)
@@ -61,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
     inputs = command_inputs(args)
     out = check_out_file(args.out, suffixes=(".csv",), inputs=inputs)
     check_overwrite([out, robot_path_for(out)], args.force, inputs)
-    config = sim_config(args.track_model, timestep=args.timestep)
+    config = sim_config(args.track_model, timestep=args.timestep, robot=robot)
     if args.scenario:
         table, duration = scenario_commands(args.scenario, robot, duration=args.duration, seed=args.seed)
     else:
