@@ -273,3 +273,18 @@ def test_centre_of_mass_help_states_the_bound_the_robot_checks(option, bound):
     name, limit = bound.split(" (")[0].split(" < ")  # the robot's own check words it the same way
     with pytest.raises(InputError, match=re.escape(f"{name} must be < {limit}")):
         Robot(cg_x=0.5) if option == "--cg-x" else Robot(cg_y=0.3)
+
+
+@pytest.mark.parametrize("key, meant", [("weight", "mass"), ("length", "track_length"), ("mass_kg", "mass"),
+                                        ("track_gauge_mm", "track_gauge"), ("cg_height", "cg_z"),
+                                        ("Wheel-Base", "wheelbase"), ("actuator_lag", "drive_lag")])
+def test_a_key_naming_a_known_quantity_is_refused_with_the_key_it_means(key, meant):
+    with pytest.raises(InputError, match=rf"^r\.json: key '{key}' looks like the robot's {meant}: "
+                                         rf"did you mean '{meant}'"):
+        Robot.from_dict({"track_gauge": 0.4, key: 60}, source="r.json")
+
+
+def test_metadata_keys_of_the_data_sets_are_still_kept():
+    robot = Robot.from_dict({"track_gauge": 0.4, "robot": "husky", "note": "x", "sample_rate_hz": 20},
+                            source="r.json")
+    assert robot.extra == {"robot": "husky", "note": "x", "sample_rate_hz": 20}

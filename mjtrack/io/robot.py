@@ -5,7 +5,8 @@ A :class:`Robot` is what every simulating command takes, what ``simulate`` write
 its log (``LOG.json``) and what ``diagnose`` reads. SI units; angles in radians.
 
 Keys beyond the fields: a key close to a known one (``drive_lags``) is refused as a typo, with
-the known key it resembles; the wheeled robot keys (:data:`WHEELED_KEYS`) and the keys mjtrack writes
+the known key it resembles; a key that names a known quantity otherwise (``weight``, ``length``,
+``mass_kg``: :data:`QUANTITY_KEYS`, :data:`UNIT_SUFFIXES`) is refused with the key it means; the wheeled robot keys (:data:`WHEELED_KEYS`) and the keys mjtrack writes
 itself (:data:`RECORD_KEYS`: ``terrain``, ``simulator``) are known; any other key (a data set's metadata such as ``robot``, ``note``,
 ``sample_rate_hz``) is kept in ``extra``, so that a description round-trips, and listed once in a
 warning. A description file is at most :data:`MAX_FILE_BYTES` and nested at most
@@ -40,6 +41,27 @@ RECORD_KEYS = ("terrain", "simulator")
 # "source_<key>": where a value of the description comes from (calibrate lists it under "assumed")
 SOURCE_PREFIX = "source_"
 TYPO_CUTOFF = 0.8  # difflib similarity at which an unknown key is taken for a misspelt known key
+# unknown keys that name a quantity the description holds under another key: refused with that key
+# (kept, they would be ignored and the robot would run at the key's default, e.g. 20 kg for "weight")
+QUANTITY_KEYS: dict[str, str] = {
+    **dict.fromkeys(("weight", "total_mass", "robot_mass", "mass_total"), "mass"),
+    **dict.fromkeys(("length", "contact_length", "track_contact_length"), "track_length"),
+    **dict.fromkeys(("gauge", "track_separation", "wheel_separation", "track_distance", "tread"), "track_gauge"),
+    **dict.fromkeys(("width", "belt_width", "tyre_width", "tire_width"), "track_width"),
+    **dict.fromkeys(("radius", "sprocket_radius_m", "drive_radius"), "sprocket_radius"),
+    **dict.fromkeys(("friction", "friction_coefficient", "ground_friction"), "mu"),
+    **dict.fromkeys(("mu_l", "friction_left"), "mu_left"),
+    **dict.fromkeys(("mu_r", "friction_right"), "mu_right"),
+    **dict.fromkeys(("com_x", "cog_x", "cm_x", "cg_offset_x"), "cg_x"),
+    **dict.fromkeys(("com_y", "cog_y", "cm_y", "cg_offset_y"), "cg_y"),
+    **dict.fromkeys(("com_z", "cog_z", "cm_z", "height", "cg_height", "com_height"), "cg_z"),
+    **dict.fromkeys(("lag", "time_constant", "actuator_lag"), "drive_lag"),
+    **dict.fromkeys(("delay", "dead_time", "command_delay"), "drive_delay"),
+    **dict.fromkeys(("speed_scale", "track_scale"), "track_speed_scale"),
+    **dict.fromkeys(("wheel_base", "axle_distance"), "wheelbase"),
+}
+# unit suffixes a key may carry (``mass_kg``): the description is in SI units, under the plain key
+UNIT_SUFFIXES = ("_m", "_mm", "_cm", "_kg", "_g", "_s", "_ms", "_n", "_deg", "_rad")
 _warned: set[tuple[str, tuple[str, ...]]] = set()  # (source, keys) already listed in a warning
 
 G = 9.81  # [m/s^2] gravity used throughout the package
@@ -402,6 +424,13 @@ def _check_extra_keys(extra: dict[str, Any], names: set[str], source: str) -> No
     for key in extra:
         if key in targets or str(key).startswith(SOURCE_PREFIX):
             continue
+        meant = _quantity_key(str(key), names)
+        if meant is not None:
+            default = next((f.default for f in dataclasses.fields(Robot) if f.name == meant), None)
+            unused = f"; unknown keys are not used, so the robot would keep the default {meant} = {default}" \
+                if isinstance(default, (int, float)) else ""
+            raise InputError(f"{source}: key {key!r} looks like the robot's {meant}: did you mean {meant!r} "
+                             f"(in SI units{unused})?")
         close = difflib.get_close_matches(str(key).lower(), list(lowered), n=1, cutoff=TYPO_CUTOFF)
         if close:
             raise InputError(f"{source}: key {key!r}: did you mean {lowered[close[0]]!r}? (a misspelt key would "
@@ -410,6 +439,21 @@ def _check_extra_keys(extra: dict[str, Any], names: set[str], source: str) -> No
     if unknown and (source, tuple(unknown)) not in _warned:
         _warned.add((source, tuple(unknown)))
         logger.warning("%s: key(s) %s not used by mjtrack; kept in the description", source, ", ".join(unknown))
+
+
+def _quantity_key(key: str, names: set[str]) -> str | None:
+    """The known key an unknown ``key`` names under another name (:data:`QUANTITY_KEYS`), or with a
+    unit suffix (``mass_kg``, ``track_gauge_mm``); None when it names none."""
+    lowered = key.lower().replace("-", "_").replace(" ", "_")
+    if lowered in QUANTITY_KEYS:
+        return QUANTITY_KEYS[lowered]
+    for suffix in UNIT_SUFFIXES:
+        stem = lowered.removesuffix(suffix)
+        if stem != lowered and (stem in names or stem in WHEELED_KEYS):
+            return stem
+        if stem != lowered and stem in QUANTITY_KEYS:
+            return QUANTITY_KEYS[stem]
+    return None
 
 
 WHEEL_KEYS = ("traction", "wheelbase", "wheels_per_side")  # fields written for wheeled robots only
