@@ -23,6 +23,7 @@ if TYPE_CHECKING:  # pragma: no cover - types for the signatures only
     from mjtrack.io.logs import DriveLog
     from mjtrack.io.robot import Robot
     from mjtrack.models.coulomb import SteadyState
+    from mjtrack.sim.noise import LogNoise
     from mjtrack.sim.steady import SteadyResult
     from mjtrack.sim.terrain import Terrain
     from mjtrack.validate.run import Validation
@@ -44,7 +45,7 @@ def simulate_log(robot: "Robot", *, scenario: str | None = None,
                  commands: "tuple[np.ndarray, np.ndarray, np.ndarray] | str | os.PathLike | None" = None,
                  duration: float | None = None, seed: int = 0, log_rate: float = 50.0,
                  terrain: "str | Terrain | None" = None, track_model: str | None = None,
-                 timestep: float | None = None) -> "DriveLog":
+                 timestep: float | None = None, noise: "str | dict | LogNoise | None" = None) -> "DriveLog":
     """Drive the MuJoCo robot with a scenario or a command table and return its drive log.
 
     The Python form of ``mjtrack simulate`` (same arguments, same log). The robot starts at rest at
@@ -57,13 +58,18 @@ def simulate_log(robot: "Robot", *, scenario: str | None = None,
         commands: a command table ``(t [s], v_left [m/s], v_right [m/s])`` of equal-length
             arrays, or the path of a CSV with columns ``t, v_left_cmd, v_right_cmd``.
         duration: simulated time [s]; default the scenario's, or the last command time + 1 s.
-        seed: seed of the random scenarios (the same seed gives the same log).
+        seed: seed of the random scenarios and of the measurement noise (the same seed gives the
+            same log).
         log_rate: log sample rate [Hz], a divisor of the simulation rate.
         terrain: a ``--terrain`` spec (``"incline:0.1"``) or a Terrain; default the scenario's, else flat.
         track_model: ``"rollers"`` (sprung roller chain) or ``"surfacevel"``; default the robot's
             ``simulator`` settings (what a calibrated robot was fitted with), else rollers.
         timestep: simulation time step [s]; default the robot's ``simulator`` timestep, else 5 ms
             (smaller on terrain with edges).
+        noise: measurement noise added to the log (:mod:`mjtrack.sim.noise`): a preset
+            (``"none"``, ``"realistic"``: the level of the real Marmotte, Husky and Warthog logs),
+            ``"realistic,yaw_std=0.01"``, a dict of ``*_std`` values [SI] with an optional
+            ``"preset"``, or a :class:`~mjtrack.sim.noise.LogNoise`; default none.
 
     Returns:
         The :class:`~mjtrack.io.logs.DriveLog` (plus ``z``, ``roll``, ``pitch`` on terrain).
@@ -80,19 +86,21 @@ def simulate_log(robot: "Robot", *, scenario: str | None = None,
         1.0
     """
     from mjtrack.sim.config import sim_config
+    from mjtrack.sim.noise import add_noise, log_noise
     from mjtrack.sim.rollout import drive_log
     from mjtrack.sim.scenarios import read_commands, scenario_commands
 
     if (scenario is None) == (commands is None):
         raise InputError("simulate_log: give exactly one of scenario and commands")
+    noise = log_noise(noise)  # a bad spec is refused before the rollout
     config = sim_config(track_model, timestep=timestep, robot=robot)
     if scenario is not None:
         table, duration = scenario_commands(scenario, robot, duration=duration, seed=seed)
     else:
         table = read_commands(commands) if isinstance(commands, (str, os.PathLike)) else _command_table(commands)
         duration = float(duration) if duration is not None else float(table[0][-1]) + 1.0
-    return drive_log(robot, table, duration=duration, config=config, log_rate=log_rate,
-                     terrain=_terrain(terrain, scenario))
+    return add_noise(drive_log(robot, table, duration=duration, config=config, log_rate=log_rate,
+                               terrain=_terrain(terrain, scenario)), noise, seed=seed)
 
 
 def _command_table(commands: Any) -> "tuple[np.ndarray, np.ndarray, np.ndarray]":

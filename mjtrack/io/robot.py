@@ -7,7 +7,7 @@ its log (``LOG.json``) and what ``diagnose`` reads. SI units; angles in radians.
 Keys beyond the fields: a key close to a known one (``drive_lags``) is refused as a typo, with
 the known key it resembles; a key that names a known quantity otherwise (``weight``, ``length``,
 ``mass_kg``: :data:`QUANTITY_KEYS`, :data:`UNIT_SUFFIXES`) is refused with the key it means; the wheeled robot keys (:data:`WHEELED_KEYS`) and the keys mjtrack writes
-itself (:data:`RECORD_KEYS`: ``terrain``, ``simulator``) are known; any other key (a data set's metadata such as ``robot``, ``note``,
+itself (:data:`RECORD_KEYS`: ``terrain``, ``noise``, ``simulator``) are known; any other key (a data set's metadata such as ``robot``, ``note``,
 ``sample_rate_hz``) is kept in ``extra``, so that a description round-trips, and listed once in a
 warning. A description file is at most :data:`MAX_FILE_BYTES` and nested at most
 :data:`MAX_DEPTH` deep (:func:`mjtrack.io.jsonfile.read_json`).
@@ -36,8 +36,9 @@ MAX_DEPTH = 6  # nesting: description > terrain > patches > patch (LOG.json of a
 # wheelbase, wheels_per_side): known, never a typo of each other or of the track keys
 WHEELED_KEYS = ("traction", "wheel_radius", "wheelbase", "wheels_per_side")
 # written by mjtrack itself: "terrain" beside a simulated log (the terrain it ran on; text in some
-# data sets), "simulator" by calibrate (the simulator settings the parameters were fitted with)
-RECORD_KEYS = ("terrain", "simulator")
+# data sets), "noise" beside a simulated log (the measurement noise added to it: mjtrack.sim.noise),
+# "simulator" by calibrate (the simulator settings the parameters were fitted with)
+RECORD_KEYS = ("terrain", "noise", "simulator")
 # "source_<key>": where a value of the description comes from (calibrate lists it under "assumed")
 SOURCE_PREFIX = "source_"
 TYPO_CUTOFF = 0.8  # difflib similarity at which an unknown key is taken for a misspelt known key
