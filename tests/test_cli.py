@@ -142,3 +142,19 @@ def test_a_log_and_its_robot_file_are_inputs_of_the_folder_commands(tmp_path):
     with pytest.raises(InputError, match="is an input of this command"):  # through a link too
         check_overwrite([link], True, [log])
     check_overwrite([tmp_path / "other.html"], False, [log])  # another name: allowed
+
+
+def test_negative_numbers_reach_options_through_public_argparse_only():
+    import inspect
+
+    import mjtrack.cli as cli
+
+    source = inspect.getsource(cli)
+    assert "_get_values" not in source and "_negative_number_matcher" not in source
+    assert cli.join_negative_values(["--v-left", "-1e300", "--settle", "-.5", "-q", "--", "--x", "-1"]) == [
+        "--v-left=-1e300", "--settle=-.5", "-q", "--", "--x", "-1"]
+    assert cli.join_negative_values(["--v-left=-1", "-2"]) == ["--v-left=-1", "-2"]  # already has its value
+    for value in ("-1e300", "-.5", "-inf", "-1E-3"):  # each a value, refused or taken by the option's type
+        res = run_cli(["steady", "--v-left", value, "--v-right", "0.3", "--settle", "-1"])
+        assert_usage_error(res, r"argument --(v-left|settle): ")
+        assert "expected one argument" not in res.err
