@@ -149,7 +149,9 @@ def _run(argv: list[str] | None, state: dict, program: bool, interrupted) -> int
         if signum is not None:  # a failure the interrupt caused (a pipe to a killed child, a cancelled task)
             return _end_interrupted(interrupted(signum), 128 + signum, program=program)
         if isinstance(exc, InputError):
-            print(f"mjtrack {state['command']}: error: {one_line(exc)}", file=sys.stderr)
+            from mjtrack.commands._common import option_words  # the library names parameters
+
+            print(f"mjtrack {state['command']}: error: {one_line(option_words(str(exc)))}", file=sys.stderr)
             return 2
         if isinstance(exc, (MjtrackError, OSError)):  # OSError: disk full, permission denied, ...
             print(f"mjtrack {state['command']}: failed: {one_line(exc)}", file=sys.stderr)

@@ -158,3 +158,41 @@ def test_negative_numbers_reach_options_through_public_argparse_only():
         res = run_cli(["steady", "--v-left", value, "--v-right", "0.3", "--settle", "-1"])
         assert_usage_error(res, r"argument --(v-left|settle): ")
         assert "expected one argument" not in res.err
+
+
+def test_library_errors_speak_of_parameters_not_options():
+    """No error raised outside the commands names a command-line option; the commands translate."""
+    import ast
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1] / "mjtrack"
+    found = []
+    for path in root.rglob("*.py"):
+        if "commands" in path.parts or path.name == "cli.py" or "testing" in path.parts:
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Raise) and node.exc is not None:
+                for const in ast.walk(node.exc):
+                    if isinstance(const, ast.Constant) and isinstance(const.value, str) \
+                            and re.search(r"(^|[\s(])--[a-z]", const.value):
+                        found.append(f"{path.relative_to(root)}:{node.lineno}: {const.value[:60]}")
+    assert not found, found
+
+
+@pytest.mark.parametrize("message, words", [
+    ("params: unknown parameter 'x'", "--params: unknown parameter 'x'"),
+    ("terrain='incline:2': incline angle", "--terrain incline:2: incline angle"),
+    ("a.txt: exists; pass force=True to replace it", "a.txt: exists; pass --force to replace it"),
+    ("settle_s 3 s + window_s 2 s", "--settle 3 s + --window 2 s"),
+    ("bag: several topics; choose one with odom=TOPIC", "bag: several topics; choose one with --odom TOPIC"),
+    ("robot: the terrain is flat; out of params", "robot: the terrain is flat; out of params"),  # words stay words
+])
+def test_option_words_translates_parameters_only(message, words):
+    from mjtrack.commands._common import option_words
+
+    assert option_words(message) == words
+
+
+def test_a_library_error_reaches_the_command_line_in_options(tmp_path):
+    res = run_cli(["simulate", "--scenario", "straight", "--terrain", "incline:9", "--out", tmp_path / "x.csv"])
+    assert_usage_error(res, r"error: --terrain incline:9: incline angle must be in")

@@ -276,8 +276,8 @@ def test_centre_of_mass_help_states_the_bound_the_robot_checks(option, bound):
 
 
 @pytest.mark.parametrize("key, meant", [("weight", "mass"), ("length", "track_length"), ("mass_kg", "mass"),
-                                        ("track_gauge_mm", "track_gauge"), ("cg_height", "cg_z"),
-                                        ("Wheel-Base", "wheelbase"), ("actuator_lag", "drive_lag")])
+                                        ("gauge_mm", "track_gauge"), ("cg_height", "cg_z"),
+                                        ("Axle-Distance", "wheelbase"), ("actuator_lag", "drive_lag")])
 def test_a_key_naming_a_known_quantity_is_refused_with_the_key_it_means(key, meant):
     with pytest.raises(InputError, match=rf"^r\.json: key '{key}' looks like the robot's {meant}: "
                                          rf"did you mean '{meant}'"):

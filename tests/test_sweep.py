@@ -165,7 +165,7 @@ def test_resume_refuses_other_settings(swept, capsys):
     before = (out / "sweep.partial.csv").read_bytes()
     assert main(["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--workers", "1",
                  "--settle", "0.3", "--window", "0.4"]) == 2
-    assert "other settings (window_s)" in capsys.readouterr().err
+    assert "other settings (--window)" in capsys.readouterr().err
     assert (out / "sweep.partial.csv").read_bytes() == before
 
 

@@ -32,6 +32,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 import tempfile
 from pathlib import Path
 from typing import Iterable
@@ -41,6 +42,33 @@ from dataclasses import dataclass
 from mjtrack.errors import InputError
 from mjtrack.io.logs import PLAUSIBLE, read_log, read_log_with_robot, robot_path_for
 from mjtrack.io.robot import PLAUSIBLE_ROBOT, Robot, read_robot
+
+#: library parameter -> command-line option. The library's errors name the parameters of its
+#: functions (``params: ...``, ``workers=64: ...``, ``pass force=True``, ``settle_s``); the command
+#: line shows them as its options (:func:`option_words`), one mapping for every command.
+PARAMETER_OPTIONS: dict[str, str] = {
+    "params": "--params", "terrain": "--terrain", "settle_s": "--settle", "window_s": "--window",
+    "horizon_s": "--horizon", "workers": "--workers", "scheduler": "--scheduler", "baseline": "--baseline",
+    "force": "--force", "restart": "--force", "drive_input": "--drive-input", "odom": "--odom", "cmd": "--cmd",
+    "joints": "--joints", "robot_path": "--robot", "out": "--out", "keep_contradicting": "--keep-contradicting",
+    "fit_windows": "--fit-windows", "n_folds": "--folds",
+}
+_NAMES = "|".join(sorted(PARAMETER_OPTIONS, key=len, reverse=True))
+_LEADING = re.compile(rf"^({_NAMES}):")  # "params: unknown parameter 'x'"
+_FLAG = re.compile(rf"\b({_NAMES})=True\b")  # "pass force=True"
+_VALUE = re.compile(rf"\b({_NAMES})=('[^']*'|\"[^\"]*\"|[^\s:;,)]+)")  # "workers=64", "terrain='step:1:2'"
+_SNAKE = re.compile(rf"\b({'|'.join(n for n in PARAMETER_OPTIONS if '_' in n)})\b")  # "settle_s", "horizon_s"
+
+
+def option_words(message: str) -> str:
+    """A library error's ``message`` with its parameters written as the command line's options
+    (:data:`PARAMETER_OPTIONS`): a leading ``name:``, ``name=True`` (a flag), ``name=value`` (the
+    option and its value, quotes dropped) and any parameter name with an underscore."""
+    message = _LEADING.sub(lambda m: PARAMETER_OPTIONS[m[1]] + ":", message)
+    message = _FLAG.sub(lambda m: PARAMETER_OPTIONS[m[1]], message)
+    message = _VALUE.sub(lambda m: f"{PARAMETER_OPTIONS[m[1]]} {m[2].strip(chr(39) + chr(34))}", message)
+    return _SNAKE.sub(lambda m: PARAMETER_OPTIONS[m[1]], message)
+
 
 # option dest -> (Robot field, metavar, help)
 ROBOT_OPTIONS: dict[str, tuple[str, str, str]] = {

@@ -27,7 +27,8 @@ import argparse
 import json
 import sys
 
-from mjtrack.commands._common import add_robot_options, add_terrain_option, bounded, robot_from_args, terrain_from_args
+from mjtrack.commands._common import (add_robot_options, add_terrain_option, bounded, option_words, robot_from_args,
+                                      terrain_from_args)
 
 HELP = "steady-state twist and ICRs of the MuJoCo robot under constant track speeds (table, or --json)"
 
@@ -53,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     result = steady_state(robot, args.v_left, args.v_right, config=sim_config(args.track_model, robot=robot),
                           settle_s=args.settle, window_s=args.window, terrain=terrain_from_args(args))
     if result.unsettled:
-        print(f"mjtrack steady: warning: {result.unsettled}", file=sys.stderr)
+        print(f"mjtrack steady: warning: {option_words(result.unsettled)}", file=sys.stderr)
     print(json.dumps(result.to_dict(), indent=2) if args.json else steady_table(result.to_dict()))
     return 0
 

@@ -425,6 +425,10 @@ def _check_extra_keys(extra: dict[str, Any], names: set[str], source: str) -> No
     for key in extra:
         if key in targets or str(key).startswith(SOURCE_PREFIX):
             continue
+        close = difflib.get_close_matches(str(key).lower(), list(lowered), n=1, cutoff=TYPO_CUTOFF)
+        if close:
+            raise InputError(f"{source}: key {key!r}: did you mean {lowered[close[0]]!r}? (a misspelt key would "
+                             "be ignored)")
         meant = _quantity_key(str(key), names)
         if meant is not None:
             default = next((f.default for f in dataclasses.fields(Robot) if f.name == meant), None)
@@ -432,10 +436,6 @@ def _check_extra_keys(extra: dict[str, Any], names: set[str], source: str) -> No
                 if isinstance(default, (int, float)) else ""
             raise InputError(f"{source}: key {key!r} looks like the robot's {meant}: did you mean {meant!r} "
                              f"(in SI units{unused})?")
-        close = difflib.get_close_matches(str(key).lower(), list(lowered), n=1, cutoff=TYPO_CUTOFF)
-        if close:
-            raise InputError(f"{source}: key {key!r}: did you mean {lowered[close[0]]!r}? (a misspelt key would "
-                             "be ignored)")
         unknown.append(str(key))
     if unknown and (source, tuple(unknown)) not in _warned:
         _warned.add((source, tuple(unknown)))

@@ -137,13 +137,13 @@ def check_steady(robots: Sequence[Robot], commands, *, config: SimConfig, settle
         InputError: naming the case, its steps and the settle and window times.
     """
     if not (math.isfinite(settle_s) and math.isfinite(window_s) and settle_s >= 0 and window_s > 0):
-        raise InputError(f"--settle must be >= 0 and --window > 0 seconds, got {settle_s!r} and {window_s!r}")
+        raise InputError(f"settle_s must be >= 0 and window_s > 0 seconds, got {settle_s!r} and {window_s!r}")
     for i, (r, c) in enumerate(zip(robots, np.atleast_2d(np.asarray(commands, dtype=float)))):
         n, dt = steady_steps(r, c, config=config, settle_s=settle_s, window_s=window_s, terrain=terrain)
         if n * batch > MAX_STEPS:
             which = f"case {i}: " if len(robots) > 1 else ""
             per = f" per case in a batch of {batch}" if batch > 1 else ""
-            raise InputError(f"{which}--settle {settle_s:g} s + --window {window_s:g} s at the {dt:g} s time step are "
+            raise InputError(f"{which}settle_s {settle_s:g} s + window_s {window_s:g} s at the {dt:g} s time step are "
                              f"{n:.3g} time steps; at most {MAX_STEPS // batch:.3g}{per} "
                              f"({MAX_STEPS // batch * dt:.6g} s)")
 
@@ -192,7 +192,7 @@ def unsettled_reason(lin: np.ndarray, ang: np.ndarray, cmd, half_gauge: float) -
         return None
     name = ("v_x", "v_y", "w_z T/2")[worst]
     return (f"not settled: the window's second half differs from its first in {name} by {drift[worst]:.3g} m/s, "
-            f"more than {SETTLE_DRIFT:g} of the command ({scale:g} m/s); lengthen --settle")
+            f"more than {SETTLE_DRIFT:g} of the command ({scale:g} m/s); lengthen settle_s")
 
 
 def icrs_or_reason(vx: float, vy: float, wz: float, v_left: float, v_right: float, half_gauge: float
