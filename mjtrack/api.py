@@ -266,7 +266,7 @@ def validate_models(log: "DriveLog", robot: "Robot", out_dir: str | os.PathLike,
 def diagnose_log(log: "DriveLog", robot: "Robot", *, baseline: str = "auto", test_log: "DriveLog | None" = None,
                  horizon_s: float | str = "auto", n_folds: int = 5, effects: list[str] | None = None,
                  out_dir: str | os.PathLike | None = None, quiet: bool = True) -> "Diagnosis":
-    """Find what a simulation of the robot gets wrong on a measured log, and why.
+    """Find what a simulation of the robot gets wrong on a drive log, and why.
 
     The Python form of ``mjtrack diagnose``: each candidate effect extends the baseline, is fitted on
     part of the log and reported only when its held-out gain is significant (docs/guide/own-log.md).
@@ -310,7 +310,7 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
                     params: list[str] | None = None, horizon_s: float = 2.0, max_iter: int = 8,
                     out_dir: str | os.PathLike | None = None, quiet: bool = True,
                     drive_input: str = "commanded", fit_windows: int | None | str = "default") -> "Calibration":
-    """Fit the MuJoCo robot's description to a measured log.
+    """Fit the MuJoCo robot's description to a drive log.
 
     The Python form of ``mjtrack calibrate``: windows of ``horizon_s`` simulated from the measured
     state, parameters fitted to the poses at their ends (a parameter the log leaves open is kept).

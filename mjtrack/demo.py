@@ -113,7 +113,7 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
     ground = "" if terrain.is_flat else f" on terrain {terrain.spec}"
     which = (f"the given robot on {robot.traction} (T {robot.track_gauge:g} m, {robot.mass:g} kg, cg_x {robot.cg_x:+g} m)"
              if given else f"the default robot with cg_x = +{robot.cg_x:g} m")
-    source = f"MuJoCo rollout of {which}{ground}: seeded everyday manoeuvres (seed {seed}, {duration:g} s; mjtrack demo)"
+    source = f"simulated log of {which}{ground}: seeded everyday manoeuvres (seed {seed}, {duration:g} s; mjtrack demo)"
     val = validate(drive.replace(source=str(log_path)), robot, out, source=source, seed=seed, quiet=quiet)
     stage_s["validate"] = time.perf_counter() - tic
 

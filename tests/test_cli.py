@@ -196,3 +196,50 @@ def test_option_words_translates_parameters_only(message, words):
 def test_a_library_error_reaches_the_command_line_in_options(tmp_path):
     res = run_cli(["simulate", "--scenario", "straight", "--terrain", "incline:9", "--out", tmp_path / "x.csv"])
     assert_usage_error(res, r"error: --terrain incline:9: incline angle must be in")
+
+
+
+# "(2.13)", "eq. 2.21", "section 4.2", "thesis 4.2": a citation of a source's equation or section
+CITED = re.compile(r"(?<![\w.])(?:\(\d\.\d{1,2}\)|(?:eq\.|eqs\.|section|thesis) \(?\d\.\d{1,2}\)?)")
+
+
+def test_every_equation_number_in_help_and_reports_names_its_source():
+    """'(2.13)' alone says nothing to a reader: each number names its source as docs/references.md does."""
+    from pathlib import Path
+
+    from mjtrack.validate.report import DEFINITIONS
+
+    references = (Path(__file__).resolve().parents[1] / "docs" / "references.md").read_text()
+    labels = re.findall(r"^\*\*(\[[^\]]+\])\*\*", references, re.MULTILINE)
+    texts = {name: " ".join(run_cli([name, "--help"]).out.split()) for name in COMMANDS}
+    texts["validate report"] = " ".join(f"{k}: {v}" for k, v in DEFINITIONS.items())
+    cited = []
+    for where, text in texts.items():
+        for match in CITED.finditer(text):
+            after = text[match.end():match.end() + 30]
+            cited.append(where)
+            assert any(f"of {label}" in after for label in labels), (where, text[match.start():match.end() + 30])
+    assert {"validate", "track", "validate report"} <= set(cited)  # the scan saw the citations
+
+
+def test_one_word_for_simulated_and_for_logged_motion(tmp_path):
+    """validate names a log it simulates "simulated log" and a log file "logged motion" (never
+    "measured", which a simulated file is not); demo and the sweep map say simulated too."""
+    import inspect
+
+    import mjtrack.demo
+    import mjtrack.sweep.figure
+    from mjtrack.cli import build_parser
+    from mjtrack.commands import demo, validate
+    from mjtrack.io.logs import write_log
+
+    parser = build_parser()
+    args = parser.parse_args(["validate", "--scenario", "straight", "--duration", "0.2", "--out", str(tmp_path)])
+    drive, _, words, title = validate.source_from_args(args)
+    assert title == validate.SIMULATED == "simulated log" and words.startswith("simulated log of the scenario")
+    write_log(drive, tmp_path / "run.csv")
+    args = parser.parse_args(["validate", str(tmp_path / "run.csv"), "--track-gauge", "0.4", "--out", str(tmp_path)])
+    assert validate.source_from_args(args)[3] == validate.LOGGED == "logged motion"
+    for module in (mjtrack.demo, demo, validate, mjtrack.sweep.figure):
+        text = inspect.getsource(module)
+        assert "MuJoCo rollout" not in text and "Measured ICRs" not in text and "measured log" not in text, module

@@ -1,6 +1,6 @@
-"""The main job on built-in defaults, end to end (about 30 s on 2 cores: benchmarks/bench_demo.py).
+"""The main job on built-in defaults, end to end (a few minutes on 2 cores; benchmarks/bench_demo.py times it).
 
-A MuJoCo rollout of the default robot with its centre of gravity 5 cm ahead of the geometric
+A simulated log of the default robot with its centre of gravity 5 cm ahead of the geometric
 centre (cg_x = +0.05 m) driving seeded everyday manoeuvres; its ICRs; the nominal, MPP, MICR
 and MVIR models with their filters validated against the rollout and against an MPP
 analytic truth; DIR/report.html, DIR/metrics.json, DIR/video.mp4, and the rollout itself
@@ -20,7 +20,7 @@ from mjtrack.commands._common import (ROBOT_OPTIONS, TERRAIN_HELP, add_output_op
 
 OUTPUTS = ("report.html", "metrics.json", "rollout.csv", "rollout.json", "video.mp4")
 
-HELP = "the main job on defaults: MuJoCo rollout, all models and filters validated, report, video"
+HELP = "the main job on defaults: a simulated log, all models and filters validated, report, video"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -44,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         for truth, table in head["pos_rmse_m"].items():
             row = ", ".join(f"{k} {v:.3g}" if v is not None else f"{k} failed" for k, v in table.items())
-            print(f"{head['horizon_s']:g}-s position RMSE [m] on the {'MPP truth' if truth == 'mpp' else 'MuJoCo rollout'}: {row}")
+            print(f"{head['horizon_s']:g}-s position RMSE [m] on the {'MPP truth' if truth == 'mpp' else 'simulated log'}: {row}")
     print(f"report:  {res.report}")
     print(f"metrics: {res.metrics}")
     print(f"rollout: {res.log} (robot: {res.log.with_suffix('.json').name})")
