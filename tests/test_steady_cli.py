@@ -53,3 +53,23 @@ def test_the_robot_files_simulator_timestep_is_used(tmp_path):
 
     plain, coarse, again = y_l(None), y_l({"track_model": "rollers", "timestep": 0.004}), y_l({"timestep": 0.004})
     assert coarse != plain and coarse == again  # the recorded step changes the result, deterministically
+
+
+def test_validate_scenarios_use_and_sweep_refuses_the_recorded_step(tmp_path):
+    from mjtrack.cli import build_parser
+    from mjtrack.commands.validate import source_from_args
+    from mjtrack.testing.cli import assert_usage_error
+
+    plain, fitted = tmp_path / "plain.json", tmp_path / "fitted.json"
+    plain.write_text(json.dumps({"track_gauge": 0.4}))
+    fitted.write_text(json.dumps({"track_gauge": 0.4, "simulator": {"track_model": "rollers", "timestep": 0.004}}))
+    logs = []
+    for robot in (plain, fitted):
+        args = build_parser().parse_args(["validate", "--scenario", "circle", "--duration", "0.4", "--robot", str(robot),
+                                          "--out", str(tmp_path / "v")])
+        logs.append(source_from_args(args)[0])
+    assert logs[0].x[-1] != logs[1].x[-1]  # the recorded step is the one simulated
+    (tmp_path / "grid.json").write_text(json.dumps({"v_left_cmd": [0.3], "v_right_cmd": [0.6]}))
+    res = run_cli(["sweep", "--grid", tmp_path / "grid.json", "--robot", fitted, "--out", tmp_path / "s"])
+    assert_usage_error(res, r"simulator settings timestep are not used by sweep")
+    assert not (tmp_path / "s").exists()

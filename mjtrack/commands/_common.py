@@ -309,6 +309,15 @@ def _same_file(a: Path, b: Path) -> bool:
 _INPUT_OPTIONS = ("robot", "log", "test", "commands", "grid", "bag")
 
 
+def robot_config(robot: Robot):
+    """The simulator settings a robot file records under ``simulator`` (what a calibrated robot was
+    fitted with; :func:`mjtrack.sim.config.sim_config`), else the defaults: every command that
+    simulates a robot file's robot simulates it as it was calibrated."""
+    from mjtrack.sim.config import sim_config
+
+    return sim_config(None, robot=robot)
+
+
 def check_robot_file(args: argparse.Namespace) -> None:
     """Read ``--robot FILE`` when given, so that an error in it is reported before the outputs are
     checked (for commands that build their robot only later, after a rollout's work estimate)."""

@@ -36,7 +36,8 @@ import json
 from pathlib import Path
 
 from mjtrack.commands._common import (TERRAIN_HELP, add_output_options, add_robot_options, bounded, check_out_dir,
-                                      check_overwrite, command_inputs, robot_from_args, terrain_from_args)
+                                      check_overwrite, command_inputs, robot_config, robot_from_args,
+                                      terrain_from_args)
 
 HELP = ("closed-loop path tracking on the MuJoCo robot, tracked or wheeled (the slip-compensated tracker or the "
         "thesis's five controllers) -> tracking.json + tracking.png")
@@ -129,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
     noise = {} if not args.no_noise else {"pose_noise": (0.0, 0.0, 0.0), "twist_noise": (0.0, 0.0, 0.0)}
     result = run_tracking(robot, scenario=args.scenario, compensation=compensation, controller=args.controller,
                           control_dt=1.0 / args.control_rate, speed=args.speed, laps=args.laps, seed=args.seed,
-                          terrain=terrain, reference_map=args.reference_map, **noise)
+                          terrain=terrain, reference_map=args.reference_map, config=robot_config(robot), **noise)
     hist = result.icr_history
     doc = dict(result.metrics)
     doc["settings"] = result.settings

@@ -28,7 +28,7 @@ import argparse
 from pathlib import Path
 
 from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, bounded, check_out_dir,
-                                      check_overwrite, check_robot_file, command_inputs, robot_from_args, scenario_help, terrain_from_args)
+                                      check_overwrite, check_robot_file, command_inputs, robot_config, robot_from_args, scenario_help, terrain_from_args)
 from mjtrack.errors import InputError
 
 HELP = "model-vs-physics validation of the kinematic models and filters: report.html + metrics.json"
@@ -73,7 +73,8 @@ def source_from_args(args: argparse.Namespace, *, before_rollout=None):
             before_rollout(duration)
         if not terrain.is_flat:
             words += f" on terrain {terrain.spec}"
-        return drive_log(robot, table, duration=duration, terrain=terrain), robot, words, SIMULATED
+        return (drive_log(robot, table, duration=duration, terrain=terrain, config=robot_config(robot)), robot, words,
+                SIMULATED)
     if args.duration is not None:
         raise InputError("--duration applies to --scenario only, not to a log")
     if getattr(args, "terrain", None) is not None:
