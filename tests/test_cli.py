@@ -243,3 +243,19 @@ def test_one_word_for_simulated_and_for_logged_motion(tmp_path):
     for module in (mjtrack.demo, demo, validate, mjtrack.sweep.figure):
         text = inspect.getsource(module)
         assert "MuJoCo rollout" not in text and "Measured ICRs" not in text and "measured log" not in text, module
+
+
+def test_help_texts_point_only_to_what_exists():
+    """A help text that sends the reader to README's grid, a file or a results page that is not
+    there (any more) is refused: files named must exist, results pages must be generated."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    pages = set(re.findall(r"Page\(\s*\"[\w-]+\", \"([^\"]+)\"", (root / "docs" / "_ext" / "results_pages.py").read_text()))
+    for name in COMMANDS:
+        text = " ".join(run_cli([name, "--help"]).out.split())
+        assert "README's" not in text and "see README" not in text, name  # README has no numbered sections
+        for path in re.findall(r"\b((?:benchmarks|docs|assets|tests)/[\w./-]+\w)", text):
+            assert (root / path).exists(), (name, path)
+        for page in re.findall(r"results page \"([^\"]+)\"", text):
+            assert page in pages, (name, page)

@@ -1,4 +1,4 @@
-"""The main job on built-in defaults, end to end (a few minutes on 2 cores; benchmarks/bench_demo.py times it).
+"""The main job on built-in defaults, end to end (a few minutes on 2 cores).
 
 A simulated log of the default robot with its centre of gravity 5 cm ahead of the geometric
 centre (cg_x = +0.05 m) driving seeded everyday manoeuvres; its ICRs; the nominal, MPP, MICR
