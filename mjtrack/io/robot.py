@@ -201,8 +201,8 @@ class Robot:
         track_width: width of each track's ground contact (of each tyre) [m].
         sprocket_radius: radius from sprocket (wheel) speed to track (wheel surface) speed [m].
         mass: total mass [kg].
-        cg_x: centre of mass ahead (+) of the geometric centre [m]; |cg_x| < contact length / 2.
-        cg_y: centre of mass left (+) of the geometric centre [m]; |cg_y| < track_gauge / 2.
+        cg_x: centre of mass ahead (+) of the geometric centre [m]; abs(cg_x) < contact length / 2.
+        cg_y: centre of mass left (+) of the geometric centre [m]; abs(cg_y) < track_gauge / 2.
         cg_z: height of the centre of mass above the ground (the plane the tracks or wheels rest on,
             which holds the frame's origin) [m]; 0 < cg_z <= :attr:`max_cg_z`.
         mu, mu_left, mu_right: ground friction coefficient; per track, ``None`` meaning ``mu`` [-].

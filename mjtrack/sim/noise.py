@@ -86,6 +86,8 @@ class LogNoise:
         return {"preset": self.preset, **{name: getattr(self, name) for name in CHANNELS}}
 
 
+#: name -> :class:`LogNoise`: ``none``, and ``realistic``, the middle of the levels the three real
+#: DRIVE logs measure per channel (module docstring)
 PRESETS: dict[str, LogNoise] = {
     "none": LogNoise(),
     # the middle of the three DRIVE logs per channel (module docstring)
