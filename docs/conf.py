@@ -41,7 +41,9 @@ napoleon_use_rtype = False
 
 html_theme = "furo"
 html_title = f"mjtrack {release}"
-html_static_path = []
+html_static_path = ["_static"]
+# MathJax bundled (docs/_static/mathjax/README.md): the maths renders offline, no CDN is contacted
+mathjax_path = "mathjax/tex-svg.js"
 
 nitpicky = False
 suppress_warnings = []

@@ -23,6 +23,7 @@ if TYPE_CHECKING:  # pragma: no cover - types for the signatures only
     from mjtrack.io.logs import DriveLog
     from mjtrack.io.robot import Robot
     from mjtrack.models.coulomb import SteadyState
+    from mjtrack.sim.noise import LogNoise
     from mjtrack.sim.steady import SteadyResult
     from mjtrack.sim.terrain import Terrain
     from mjtrack.validate.run import Validation
@@ -43,8 +44,8 @@ def _terrain(terrain: "str | Terrain | None", scenario: str | None = None) -> "T
 def simulate_log(robot: "Robot", *, scenario: str | None = None,
                  commands: "tuple[np.ndarray, np.ndarray, np.ndarray] | str | os.PathLike | None" = None,
                  duration: float | None = None, seed: int = 0, log_rate: float = 50.0,
-                 terrain: "str | Terrain | None" = None, track_model: str = "rollers",
-                 timestep: float | None = None) -> "DriveLog":
+                 terrain: "str | Terrain | None" = None, track_model: str | None = None,
+                 timestep: float | None = None, noise: "str | dict | LogNoise | None" = None) -> "DriveLog":
     """Drive the MuJoCo robot with a scenario or a command table and return its drive log.
 
     The Python form of ``mjtrack simulate`` (same arguments, same log). The robot starts at rest at
@@ -57,10 +58,18 @@ def simulate_log(robot: "Robot", *, scenario: str | None = None,
         commands: a command table ``(t [s], v_left [m/s], v_right [m/s])`` of equal-length
             arrays, or the path of a CSV with columns ``t, v_left_cmd, v_right_cmd``.
         duration: simulated time [s]; default the scenario's, or the last command time + 1 s.
-        seed, log_rate: seed of the random scenarios; log sample rate [Hz], dividing the sim rate.
+        seed: seed of the random scenarios and of the measurement noise (the same seed gives the
+            same log).
+        log_rate: log sample rate [Hz], a divisor of the simulation rate.
         terrain: a ``--terrain`` spec (``"incline:0.1"``) or a Terrain; default the scenario's, else flat.
-        track_model: ``"rollers"`` (sprung roller chain, default) or ``"surfacevel"``.
-        timestep: simulation time step [s]; default 5 ms (smaller on terrain with edges).
+        track_model: ``"rollers"`` (sprung roller chain) or ``"surfacevel"``; default the robot's
+            ``simulator`` settings (what a calibrated robot was fitted with), else rollers.
+        timestep: simulation time step [s]; default the robot's ``simulator`` timestep, else 5 ms
+            (smaller on terrain with edges).
+        noise: measurement noise added to the log (:mod:`mjtrack.sim.noise`): a preset
+            (``"none"``, ``"realistic"``: the level of the real Marmotte, Husky and Warthog logs),
+            ``"realistic,yaw_std=0.01"``, a dict of ``*_std`` values [SI] with an optional
+            ``"preset"``, or a :class:`~mjtrack.sim.noise.LogNoise`; default none.
 
     Returns:
         The :class:`~mjtrack.io.logs.DriveLog` (plus ``z``, ``roll``, ``pitch`` on terrain).
@@ -77,19 +86,21 @@ def simulate_log(robot: "Robot", *, scenario: str | None = None,
         1.0
     """
     from mjtrack.sim.config import sim_config
+    from mjtrack.sim.noise import add_noise, log_noise
     from mjtrack.sim.rollout import drive_log
     from mjtrack.sim.scenarios import read_commands, scenario_commands
 
     if (scenario is None) == (commands is None):
         raise InputError("simulate_log: give exactly one of scenario and commands")
-    config = sim_config(track_model, timestep=timestep)
+    noise = log_noise(noise)  # a bad spec is refused before the rollout
+    config = sim_config(track_model, timestep=timestep, robot=robot)
     if scenario is not None:
         table, duration = scenario_commands(scenario, robot, duration=duration, seed=seed)
     else:
         table = read_commands(commands) if isinstance(commands, (str, os.PathLike)) else _command_table(commands)
         duration = float(duration) if duration is not None else float(table[0][-1]) + 1.0
-    return drive_log(robot, table, duration=duration, config=config, log_rate=log_rate,
-                     terrain=_terrain(terrain, scenario))
+    return add_noise(drive_log(robot, table, duration=duration, config=config, log_rate=log_rate,
+                               terrain=_terrain(terrain, scenario)), noise, seed=seed)
 
 
 def _command_table(commands: Any) -> "tuple[np.ndarray, np.ndarray, np.ndarray]":
@@ -140,7 +151,7 @@ def log_icrs(log: "DriveLog", *, wz_min: float = 1e-3) -> "ICR":
 
 
 def mujoco_steady_state(robot: "Robot", v_left: float, v_right: float, *, terrain: "str | Terrain | None" = None,
-                        track_model: str = "rollers", settle_s: float = 3.0, window_s: float = 2.0
+                        track_model: str | None = None, settle_s: float = 3.0, window_s: float = 2.0
                         ) -> "SteadyResult":
     """Steady-state twist and ICRs of the MuJoCo robot under constant track speeds.
 
@@ -151,9 +162,11 @@ def mujoco_steady_state(robot: "Robot", v_left: float, v_right: float, *, terrai
 
     Args:
         robot: the robot description.
-        v_left, v_right: commanded track speeds [m/s].
+        v_left: commanded left track speed [m/s].
+        v_right: commanded right track speed [m/s].
         terrain: a ``--terrain`` spec or a :class:`~mjtrack.sim.terrain.Terrain`; default flat.
-        track_model: ``"rollers"`` (default) or ``"surfacevel"``.
+        track_model: ``"rollers"`` or ``"surfacevel"``; default the robot's ``simulator`` settings
+            (with their timestep), else rollers.
         settle_s: time under the constant commands before the averaging window [s].
         window_s: averaging window [s].
 
@@ -161,7 +174,7 @@ def mujoco_steady_state(robot: "Robot", v_left: float, v_right: float, *, terrai
         A :class:`~mjtrack.sim.steady.SteadyResult`: ``vx, vy`` [m/s], ``wz`` [rad/s] and their
         window standard deviations, ``y_l, y_r, x_c`` [m] (NaN, with the reason in
         ``icr_undefined``, where the robot does not turn), the measured track speeds and the
-        contact fractions.
+        contact fractions; ``unsettled`` says why the window is not a steady state (None when it is).
 
     Examples:
         >>> import mjtrack as mt
@@ -172,7 +185,7 @@ def mujoco_steady_state(robot: "Robot", v_left: float, v_right: float, *, terrai
     from mjtrack.sim.config import sim_config
     from mjtrack.sim.steady import steady_state
 
-    return steady_state(robot, v_left, v_right, config=sim_config(track_model), settle_s=settle_s,
+    return steady_state(robot, v_left, v_right, config=sim_config(track_model, robot=robot), settle_s=settle_s,
                         window_s=window_s, terrain=_terrain(terrain))
 
 
@@ -188,7 +201,8 @@ def coulomb_steady_state(robot: "Robot", v_left: float, v_right: float, *, inert
     Args:
         robot: the robot description (``track_gauge``, ``track_length``, ``mass``, centre of
             mass, friction and ``ground`` are used).
-        v_left, v_right: track speeds [m/s].
+        v_left: left track speed [m/s].
+        v_right: right track speed [m/s].
         inertial: include the centripetal force m v w (False: the quasi-static balance).
         load_transfer: shift the normal loads by the centripetal force at height ``cg_z``.
 
@@ -252,7 +266,7 @@ def validate_models(log: "DriveLog", robot: "Robot", out_dir: str | os.PathLike,
 def diagnose_log(log: "DriveLog", robot: "Robot", *, baseline: str = "auto", test_log: "DriveLog | None" = None,
                  horizon_s: float | str = "auto", n_folds: int = 5, effects: list[str] | None = None,
                  out_dir: str | os.PathLike | None = None, quiet: bool = True) -> "Diagnosis":
-    """Find what a simulation of the robot gets wrong on a measured log, and why.
+    """Find what a simulation of the robot gets wrong on a drive log, and why.
 
     The Python form of ``mjtrack diagnose``: each candidate effect extends the baseline, is fitted on
     part of the log and reported only when its held-out gain is significant (docs/guide/own-log.md).
@@ -296,7 +310,7 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
                     params: list[str] | None = None, horizon_s: float = 2.0, max_iter: int = 8,
                     out_dir: str | os.PathLike | None = None, quiet: bool = True,
                     drive_input: str = "commanded", fit_windows: int | None | str = "default") -> "Calibration":
-    """Fit the MuJoCo robot's description to a measured log.
+    """Fit the MuJoCo robot's description to a drive log.
 
     The Python form of ``mjtrack calibrate``: windows of ``horizon_s`` simulated from the measured
     state, parameters fitted to the poses at their ends (a parameter the log leaves open is kept).
@@ -311,7 +325,10 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
         horizon_s: window length [s].
         max_iter: optimiser iterations.
         out_dir: when given, ``robot.json``, ``calibration.json`` and ``report.html`` are written.
-        quiet: no progress display. drive_input: ``"commanded"`` or ``"measured"`` (``--drive-input``).
+        quiet: no progress display.
+        drive_input: what the simulated drives follow: ``"commanded"`` (the logged commands; the
+            drive's lag, delay and speed scale are fitted too) or ``"measured"`` (the logged track
+            speeds, for a robot whose own speed controller caps its commands; ``--drive-input``).
         fit_windows: windows the fit uses, spread over the log (``--fit-windows``; None: all;
             default: the command's).
 

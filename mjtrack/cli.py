@@ -43,19 +43,34 @@ COMMANDS: dict[str, str] = {
 _NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
 
 
+def join_negative_values(words: list[str]) -> list[str]:
+    """``words`` with each negative number that follows a long option joined to it
+    (``--v-left -1e300`` -> ``--v-left=-1e300``), the form argparse reads as the option's value
+    whatever the number looks like. A flag so joined is refused by argparse as before (a flag takes
+    no value); after ``--`` nothing is changed."""
+    out: list[str] = []
+    for word in words:
+        if (out and _NEGATIVE_NUMBER.match(word) and out[-1].startswith("--") and "=" not in out[-1]
+                and out[-1] != "--" and "--" not in out[:-1]):
+            out[-1] = f"{out[-1]}={word}"
+        else:
+            out.append(word)
+    return out
+
+
 class OneLineParser(argparse.ArgumentParser):
-    """argparse with usage errors on one line (the usage itself is in ``--help``)."""
+    """argparse with usage errors on one line (the usage itself is in ``--help``) and negative
+    numbers of any form as option values (:func:`join_negative_values`)."""
 
-    def __init__(self, *args, **kwargs) -> None:
-        super().__init__(*args, **kwargs)
-        self._negative_number_matcher = _NEGATIVE_NUMBER
-
-    def _get_values(self, action, arg_strings):
-        # argparse drops a "--" value (``--settle=--``) and hands an option of one value an empty list,
-        # past its type check
-        if action.nargs is None and action.option_strings and arg_strings == ["--"]:
-            self.error(f"argument {'/'.join(action.option_strings)}: expected one value, got '--'")
-        return super()._get_values(action, arg_strings)
+    def parse_known_args(self, args=None, namespace=None):
+        words = sys.argv[1:] if args is None else [str(a) for a in args]
+        namespace, extras = super().parse_known_args(join_negative_values(words), namespace)
+        # argparse drops the value "--" (``--settle=--``) and stores an empty list past the option's
+        # type check; no option of mjtrack takes a list, so an empty list is that dropped value
+        for dest, value in vars(namespace).items():
+            if isinstance(value, list) and not value:
+                self.error(f"argument --{dest.replace('_', '-')}: expected one value, got '--'")
+        return namespace, extras
 
     def error(self, message: str):  # type: ignore[override]
         self.exit(2, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
@@ -134,7 +149,9 @@ def _run(argv: list[str] | None, state: dict, program: bool, interrupted) -> int
         if signum is not None:  # a failure the interrupt caused (a pipe to a killed child, a cancelled task)
             return _end_interrupted(interrupted(signum), 128 + signum, program=program)
         if isinstance(exc, InputError):
-            print(f"mjtrack {state['command']}: error: {one_line(exc)}", file=sys.stderr)
+            from mjtrack.commands._common import option_words  # the library names parameters
+
+            print(f"mjtrack {state['command']}: error: {one_line(option_words(str(exc)))}", file=sys.stderr)
             return 2
         if isinstance(exc, (MjtrackError, OSError)):  # OSError: disk full, permission denied, ...
             print(f"mjtrack {state['command']}: failed: {one_line(exc)}", file=sys.stderr)

@@ -87,6 +87,7 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
     from mjtrack.io.robot import write_robot
     from mjtrack.progress import Progress
     from mjtrack.render import RenderUnavailableError
+    from mjtrack.sim.config import sim_config
     from mjtrack.sim.rollout import drive_log
     from mjtrack.sim.terrain import Terrain, with_terrain
     from mjtrack.validate import validate
@@ -102,7 +103,8 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
 
     tic = time.perf_counter()
     with Progress(1, label="rollout", quiet=quiet) as bar:
-        drive = drive_log(robot, demo_commands(robot, duration=duration, seed=seed), duration=duration, terrain=terrain)
+        drive = drive_log(robot, demo_commands(robot, duration=duration, seed=seed), duration=duration, terrain=terrain,
+                          config=sim_config(None, robot=robot))  # a calibrated robot's own simulator settings
         log_path = out / "rollout.csv"
         write_log(drive, log_path)
         write_robot(robot, robot_path_for(log_path))
@@ -113,7 +115,7 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
     ground = "" if terrain.is_flat else f" on terrain {terrain.spec}"
     which = (f"the given robot on {robot.traction} (T {robot.track_gauge:g} m, {robot.mass:g} kg, cg_x {robot.cg_x:+g} m)"
              if given else f"the default robot with cg_x = +{robot.cg_x:g} m")
-    source = f"MuJoCo rollout of {which}{ground}: seeded everyday manoeuvres (seed {seed}, {duration:g} s; mjtrack demo)"
+    source = f"simulated log of {which}{ground}: seeded everyday manoeuvres (seed {seed}, {duration:g} s; mjtrack demo)"
     val = validate(drive.replace(source=str(log_path)), robot, out, source=source, seed=seed, quiet=quiet)
     stage_s["validate"] = time.perf_counter() - tic
 

@@ -89,3 +89,41 @@ def test_the_two_steady_states_are_different_functions_on_one_robot():
     res = run_cli(["steady", "--v-left", "0.3", "--v-right", "0.6", "--json"])
     assert res.rc == 0, res.err
     assert json.loads(res.out)["y_l"] == mj.y_l
+
+
+def _documented_parameters(function) -> list[tuple[str, str]]:
+    """(name, text) of each parameter entry of a docstring as the docs render it (napoleon's
+    Google-style parser, which gives ``a, b: text`` one entry per name with the same text)."""
+    import inspect
+    import re
+
+    from sphinx.ext.napoleon import Config
+    from sphinx.ext.napoleon.docstring import GoogleDocstring
+
+    text = str(GoogleDocstring(inspect.getdoc(function), Config(napoleon_use_param=True)))
+    entries = re.findall(r"^:param ([^:\s]+):(.*(?:\n {2,}.*)*)", text, re.MULTILINE)
+    return [(name, " ".join(body.split())) for name, body in entries]
+
+
+@pytest.mark.parametrize("name", sorted(n for n in dir(api) if not n.startswith("_")
+                                        and callable(getattr(api, n)) and getattr(api, n).__module__ == api.__name__))
+def test_every_parameter_has_its_own_docstring_entry(name):
+    import inspect
+
+    function = getattr(api, name)
+    entries = _documented_parameters(function)
+    assert [n for n, _ in entries] == list(inspect.signature(function).parameters)  # each, in order
+    texts = [t for _, t in entries]
+    assert all(texts) and len(set(texts)) == len(texts), entries  # none empty, none shared
+
+
+def test_the_parameter_check_sees_a_shared_entry():
+    def f(a, b):
+        """Do.
+
+        Args:
+            a, b: two things in one text.
+        """
+
+    entries = _documented_parameters(f)
+    assert [n for n, _ in entries] == ["a", "b"] and entries[0][1] == entries[1][1]

@@ -295,7 +295,7 @@ def test_marmotte_excerpt_with_robot(tmp_path):
 def test_log_without_robot_is_refused(tmp_path):
     path = tmp_path / "lonely.csv"
     shutil.copy(EXCERPT, path)
-    with pytest.raises(InputError, match=r"lonely\.csv: no robot description: .*lonely\.json does not exist and no --robot FILE"):
+    with pytest.raises(InputError, match=r"lonely\.csv: no robot description: .*lonely\.json does not exist and no robot_path FILE"):
         read_log_with_robot(path)
 
 

@@ -469,3 +469,19 @@ def test_icr_legend_names_each_marker_colour(model, backend, tmp_path):
     last = frames["legend"][-1][:h + 8, -(w + 8):].astype(np.uint8)
     for rgba in ICR_RGBA:  # the colours survive the video codec
         assert colour_mask(last, rgba[:3]).sum() > 5, rgba
+
+
+@pytest.mark.parametrize("traction, side", [("tracks", "track"), ("wheels", "wheels")])
+def test_video_legend_names_the_robots_own_sides(traction, side, tmp_path, monkeypatch):
+    """The legend of a wheeled robot's video speaks of its wheels (the frames themselves: above)."""
+    import mjtrack.render
+    from mjtrack.io.robot import Robot
+    from mjtrack.sim.rollout import drive_log
+    from mjtrack.validate.video import render_log
+
+    robot = Robot(traction=traction, sprocket_radius=0.1) if traction == "wheels" else Robot()
+    log = drive_log(robot, (np.array([0.0]), np.array([0.3]), np.array([0.6])), duration=0.2)
+    seen = {}
+    monkeypatch.setattr(mjtrack.render, "render_video", lambda *a, **kw: seen.update(kw))
+    render_log(log, robot, tmp_path / "v.mp4")
+    assert seen["icr_labels"] == (f"ICR left {side}", f"ICR right {side}", "ICR body")

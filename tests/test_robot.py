@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import sys
 import types
 from pathlib import Path
@@ -37,6 +38,12 @@ DATA = Path(__file__).parent / "data"
         (dict(mu_left=-1.0), r"'mu_left' must be a positive number or null"),
         (dict(cg_y=0.2), r"'cg_y' = 0\.2 puts the centre of mass outside the tracks \(\|cg_y\| must be < track_gauge/2 = 0\.2\)"),
         (dict(cg_x=-0.3), r"'cg_x' = -0\.3 puts the centre of mass outside the tracks"),
+        (dict(cg_z=-0.5), r"'cg_z' = -0\.5 m puts the centre of mass at or below the ground"),
+        (dict(cg_z=0.0), r"'cg_z' = 0 m puts the centre of mass at or below the ground"),
+        # 2 x max(T 0.4, L 0.5) = 1 m
+        (dict(cg_z=50.0), r"'cg_z' = 50 m is beyond physical plausibility: .* at most 2 x max\(track_gauge, "
+                          r"track_length\) = 1 m above the ground"),
+        (dict(cg_z=1.3, traction="wheels", wheelbase=0.6), r"'cg_z' = 1\.3 m .* max\(track_gauge, wheelbase\) = 1\.2 m"),
     ],
 )
 def test_robot_refuses_bad_values(fields, pattern):
@@ -245,3 +252,39 @@ def test_provided_keys_are_recorded():
     assert r.replace(mass=30.0).provided == frozenset({"track_gauge", "mass"})
     assert Robot().provided is None
     assert "provided" not in r.to_dict()
+
+
+def test_cg_height_bound_is_the_stated_multiple_of_the_footprint():
+    """At the bound the robot tips under a lateral acceleration of g T / (2 cg_z) <= g / 4."""
+    from mjtrack.io.robot import MAX_CG_HEIGHT_RATIO
+
+    robot = Robot(track_gauge=0.6, track_length=0.3)
+    assert robot.max_cg_z == pytest.approx(MAX_CG_HEIGHT_RATIO * 0.6)
+    assert Robot(track_gauge=0.6, track_length=0.3, cg_z=robot.max_cg_z).cg_z == robot.max_cg_z  # inclusive
+    assert robot.track_gauge / (2 * robot.max_cg_z) <= 0.25
+
+
+@pytest.mark.parametrize("option, bound", [("--cg-x", "|cg_x| < track_length/2 (wheelbase/2 on wheels)"),
+                                           ("--cg-y", "|cg_y| < track_gauge/2")])
+def test_centre_of_mass_help_states_the_bound_the_robot_checks(option, bound):
+    res = run_cli(["simulate", "--help"])
+    block = " ".join(res.out.split(f"\n  {option} ", 1)[1].split("\n  --", 1)[0].split())
+    assert block.endswith(bound) and "100" not in block, block
+    name, limit = bound.split(" (")[0].split(" < ")  # the robot's own check words it the same way
+    with pytest.raises(InputError, match=re.escape(f"{name} must be < {limit}")):
+        Robot(cg_x=0.5) if option == "--cg-x" else Robot(cg_y=0.3)
+
+
+@pytest.mark.parametrize("key, meant", [("weight", "mass"), ("length", "track_length"), ("mass_kg", "mass"),
+                                        ("gauge_mm", "track_gauge"), ("cg_height", "cg_z"),
+                                        ("Axle-Distance", "wheelbase"), ("actuator_lag", "drive_lag")])
+def test_a_key_naming_a_known_quantity_is_refused_with_the_key_it_means(key, meant):
+    with pytest.raises(InputError, match=rf"^r\.json: key '{key}' looks like the robot's {meant}: "
+                                         rf"did you mean '{meant}'"):
+        Robot.from_dict({"track_gauge": 0.4, key: 60}, source="r.json")
+
+
+def test_metadata_keys_of_the_data_sets_are_still_kept():
+    robot = Robot.from_dict({"track_gauge": 0.4, "robot": "husky", "note": "x", "sample_rate_hz": 20},
+                            source="r.json")
+    assert robot.extra == {"robot": "husky", "note": "x", "sample_rate_hz": 20}

@@ -257,7 +257,7 @@ def test_a_failed_command_leaves_nothing(tmp_path):
         atomic.atomic_write_text(tmp_path / "x" / "a.txt", "a")
         raise RuntimeError
     assert sorted(p.name for p in tmp_path.iterdir()) == ["new", "old.txt"]  # the created folder went too
-    with atomic.transaction(), pytest.raises(InputError, match="old.txt: exists; pass --force"):
+    with atomic.transaction(), pytest.raises(InputError, match="old.txt: exists; pass force=True"):
         atomic.atomic_write_text(tmp_path / "old.txt", "new")
     assert (tmp_path / "old.txt").read_text() == "old"
 

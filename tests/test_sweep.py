@@ -114,7 +114,7 @@ def test_sweep_numbers_are_those_of_steady(swept, capsys):
     assert (row["speed"], row["turn_radius"], row["mu"]) == ("-0.6", "0.5", "0.5")
     capsys.readouterr()
     assert main(["steady", "--v-left", row["v_left_cmd"], "--v-right", row["v_right_cmd"], "--mu", "0.5",
-                 *SHORT]) == 0
+                 *SHORT, "--json"]) == 0
     steady = json.loads(capsys.readouterr().out)
     for k in ("v_left_cmd", "v_right_cmd", "v_left", "v_right", "vx", "vy", "wz", "y_l", "y_r", "x_c"):
         assert float(row[k]) == steady[k], k  # bit-identical: same model, same state, same steps
@@ -165,7 +165,7 @@ def test_resume_refuses_other_settings(swept, capsys):
     before = (out / "sweep.partial.csv").read_bytes()
     assert main(["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--workers", "1",
                  "--settle", "0.3", "--window", "0.4"]) == 2
-    assert "other settings (window_s)" in capsys.readouterr().err
+    assert "other settings (--window)" in capsys.readouterr().err
     assert (out / "sweep.partial.csv").read_bytes() == before
 
 
@@ -214,12 +214,12 @@ def test_sweep_on_terrain_is_steady_on_terrain(tmp_path, cluster, capsys):
     row = _rows(tmp_path / "o" / "sweep.csv")[1]
     assert json.loads((tmp_path / "o" / "sweep.json").read_text())["terrain"]["spec"] == "incline:0.1:1.0"
     capsys.readouterr()
-    assert main(["steady", "--v-left", "0.3", "--v-right", "0.6", *terrain, *SHORT]) == 0
+    assert main(["steady", "--v-left", "0.3", "--v-right", "0.6", *terrain, *SHORT, "--json"]) == 0
     steady = json.loads(capsys.readouterr().out)
     for k in ("vx", "vy", "wz", "y_l", "y_r", "x_c"):
         assert float(row[k]) == steady[k], k
     flat = _rows(tmp_path / "o" / "sweep.csv")  # and the slope did change the motion
-    assert main(["steady", "--v-left", "0.3", "--v-right", "0.6", *SHORT]) == 0
+    assert main(["steady", "--v-left", "0.3", "--v-right", "0.6", *SHORT, "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["vy"] != float(flat[1]["vy"])
 
 
@@ -274,3 +274,24 @@ def test_chunks_deal_the_cases_out_in_turn():
         assert sorted(i for c in chunks for i in c) == list(range(n))
         assert all(1 <= len(c) <= size for c in chunks) and len(chunks) == -(-n // size)
     assert list(_chunks(list(range(10)), 4)) == [[0, 3, 6, 9], [1, 4, 7], [2, 5, 8]]
+
+
+@pytest.mark.parametrize("radii", [[0.5, 1.0, 2.0, 3.0], [-2.0, -0.5, 0.5, 2.0]])
+def test_icr_map_ticks_read_plain_numbers_and_the_title_says_simulated(radii):
+    """Made-up rows (no simulation): the figure's words only."""
+    import matplotlib.pyplot as plt
+
+    from mjtrack.sweep.figure import icr_map_figure
+
+    grid = grid_from_dict({"speed": [0.5], "turn_radius": radii}, base=Robot(track_gauge=0.4))
+    records = [{"case": i, "y_l": 0.25, "y_r": -0.25, "x_c": 0.01} for i in range(len(radii))]
+    fig = icr_map_figure(records, grid)
+    try:
+        fig.canvas.draw()
+        labels = [t.get_text() for ax in fig.axes for axis in (ax.xaxis,)
+                  for t in axis.get_majorticklabels() + axis.get_minorticklabels() if t.get_text()]
+        assert labels and not [t for t in labels if "$" in t or "10^" in t or "times" in t], labels
+        assert 1.0 in {float(t.replace("\u2212", "-")) for t in labels}  # every label a plain number
+        assert fig._suptitle.get_text().startswith("Simulated ICRs of 4 steady states")
+    finally:
+        plt.close(fig)

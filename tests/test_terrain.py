@@ -55,7 +55,7 @@ def patches_file(tmp_path):
     ("hill", r"unknown terrain"),
 ])
 def test_bad_specs_are_one_line_errors(spec, pattern):
-    with pytest.raises(InputError, match=r"^--terrain " + re.escape(spec) + ": " + pattern) as info:
+    with pytest.raises(InputError, match=r"^terrain=" + re.escape(repr(spec)) + ": " + pattern) as info:
         parse_terrain(spec)
     assert "\n" not in str(info.value)
 
@@ -192,7 +192,7 @@ def test_no_warning_seeded_terrain_grid(hfield_file):
 
 
 def test_step_under_the_start_footprint_is_refused():
-    with pytest.raises(InputError, match=r"^--terrain step:0.04:0.3: the step edge at x = 0.3 m lies under the robot's "
+    with pytest.raises(InputError, match=r"^terrain='step:0.04:0.3': the step edge at x = 0.3 m lies under the robot's "
                                          r"start footprint"):
         build_model(Robot(), SimConfig(), parse_terrain("step:0.04:0.3"))
 

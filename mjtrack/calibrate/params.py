@@ -136,21 +136,21 @@ def parse_names(text: str | None, robot: Robot, log: DriveLog | None = None) -> 
     names = [n.strip() for n in text.split(",") if n.strip()]
     specs = specs_for(robot)
     if not names:
-        raise InputError("--params: no parameter named")
+        raise InputError("params: no parameter named")
     for n in names:
         if n not in specs:
-            raise InputError(f"--params: unknown parameter {n!r}; known: {', '.join(specs)}")
+            raise InputError(f"params: unknown parameter {n!r}; known: {', '.join(specs)}")
         if n in ("track_length", "wheelbase") and n != geometry_name(robot):
-            raise InputError(f"--params: {n!r} is not the contact length of a robot on {robot.traction}; "
+            raise InputError(f"params: {n!r} is not the contact length of a robot on {robot.traction}; "
                              f"fit {geometry_name(robot)!r}")
         for model, ps in GROUND_PARAMS.items():
             if n in ps and robot.ground.model != model:
-                raise InputError(f"--params: {n!r} belongs to the {model!r} ground; the robot's ground is "
+                raise InputError(f"params: {n!r} belongs to the {model!r} ground; the robot's ground is "
                                  f"{robot.ground.model!r} (set robot key ground: {{\"model\": \"{model}\"}})")
     if len(set(names)) != len(names):
-        raise InputError(f"--params: a parameter is named twice: {text!r}")
+        raise InputError(f"params: a parameter is named twice: {text!r}")
     if ({"mu", "mu_ratio"} & set(names)) and ({"mu_left", "mu_right"} & set(names)):
-        raise InputError("--params: fit friction either as 'mu'/'mu_ratio' or as 'mu_left'/'mu_right', not both")
+        raise InputError("params: fit friction either as 'mu'/'mu_ratio' or as 'mu_left'/'mu_right', not both")
     return names
 
 

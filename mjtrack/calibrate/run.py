@@ -389,8 +389,8 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
             names = parse_names(names, robot, train)
         bad = [n for n in names if n in COMMAND_PARAMS]
         if bad:
-            raise InputError(f"--params {', '.join(bad)}: describe when the drives follow their commands; with "
-                             f"--drive-input measured the drives follow the measured track speeds")
+            raise InputError(f"params={','.join(bad)}: describe when the drives follow their commands; with "
+                             f"drive_input='measured' the drives follow the measured track speeds")
     with summarised_mujoco_warnings(f"calibrate {src}", log):  # one line, not one per diverged window
         return _calibrate(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
                           max_iter=max_iter, nthread=nthread, quiet=quiet, train_path=train_path,

@@ -6,8 +6,10 @@ speeds and robot values reuse the plausibility limits of the drive-log and robot
 outside is a usage error, exit 2, one line naming the option, its value and the range.
 
 Overwrites, one rule for every command: an output that already exists is not replaced unless
-``--force`` is given (exit 2, one line naming the file and the flag, before any work;
-:func:`check_overwrite`). :class:`mjtrack.io.atomic.OutputTransaction` guards the same rule
+``--force`` is given, and an output that is one of the command's inputs (:func:`command_inputs`)
+is never replaced, not even with ``--force`` (exit 2, one line naming the file, before any work;
+:func:`check_overwrite`). The inputs are read before the outputs are checked, so that an error in
+the robot file is reported before a clash of names. :class:`mjtrack.io.atomic.OutputTransaction` guards the same rule
 when the files are written.
 
 Robot options on every command that simulates::
@@ -30,6 +32,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 import tempfile
 from pathlib import Path
 from typing import Iterable
@@ -39,6 +42,33 @@ from dataclasses import dataclass
 from mjtrack.errors import InputError
 from mjtrack.io.logs import PLAUSIBLE, read_log, read_log_with_robot, robot_path_for
 from mjtrack.io.robot import PLAUSIBLE_ROBOT, Robot, read_robot
+
+#: library parameter -> command-line option. The library's errors name the parameters of its
+#: functions (``params: ...``, ``workers=64: ...``, ``pass force=True``, ``settle_s``); the command
+#: line shows them as its options (:func:`option_words`), one mapping for every command.
+PARAMETER_OPTIONS: dict[str, str] = {
+    "params": "--params", "terrain": "--terrain", "settle_s": "--settle", "window_s": "--window",
+    "horizon_s": "--horizon", "workers": "--workers", "scheduler": "--scheduler", "baseline": "--baseline",
+    "force": "--force", "restart": "--force", "drive_input": "--drive-input", "odom": "--odom", "cmd": "--cmd",
+    "joints": "--joints", "robot_path": "--robot", "out": "--out", "keep_contradicting": "--keep-contradicting",
+    "fit_windows": "--fit-windows", "n_folds": "--folds",
+}
+_NAMES = "|".join(sorted(PARAMETER_OPTIONS, key=len, reverse=True))
+_LEADING = re.compile(rf"^({_NAMES}):")  # "params: unknown parameter 'x'"
+_FLAG = re.compile(rf"\b({_NAMES})=True\b")  # "pass force=True"
+_VALUE = re.compile(rf"\b({_NAMES})=('[^']*'|\"[^\"]*\"|[^\s:;,)]+)")  # "workers=64", "terrain='step:1:2'"
+_SNAKE = re.compile(rf"\b({'|'.join(n for n in PARAMETER_OPTIONS if '_' in n)})\b")  # "settle_s", "horizon_s"
+
+
+def option_words(message: str) -> str:
+    """A library error's ``message`` with its parameters written as the command line's options
+    (:data:`PARAMETER_OPTIONS`): a leading ``name:``, ``name=True`` (a flag), ``name=value`` (the
+    option and its value, quotes dropped) and any parameter name with an underscore."""
+    message = _LEADING.sub(lambda m: PARAMETER_OPTIONS[m[1]] + ":", message)
+    message = _FLAG.sub(lambda m: PARAMETER_OPTIONS[m[1]], message)
+    message = _VALUE.sub(lambda m: f"{PARAMETER_OPTIONS[m[1]]} {m[2].strip(chr(39) + chr(34))}", message)
+    return _SNAKE.sub(lambda m: PARAMETER_OPTIONS[m[1]], message)
+
 
 # option dest -> (Robot field, metavar, help)
 ROBOT_OPTIONS: dict[str, tuple[str, str, str]] = {
@@ -51,6 +81,13 @@ ROBOT_OPTIONS: dict[str, tuple[str, str, str]] = {
     "track_gauge": ("track_gauge", "M", "distance between the track centre lines [m]"),
     "track_length": ("track_length", "M", "length of each track's ground contact [m]"),
     "wheelbase": ("wheelbase", "M", "front to rear axle distance of a wheeled robot [m]"),
+}
+
+
+# the bounds that depend on the rest of the robot, as its check states them (io/robot.py)
+ROBOT_BOUND_TEXT = {
+    "cg_x": "|cg_x| < track_length/2 (wheelbase/2 on wheels)",
+    "cg_y": "|cg_y| < track_gauge/2",
 }
 
 
@@ -72,7 +109,9 @@ class Bound:
 
 
 _SPEED = PLAUSIBLE["v_left_cmd"][0]  # [m/s] the drive-log bound of a track speed
-_COORD = 100.0  # [m] the robot reader's bound of a centre-of-mass height, used for cg_x, cg_y too
+# [m] half the longest plausible track or gauge: no centre-of-mass offset can be larger (the robot's
+# own bound, checked with the rest of the robot, is |cg_x| < track_length/2, |cg_y| < track_gauge/2)
+_COORD = PLAUSIBLE_ROBOT["track_length"][1] / 2
 DAY_S = 86_400.0  # [s] longest simulated time an option takes (the rollout's step budget still applies)
 
 #: kind -> bound; the one table behind every numeric option of every command
@@ -147,14 +186,16 @@ def add_robot_options(parser: argparse.ArgumentParser) -> None:
     """Add ``--robot FILE`` and the per-field overrides (all default to ``None``: not given)."""
     group = parser.add_argument_group(
         "robot", "the robot: --robot FILE (a JSON object of SI values: track_gauge [m, required], track_length, "
-        "track_width, sprocket_radius [m], mass [kg], cg_x, cg_y, cg_z [m], mu, mu_left, mu_right; a wheeled robot: "
+        "track_width, sprocket_radius [m], mass [kg], cg_x, cg_y [m] (from the geometric centre), cg_z [m] (height "
+        "above the ground), mu, mu_left, mu_right; a wheeled robot: "
         "traction \"wheels\", wheel_radius, wheelbase [m], wheels_per_side), then each option below overrides one field"
     )
     group.add_argument("--robot", metavar="FILE", type=Path, default=None,
                        help="robot description JSON (at least 'track_gauge' [m])")
     for dest, (_, metavar, text) in ROBOT_OPTIONS.items():
+        bound = ROBOT_BOUND_TEXT.get(dest, f"in {OPTION_BOUNDS[dest].text()}")
         group.add_argument("--" + dest.replace("_", "-"), dest=dest, metavar=metavar,
-                           type=bounded(dest), default=None, help=f"{text}, in {OPTION_BOUNDS[dest].text()}")
+                           type=bounded(dest), default=None, help=f"{text}, {bound}")
 
 
 def robot_from_args(args: argparse.Namespace, base: Robot | None = None) -> Robot:
@@ -235,13 +276,73 @@ def add_force_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--force", action="store_true", help=FORCE_HELP)
 
 
-def check_overwrite(paths: Iterable[str | os.PathLike], force: bool) -> None:
-    """Refuse, before any work, to replace any of ``paths`` that exists, unless ``force``."""
+def check_overwrite(paths: Iterable[str | os.PathLike], force: bool,
+                    inputs: Iterable[str | os.PathLike] = ()) -> None:
+    """Refuse, before any work, to replace any of ``paths`` that is one of ``inputs`` (even with
+    ``force``: a user's robot file or log is never replaced by an output), or that exists, unless
+    ``force``."""
+    paths = [Path(p) for p in paths]
+    inputs = [Path(p) for p in inputs]
+    for path in paths:
+        for other in inputs:
+            if _same_file(path, other):
+                raise InputError(f"{path}: is an input of this command ({other}); an output never replaces "
+                                 "an input, not even with --force: choose another output name")
     if force:
         return
     for path in paths:
         if os.path.lexists(path):
             raise InputError(f"{path}: exists; pass --force to replace it")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """``a`` and ``b`` name one file (the same path, a link to it, or a hard link)."""
+    if a.absolute() == b.absolute() or a.resolve() == b.resolve():
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist
+        return False
+
+
+# options that name files a command reads
+_INPUT_OPTIONS = ("robot", "log", "test", "commands", "grid", "bag")
+
+
+def robot_config(robot: Robot):
+    """The simulator settings a robot file records under ``simulator`` (what a calibrated robot was
+    fitted with; :func:`mjtrack.sim.config.sim_config`), else the defaults: every command that
+    simulates a robot file's robot simulates it as it was calibrated."""
+    from mjtrack.sim.config import sim_config
+
+    return sim_config(None, robot=robot)
+
+
+def check_robot_file(args: argparse.Namespace) -> None:
+    """Read ``--robot FILE`` when given, so that an error in it is reported before the outputs are
+    checked (for commands that build their robot only later, after a rollout's work estimate)."""
+    if getattr(args, "robot", None) is not None:
+        read_robot(args.robot)
+
+
+def command_inputs(args: argparse.Namespace) -> list[Path]:
+    """The files a command reads: the input options' files, the robot description beside a log
+    (``LOG.json``, read when no ``--robot`` is given) and a ``--terrain`` file."""
+    paths = []
+    for name in _INPUT_OPTIONS:
+        value = getattr(args, name, None)
+        if isinstance(value, (str, os.PathLike)):
+            paths.append(Path(value))
+            if name in ("log", "test"):
+                paths.append(robot_path_for(value))
+    spec = getattr(args, "terrain", None)
+    if isinstance(spec, str):
+        kind, _, rest = spec.partition(":")
+        if kind in ("hfield", "patches") and rest:
+            paths.append(Path(rest.split(":")[0]))
+        elif spec.endswith(".json"):
+            paths.append(Path(spec))
+    return paths
 
 
 _TMP_EXTRA = 16  # characters atomic writes add to a name (".NAME.xxxxxxxx.tmp")
@@ -313,7 +414,7 @@ def check_out_file(
     if path.is_dir():
         raise InputError(f"{path}: --out is an existing folder, expected a file name")
     for other in inputs:
-        if Path(other).exists() and path.exists() and path.resolve() == Path(other).resolve():
+        if _same_file(path, Path(other)):
             raise InputError(f"{path}: --out would overwrite the input {other}")
     if path.parent.exists():
         if not path.parent.is_dir():

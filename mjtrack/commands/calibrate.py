@@ -35,7 +35,7 @@ from pathlib import Path
 
 from mjtrack.calibrate.run import FIT_WINDOWS
 from mjtrack.commands._common import (add_output_options, add_robot_options, bounded, check_out_dir, check_overwrite,
-                                      log_and_robot, test_log_and_robot)
+                                      command_inputs, log_and_robot, test_log_and_robot)
 
 OUTPUTS = ("robot.json", "calibration.json", "report.html")
 
@@ -78,10 +78,10 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.calibrate.run import calibrate, write_outputs
     from mjtrack.io.robot import check_same_robot
 
-    out = check_out_dir(args.out)
-    check_overwrite([out / name for name in OUTPUTS], args.force)
     train, robot = log_and_robot(args)
     test, test_robot = test_log_and_robot(args.test)
+    out = check_out_dir(args.out)
+    check_overwrite([out / name for name in OUTPUTS], args.force, command_inputs(args))
     if test_robot is not None:
         check_same_robot(robot, test_robot, str(args.test))
     cal = calibrate(train, robot, test=test, names=args.params, horizon_s=args.horizon,

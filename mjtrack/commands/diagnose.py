@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 from mjtrack.commands._common import (add_output_options, add_robot_options, bounded, check_out_dir, check_overwrite,
-                                      log_and_robot, test_log_and_robot)
+                                      command_inputs, log_and_robot, test_log_and_robot)
 
 HELP = "what the nominal model gets wrong on a measured log, the cause and its gain: report.html + diagnosis.json"
 
@@ -66,10 +66,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from mjtrack.diagnose import diagnose, write_outputs
 
-    out = check_out_dir(args.out)
-    check_overwrite([out / "diagnosis.json", out / "report.html"], args.force)
     drive_log, robot = log_and_robot(args)
     test_log, test_robot = test_log_and_robot(args.test)
+    out = check_out_dir(args.out)
+    check_overwrite([out / "diagnosis.json", out / "report.html"], args.force, command_inputs(args))
     result = diagnose(drive_log, robot, horizon_s=args.horizon, n_folds=args.folds, confirm=args.confirm,
                       quiet=args.quiet, baseline=args.baseline, test_log=test_log, test_robot=test_robot,
                       drive_input=args.drive_input)

@@ -26,7 +26,8 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.io.logs import read_log
     from mjtrack.io.tum import write_tum
 
+    log = read_log(args.log)
     out = check_out_file(args.out, inputs=[args.log])
-    check_overwrite([out], args.force)
-    write_tum(read_log(args.log), out)
+    check_overwrite([out], args.force, [args.log])
+    write_tum(log, out)
     return 0

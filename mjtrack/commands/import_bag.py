@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import argparse
 
-from mjtrack.commands._common import add_force_option, add_robot_options, check_out_file, check_overwrite, robot_from_args
+from mjtrack.commands._common import (add_force_option, add_robot_options, check_out_file, check_overwrite,
+                                      command_inputs, robot_from_args)
 
 HELP = "import a ROS 2 bag (odometry, velocity commands, joint states) as a drive log CSV"
 
@@ -37,11 +38,12 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.io.logs import robot_path_for, write_log
     from mjtrack.io.robot import write_robot
 
-    out = check_out_file(args.out, suffixes=[".csv"], inputs=[args.bag])
-    check_overwrite([out, robot_path_for(out)], args.force)
     if args.robot is None and args.track_gauge is None:
         raise InputError("import-bag needs the robot's track gauge: --robot FILE or --track-gauge M")
-    robot = robot_from_args(args)
+    robot = robot_from_args(args)  # an error in the robot file before a clash of output names
+    inputs = command_inputs(args)
+    out = check_out_file(args.out, suffixes=[".csv"], inputs=inputs)
+    check_overwrite([out, robot_path_for(out)], args.force, inputs)
     log = read_bag(args.bag, robot, odom=args.odom, cmd=args.cmd, joints=args.joints)
     write_log(log, out)
     write_robot(robot, robot_path_for(out))

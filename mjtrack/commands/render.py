@@ -17,7 +17,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mjtrack.commands._common import OPTION_BOUNDS, add_output_options, bounded, check_out_file, check_overwrite
+from mjtrack.commands._common import (OPTION_BOUNDS, add_output_options, bounded, check_out_file, check_overwrite,
+                                      check_robot_file, command_inputs)
 from mjtrack.commands.validate import add_source_arguments, source_from_args
 
 HELP = "offscreen MuJoCo video (MP4) of a log or scenario, with path trail and ICRs; optional GIF of model paths"
@@ -41,10 +42,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from mjtrack.validate.video import animate_log, render_log
 
-    inputs = [args.log] if args.log else []
+    check_robot_file(args)
+    inputs = command_inputs(args)
     out = check_out_file(args.out, suffixes=(".mp4",), inputs=inputs)
     gif = check_out_file(args.gif, suffixes=(".gif",), inputs=inputs) if args.gif else None
-    check_overwrite([out, *([gif] if gif else [])], args.force)
+    check_overwrite([out, *([gif] if gif else [])], args.force, inputs)
     from mjtrack.render.video import check_frames
 
     def frames(duration: float) -> None:  # a video too long is refused before the scenario is simulated

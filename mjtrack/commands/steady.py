@@ -2,8 +2,15 @@
 
 Holds (V_L, V_R) for --settle seconds, then averages the body twist and the measured track
 speeds over --window seconds; ICRs from the means (null when driving straight).
-Prints JSON: vx, vy, wz, y_l, y_r, x_c plus the window standard deviations, the measured
-track speeds and the ground-contact fractions of each track.
+Prints a table of vx, vy, wz, y_l, y_r, x_c, the window standard deviations, the measured
+track speeds and the ground-contact fractions of each track; --json prints the same as JSON
+(null ICRs with the reason under icr_undefined). A window whose two halves differ by more than
+2 % of the command is not a steady state: both say so (unsettled; a warning on stderr), and a
+longer --settle helps.
+
+A robot file's simulator settings (simulator.track_model, n_rollers, timestep: what a calibrated
+robot was fitted with) are used; --track-model overrides the model (the recorded timestep applies
+to its own model only).
 
 Time step of the roller chain: 5 ms, divided by the smallest integer k that keeps
 max|V| dt <= 0.01 L (MuJoCo's friction opposes the slip one step ahead, which puts a turn's x_c
@@ -18,10 +25,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 
-from mjtrack.commands._common import add_robot_options, add_terrain_option, bounded, robot_from_args, terrain_from_args
+from mjtrack.commands._common import (add_robot_options, add_terrain_option, bounded, option_words, robot_from_args,
+                                      terrain_from_args)
 
-HELP = "steady-state twist and ICRs of the MuJoCo robot under constant track speeds (JSON)"
+HELP = "steady-state twist and ICRs of the MuJoCo robot under constant track speeds (table, or --json)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -29,9 +38,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--v-right", metavar="B", type=bounded("speed"), required=True, help="right track speed [m/s]")
     parser.add_argument("--settle", metavar="S", type=bounded("settle"), default=3.0, help="transient time [s] (default 3)")
     parser.add_argument("--window", metavar="S", type=bounded("window"), default=2.0, help="averaging window [s] (default 2)")
-    parser.add_argument("--track-model", choices=["rollers", "surfacevel"], default="rollers",
-                        help="MuJoCo track model: sprung roller chain (default) or surfacevel row")
-    parser.add_argument("--json", action="store_true", help="print JSON (the only output format; accepted for clarity)")
+    parser.add_argument("--track-model", choices=["rollers", "surfacevel"], default=None,
+                        help="MuJoCo track model: sprung roller chain or surfacevel row (default: the robot file's "
+                             "simulator.track_model, else rollers)")
+    parser.add_argument("--json", action="store_true", help="print JSON instead of the table")
     add_robot_options(parser)
     add_terrain_option(parser, scenarios=False)
 
@@ -41,7 +51,35 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.sim.steady import steady_state
 
     robot = robot_from_args(args)
-    result = steady_state(robot, args.v_left, args.v_right, config=sim_config(args.track_model),
+    result = steady_state(robot, args.v_left, args.v_right, config=sim_config(args.track_model, robot=robot),
                           settle_s=args.settle, window_s=args.window, terrain=terrain_from_args(args))
-    print(json.dumps(result.to_dict(), indent=2))
+    if result.unsettled:
+        print(f"mjtrack steady: warning: {option_words(result.unsettled)}", file=sys.stderr)
+    print(json.dumps(result.to_dict(), indent=2) if args.json else steady_table(result.to_dict()))
     return 0
+
+
+# (key, label, unit) of the table's rows, in the order printed
+_ROWS = (("v_left_cmd", "commanded left track speed", "m/s"), ("v_right_cmd", "commanded right track speed", "m/s"),
+         ("v_left", "measured left track speed", "m/s"), ("v_right", "measured right track speed", "m/s"),
+         ("vx", "vx (std)", "m/s"), ("vy", "vy (std)", "m/s"), ("wz", "wz (std)", "rad/s"),
+         ("y_l", "y_l, left-track ICR", "m"), ("y_r", "y_r, right-track ICR", "m"), ("x_c", "x_c, ICR ahead", "m"),
+         ("contact_left", "left track in contact", "share of steps"),
+         ("contact_right", "right track in contact", "share of steps"),
+         ("roller_contact", "rollers in contact", "share in the window"))
+
+
+def steady_table(values: dict) -> str:
+    """The steady state as aligned text rows (``--json`` prints ``values`` as they are)."""
+    lines = []
+    for key, label, unit in _ROWS:
+        value = values[key]
+        text = "null" if value is None else f"{value:.6g}"
+        std = values.get(f"{key}_std")
+        if std is not None:
+            text += f" ({std:.2g})"
+        lines.append(f"{label:<28} {text:>22} {unit}")
+    for key in ("icr_undefined", "unsettled"):
+        if values.get(key):
+            lines.append(f"{key}: {values[key]}")
+    return "\n".join(lines)

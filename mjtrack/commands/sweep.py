@@ -25,7 +25,7 @@ from __future__ import annotations
 import argparse
 
 from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, bounded, check_out_dir,
-                                      check_overwrite, robot_from_args, terrain_from_args)
+                                      check_overwrite, command_inputs, robot_from_args, terrain_from_args)
 
 ON_INTERRUPT = "the finished cases are kept: run the same command again to resume"
 HELP = "steady states over a grid of commands and robots on a dask cluster: sweep.csv, sweep.json, icr_map.png"
@@ -42,8 +42,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        help="run on an existing dask cluster, e.g. tcp://10.0.0.5:8786")
     parser.add_argument("--settle", metavar="S", type=bounded("settle"), default=3.0, help="transient time [s] (default 3)")
     parser.add_argument("--window", metavar="S", type=bounded("window"), default=2.0, help="averaging window [s] (default 2)")
-    parser.add_argument("--track-model", choices=["rollers", "surfacevel"], default="rollers",
-                        help="MuJoCo track model: sprung roller chain (default) or surfacevel row")
+    parser.add_argument("--track-model", choices=["rollers", "surfacevel"], default=None,
+                        help="MuJoCo track model: sprung roller chain or surfacevel row (default: the robot file's "
+                             "simulator.track_model, else rollers)")
     add_terrain_option(parser, scenarios=False)
     add_robot_options(parser)
     add_output_options(parser)
@@ -53,13 +54,31 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.sweep import read_grid, run_sweep
     from mjtrack.sweep.run import OUTPUTS
 
+    base = robot_from_args(args)
+    track_model = sweep_track_model(base, args.track_model)
+    grid = read_grid(args.grid, base=base)
     out = check_out_dir(args.out)
-    check_overwrite([out / name for name in OUTPUTS], args.force)
-    grid = read_grid(args.grid, base=robot_from_args(args))
-    s = run_sweep(grid, out, workers=args.workers, scheduler=args.scheduler, track_model=args.track_model,
+    check_overwrite([out / name for name in OUTPUTS], args.force, command_inputs(args))
+    s = run_sweep(grid, out, workers=args.workers, scheduler=args.scheduler, track_model=track_model,
                   settle_s=args.settle, window_s=args.window, terrain=terrain_from_args(args), quiet=args.quiet,
                   restart=args.force)
     resumed = f", {s.resumed} kept from an earlier run" if s.resumed else ""
     print(f"{s.cases} cases ({s.ran} run on {s.workers} workers in {s.seconds:.1f} s{resumed}): {out}/sweep.csv, "
           f"sweep.json, icr_map.png")
     return 0
+
+
+def sweep_track_model(robot, given: str | None) -> str:
+    """The track model a sweep runs: ``--track-model``, else the robot file's ``simulator.track_model``,
+    else rollers. A recorded time step or roller count is refused: a sweep runs each case at the
+    step steady picks for it, the same for every robot of the grid, so that its rows compare."""
+    from mjtrack.errors import InputError
+    from mjtrack.sim.config import robot_sim_settings
+
+    settings = robot_sim_settings(robot)
+    fixed = sorted(set(settings) & {"timestep", "n_rollers"})
+    if fixed:
+        raise InputError(f"the robot's simulator settings {', '.join(fixed)} are not used by sweep (each case runs at "
+                         "the step steady picks for it, for every robot of the grid alike): remove them from the "
+                         "robot file's 'simulator', or run mjtrack steady, which uses them")
+    return given or settings.get("track_model", "rollers")

@@ -11,7 +11,7 @@ polar law chasing a goal pose ahead on the path), line_following (two sensors on
 line). Their body commands (v, w) go to the tracks or wheel sides through a compensation: none
 (nominal V_L,R = v -+ w T/2: the thesis's adapter), icr (inverse ICR map of the online estimate for the feed-forward, feedback
 on the body point that does not drift sideways) or vir (the same map plus the virtual-robot
-heading correction of the tracked-robot thesis, eq. 2.21). The estimate is applied with a trust
+heading correction, eq. (2.21) of [Mendaluk]). The estimate is applied with a trust
 weight in [0, 1]: 0 while it is
 unconverged, physically impossible, or no better than the nominal map at explaining the
 measured motion; so compensation fades out where it cannot help. Same controller and gains for
@@ -20,7 +20,7 @@ feedforward, pole_placement) can be compensated, and the default is vir for trac
 feedforward, none for the others. --reference-map coulomb starts the compensation from the Coulomb reference's
 steady ICRs of the robot's description at each reference command instead of the nominal map
 (large gains where slip is large; worse than none on some paths with the centre of gravity
-behind the centre, see README). Writes DIR/tracking.json (rms_cross_track_m, max_cross_track_m,
+behind the centre: docs results page "Path controllers"). Writes DIR/tracking.json (rms_cross_track_m, max_cross_track_m,
 final_pos_err_m, mean_trust_weight, the settings, the robot, the final ICR estimate) and
 DIR/tracking.png (path vs reference, cross-track error over time). The cross-track error is the
 distance to the path near where the robot should be: the reference's s(t), or the robot's own
@@ -36,7 +36,8 @@ import json
 from pathlib import Path
 
 from mjtrack.commands._common import (TERRAIN_HELP, add_output_options, add_robot_options, bounded, check_out_dir,
-                                      check_overwrite, robot_from_args, terrain_from_args)
+                                      check_overwrite, command_inputs, robot_config, robot_from_args,
+                                      terrain_from_args)
 
 HELP = ("closed-loop path tracking on the MuJoCo robot, tracked or wheeled (the slip-compensated tracker or the "
         "thesis's five controllers) -> tracking.json + tracking.png")
@@ -56,9 +57,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--reference-map", choices=["nominal", "coulomb"], default="nominal",
                         help="the map the compensation starts from and blends its online estimate against: nominal "
                              "ICRs (default) or the Coulomb reference's steady ICRs of the robot description, flat ground "
-                             "only (median error to none 0.43 -> 0.23-0.29 on README's grid, but worse than none on some "
-                             "paths with the CG behind, and up to 6x with a description whose CG is 3 cm off: calibrate "
-                             "the description first)")
+                             "only (it helps where the description is right, is worse than none on some paths with the "
+                             "centre of mass behind, and much worse with a description whose centre of mass is off: "
+                             "calibrate the description first; docs results page \"Path controllers\")")
     parser.add_argument("--controller", choices=list(CONTROLLERS), default="tracker",
                         help="tracker: feed-forward + pole-placement state feedback with the slip compensation (default); "
                              + "; ".join(f"{k}: {v}" for k, v in DESCRIPTIONS.items())
@@ -122,15 +123,15 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.control.runs import run_tracking
     from mjtrack.io.atomic import atomic_write_text
 
-    out = check_out_dir(args.out)
-    check_overwrite([out / "tracking.json", out / "tracking.png"], args.force)
-    compensation = args.compensation or ("vir" if args.controller in ("tracker", "feedforward") else "none")
-    robot = robot_from_args(args)
+    robot = robot_from_args(args)  # an error in the robot file before a clash of output names
     terrain = terrain_from_args(args)
+    out = check_out_dir(args.out)
+    check_overwrite([out / "tracking.json", out / "tracking.png"], args.force, command_inputs(args))
+    compensation = args.compensation or ("vir" if args.controller in ("tracker", "feedforward") else "none")
     noise = {} if not args.no_noise else {"pose_noise": (0.0, 0.0, 0.0), "twist_noise": (0.0, 0.0, 0.0)}
     result = run_tracking(robot, scenario=args.scenario, compensation=compensation, controller=args.controller,
                           control_dt=1.0 / args.control_rate, speed=args.speed, laps=args.laps, seed=args.seed,
-                          terrain=terrain, reference_map=args.reference_map, **noise)
+                          terrain=terrain, reference_map=args.reference_map, config=robot_config(robot), **noise)
     hist = result.icr_history
     doc = dict(result.metrics)
     doc["settings"] = result.settings

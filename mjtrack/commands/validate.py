@@ -1,18 +1,18 @@
 """Model-vs-physics validation of the kinematic models and their filters.
 
-Input: a drive log (LOG.csv, with LOG.json or --robot for the robot) or a MuJoCo rollout of a
+Input: a drive log (LOG.csv, with LOG.json or --robot for the robot) or a simulated log of a
 built-in scenario (--scenario NAME, robot options, --duration, --seed). For each kinematic
 model (nominal, MPP, MICR, MVIR) with parameters from the filters run online on the log
 (slip EKF -> MPP, improved ICR EKF -> MICR, improved VIR filter -> MVIR) and from the log's
 own ICRs (from its body twist and track speeds) as an upper bound, it scores predictions over
-0.5, 1, 2 and 5 s against the log and against an MPP analytic truth with known slips (thesis 4.2) on the same commands.
+0.5, 1, 2 and 5 s against the log and against an MPP analytic truth with known slips (section 4.2 of [Mendaluk]) on the same commands.
 The filters see seeded Gaussian measurement noise (--noise-scale, 0 = none); errors are
 scored against the noise-free truth. The filters adapt their process noise (a slow and a fast
 random walk of their parameters), carry their parameters across the windows of a log (only
-the pose restarts), and on a measured log take its measurement noise estimated from the log.
+the pose restarts), and on a log read from a file take its measurement noise estimated from the log.
 Writes DIR/report.html (self-contained: verdicts, setup, definitions, figures, filter
 consistency with NIS over time) and DIR/metrics.json (the same numbers; per filter and truth
-consistency: nis_mean, nis_dof, nees_mean (null on a measured log), nees_dof, band95).
+consistency: nis_mean, nis_dof, nees_mean (null on a log read from a file), nees_dof, band95).
 On a wheeled robot (robot key traction: "wheels") it also scores the wheeled-robot thesis's four
 models on the log: the kinematic differential drive and the four-wheel skid steer driven by the
 wheel speeds, dynamic models 1 and 2 by the commanded wheel speeds (their own regulator), each
@@ -28,7 +28,7 @@ import argparse
 from pathlib import Path
 
 from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, bounded, check_out_dir,
-                                      check_overwrite, robot_from_args, scenario_help, terrain_from_args)
+                                      check_overwrite, check_robot_file, command_inputs, robot_config, robot_from_args, scenario_help, terrain_from_args)
 from mjtrack.errors import InputError
 
 HELP = "model-vs-physics validation of the kinematic models and filters: report.html + metrics.json"
@@ -42,7 +42,7 @@ def add_source_arguments(parser: argparse.ArgumentParser) -> None:
                         help="drive log (CSV: t, v_left_cmd, v_right_cmd, x, y, yaw, ...); its robot is LOG.json "
                              "beside it or --robot FILE")
     parser.add_argument("--scenario", choices=list(SCENARIOS), default=None,
-                        help=scenario_help("instead of a log: a MuJoCo rollout of a built-in scenario"))
+                        help=scenario_help("instead of a log: a simulated log of a built-in scenario"))
     parser.add_argument("--duration", metavar="S", type=bounded("duration"), default=None,
                         help="scenario duration [s] (default: the scenario's)")
     parser.add_argument("--seed", type=bounded("seed"), default=0,
@@ -67,13 +67,14 @@ def source_from_args(args: argparse.Namespace, *, before_rollout=None):
 
         robot = robot_from_args(args)
         table, duration = scenario_commands(args.scenario, robot, duration=args.duration, seed=args.seed)
-        words = f"MuJoCo rollout of the scenario '{args.scenario}' ({duration:g} s, seed {args.seed})"
+        words = f"simulated log of the scenario '{args.scenario}' ({duration:g} s, seed {args.seed})"
         terrain = terrain_from_args(args, args.scenario)
         if before_rollout is not None:
             before_rollout(duration)
         if not terrain.is_flat:
             words += f" on terrain {terrain.spec}"
-        return drive_log(robot, table, duration=duration, terrain=terrain), robot, words, "MuJoCo rollout"
+        return (drive_log(robot, table, duration=duration, terrain=terrain, config=robot_config(robot)), robot, words,
+                SIMULATED)
     if args.duration is not None:
         raise InputError("--duration applies to --scenario only, not to a log")
     if getattr(args, "terrain", None) is not None:
@@ -84,7 +85,12 @@ def source_from_args(args: argparse.Namespace, *, before_rollout=None):
     if base is None and args.robot is None and args.track_gauge is None:
         raise InputError(f"{args.log}: no robot description: {json_path} does not exist and neither --robot FILE "
                          "nor --track-gauge was given")
-    return drive, robot_from_args(args, base=base), f"drive log {args.log}", "measured log"
+    return drive, robot_from_args(args, base=base), f"drive log {args.log}", LOGGED
+
+
+# the log as a truth in the report: one word for a log simulated here, one for a log read from a
+# file (a real robot's, or a simulated one with noise added: either way its own noise is estimated)
+SIMULATED, LOGGED = "simulated log", "logged motion"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -104,12 +110,13 @@ def run(args: argparse.Namespace) -> int:
     from mjtrack.validate import Noise, validate
     from mjtrack.validate.run import METRICS_NAME, REPORT_NAME
 
+    check_robot_file(args)
     out = check_out_dir(args.out)
-    check_overwrite([out / REPORT_NAME, out / METRICS_NAME], args.force)
+    check_overwrite([out / REPORT_NAME, out / METRICS_NAME], args.force, command_inputs(args))
     noise = Noise(scale=args.noise_scale)
     drive, robot, words, title = source_from_args(args)
     val = validate(drive, robot, out, source=words, truth_title=title, noise=noise, seed=args.seed, speeds=args.speeds,
-                   quiet=args.quiet)
+                   quiet=args.quiet, log_noise_free=title == SIMULATED)
     if not args.quiet:
         head = val.metrics["headline"]
         for truth, table in head["pos_rmse_m"].items():

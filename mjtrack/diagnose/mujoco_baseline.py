@@ -135,7 +135,7 @@ def choose_simulator(requested: str, robot: Robot) -> tuple[bool, str]:
     ok, why = can_build(robot)
     if requested == "mujoco":
         if not ok:
-            raise InputError(f"--baseline mujoco: {why}")
+            raise InputError(f"baseline='mujoco': {why}")
         return True, f"requested; {why}"
     if requested == "auto":
         return (True, f"auto: {why}") if ok else (False, f"auto chose the surrogate because {why}")

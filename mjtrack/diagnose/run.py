@@ -352,7 +352,7 @@ def _surrogate_problem(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, base
             raise InputError(f"{which}: no segment is as long as the {horizon_s:g} s horizon: nothing to "
                              + ("score on" if 0 in missing else "fit on"))
         raise InputError(f"{src}: too short to cross-validate at a {horizon_s:g} s horizon: fold(s) {missing} of "
-                         f"{n_folds} hold no complete window (give a longer log or a shorter --horizon)")
+                         f"{n_folds} hold no complete window (give a longer log or a shorter horizon_s)")
     stride = max(1, int(np.ceil(starts.size / max_fit_windows)))
     measured = speed_ok = None
     if data.meas is not None:

@@ -76,7 +76,7 @@ class OutputTransaction:
         p = path.absolute()
         if self.force or p in self.allowed or p in self.written or not os.path.lexists(p):
             return
-        raise InputError(f"{path}: exists; pass --force to replace it")
+        raise InputError(f"{path}: exists; pass force=True to replace it")
 
     def record(self, path: Path) -> None:
         p = path.absolute()

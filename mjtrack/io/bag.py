@@ -52,13 +52,13 @@ def _pick(topics: dict[str, str], given: str | None, types: tuple[str, ...], wha
     listing = ", ".join(f"{t} ({m})" for t, m in sorted(topics.items())) or "none"
     if given is not None:
         if given not in topics:
-            raise InputError(f"{path}: {option} {given}: no such topic; the bag has: {listing}")
+            raise InputError(f"{path}: {option}={given!r}: no such topic; the bag has: {listing}")
         if topics[given] not in types:
-            raise InputError(f"{path}: {option} {given} is a {topics[given]}, expected {' or '.join(types)}")
+            raise InputError(f"{path}: {option}={given!r} is a {topics[given]}, expected {' or '.join(types)}")
         return given
     found = sorted(t for t, m in topics.items() if m in types)
     if len(found) > 1:
-        raise InputError(f"{path}: several {what} topics ({', '.join(found)}); choose one with {option}")
+        raise InputError(f"{path}: several {what} topics ({', '.join(found)}); choose one with {option}=TOPIC")
     if not found:
         if required:
             raise InputError(f"{path}: no {what} topic ({' or '.join(types)}); the bag has: {listing}")
@@ -100,9 +100,9 @@ def read_bag(
         with AnyReader([target], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
             topics = {c.topic: c.msgtype for c in reader.connections}
             chosen = {
-                "odom": _pick(topics, odom, ODOM, "odometry", "--odom", path, required=True),
-                "cmd": _pick(topics, cmd, CMD, "velocity command", "--cmd", path, required=True),
-                "joints": _pick(topics, joints, JOINTS, "joint state", "--joints", path, required=False),
+                "odom": _pick(topics, odom, ODOM, "odometry", "odom", path, required=True),
+                "cmd": _pick(topics, cmd, CMD, "velocity command", "cmd", path, required=True),
+                "joints": _pick(topics, joints, JOINTS, "joint state", "joints", path, required=False),
             }
             wanted = {t: k for k, t in chosen.items() if t is not None}
             series = {k: _Series([], [], []) for k in wanted.values()}
@@ -142,7 +142,7 @@ def _track_joint_speeds(names: list[str], velocity, path: Path, topic: str) -> t
         idx = [i for i, n in enumerate(names) if side in n.lower()]
         if not idx:
             raise InputError(f"{path}: {topic}: no joint name contains '{side}' (joints: {', '.join(names)}); "
-                             "name the sprocket joints ..._left/..._right or leave out --joints")
+                             "name the sprocket joints ..._left/..._right or leave out the joints topic")
         out.append(float(np.mean(vel[idx])))
     return out[0], out[1]
 

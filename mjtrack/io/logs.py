@@ -458,7 +458,7 @@ def read_log_with_robot(
         robot_path = robot_path_for(path)
         if not robot_path.exists():
             raise InputError(
-                f"{path}: no robot description: {robot_path} does not exist and no --robot FILE "
+                f"{path}: no robot description: {robot_path} does not exist and no robot_path FILE "
                 "was given (a robot JSON with at least 'track_gauge' is required)"
             )
     return drive_log, read_robot(robot_path)

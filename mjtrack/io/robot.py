@@ -5,8 +5,9 @@ A :class:`Robot` is what every simulating command takes, what ``simulate`` write
 its log (``LOG.json``) and what ``diagnose`` reads. SI units; angles in radians.
 
 Keys beyond the fields: a key close to a known one (``drive_lags``) is refused as a typo, with
-the known key it resembles; the fields, ``wheel_radius`` (the alias of ``sprocket_radius``) and the keys mjtrack writes
-itself (:data:`RECORD_KEYS`: ``terrain``, ``simulator``) are known; any other key (a data set's metadata such as ``robot``, ``note``,
+the known key it resembles; a key that names a known quantity otherwise (``weight``, ``length``,
+``mass_kg``: :data:`QUANTITY_KEYS`, :data:`UNIT_SUFFIXES`) is refused with the key it means; the fields, ``wheel_radius`` (the alias of ``sprocket_radius``) and the keys mjtrack writes
+itself (:data:`RECORD_KEYS`: ``terrain``, ``noise``, ``simulator``) are known; any other key (a data set's metadata such as ``robot``, ``note``,
 ``sample_rate_hz``) is kept in ``extra``, so that a description round-trips, and listed once in a
 warning. A description file is at most :data:`MAX_FILE_BYTES` and nested at most
 :data:`MAX_DEPTH` deep (:func:`mjtrack.io.jsonfile.read_json`).
@@ -36,11 +37,33 @@ MAX_DEPTH = 6  # nesting: description > terrain > patches > patch (LOG.json of a
 WHEEL_KEYS = ("traction", "wheelbase", "wheels_per_side")
 WHEEL_RADIUS = "wheel_radius"  # a wheeled robot's sprocket_radius, read and written under this name too
 # written by mjtrack itself: "terrain" beside a simulated log (the terrain it ran on; text in some
-# data sets), "simulator" by calibrate (the simulator settings the parameters were fitted with)
-RECORD_KEYS = ("terrain", "simulator")
+# data sets), "noise" beside a simulated log (the measurement noise added to it: mjtrack.sim.noise),
+# "simulator" by calibrate (the simulator settings the parameters were fitted with)
+RECORD_KEYS = ("terrain", "noise", "simulator")
 # "source_<key>": where a value of the description comes from (calibrate lists it under "assumed")
 SOURCE_PREFIX = "source_"
 TYPO_CUTOFF = 0.8  # difflib similarity at which an unknown key is taken for a misspelt known key
+# unknown keys that name a quantity the description holds under another key: refused with that key
+# (kept, they would be ignored and the robot would run at the key's default, e.g. 20 kg for "weight")
+QUANTITY_KEYS: dict[str, str] = {
+    **dict.fromkeys(("weight", "total_mass", "robot_mass", "mass_total"), "mass"),
+    **dict.fromkeys(("length", "contact_length", "track_contact_length"), "track_length"),
+    **dict.fromkeys(("gauge", "track_separation", "wheel_separation", "track_distance", "tread"), "track_gauge"),
+    **dict.fromkeys(("width", "belt_width", "tyre_width", "tire_width"), "track_width"),
+    **dict.fromkeys(("radius", "sprocket_radius_m", "drive_radius"), "sprocket_radius"),
+    **dict.fromkeys(("friction", "friction_coefficient", "ground_friction"), "mu"),
+    **dict.fromkeys(("mu_l", "friction_left"), "mu_left"),
+    **dict.fromkeys(("mu_r", "friction_right"), "mu_right"),
+    **dict.fromkeys(("com_x", "cog_x", "cm_x", "cg_offset_x"), "cg_x"),
+    **dict.fromkeys(("com_y", "cog_y", "cm_y", "cg_offset_y"), "cg_y"),
+    **dict.fromkeys(("com_z", "cog_z", "cm_z", "height", "cg_height", "com_height"), "cg_z"),
+    **dict.fromkeys(("lag", "time_constant", "actuator_lag"), "drive_lag"),
+    **dict.fromkeys(("delay", "dead_time", "command_delay"), "drive_delay"),
+    **dict.fromkeys(("speed_scale", "track_scale"), "track_speed_scale"),
+    **dict.fromkeys(("wheel_base", "axle_distance"), "wheelbase"),
+}
+# unit suffixes a key may carry (``mass_kg``): the description is in SI units, under the plain key
+UNIT_SUFFIXES = ("_m", "_mm", "_cm", "_kg", "_g", "_s", "_ms", "_n", "_deg", "_rad")
 _warned: set[tuple[str, tuple[str, ...]]] = set()  # (source, keys) already listed in a warning
 
 G = 9.81  # [m/s^2] gravity used throughout the package
@@ -50,6 +73,12 @@ MAX_RESISTANCE = 1.0  # [-] largest accepted rolling_resistance (beyond: the rob
 NULLABLE = ("mu_left", "mu_right", "drive_force_limit", "wheelbase")  # keys that may be JSON null
 TRACTIONS = ("tracks", "wheels")
 MAX_WHEELS_PER_SIDE = 10
+# cg_z (the height of the centre of mass above the ground) is at most this multiple of the
+# footprint's larger side, max(track_gauge, contact length). At that height a robot tips over
+# under a lateral acceleration of g T / (2 cg_z) <= g / 4 (a gentle turn, or a 14 degree side
+# slope, already tips it), which no skid-steer robot is built for; a higher value is a unit or
+# sign error, and the MuJoCo robot does not settle to a steady state with it.
+MAX_CG_HEIGHT_RATIO = 2.0
 
 # Physical plausibility of a description: (low, high) inclusive. Beyond these a value is a unit
 # mix-up or a corrupt file (a 1 mm to 100 m track, a 1 g to 10 000 t robot, friction up to 10),
@@ -57,7 +86,6 @@ MAX_WHEELS_PER_SIDE = 10
 PLAUSIBLE_ROBOT: dict[str, tuple[float, float, str]] = {
     "track_gauge": (1e-3, 100.0, "m"), "track_length": (1e-3, 100.0, "m"), "track_width": (1e-3, 100.0, "m"),
     "sprocket_radius": (1e-3, 100.0, "m"), "wheelbase": (1e-3, 100.0, "m"), "mass": (1e-3, 1e7, "kg"),
-    "cg_z": (-100.0, 100.0, "m"),
     "mu": (0.0, 10.0, "-"), "mu_left": (0.0, 10.0, "-"), "mu_right": (0.0, 10.0, "-"),  # > 0 checked above;
     # a track with friction 1e-12 is how the diagnosis isolates the other track's effect
 }
@@ -174,8 +202,10 @@ class Robot:
         track_width: width of each track's ground contact (of each tyre) [m].
         sprocket_radius: radius from sprocket (wheel) speed to track (wheel surface) speed [m].
         mass: total mass [kg].
-        cg_x, cg_y: centre of mass relative to the geometric centre (+x forward, +y left) [m].
-        cg_z: height of the centre of mass above the ground [m].
+        cg_x: centre of mass ahead (+) of the geometric centre [m]; abs(cg_x) < contact length / 2.
+        cg_y: centre of mass left (+) of the geometric centre [m]; abs(cg_y) < track_gauge / 2.
+        cg_z: height of the centre of mass above the ground (the plane the tracks or wheels rest on,
+            which holds the frame's origin) [m]; 0 < cg_z <= :attr:`max_cg_z`.
         mu, mu_left, mu_right: ground friction coefficient; per track, ``None`` meaning ``mu`` [-].
         drive_lag: first-order time constant from track command to track speed [s] (0: none).
         drive_delay: dead time from track command to track speed [s].
@@ -230,6 +260,9 @@ class Robot:
             value = getattr(self, name)
             if not _is_finite_number(value):
                 raise InputError(f"robot: '{name}' must be a finite number, got {value!r}")
+        if self.cg_z <= 0:
+            raise InputError(f"robot: 'cg_z' = {self.cg_z:g} m puts the centre of mass at or below the ground "
+                             "('cg_z' is its height above the ground, > 0)")
         for name in ("mu_left", "mu_right"):
             value = getattr(self, name)
             if value is not None and (not _is_finite_number(value) or value <= 0):
@@ -267,6 +300,13 @@ class Robot:
                 f"robot: 'cg_y' = {self.cg_y} puts the centre of mass outside the tracks "
                 f"(|cg_y| must be < track_gauge/2 = {self.track_gauge / 2})"
             )
+        if self.cg_z > self.max_cg_z:
+            length = "track_length" if self.traction == "tracks" else "wheelbase"
+            raise InputError(
+                f"robot: 'cg_z' = {self.cg_z:g} m is beyond physical plausibility: the centre of mass at most "
+                f"{MAX_CG_HEIGHT_RATIO:g} x max(track_gauge, {length}) = {self.max_cg_z:g} m above the ground "
+                "(higher, the robot would tip over in a gentle turn)"
+            )
 
     def _check_traction(self) -> None:
         """The wheeled keys: a known traction, an integer wheel count, a plausible wheelbase."""
@@ -295,6 +335,12 @@ class Robot:
         """Wheel radius [m] of a wheeled robot: :attr:`sprocket_radius` (the same conversion from
         wheel speed to surface speed)."""
         return self.sprocket_radius
+
+    @property
+    def max_cg_z(self) -> float:
+        """Largest accepted ``cg_z`` [m]: :data:`MAX_CG_HEIGHT_RATIO` times the footprint's larger
+        side, max(track_gauge, :attr:`contact_length`)."""
+        return MAX_CG_HEIGHT_RATIO * max(self.track_gauge, self.contact_length)
 
     @property
     def contact_length(self) -> float:
@@ -384,10 +430,32 @@ def _check_extra_keys(extra: dict[str, Any], names: set[str], source: str) -> No
         if close:
             raise InputError(f"{source}: key {key!r}: did you mean {lowered[close[0]]!r}? (a misspelt key would "
                              "be ignored)")
+        meant = _quantity_key(str(key), names)
+        if meant is not None:
+            default = next((f.default for f in dataclasses.fields(Robot) if f.name == meant), None)
+            unused = f"; unknown keys are not used, so the robot would keep the default {meant} = {default}" \
+                if isinstance(default, (int, float)) else ""
+            raise InputError(f"{source}: key {key!r} looks like the robot's {meant}: did you mean {meant!r} "
+                             f"(in SI units{unused})?")
         unknown.append(str(key))
     if unknown and (source, tuple(unknown)) not in _warned:
         _warned.add((source, tuple(unknown)))
         logger.warning("%s: key(s) %s not used by mjtrack; kept in the description", source, ", ".join(unknown))
+
+
+def _quantity_key(key: str, names: set[str]) -> str | None:
+    """The known key an unknown ``key`` names under another name (:data:`QUANTITY_KEYS`), or with a
+    unit suffix (``mass_kg``, ``track_gauge_mm``); None when it names none."""
+    lowered = key.lower().replace("-", "_").replace(" ", "_")
+    if lowered in QUANTITY_KEYS:
+        return QUANTITY_KEYS[lowered]
+    for suffix in UNIT_SUFFIXES:
+        stem = lowered.removesuffix(suffix)
+        if stem != lowered and (stem in names or stem == WHEEL_RADIUS):
+            return stem
+        if stem != lowered and stem in QUANTITY_KEYS:
+            return QUANTITY_KEYS[stem]
+    return None
 
 
 def _wheel_radius_alias(data: dict[str, Any], source: str) -> dict[str, Any]:

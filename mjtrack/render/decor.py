@@ -23,6 +23,14 @@ MARKER_RGBA = (0.9, 0.1, 0.6, 1.0)
 # tell them apart; a single point set (K = 1) keeps MARKER_RGBA.
 ICR_RGBA = (MARKER_RGBA, (0.5, 0.2, 0.95, 1.0), (0.1, 0.7, 0.3, 1.0))
 ICR_LABELS = ("ICR left track", "ICR right track", "ICR body")
+
+
+def icr_labels(traction: str = "tracks") -> tuple[str, str, str]:
+    """The legend's names of the three ICRs for a robot on ``traction`` ("tracks" or "wheels":
+    a wheeled robot's side ICRs are those of its left and right wheels)."""
+    if traction == "wheels":
+        return ("ICR left wheels", "ICR right wheels", "ICR body")
+    return ICR_LABELS
 _LINE = mujoco.mjtGeom.mjGEOM_LINE
 _SPHERE = mujoco.mjtGeom.mjGEOM_SPHERE
 
@@ -162,7 +170,7 @@ def icr_markers(poses: np.ndarray, icr) -> np.ndarray:
 
     ``icr``: anything with body-frame arrays ``x_c, y_l, y_r, y_c`` of shape (N,) [m], e.g.
     :class:`mjtrack.icr.ICR` from ``icr_from_twist(..., on_singular="mask")`` (NaN in
-    straight driving: no marker). The three ICRs share x_c (eq. 2.13); their order is
+    straight driving: no marker). The three ICRs share x_c (eq. (2.13) of [Mendaluk]); their order is
     :data:`ICR_LABELS`.
     """
     x_c = np.asarray(icr.x_c, dtype=float)

@@ -112,7 +112,7 @@ def add_ground(spec: mujoco.MjSpec, robot: Robot, terrain: Terrain, contacts: li
     for st in terrain.steps:
         if abs(st.x) <= reach + STEP_CLEARANCE:
             # measured: a robot spawned across an edge can be launched (20 kg, step 4 cm at x 0.3 m)
-            raise InputError(f"--terrain {terrain.spec}: the step edge at x = {st.x:g} m lies under the robot's "
+            raise InputError(f"terrain={terrain.spec!r}: the step edge at x = {st.x:g} m lies under the robot's "
                              f"start footprint (|x| <= {reach + STEP_CLEARANCE:.3g} m); put it farther from the origin")
     if terrain.hfield is None and not terrain.steps:
         contacts = [c for c in contacts if not c[0].startswith("idler_")]

@@ -44,6 +44,8 @@ WZ_STRAIGHT = 1e-5  # [rad/s] below this the run counts as straight (ICRs NaN): 
 TURN_TOL = 1e-3  # [-] the robot does not turn when |wz| T/2 < TURN_TOL max(|V_L|, |V_R|): the ICRs
 # would lie beyond 1000 T/2 (e.g. a low-friction track that cannot resist the other one: before,
 # steady printed y_l = -31473 m for mu_left 0.05 / mu_right 1 under (0.3, 0.5) m/s)
+SETTLE_DRIFT = 0.02  # [-] the window is a steady state when the halves' mean v_x, v_y and w_z T/2 differ
+# by at most this share of the larger commanded track speed (a run still speeding up, or tipping, does not)
 SETTLE_S = 3.0  # [s] constant-command time before the averaging window
 WINDOW_S = 2.0  # [s] averaging window
 
@@ -69,6 +71,7 @@ class SteadyResult:
     contact_right: float
     roller_contact: float
     icr_undefined: str | None = None  # why y_l, y_r, x_c are null (None when they are defined)
+    unsettled: str | None = None  # why the window is not a steady state (None when it is, or not checked)
 
     def to_dict(self) -> dict[str, float]:
         return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in asdict(self).items()}
@@ -134,13 +137,13 @@ def check_steady(robots: Sequence[Robot], commands, *, config: SimConfig, settle
         InputError: naming the case, its steps and the settle and window times.
     """
     if not (math.isfinite(settle_s) and math.isfinite(window_s) and settle_s >= 0 and window_s > 0):
-        raise InputError(f"--settle must be >= 0 and --window > 0 seconds, got {settle_s!r} and {window_s!r}")
+        raise InputError(f"settle_s must be >= 0 and window_s > 0 seconds, got {settle_s!r} and {window_s!r}")
     for i, (r, c) in enumerate(zip(robots, np.atleast_2d(np.asarray(commands, dtype=float)))):
         n, dt = steady_steps(r, c, config=config, settle_s=settle_s, window_s=window_s, terrain=terrain)
         if n * batch > MAX_STEPS:
             which = f"case {i}: " if len(robots) > 1 else ""
             per = f" per case in a batch of {batch}" if batch > 1 else ""
-            raise InputError(f"{which}--settle {settle_s:g} s + --window {window_s:g} s at the {dt:g} s time step are "
+            raise InputError(f"{which}settle_s {settle_s:g} s + window_s {window_s:g} s at the {dt:g} s time step are "
                              f"{n:.3g} time steps; at most {MAX_STEPS // batch:.3g}{per} "
                              f"({MAX_STEPS // batch * dt:.6g} s)")
 
@@ -174,6 +177,24 @@ def _steady_rollout(robots: Sequence[Robot], commands: np.ndarray, config: SimCo
             for i in range(len(models))]
 
 
+def unsettled_reason(lin: np.ndarray, ang: np.ndarray, cmd, half_gauge: float) -> str | None:
+    """Why a window of body velocities (n, 3) is not a steady state, or None: the means of its two
+    halves differ in v_x, v_y or w_z T/2 by more than :data:`SETTLE_DRIFT` of the larger command."""
+    half = len(lin) // 2
+    if half == 0:
+        return None
+    scale = max(float(np.max(np.abs(cmd))), 1e-3)
+    first = np.array([*lin[:half, :2].mean(axis=0), ang[:half, 2].mean() * half_gauge])
+    second = np.array([*lin[half:, :2].mean(axis=0), ang[half:, 2].mean() * half_gauge])
+    drift = np.abs(second - first)
+    worst = int(np.argmax(drift))
+    if drift[worst] <= SETTLE_DRIFT * scale:
+        return None
+    name = ("v_x", "v_y", "w_z T/2")[worst]
+    return (f"not settled: the window's second half differs from its first in {name} by {drift[worst]:.3g} m/s, "
+            f"more than {SETTLE_DRIFT:g} of the command ({scale:g} m/s); lengthen settle_s")
+
+
 def icrs_or_reason(vx: float, vy: float, wz: float, v_left: float, v_right: float, half_gauge: float
                    ) -> tuple[float, float, float, str | None]:
     """(y_l, y_r, x_c, None) by (2.13), or (NaN, NaN, NaN, reason) where the robot does not turn."""
@@ -205,7 +226,7 @@ def _stats(sd: np.ndarray, cmd: np.ndarray, smap: SensorMap, n_settle: int, half
         y_l=y_l, y_r=y_r, x_c=x_c,
         contact_left=float((gl > 0).mean()), contact_right=float((gr > 0).mean()),
         roller_contact=float((gl[n_settle:] + gr[n_settle:]).mean() / (2 * smap.elements)),
-        icr_undefined=reason,
+        icr_undefined=reason, unsettled=unsettled_reason(lin, ang, cmd, half_gauge),
     )
 
 

@@ -169,20 +169,20 @@ def _num(text: str, what: str, spec: str) -> float:
     try:
         v = float(text)
     except ValueError:
-        raise InputError(f"--terrain {spec}: {what} must be a number, got {text!r}") from None
+        raise InputError(f"terrain={spec!r}: {what} must be a number, got {text!r}") from None
     if not math.isfinite(v):
-        raise InputError(f"--terrain {spec}: {what} must be finite, got {text!r}")
+        raise InputError(f"terrain={spec!r}: {what} must be finite, got {text!r}")
     return v
 
 
 def _check_incline(angle: float, spec: str) -> None:
     if not abs(angle) < 1.2:
-        raise InputError(f"--terrain {spec}: incline angle must be in (-1.2, 1.2) rad, got {angle:g}")
+        raise InputError(f"terrain={spec!r}: incline angle must be in (-1.2, 1.2) rad, got {angle:g}")
 
 
 def _check_step(s: Step, spec: str) -> None:
     if not 0 < s.height <= 5:
-        raise InputError(f"--terrain {spec}: step height must be in (0, 5] m, got {s.height:g}")
+        raise InputError(f"terrain={spec!r}: step height must be in (0, 5] m, got {s.height:g}")
     _plausible(s.x, MAX_COORD, "step X [m]", spec)
 
 
@@ -191,7 +191,7 @@ MAX_COORD = 1e6  # [m] coordinates and sizes beyond this are not terrain (the dr
 
 def _plausible(value: float, limit: float, what: str, spec: str) -> None:
     if not abs(value) <= limit:
-        raise InputError(f"--terrain {spec}: {what} = {value:g} is beyond physical plausibility (|value| <= {limit:g})")
+        raise InputError(f"terrain={spec!r}: {what} = {value:g} is beyond physical plausibility (|value| <= {limit:g})")
 
 
 def _check_cells(shape: tuple[int, ...], path: Path, spec: str) -> None:
@@ -199,7 +199,7 @@ def _check_cells(shape: tuple[int, ...], path: Path, spec: str) -> None:
     cells = math.prod(int(n) for n in shape[:2]) if len(shape) >= 2 else math.prod(int(n) for n in shape)
     if cells > MAX_HFIELD_CELLS:
         dims = " x ".join(str(int(n)) for n in shape[:2])
-        raise InputError(f"--terrain {spec}: {path}: height field of {dims} = {cells:.3g} samples would take about "
+        raise InputError(f"terrain={spec!r}: {path}: height field of {dims} = {cells:.3g} samples would take about "
                          f"{cells * HFIELD_BYTES_PER_CELL / 1e9:.2g} GB to build; at most {MAX_HFIELD_CELLS:.3g} "
                          f"samples (resample the file)")
 
@@ -218,13 +218,13 @@ def _npy_shape(path: Path) -> tuple[int, ...]:
 def load_heights(path: Path, spec: str) -> np.ndarray:
     """Heights (nrow, ncol) scaled to [0, 1] from a .npy or .png file."""
     if not path.exists():
-        raise InputError(f"--terrain {spec}: height field file {path} not found")
+        raise InputError(f"terrain={spec!r}: height field file {path} not found")
     if path.suffix.lower() == ".npy":
         try:
             _check_cells(_npy_shape(path), path, spec)
             a = np.load(path, allow_pickle=False)
         except (ValueError, OSError) as exc:
-            raise InputError(f"--terrain {spec}: {path}: not a numpy array file ({exc})") from None
+            raise InputError(f"terrain={spec!r}: {path}: not a numpy array file ({exc})") from None
     elif path.suffix.lower() == ".png":
         try:
             import imageio.v3 as iio
@@ -237,17 +237,17 @@ def load_heights(path: Path, spec: str) -> np.ndarray:
         except InputError:
             raise
         except Exception as exc:  # imageio raises many kinds for a bad image
-            raise InputError(f"--terrain {spec}: {path}: cannot read the image ({exc})") from None
+            raise InputError(f"terrain={spec!r}: {path}: cannot read the image ({exc})") from None
         if a.ndim == 3:
             a = a[..., :3].mean(axis=2)
     else:
-        raise InputError(f"--terrain {spec}: height field must be a .npy or .png file, got {path.name}")
+        raise InputError(f"terrain={spec!r}: height field must be a .npy or .png file, got {path.name}")
     a = np.asarray(a, dtype=float)
     if a.ndim != 2 or min(a.shape) < 2:
-        raise InputError(f"--terrain {spec}: {path}: heights must be a 2-D array of at least 2 x 2, "
+        raise InputError(f"terrain={spec!r}: {path}: heights must be a 2-D array of at least 2 x 2, "
                          f"got shape {a.shape}")
     if not np.all(np.isfinite(a)):
-        raise InputError(f"--terrain {spec}: {path}: heights contain NaN or inf")
+        raise InputError(f"terrain={spec!r}: {path}: heights contain NaN or inf")
     lo, hi = a.min(), a.max()
     return (a - lo) / (hi - lo) if hi > lo else np.zeros_like(a)
 
@@ -255,7 +255,7 @@ def load_heights(path: Path, spec: str) -> np.ndarray:
 def _hfield(file: str, sx: float, sy: float, h: float, spec: str, base: Path) -> HField:
     path = Path(file) if Path(file).is_absolute() else base / file
     if not (sx > 0 and sy > 0 and h >= 0):
-        raise InputError(f"--terrain {spec}: height field sizes must be > 0 and HEIGHT >= 0")
+        raise InputError(f"terrain={spec!r}: height field sizes must be > 0 and HEIGHT >= 0")
     _plausible(sx, MAX_COORD, "height field SIZE_X [m]", spec)
     _plausible(sy, MAX_COORD, "height field SIZE_Y [m]", spec)
     _plausible(h, 5.0, "height field HEIGHT [m]", spec)  # the bound of a step
@@ -264,26 +264,26 @@ def _hfield(file: str, sx: float, sy: float, h: float, spec: str, base: Path) ->
 
 def _check_elements(n: int, spec: str) -> None:
     if n > MAX_ELEMENTS:
-        raise InputError(f"--terrain {spec}: {n} steps and patches; at most {MAX_ELEMENTS} (each adds a contact "
+        raise InputError(f"terrain={spec!r}: {n} steps and patches; at most {MAX_ELEMENTS} (each adds a contact "
                          "with every track element at every time step)")
 
 
 def _patches(items: Any, spec: str) -> tuple[Patch, ...]:
     if not isinstance(items, list):
-        raise InputError(f"--terrain {spec}: 'patches' must be a list of rectangles")
+        raise InputError(f"terrain={spec!r}: 'patches' must be a list of rectangles")
     _check_elements(len(items), spec)
     out = []
     for i, p in enumerate(items):
         if not isinstance(p, dict):
-            raise InputError(f"--terrain {spec}: patch {i} must be an object")
+            raise InputError(f"terrain={spec!r}: patch {i} must be an object")
         vals = {}
         for k in ("x", "y", "size_x", "size_y", "mu"):
             v = p.get(k)
             if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
-                raise InputError(f"--terrain {spec}: patch {i}: '{k}' must be a number, got {v!r}")
+                raise InputError(f"terrain={spec!r}: patch {i}: '{k}' must be a number, got {v!r}")
             vals[k] = float(v)
         if vals["size_x"] <= 0 or vals["size_y"] <= 0 or vals["mu"] <= 0:
-            raise InputError(f"--terrain {spec}: patch {i}: sizes and 'mu' must be positive")
+            raise InputError(f"terrain={spec!r}: patch {i}: sizes and 'mu' must be positive")
         for k in ("x", "y", "size_x", "size_y"):
             _plausible(vals[k], MAX_COORD, f"patch {i} '{k}' [m]", spec)
         _plausible(vals["mu"], 10.0, f"patch {i} 'mu'", spec)  # the robot description's bound
@@ -293,44 +293,44 @@ def _patches(items: Any, spec: str) -> tuple[Patch, ...]:
 
 def _read_json(path: Path, spec: str) -> Any:
     return read_json(path, what="terrain file", max_bytes=MAX_JSON_BYTES, max_depth=MAX_JSON_DEPTH,
-                     where=f"--terrain {spec}: {path}")
+                     where=f"terrain={spec!r}: {path}")
 
 
 def _from_json(data: Any, spec: str, base: Path) -> Terrain:
     if not isinstance(data, dict):
-        raise InputError(f"--terrain {spec}: expected a JSON object")
+        raise InputError(f"terrain={spec!r}: expected a JSON object")
     unknown = set(data) - {"incline", "steps", "hfield", "patches"}
     if unknown:
-        raise InputError(f"--terrain {spec}: unknown key(s) {sorted(unknown)}")
+        raise InputError(f"terrain={spec!r}: unknown key(s) {sorted(unknown)}")
 
     def number(d: dict, k: str, default=None) -> float:
         v = d.get(k, default)
         if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
-            raise InputError(f"--terrain {spec}: '{k}' must be a number, got {v!r}")
+            raise InputError(f"terrain={spec!r}: '{k}' must be a number, got {v!r}")
         return float(v)
 
     angle = direction = 0.0
     if "incline" in data:
         inc = data["incline"]
         if not isinstance(inc, dict):
-            raise InputError(f"--terrain {spec}: 'incline' must be an object")
+            raise InputError(f"terrain={spec!r}: 'incline' must be an object")
         angle, direction = number(inc, "angle"), number(inc, "direction", 0.0)
         _check_incline(angle, spec)
     steps = []
     if not isinstance(data.get("steps", []), list):
-        raise InputError(f"--terrain {spec}: 'steps' must be a list of objects")
+        raise InputError(f"terrain={spec!r}: 'steps' must be a list of objects")
     patches_given = data.get("patches", [])
     _check_elements(len(data.get("steps", [])) + (len(patches_given) if isinstance(patches_given, list) else 0), spec)
     for s in data.get("steps", []):
         if not isinstance(s, dict):
-            raise InputError(f"--terrain {spec}: each step must be an object")
+            raise InputError(f"terrain={spec!r}: each step must be an object")
         steps.append(Step(height=number(s, "height"), x=number(s, "x")))
         _check_step(steps[-1], spec)
     hf = None
     if "hfield" in data:
         h = data["hfield"]
         if not isinstance(h, dict) or not isinstance(h.get("file"), str):
-            raise InputError(f"--terrain {spec}: 'hfield' must be an object with a 'file'")
+            raise InputError(f"terrain={spec!r}: 'hfield' must be an object with a 'file'")
         hf = _hfield(h["file"], number(h, "size_x"), number(h, "size_y"), number(h, "height"), spec, base)
     patches = _patches(data.get("patches", []), spec)
     return Terrain(angle=angle, direction=direction, steps=tuple(steps), hfield=hf, patches=patches, spec=spec)
@@ -344,25 +344,25 @@ def parse_terrain(spec: str | None) -> Terrain:
     parts = rest.split(":") if rest else []
     if kind == "incline":
         if len(parts) not in (1, 2):
-            raise InputError(f"--terrain {spec}: expected incline:ANGLE[:DIR]")
+            raise InputError(f"terrain={spec!r}: expected incline:ANGLE[:DIR]")
         angle = _num(parts[0], "ANGLE", spec)
         direction = _num(parts[1], "DIR", spec) if len(parts) == 2 else 0.0
         _check_incline(angle, spec)
         return Terrain(angle=angle, direction=direction, spec=spec)
     if kind == "step":
         if len(parts) != 2:
-            raise InputError(f"--terrain {spec}: expected step:HEIGHT:X")
+            raise InputError(f"terrain={spec!r}: expected step:HEIGHT:X")
         s = Step(height=_num(parts[0], "HEIGHT", spec), x=_num(parts[1], "X", spec))
         _check_step(s, spec)
         return Terrain(steps=(s,), spec=spec)
     if kind == "hfield":
         if len(parts) != 4:
-            raise InputError(f"--terrain {spec}: expected hfield:FILE:SIZE_X:SIZE_Y:HEIGHT")
+            raise InputError(f"terrain={spec!r}: expected hfield:FILE:SIZE_X:SIZE_Y:HEIGHT")
         return Terrain(hfield=_hfield(parts[0], _num(parts[1], "SIZE_X", spec), _num(parts[2], "SIZE_Y", spec),
                                       _num(parts[3], "HEIGHT", spec), spec, Path(".")), spec=spec)
     if kind == "patches":
         if len(parts) != 1:
-            raise InputError(f"--terrain {spec}: expected patches:FILE.json")
+            raise InputError(f"terrain={spec!r}: expected patches:FILE.json")
         path = Path(parts[0])
         data = _read_json(path, spec)
         items = data.get("patches") if isinstance(data, dict) else data
@@ -370,7 +370,7 @@ def parse_terrain(spec: str | None) -> Terrain:
     if spec.endswith(".json") and not parts:
         path = Path(spec)
         return _from_json(_read_json(path, spec), spec, path.parent)
-    raise InputError(f"--terrain {spec}: unknown terrain; use flat, incline:ANGLE[:DIR], step:HEIGHT:X, "
+    raise InputError(f"terrain={spec!r}: unknown terrain; use flat, incline:ANGLE[:DIR], step:HEIGHT:X, "
                      "hfield:FILE:SX:SY:H, patches:FILE.json or FILE.json")
 
 

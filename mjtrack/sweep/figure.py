@@ -1,6 +1,6 @@
 """``icr_map.png``: where the ICRs of a sweep lie, against turn radius and speed.
 
-Three rows of panels, the measured ICR coordinates y_l, y_r (left/right track ICR, lateral,
+Three rows of panels, the simulated ICR coordinates y_l, y_r (left/right track ICR, lateral,
 [m]) and x_c (longitudinal shift of the vehicle ICR, [m]); the x axis is the *commanded* turn
 radius (the no-slip radius of the track commands), one line per commanded speed (colour);
 one column per combination of the other grid keys (friction, centre of mass, mass, ...).
@@ -38,6 +38,29 @@ def icr_map_png(records: Sequence[dict[str, Any]], grid: Grid) -> bytes:
     """The map of ``records`` (sweep rows as dicts) as PNG bytes."""
     import io
 
+    import matplotlib.pyplot as plt
+
+    fig = icr_map_figure(records, grid)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _plain_log_formatter(**kwargs):
+    """Log-axis tick labels as plain numbers (0.5, 1, 2, 10), not 10^0 or 2x10^0: matplotlib's
+    own choice of which ticks to label, each written with ``g``."""
+    from matplotlib import ticker
+
+    class PlainLog(ticker.LogFormatterSciNotation):
+        def __call__(self, x, pos=None):
+            return f"{x:g}" if super().__call__(x, pos) else ""
+
+    return PlainLog(**kwargs)
+
+
+def icr_map_figure(records: Sequence[dict[str, Any]], grid: Grid):
+    """The map of ``records`` as a matplotlib figure (the caller closes it)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -85,6 +108,9 @@ def icr_map_png(records: Sequence[dict[str, Any]], grid: Grid) -> bytes:
                 ax.set_xscale("log")
             elif radii:
                 ax.set_xscale("symlog", linthresh=min(abs(r) for r in radii))
+            if radii:
+                ax.xaxis.set_major_formatter(_plain_log_formatter())
+                ax.xaxis.set_minor_formatter(_plain_log_formatter(labelOnlyBase=False))
             ax.grid(True, which="both", alpha=0.3)
             if c == 0:
                 ax.set_ylabel(label)
@@ -100,8 +126,5 @@ def icr_map_png(records: Sequence[dict[str, Any]], grid: Grid) -> bytes:
     sm = cm.ScalarMappable(norm=norm, cmap=cmap)
     fig.colorbar(sm, ax=axes, label="commanded speed [m/s]", shrink=0.6)
     note = f"\n{undefined} straight or spot-turn cases have no ICRs and are not shown" if undefined else ""
-    fig.suptitle(f"Measured ICRs of {len(records)} steady states (dashed: no-slip ICRs){note}", fontsize=10)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
-    return buf.getvalue()
+    fig.suptitle(f"Simulated ICRs of {len(records)} steady states (dashed: no-slip ICRs){note}", fontsize=10)
+    return fig

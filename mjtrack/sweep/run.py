@@ -129,7 +129,7 @@ def _read_done(path: Path, grid: Grid, cols: list[str]) -> dict[int, list[str]]:
     return done
 
 
-_START_OVER = "use another --out folder, delete the file or pass --force to start over"
+_START_OVER = "use another out=DIR, delete the file or pass restart=True to start over"
 MAX_CHUNK = 16  # cases per task at most: a finished chunk is written (and kept on resume) at once
 
 
@@ -166,7 +166,7 @@ def _client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
         try:
             client = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
         except (OSError, TimeoutError, ValueError) as exc:
-            raise InputError(f"--scheduler {scheduler}: cannot reach a dask scheduler ({exc})") from None
+            raise InputError(f"scheduler={scheduler!r}: cannot reach a dask scheduler ({exc})") from None
         with client:
             yield client
         return
@@ -188,12 +188,12 @@ def check_worker_memory(workers: int) -> None:
     whose worker processes would not fit in the memory available now (with the estimate)."""
     cores = os.cpu_count() or 1
     if workers > MAX_WORKERS_PER_CORE * cores:
-        raise InputError(f"--workers {workers}: more than {MAX_WORKERS_PER_CORE} worker processes per core "
+        raise InputError(f"workers={workers}: more than {MAX_WORKERS_PER_CORE} worker processes per core "
                          f"({cores} cores here); use at most {MAX_WORKERS_PER_CORE * cores}")
     available = available_memory()
     need = workers * WORKER_MEMORY
     if available is not None and need > available:
-        raise InputError(f"--workers {workers}: {workers} worker processes need about {need / 1e9:.1f} GB "
+        raise InputError(f"workers={workers}: {workers} worker processes need about {need / 1e9:.1f} GB "
                          f"({WORKER_MEMORY / 1e6:.0f} MB each), {available / 1e9:.1f} GB are available; "
                          f"use at most {max(1, int(available // WORKER_MEMORY))}")
 
@@ -225,7 +225,7 @@ def run_sweep(
     out = Path(out)
     sim_config(track_model)  # refuses an unknown model before any work
     if workers is not None and workers < 1:
-        raise InputError(f"--workers must be >= 1, got {workers}")
+        raise InputError(f"workers: must be >= 1, got {workers}")
     if workers is not None and scheduler is None:
         check_worker_memory(workers)
     check_steady([c.robot for c in grid.cases], [[c.v_left_cmd, c.v_right_cmd] for c in grid.cases],

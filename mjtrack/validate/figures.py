@@ -108,7 +108,7 @@ def icr_figure(res: CaseResult, wz_min: float) -> Figure:
     for ax, f, name in zip(axes, ("y_l", "y_r", "x_c"), ("left-track ICR y_l [m]", "right-track ICR y_r [m]",
                                                           "ICR x_c [m]")):
         true = np.where(valid, getattr(res.icr_true, f), np.nan)
-        ax.plot(c.t, true, ".", color="k", ms=2.5, label="truth's own ICRs (2.13)")
+        ax.plot(c.t, true, ".", color="k", ms=2.5, label="truth's own ICRs (eq. (2.13) of [Mendaluk])")
         for key in ("mpp_slip_ekf", "micr_icr_ekf", "mvir_vir_filter"):
             est = np.where(valid, getattr(res.icrs[key], f), np.nan)
             ax.plot(c.t, est, lw=1.2, **_style(by_key[key]))

@@ -200,6 +200,6 @@ def build_predictors(case: Case, track_gauge: float, filters: dict[str, FilterRu
                   lambda h: filters["vir_filter"].params, True, "vir_filter"),
         Predictor("mpp_fit", "MPP · fit to true motion (oracle)", "MPP", "window fit to the true twist (oracle)",
                   MPP(T), lambda h: fit_mpp_windows(case, T, h), False),
-        Predictor("micr_own_icr", "MICR/MVIR · own ICRs (oracle)", "MICR", "window fit of the own ICRs (2.13) (oracle)",
+        Predictor("micr_own_icr", "MICR/MVIR · own ICRs (oracle)", "MICR", "window fit of the own ICRs (eq. (2.13) of [Mendaluk]; oracle)",
                   InverseICR.nominal(T), lambda h: fit_icr_windows(case, T, h), False),
     ]

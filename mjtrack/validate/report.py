@@ -33,7 +33,7 @@ DEFINITIONS = {
                                   "an online robot could use them",
     "oracle": "the best constant parameters fitted (least squares) to the true motion inside the very window being "
               "predicted: not usable online, it shows the best any constant-parameter model of that family can do",
-    "own ICRs (2.13)": "the instantaneous centres of rotation computed from the true twist and the same track "
+    "own ICRs (eq. (2.13) of [Mendaluk])": "the instantaneous centres of rotation computed from the true twist and the same track "
                        "speeds: y_l = (vx − V_L)/ω, y_r = (vx − V_R)/ω, x_c = −vy/ω; undefined when ω is near 0",
     "ICR error [m]": "median absolute difference between the ICRs implied by a predictor's parameters and the own "
                      "ICRs, over the samples with true |ω| ≥ the ICR threshold, after the settling time (the median: "

@@ -56,7 +56,7 @@ def validate(
     out_dir: str | os.PathLike,
     *,
     source: str = "drive log",
-    truth_title: str = "MuJoCo rollout",
+    truth_title: str = "simulated log",
     horizons=HORIZONS,
     noise: Noise = Noise(),
     seed: int = 0,
@@ -72,8 +72,8 @@ def validate(
 
     Args:
         source: words saying where the log came from (shown in the report).
-        truth_title: short name of the log as a truth in tables and figures ("MuJoCo rollout",
-            "measured log").
+        truth_title: short name of the log as a truth in tables and figures ("simulated log",
+            "logged motion").
         horizons: prediction horizons [s]; noise: measurement noise given to the filters
             (:class:`~mjtrack.validate.truth.Noise`); seed: its seed.
         speeds: ``"cmd"``, ``"measured"`` or ``"auto"`` (measured if logged) track speeds drive the models.
@@ -82,7 +82,7 @@ def validate(
         bar: a progress display to advance (one is made otherwise, silent with ``quiet``).
         log_noise_free: whether the log is a noise-free simulation, so that the filters' parameter
             NEES can be scored against its own parameters (default: unless ``truth_title`` is
-            "measured log").
+            "measured log" or "logged motion").
         wheeled_max_starts: on a wheeled robot, the most windows per horizon over which the
             thesis's wheeled models are scored (:mod:`mjtrack.validate.wheeled`).
     """
@@ -95,7 +95,8 @@ def validate(
     wheels = robot.traction == "wheels"
     bar = bar or Progress(2 * (N_PREDICTORS + 1) + 1 + wheels, label="validate", quiet=quiet)
     try:
-        noise_free = truth_title != "measured log" if log_noise_free is None else bool(log_noise_free)
+        noise_free = (truth_title not in ("measured log", "logged motion") if log_noise_free is None
+                      else bool(log_noise_free))
         mj = case_from_log(drive, speeds=speeds, noise=noise, seed=seed, title=truth_title, noise_free=noise_free)
         cases = [mj, mpp_case(mj, robot, params=mpp_params, noise=noise, seed=seed)]
         # a measured log's filters get the log's own noise as R (estimated), a simulation's the noise added
@@ -112,7 +113,7 @@ def validate(
             est = filter_noise["log"]
             setup["filter_noise_log"] = {"pose_std": list(est.pose_std), "twist_std": list(est.twist_std),
                                          "how": "estimated from the log (second differences of the poses)"}
-            setup["noise_text"] += (f"; on the measured log the filters' measurement noise is estimated from the log "
+            setup["noise_text"] += (f"; on the logged motion the filters' measurement noise is estimated from the log "
                                     f"itself: σ = {est.pose_std[0]:.3g} m, {est.pose_std[1]:.3g} m, "
                                     f"{math.degrees(est.pose_std[2]):.3g}° on the pose, {est.twist_std[0]:.3g} m/s, "
                                     f"{est.twist_std[1]:.3g} m/s, {est.twist_std[2]:.3g} rad/s on the twist")
@@ -148,8 +149,8 @@ def _setup(drive, robot, source, horizons, noise, seed, speeds, mpp_params, wz_m
                       f"y, {math.degrees(ps[2]):.3g}° on yaw, {ts[0]:.3g} m/s on vx and vy, {ts[2]:.3g} rad/s on ω; "
                       "all errors are scored against the noise-free truth")
     return {
-        "summary": ("The first truth is the drive log itself (MuJoCo logs are noise-free; measured logs carry their "
-                    "own noise, so errors there include it). The MPP truth drives the "
+        "summary": ("The first truth is the drive log itself (a log simulated here is noise-free; a logged one, "
+                    "from a robot or a simulation with noise added, carries its own noise, so errors there include it). The MPP truth drives the "
                     "same commands through the MPP model with known slips, integrated exactly, so the filters can be "
                     "checked for recovering known parameters."),
         "source": source, "samples": int(drive.n_samples), "duration_s": float(drive.duration),

@@ -51,7 +51,7 @@ def render_log(drive: DriveLog, robot: Robot, out_path: str | os.PathLike, *, wi
     import mujoco
 
     from mjtrack.render import icr_markers, qpos_from_poses, render_video, track_travel_from_speeds, turn_wheels
-    from mjtrack.render.decor import ICR_LABELS, belt_geometry
+    from mjtrack.render.decor import belt_geometry, icr_labels
     from mjtrack.sim.builder import build_model
 
     case = case_from_log(drive, noise=Noise(scale=0.0))
@@ -70,7 +70,7 @@ def render_log(drive: DriveLog, robot: Robot, out_path: str | os.PathLike, *, wi
     if wheeled:
         qpos = turn_wheels(model, qpos, travel, robot.wheel_radius)
     return render_video(model, qpos, case.t, out_path, width=width, height=height, fps=fps, speed=speed,
-                        icr=icr_markers(case.pose, icr), icr_labels=ICR_LABELS, track_travel=travel, belts=belts,
+                        icr=icr_markers(case.pose, icr), icr_labels=icr_labels(robot.traction), track_travel=travel, belts=belts,
                         segment_starts=starts, progress=not quiet)
 
 
