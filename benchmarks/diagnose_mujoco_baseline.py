@@ -71,7 +71,6 @@ def run_one(effect: str | None, *, duration: float, seed: int, n_folds: int, scr
     row["named"] = bool(c is not None and c.passed and (d.cause == effect or d.cause in c.tied_with))
     if c is None:
         return row
-    k0 = c.effect.params[0]
     nominal = float(c.nominal[0])
     est = float(c.estimate[0])
     row.update(finding=bool(c.passed), decision=c.why, estimate={n: float(v) for n, v in zip(c.effect.params, c.estimate)},
