@@ -36,7 +36,7 @@ from mjtrack.diagnose import mujoco_baseline as mb
 from mjtrack.diagnose.stats import t_quantile
 from mjtrack.io.robot import Robot
 from mjtrack.testing.mujoco_effects import HIDDEN, ROBOT, make_log
-from mjtrack.testing.repo import RESULTS
+from _results import RESULTS
 
 
 DRIVE_FORCE_LIMIT = 600.0 / ROBOT.sprocket_radius  # [N] the generator's drives (mujoco_effects.DRIVES)

@@ -42,7 +42,7 @@ from mjtrack.diagnose import surrogate as sg
 from mjtrack.io.robot import G
 from mjtrack.models import coulomb
 from mjtrack.testing import diagnose_physics as phys
-from mjtrack.testing.repo import RESULTS
+from _results import RESULTS
 
 # turn entries from straight, spins from rest, turn and spin reversals, both turn directions (x V)
 STEPS = (((1.0, 1.0), (1.0, 0.0)), ((1.0, 1.0), (0.0, 1.0)), ((0.0, 0.0), (-1.0, 1.0)), ((0.0, 0.0), (1.0, -1.0)),

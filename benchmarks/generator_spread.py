@@ -30,7 +30,7 @@ from mjtrack.diagnose import select as sel
 from mjtrack.diagnose import surrogate as sg
 from mjtrack.models import coulomb
 from mjtrack.testing import diagnose_physics as phys
-from mjtrack.testing.repo import benchmark_command, default_run_result, printed_result
+from _results import benchmark_command, default_run_result, printed_result
 
 COMMANDS = ((0.3, 0.5), (0.1, 0.3), (-0.3, 0.3))
 STEPS = (((0.5, 0.5), (0.5, 0.0)), ((0.0, 0.0), (-0.5, 0.5)))

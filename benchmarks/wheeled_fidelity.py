@@ -46,7 +46,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.models.coulomb import steady_state as coulomb_steady
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.steady import case_timestep, steady_batch
-from mjtrack.testing.repo import RESULTS
+from _results import RESULTS
 
 
 

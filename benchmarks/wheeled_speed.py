@@ -38,7 +38,7 @@ from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.rollout import hold_commands, run_batch, settled_state, simulate
 from mjtrack.sim.scenarios import scenario_commands
-from mjtrack.testing.repo import RESULTS
+from _results import RESULTS
 
 HUSKY = Robot(traction="wheels", track_gauge=0.555, wheelbase=0.512, sprocket_radius=0.165, track_width=0.11,
               mass=50.0, cg_z=0.2)

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from mjtrack.testing.repo import DOCS, RESULTS, ROOT, load_file
+from support.repo import DOCS, RESULTS, ROOT, load_file
 
 pages = load_file(DOCS / "_ext" / "results_pages.py", "results_pages")
 

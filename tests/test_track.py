@@ -404,7 +404,7 @@ def test_quick_compensation_grid_names_the_reason_of_each_miss(tmp_path):
     import subprocess
     import sys
 
-    from mjtrack.testing.repo import BENCHMARKS, ROOT
+    from support.repo import BENCHMARKS, ROOT
 
     res = subprocess.run([sys.executable, str(BENCHMARKS / "compensation_grid.py"), "--quick",
                           "--out", str(tmp_path / "grid.json")], cwd=ROOT, capture_output=True, text=True)
@@ -436,7 +436,7 @@ def cli(monkeypatch):
     from mjtrack import cli as cli_mod
 
     monkeypatch.setitem(cli_mod.COMMANDS, "track", "track")
-    from mjtrack.testing.cli import run_cli
+    from support.cli import run_cli
 
     return run_cli
 

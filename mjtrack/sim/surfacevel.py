@@ -143,7 +143,7 @@ def build_surfacevel_model(robot: Robot, config: SimConfig | None = None, terrai
     """
     config = config or surfacevel_config()
     for problem in setting_problems(config):
-        log.warning("surfacevel: %s (benchmarks/surfacevel_study.py); see surfacevel_config()", problem)
+        log.warning("surfacevel: %s (the surfacevel study); see surfacevel_config()", problem)
     return build_robot_model(robot, config, SurfacevelTracks(**options), terrain)
 
 
