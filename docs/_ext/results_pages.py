@@ -115,6 +115,7 @@ class Page:
     sources: list[Source]
     tables: list[Table]
     figures: list[tuple[Path, str]] = field(default_factory=list)  # (result figure, caption)
+    written: list[Path] = field(default_factory=list)  # files the runs wrote beside the result files
 
 
 def add_load(table: Table, src: Source, before: str, after: str) -> None:
@@ -296,10 +297,28 @@ def _speed() -> Page:
     whole.add("2 s position RMSE after [m]", number(cal, "/rms_after"))
     whole.add("windows blown up after calibration", number(cal, "/diverged/1"))
     add_load(whole, cal, "/load_before/0", "/load_after/0")
+    demo = Source(RESULTS / "bench_demo.json")
+    dem = Table("`mjtrack demo` end to end on its defaults: wall time, per stage.", ["quantity", "value"])
+    dem.add("wall time [s]", number(demo, "/wall_s"))
+    for stage in demo.data["stage_s"]:
+        dem.add(f"stage {stage} [s]", number(demo, f"/stage_s/{stage}"))
+    dem.add("CPUs", number(demo, "/cpus"))
+    add_load(dem, demo, "/load_average_before/0", "/load_average_after/0")
+    sweep = Source(RESULTS / "bench_sweep.json")
+    sw = Table("`mjtrack sweep` of a small grid on a local cluster of one and of two worker processes (median of "
+               "the repeats): the sweep's own time, the whole call, and whether both wrote the same sweep.csv.",
+               ["quantity", "value"])
+    sw.add("cases", number(sweep, "/cases"))
+    sw.add("one worker, sweep [s]", number(sweep, "/one_worker/run_seconds"))
+    sw.add("two workers, sweep [s]", number(sweep, "/two_workers/run_seconds"))
+    sw.add("speed-up of the sweep", number(sweep, "/speedup_run"))
+    sw.add("speed-up of the whole call", number(sweep, "/speedup_total"))
+    sw.add("identical sweep.csv", number(sweep, "/identical_csv"))
+    add_load(sw, sweep, "/loadavg_before/0", "/loadavg_after/0")
     return Page(
         "speed", "Speed",
         "Timings depend on the machine and its load; each table gives the load averages of its run.",
-        [src, cal], [rt, prof, rollers, other, whole])
+        [src, cal, demo, sweep], [rt, prof, rollers, other, whole, dem, sw])
 
 
 def _wheeled() -> Page:
@@ -451,6 +470,18 @@ def _controllers() -> Page:
     load.add("load before", number(src, "/load_average_before/0"))
     load.add("load after", number(src, "/load_average_after/0"))
     load.add("wall time [s]", number(src, "/wall_s"))
+    grid = Source(RESULTS / "compensation_grid.json")
+    comp = Table("The slip compensation over a grid of cases (paths, friction, centre of mass, speed, noise seeds; "
+                 "the tracker with each compensation against none): cases where it is not worse than none in RMS and in "
+                 "maximum, and the ratio of its cross-track error to none's (below one: better).",
+                 ["compensation", "cases", "not worse", "median RMS ratio", "worst RMS ratio", "median max ratio",
+                  "worst max ratio"])
+    for mode in grid.data["summary"]:
+        q = f"/summary/{mode}"
+        comp.add(mode, number(grid, q + "/cases"), number(grid, q + "/passed"), number(grid, q + "/median_rms_ratio"),
+                 number(grid, q + "/worst_rms_ratio"), number(grid, q + "/median_max_ratio"),
+                 number(grid, q + "/worst_max_ratio"))
+    tables.append(comp)
     return Page(
         "controllers", "Path controllers",
         "The thesis's five path controllers (feed-forward, pole placement, reactive, posture, line following) and the "
@@ -463,7 +494,7 @@ def _controllers() -> Page:
         "noisy columns). Started from the Coulomb reference's steady ICRs of the robot's description "
         "(feedforward_coulomb: `mjtrack track --reference-map coulomb`), the compensation predicts the slip from the "
         "physics, and the open-loop feed-forward follows the path with or without measurement noise.",
-        [src], [*tables, load])
+        [src, grid], [*tables, load])
 
 
 def _calibration() -> Page:
@@ -554,13 +585,16 @@ def _calibration() -> Page:
         summaries.add(name, "; ".join("+".join(g["parameters"]) for g in r["causes"]) or "none",
                       f"{r.get('drive_input', 'commanded')} track speeds",
                       r["diagnose"]["cause"] if "diagnose" in r else "not run")
+    written = [real.path.parent / "real_robots" / name / f for name in real.data["robots"]
+               for f in ("robot.json", "calibration.json", "report.html")]
     return Page(
         "calibration", "Calibration",
         "What `mjtrack calibrate` finds on logs whose truth is known (the MuJoCo robot's own logs, one change each), "
         "and on three real robots: Marmotte (tracked), Husky and Warthog (wheeled skid-steer), from the DRIVE data. "
         "A parameter the log does not determine keeps its described value and is marked so; intervals carry the "
         "correlation of a log's windows and the measured model-form error of simulating a window from a logged "
-        "state.", [bat, real], [cases, rows, robots, context, speed, params, summaries])
+        "state.", [bat, real], [cases, rows, robots, context, speed, params, summaries],
+        written=[p for p in written if p.exists()])
 
 
 PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _implementations, _filters, _speed, _wheeled,
@@ -592,7 +626,12 @@ def render(page: Page) -> tuple[str, list[dict]]:
     for src in page.sources:
         made = f", written by `{src.command}`" if src.command else ""
         lines.append(f"- `{src.rel}`{made}")
+    lines += [f"- `{fig.relative_to(ROOT).as_posix()}` (the figure)" for fig, _ in page.figures]
     lines.append("")
+    if page.written:
+        lines += ["**Written beside them** (the calibrated robots and their reports)", ""]
+        lines += [f"- `{p.relative_to(ROOT).as_posix()}`" for p in page.written]
+        lines.append("")
     return "\n".join(lines), provenance
 
 
