@@ -181,28 +181,28 @@ def test_slip_ekf_matches_filterpy_on_pose_and_twist(data):
     assert np.allclose(xs[-1, 3:], [0.05, -0.08, math.radians(4.0)], atol=0.02)  # and both found the truth
 
 
+PSI_STD0, Q_PSI, Q_POSE = (2.0, 2.0, 4.0), (1e-2, 1e-2, 1e-2), (1e-3, 1e-3, 1e-3)
+
+
+def psi_oracle(pose0, *, pose: bool, q_psi=Q_PSI, r_scale: float = 1.0, twist_of=psi_twist) -> Oracle:
+    """The oracle of the psi filters, started from the nominal psi = (0, 0, 1/T) at ``pose0``."""
+    r_std = r_scale * np.asarray(POSE_STD if pose else TWIST_STD)
+    return Oracle(twist_of, np.r_[pose0, 0.0, 0.0, 1.0 / T], np.diag(np.r_[POSE_STD, PSI_STD0] ** 2),
+                  np.r_[Q_POSE, q_psi] ** 2, r_std, pose=pose, twist=not pose)
+
+
 def test_icr_ekf_matches_filterpy_on_pose(data):
     t, vl, vr, pose, _ = data
-    psi_std0, q_psi, q_pose = (2.0, 2.0, 4.0), (1e-2, 1e-2, 1e-2), (1e-3, 1e-3, 1e-3)
-    res = run_icr_ekf(t, vl, vr, track_gauge=T, pose_meas=pose, pose_std=POSE_STD, psi_std0=psi_std0,
-                      q_psi_std=q_psi, q_pose_std=q_pose)
-    s0 = np.r_[pose[0], 0.0, 0.0, 1.0 / T]
-    P0 = np.diag(np.r_[POSE_STD, psi_std0] ** 2)
-    oracle = Oracle(psi_twist, s0, P0, np.r_[q_pose, q_psi] ** 2, POSE_STD, pose=True, twist=False)
-    xs, Ps = run_oracle(oracle, t, vl, vr, pose)
-    assert_agree(res, xs, Ps)
+    res = run_icr_ekf(t, vl, vr, track_gauge=T, pose_meas=pose, pose_std=POSE_STD, psi_std0=PSI_STD0,
+                      q_psi_std=Q_PSI, q_pose_std=Q_POSE)
+    assert_agree(res, *run_oracle(psi_oracle(pose[0], pose=True), t, vl, vr, pose))
 
 
 def test_vir_filter_matches_filterpy_on_twist(data):
     t, vl, vr, pose, twist = data
-    psi_std0, q_psi, q_pose = (2.0, 2.0, 4.0), (1e-2, 1e-2, 1e-2), (1e-3, 1e-3, 1e-3)
     res = run_vir_filter(t, vl, vr, track_gauge=T, twist_meas=twist, pose0=pose[0], pose_std=POSE_STD,
-                         twist_std=TWIST_STD, psi_std0=psi_std0, q_psi_std=q_psi, q_pose_std=q_pose)
-    s0 = np.r_[pose[0], 0.0, 0.0, 1.0 / T]
-    P0 = np.diag(np.r_[POSE_STD, psi_std0] ** 2)
-    oracle = Oracle(psi_twist, s0, P0, np.r_[q_pose, q_psi] ** 2, TWIST_STD, pose=False, twist=True)
-    xs, Ps = run_oracle(oracle, t, vl, vr, twist)
-    assert_agree(res, xs, Ps)
+                         twist_std=TWIST_STD, psi_std0=PSI_STD0, q_psi_std=Q_PSI, q_pose_std=Q_POSE)
+    assert_agree(res, *run_oracle(psi_oracle(pose[0], pose=False), t, vl, vr, twist))
 
 
 def test_adaptive_icr_ekf_matches_filterpy_imm_of_two_ekfs(data):
@@ -211,16 +211,13 @@ def test_adaptive_icr_ekf_matches_filterpy_imm_of_two_ekfs(data):
     the change of command. filterpy's IMMEstimator mixes, predicts, weighs and combines."""
     t, vl, vr, pose, _ = data
     c, r, dwell, prior, u_c = 100.0, 3.0, (1000.0, 1.0), (0.5, 0.5), 0.2
-    psi_std0, q_psi, q_pose = (2.0, 2.0, 4.0), (1e-3, 1e-3, 1e-3), (1e-3, 1e-3, 1e-3)
-    res = run_icr_ekf(t, vl, vr, track_gauge=T, pose_meas=pose, pose_std=POSE_STD, psi_std0=psi_std0,
-                      q_psi_std=q_psi, q_pose_std=q_pose,
+    q_psi = (1e-3, 1e-3, 1e-3)
+    res = run_icr_ekf(t, vl, vr, track_gauge=T, pose_meas=pose, pose_std=POSE_STD, psi_std0=PSI_STD0,
+                      q_psi_std=q_psi, q_pose_std=Q_POSE,
                       adaptive=IMMSettings(fast_factor=c, fast_meas_factor=r, dwell_s=dwell, prior=prior,
                                            command_scale=u_c))
-    s0 = np.r_[pose[0], 0.0, 0.0, 1.0 / T]
-    P0 = np.diag(np.r_[POSE_STD, psi_std0] ** 2)
-    slow = Oracle(psi_twist, s0, P0, np.r_[q_pose, q_psi] ** 2, POSE_STD, pose=True, twist=False)
-    fast = Oracle(psi_twist, s0, P0, np.r_[q_pose, c * np.asarray(q_psi)] ** 2, r * np.asarray(POSE_STD),
-                  pose=True, twist=False)
+    slow = psi_oracle(pose[0], pose=True, q_psi=q_psi)
+    fast = psi_oracle(pose[0], pose=True, q_psi=c * np.asarray(q_psi), r_scale=r)
     imm = IMMEstimator([slow, fast], np.array(prior), np.eye(2))
     xs, Ps, fast_prob = [], [], []
     u_last = None
@@ -248,10 +245,9 @@ def test_adaptive_icr_ekf_matches_filterpy_imm_of_two_ekfs(data):
 def test_the_comparison_fails_on_a_wrong_model(data):
     """The check can fail: the ICR EKF against an oracle whose twist has the sign of v_y flipped."""
     t, vl, vr, pose, _ = data
-    res = run_icr_ekf(t, vl, vr, track_gauge=T, pose_meas=pose, pose_std=POSE_STD, q_psi_std=(1e-2,) * 3)
+    res = run_icr_ekf(t, vl, vr, track_gauge=T, pose_meas=pose, pose_std=POSE_STD, psi_std0=PSI_STD0,
+                      q_psi_std=Q_PSI, q_pose_std=Q_POSE)
     wrong = lambda p, a, b: psi_twist(p, a, b) * np.array([1.0, -1.0, 1.0])  # noqa: E731
-    oracle = Oracle(wrong, np.r_[pose[0], 0.0, 0.0, 1.0 / T], np.diag(np.r_[POSE_STD, 2.0, 2.0, 4.0] ** 2),
-                    np.r_[(1e-3,) * 3, (1e-2,) * 3] ** 2, POSE_STD, pose=True, twist=False)
-    xs, Ps = run_oracle(oracle, t, vl, vr, pose)
+    xs, Ps = run_oracle(psi_oracle(pose[0], pose=True, twist_of=wrong), t, vl, vr, pose)
     with pytest.raises(AssertionError):
         assert_agree(res, xs, Ps)

@@ -118,6 +118,12 @@ class Page:
     written: list[Path] = field(default_factory=list)  # files the runs wrote beside the result files
 
 
+def add_rows(table: Table, src: Source, rows: list[tuple[str, str]]) -> None:
+    """One (label, number at pointer) row per pair, for a two-column quantity table."""
+    for label, pointer in rows:
+        table.add(label, number(src, pointer))
+
+
 def add_load(table: Table, src: Source, before: str, after: str) -> None:
     """The run's one-minute load averages before and after (pointers into ``src``) as two rows."""
     table.add("load average before (one minute)", number(src, before))
@@ -284,36 +290,28 @@ def _speed() -> Page:
     whole = Table("Calibration of the whole shared Marmotte log at calibrate's defaults (the rollers per track of "
                   "the real-robot results), with the machine's load and the target wall time.",
                   ["quantity", "value"])
-    whole.add("rollers per track", number(cal, "/rollers"))
-    whole.add("target wall time [min]", number(cal, "/target_minutes"))
-    whole.add("windows in the log", number(cal, "/windows"))
-    whole.add("windows the fit used", number(cal, "/fit_windows"))
-    whole.add("wall time [min]", number(cal, "/minutes"))
-    for stage in ("before", "fit", "after"):
-        whole.add(f"stage {stage} [s]", number(cal, f"/timings_s/{stage}"))
-    whole.add("parameter sets the fits evaluated", number(cal, "/parameter_sets"))
-    whole.add("windows simulated per second", number(cal, "/windows_per_second"))
-    whole.add("2 s position RMSE before [m]", number(cal, "/rms_before"))
-    whole.add("2 s position RMSE after [m]", number(cal, "/rms_after"))
-    whole.add("windows blown up after calibration", number(cal, "/diverged/1"))
+    add_rows(whole, cal, [("rollers per track", "/rollers"), ("target wall time [min]", "/target_minutes"),
+                          ("windows in the log", "/windows"), ("windows the fit used", "/fit_windows"),
+                          ("wall time [min]", "/minutes"),
+                          *((f"stage {stage} [s]", f"/timings_s/{stage}") for stage in ("before", "fit", "after")),
+                          ("parameter sets the fits evaluated", "/parameter_sets"),
+                          ("windows simulated per second", "/windows_per_second"),
+                          ("2 s position RMSE before [m]", "/rms_before"), ("2 s position RMSE after [m]", "/rms_after"),
+                          ("windows blown up after calibration", "/diverged/1")])
     add_load(whole, cal, "/load_before/0", "/load_after/0")
     demo = Source(RESULTS / "bench_demo.json")
     dem = Table("`mjtrack demo` end to end on its defaults: wall time, per stage.", ["quantity", "value"])
-    dem.add("wall time [s]", number(demo, "/wall_s"))
-    for stage in demo.data["stage_s"]:
-        dem.add(f"stage {stage} [s]", number(demo, f"/stage_s/{stage}"))
-    dem.add("CPUs", number(demo, "/cpus"))
+    add_rows(dem, demo, [("wall time [s]", "/wall_s"),
+                         *((f"stage {stage} [s]", f"/stage_s/{stage}") for stage in demo.data["stage_s"]),
+                         ("CPUs", "/cpus")])
     add_load(dem, demo, "/load_average_before/0", "/load_average_after/0")
     sweep = Source(RESULTS / "bench_sweep.json")
     sw = Table("`mjtrack sweep` of a small grid on a local cluster of one and of two worker processes (median of "
                "the repeats): the sweep's own time, the whole call, and whether both wrote the same sweep.csv.",
                ["quantity", "value"])
-    sw.add("cases", number(sweep, "/cases"))
-    sw.add("one worker, sweep [s]", number(sweep, "/one_worker/run_seconds"))
-    sw.add("two workers, sweep [s]", number(sweep, "/two_workers/run_seconds"))
-    sw.add("speed-up of the sweep", number(sweep, "/speedup_run"))
-    sw.add("speed-up of the whole call", number(sweep, "/speedup_total"))
-    sw.add("identical sweep.csv", number(sweep, "/identical_csv"))
+    add_rows(sw, sweep, [("cases", "/cases"), ("one worker, sweep [s]", "/one_worker/run_seconds"),
+                         ("two workers, sweep [s]", "/two_workers/run_seconds"), ("speed-up of the sweep", "/speedup_run"),
+                         ("speed-up of the whole call", "/speedup_total"), ("identical sweep.csv", "/identical_csv")])
     add_load(sw, sweep, "/loadavg_before/0", "/loadavg_after/0")
     return Page(
         "speed", "Speed",
