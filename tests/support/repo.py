@@ -30,8 +30,8 @@ def load_benchmark(name: str) -> ModuleType:
     The scripts are meant to be run as programs (``python benchmarks/NAME.py``), where Python
     puts their own folder on the import path; tests that reuse a script's cases import it
     through this function instead, which loads it by file name and leaves ``sys.path`` alone.
-    The scripts' shared helper ``benchmarks/_results.py`` is loaded first (as ``_results``), so
-    that a script's ``from _results import ...`` finds it.
+    The scripts' shared helper ``benchmarks/_results.py`` is loaded first (as ``_results``, by
+    :func:`load_file`), so that a script's ``from _results import ...`` finds it.
 
     Args:
         name: the script's file name without ``.py``, e.g. ``"fidelity"``.
@@ -43,7 +43,6 @@ def load_benchmark(name: str) -> ModuleType:
     Raises:
         FileNotFoundError: no such script in :data:`BENCHMARKS`.
     """
-    load_file(BENCHMARKS / "_results.py", "_results")
     return load_file(BENCHMARKS / f"{name}.py", name)
 
 
@@ -51,6 +50,8 @@ def load_file(path: Path, name: str) -> ModuleType:
     """Import the Python file ``path`` as the module ``name`` (see :func:`load_benchmark`)."""
     if name in sys.modules:
         return sys.modules[name]
+    if path.parent == BENCHMARKS and name != "_results":  # the scripts' shared helper, found beside them when run
+        load_file(BENCHMARKS / "_results.py", "_results")
     if not path.is_file():
         raise FileNotFoundError(f"no such script {path}")
     spec = importlib.util.spec_from_file_location(name, path)
