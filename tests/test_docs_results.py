@@ -106,7 +106,9 @@ def generated(tmp_path_factory):
 
 
 def test_results_root_is_the_one_constant():
+    """The results pages, the benchmark scripts and the tests name the same result folder."""
     assert pages.RESULTS == RESULTS
+    assert load_file(BENCHMARKS / "_results.py", "_results").RESULTS == RESULTS
 
 
 def test_every_number_on_every_results_page_is_its_result_file_value(generated):
