@@ -2,8 +2,8 @@
 
     nice -n 10 python benchmarks/bench_calibrate.py [--rollers N] [--max-iter N]
 
-All 432 windows of ../shared/data/marmotte/marmotte_boreal.csv; the starting robot of
-``benchmarks/marmotte_calibration.py`` (coulomb ground), calibrate's defaults (candidates, rounds,
+All 432 windows of ../shared/data/marmotte/marmotte_boreal.csv; the Marmotte's starting robot of
+``benchmarks/real_robots.py`` (coulomb ground), calibrate's defaults (candidates, rounds,
 iterations, the fit on ``FIT_WINDOWS`` windows spread over the log, every window scored before and
 after, the causes on every window); 6 rollers per track, as ``benchmarks/real_robots.py``. Prints the wall time, the windows simulated per second and the
 machine's load average before and after (the machine is shared: the load says how much of its
@@ -19,12 +19,13 @@ import sys
 import time
 from pathlib import Path
 
-from marmotte_calibration import DATA, GROUNDS, starting_robot
+from real_robots import ROBOTS, starting_robot
 
 from mjtrack.calibrate.run import calibrate
 from mjtrack.io import read_log_with_robot
 
 OUT = Path(__file__).resolve().parent / "results" / "bench_calibrate.json"
+DATA = ROBOTS["marmotte"]["log"]
 
 
 def main() -> int:
@@ -36,7 +37,7 @@ def main() -> int:
         print(f"{DATA} not found (the shared Marmotte data); nothing to do")
         return 0
     log, base = read_log_with_robot(DATA)
-    robot = starting_robot(base, GROUNDS["coulomb"])
+    robot = starting_robot(base, ROBOTS["marmotte"]["public"])
     load0 = os.getloadavg()
     t0 = time.perf_counter()
     cal = calibrate(log, robot, n_rollers=args.rollers, max_iter=args.max_iter,

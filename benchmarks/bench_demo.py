@@ -21,7 +21,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from mjtrack.testing.repo import RESULTS, benchmark_command
+from _results import RESULTS, benchmark_command
 
 
 def main(argv: list[str] | None = None) -> int:

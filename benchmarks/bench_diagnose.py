@@ -22,7 +22,7 @@ from mjtrack.diagnose import diagnose, write_outputs
 from mjtrack.io.logs import read_log_with_robot, write_log
 from mjtrack.io.robot import write_robot
 from mjtrack.testing.diagnose_logs import HIDDEN, make_log
-from mjtrack.testing.repo import benchmark_command, default_run_result, printed_result
+from _results import benchmark_command, default_run_result, printed_result
 
 
 BUDGET_S = 30.0

@@ -38,7 +38,7 @@ from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig, previous_defaults, sim_config
 from mjtrack.sim.rollout import STATE_SPEC, hold_commands, run_batch, settled_state
 from mjtrack.sim.scenarios import scenario_commands
-from mjtrack.testing.repo import RESULTS
+from _results import RESULTS
 
 REPEATS = 5
 TURN = (0.3, 0.6)  # [m/s] (V_L, V_R): a turn of nominal radius 0.4 m for the default robot

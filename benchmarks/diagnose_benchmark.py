@@ -49,7 +49,7 @@ from mjtrack.diagnose.select import TRACTION_PAIR, min_active_blocks
 from mjtrack.diagnose.stats import sample_blocks
 from mjtrack.diagnose.surrogate_baseline import MODEL_REL
 from mjtrack.testing.diagnose_physics import INPUT, SPEED_STD, make_log
-from mjtrack.testing.repo import RESULTS
+from _results import RESULTS
 
 MAGNITUDES = {
     "cg_offset_x": [{"cg_offset_x": v} for v in (0.02, 0.05, -0.1)],

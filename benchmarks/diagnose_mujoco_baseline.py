@@ -36,7 +36,7 @@ from mjtrack.diagnose import mujoco_baseline as mb
 from mjtrack.diagnose.stats import t_quantile
 from mjtrack.io.robot import Robot
 from mjtrack.testing.mujoco_effects import HIDDEN, ROBOT, make_log
-from mjtrack.testing.repo import RESULTS
+from _results import RESULTS
 
 
 DRIVE_FORCE_LIMIT = 600.0 / ROBOT.sprocket_radius  # [N] the generator's drives (mujoco_effects.DRIVES)
@@ -71,7 +71,6 @@ def run_one(effect: str | None, *, duration: float, seed: int, n_folds: int, scr
     row["named"] = bool(c is not None and c.passed and (d.cause == effect or d.cause in c.tied_with))
     if c is None:
         return row
-    k0 = c.effect.params[0]
     nominal = float(c.nominal[0])
     est = float(c.estimate[0])
     row.update(finding=bool(c.passed), decision=c.why, estimate={n: float(v) for n, v in zip(c.effect.params, c.estimate)},

@@ -25,7 +25,7 @@ import numpy as np
 from mjtrack.diagnose import diagnose
 from mjtrack.sim.config import SimConfig
 from mjtrack.testing.mujoco_effects import HIDDEN, make_log
-from mjtrack.testing.repo import RESULTS
+from _results import RESULTS
 
 
 REL_TOL = 0.25  # the requirement: estimate within +-25 %

@@ -61,7 +61,7 @@ from mjtrack.models.coulomb import steady_state as coulomb_steady
 from mjtrack.sim.config import TRACK_MODELS, SimConfig, previous_defaults, sim_config
 from mjtrack.sim.rollout import drive_log
 from mjtrack.sim.steady import case_timestep, steady_batch
-from mjtrack.testing.repo import RESULTS
+from _results import RESULTS
 
 RADII = ("pivot", 0.25, 0.5, 1.0, 2.0)
 SPEEDS = (0.3, 0.8)
@@ -489,7 +489,7 @@ def main(argv: list[str] | None = None) -> int:
                    help="--wide only: run at this time step [s] instead of each model's default")
     p.add_argument("--fixed-step", action="store_true",
                    help="--wide only: every case at the model's time step (no lag budget, the earlier rule: "
-                        "fast cases of short robots then have x_c v dt off Coulomb; gentle_turns.py)")
+                        "fast cases of short robots then have x_c v dt off Coulomb; the gentle-turns study)")
     p.add_argument("--holdout", action="store_true",
                    help="--wide only: two light robots and six drawn with another seed, radii 0.7/3/7 m and pivots, 0.35 and "
                         "1.2 m/s, cg_x -0.07/+0.05 L (nothing was tuned on them); writes fidelity_wide_holdout_*.json")

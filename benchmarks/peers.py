@@ -42,10 +42,8 @@ from mjtrack.metrics import fit_end_regions, window_prediction_errors
 from mjtrack.models import peers
 from mjtrack.windows import left_out_counts, make_windows, measured_window_poses, without_contradicting
 
-from mjtrack.testing.repo import load_benchmark
+import real_robots as _real  # the same split, data folder and JSON values as the calibration of the real robots
 
-# the same split, data folder and JSON values as the calibration of the real robots
-_real = load_benchmark("real_robots")
 DATA, split, _plain = _real.DATA, _real.split, _real._plain
 HERE = Path(__file__).resolve().parent
 

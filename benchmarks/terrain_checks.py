@@ -32,7 +32,7 @@ from mjtrack.models.coulomb import plane_to_world, rollout, world_to_plane
 from mjtrack.sim.config import sim_config
 from mjtrack.sim.rollout import simulate
 from mjtrack.sim.terrain import parse_terrain, timestep_for
-from mjtrack.testing.repo import benchmark_command, default_run_result, printed_result
+from _results import benchmark_command, default_run_result, printed_result
 
 
 def run(robot, spec, v_left, v_right, seconds, model="rollers", log_rate=50.0):

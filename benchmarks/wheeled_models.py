@@ -33,7 +33,7 @@ import numpy as np
 from mjtrack.io.robot import Robot
 from mjtrack.sim.rollout import drive_log
 from mjtrack.sim.scenarios import scenario_commands
-from mjtrack.testing.repo import RESULTS
+from _results import RESULTS
 from mjtrack.validate import Noise, validate
 from mjtrack.validate.wheeled import KEYS
 

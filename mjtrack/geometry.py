@@ -37,12 +37,6 @@ def world_to_body_velocity(yaw, xdot, ydot) -> tuple[np.ndarray, np.ndarray]:
     return c * xdot + s * ydot, -s * xdot + c * ydot
 
 
-def point_velocity(twist: np.ndarray, px, py) -> tuple[np.ndarray, np.ndarray]:
-    """Body-frame velocity of the body-fixed point (px, py) [m] for a body twist (..., 3)."""
-    vx, vy, wz = twist[..., 0], twist[..., 1], twist[..., 2]
-    return vx - wz * py, vy + wz * px
-
-
 def sinc_terms(phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """S = sin(phi)/phi and C = (1 - cos(phi))/phi, with series near phi = 0."""
     phi = np.asarray(phi, dtype=float)

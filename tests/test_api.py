@@ -13,7 +13,7 @@ import mjtrack
 import mjtrack.api as api
 from mjtrack.errors import InputError
 from mjtrack.io.logs import read_log
-from mjtrack.testing.cli import run_cli
+from support.cli import run_cli
 
 EXAMPLES = [t for t in doctest.DocTestFinder().find(api) if t.examples]
 

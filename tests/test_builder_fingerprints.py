@@ -1,4 +1,4 @@
-"""The robot builders make bit-identical models from the same inputs (mjtrack/testing/builder_fingerprints.py).
+"""The robot builders make bit-identical models from the same inputs (tests/support/builder_fingerprints.py).
 
 A model-change detector: 13 cases (3 robots, both track models, flat / incline / step / height
 field, ground models, roller couplings, surfacevel element variants) compiled and rolled out for
@@ -6,7 +6,7 @@ field, ground models, roller couplings, surfacevel element variants) compiled an
 compared by hash with ``tests/data/builder_fingerprints.json``, built with the stored SimConfig
 fields (a changed default elsewhere does not show here). Checked sensitive: a 1e-10 m change of
 the chassis box height changes every case. After an *intended* model change, regenerate with
-``python -m mjtrack.testing.builder_fingerprints --write`` and say why in the commit.
+``python tests/support/builder_fingerprints.py --write`` and say why in the commit.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import json
 import mujoco
 import pytest
 
-from mjtrack.testing.builder_fingerprints import STORE, current, differences
+from support.builder_fingerprints import STORE, current, differences
 
 
 def test_models_and_rollouts_unchanged():

@@ -20,7 +20,7 @@ from mjtrack.io.logs import write_log
 from mjtrack.io.robot import Robot, read_robot, write_robot
 from mjtrack.sim import SimConfig, drive_log
 from mjtrack.windows import make_windows
-from mjtrack.testing.cli import run_cli
+from support.cli import run_cli
 
 TRUTH = {"mu": 0.5, "cg_x": 0.04, "cg_y": -0.03}
 LAG = 0.2
@@ -304,10 +304,10 @@ def eight_windows():
 
 def test_windows_whose_poses_move_against_the_tracks_are_left_out_and_listed(eight_windows):
     """One window of a simulated log rewritten as a flipped localisation would record it (tracks
-    forwards, poses backwards; mjtrack.testing.records), as in two windows of a real Warthog log: it
+    forwards, poses backwards; support.records), as in two windows of a real Warthog log: it
     is left out of the fit and of every score, listed under left_out and said in the summary; kept on
     request."""
-    from mjtrack.testing.records import with_backward_window
+    from support.records import with_backward_window
 
     lg, ws = eight_windows
     bad, (s, e) = with_backward_window(lg, int(ws.starts[2]), int(ws.ends[2]))
@@ -325,9 +325,9 @@ def test_windows_whose_poses_move_against_the_tracks_are_left_out_and_listed(eig
 
 def test_windows_in_which_the_robot_is_held_still_are_left_out_and_listed(eight_windows):
     """One window of a simulated log rewritten as a robot caught on an obstacle would record it
-    (tracks spinning, poses still; mjtrack.testing.records), as in runs of windows of a real Husky
+    (tracks spinning, poses still; support.records), as in runs of windows of a real Husky
     log: left out of the fit and of every score, listed as kind "stuck" and counted in the summary."""
-    from mjtrack.testing.records import with_held_window
+    from support.records import with_held_window
 
     lg, ws = eight_windows
     held, (s, e) = with_held_window(lg, int(ws.starts[4]), int(ws.ends[4]))

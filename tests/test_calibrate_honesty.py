@@ -12,7 +12,7 @@ import pytest
 
 from mjtrack.calibrate.run import calibrate
 from mjtrack.testing.battery import case, described_robot, make_log
-from mjtrack.testing.repo import load_benchmark
+from support.repo import load_benchmark
 
 NAMES = ["mu", "cg_x", "drive_lag", "drive_delay"]
 

@@ -8,7 +8,7 @@ import pytest
 from matplotlib.image import imread
 
 from mjtrack.cli import COMMANDS
-from mjtrack.testing.cli import assert_usage_error, run_cli
+from support.cli import assert_usage_error, run_cli
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 

@@ -79,7 +79,7 @@ def test_video_frames_are_neither_black_nor_identical(frames):
 @pytest.fixture
 def cli(monkeypatch):
     import mjtrack.cli
-    from mjtrack.testing.cli import run_cli
+    from support.cli import run_cli
 
     for name in ("validate", "render", "demo"):
         monkeypatch.setitem(mjtrack.cli.COMMANDS, name, name)
@@ -102,7 +102,7 @@ def test_cli_render_a_log_with_gif(cli, demo, tmp_path):
 
 
 def test_cli_render_refuses_bad_input(cli, demo, tmp_path):
-    from mjtrack.testing.cli import assert_usage_error
+    from support.cli import assert_usage_error
 
     res = cli(["render", demo.log, "--out", tmp_path / "v.mp4", "--width", "101"])
     assert res.rc == 2 and "even" in res.err

@@ -21,7 +21,7 @@ from mjtrack.diagnose import diagnose
 from mjtrack.errors import InputError
 from mjtrack.io.logs import write_log
 from mjtrack.io.robot import write_robot
-from mjtrack.testing.cli import run_cli
+from support.cli import run_cli
 from mjtrack.testing.diagnose_logs import HIDDEN, make_log
 
 DURATION = 120.0  # [s] at 20 Hz; long enough for 5 folds of 2 s windows, short enough for the default run

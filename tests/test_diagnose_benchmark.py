@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pytest
 
-from mjtrack.testing.repo import load_benchmark
+from support.repo import load_benchmark
 
 bench = load_benchmark("diagnose_benchmark")
 

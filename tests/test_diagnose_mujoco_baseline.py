@@ -109,7 +109,7 @@ def test_clean_log_gives_no_cause(capfd):
 def test_windows_whose_poses_move_against_the_tracks_are_left_out_and_said():
     # one window of a clean log rewritten as a flipped localisation would record it (tracks forwards,
     # poses backwards): it is neither fitted nor scored, the notes say so, and it names no cause
-    from mjtrack.testing.records import with_backward_window
+    from support.records import with_backward_window
 
     lg, _ = make_log(None, seed=4, duration=30.0)
     ws = make_windows(lg, 2.0)
@@ -216,7 +216,7 @@ def _write(tmp_path, robot_dict, *, effect="cg_offset_x", duration=30.0):
 
 
 def test_cli_auto_falls_back_and_says_why(tmp_path):
-    from mjtrack.testing.cli import run_cli
+    from support.cli import run_cli
 
     path = _write(tmp_path, {"track_gauge": ROBOT.track_gauge})  # no contact length
     out = tmp_path / "d"
@@ -228,7 +228,7 @@ def test_cli_auto_falls_back_and_says_why(tmp_path):
 
 
 def test_cli_mujoco_without_contact_length_is_refused(tmp_path):
-    from mjtrack.testing.cli import assert_usage_error, run_cli
+    from support.cli import assert_usage_error, run_cli
 
     path = _write(tmp_path, {"track_gauge": ROBOT.track_gauge}, duration=6.0)
     res = run_cli(["diagnose", path, "--out", tmp_path / "d", "--baseline", "mujoco"])
@@ -238,7 +238,7 @@ def test_cli_mujoco_without_contact_length_is_refused(tmp_path):
 
 @pytest.mark.slow
 def test_cli_auto_chooses_mujoco_when_the_robot_can_be_built(tmp_path):
-    from mjtrack.testing.cli import run_cli
+    from support.cli import run_cli
 
     path = _write(tmp_path, NOMINAL.to_dict(), duration=40.0)
     out = tmp_path / "d"
@@ -296,7 +296,7 @@ def test_surrogate_model_rel_is_the_measured_one():
     # the surrogate's MODEL_REL is its RMS relative error on the stored MuJoCo matrix, which
     # benchmarks/diagnose_benchmark.py computes from benchmarks/results/diagnose_mujoco_effects.json (3 decimals)
     from mjtrack.diagnose import surrogate_baseline as sb
-    from mjtrack.testing.repo import load_benchmark
+    from support.repo import load_benchmark
 
     rms, n = load_benchmark("diagnose_benchmark").model_error_on_mujoco()
     assert n >= 10

@@ -16,7 +16,7 @@ import pytest
 import mjtrack
 from mjtrack.io.logs import KNOWN, PLAUSIBLE
 from mjtrack.io.robot import GROUND_MODELS, PLAUSIBLE_ROBOT, Robot
-from mjtrack.testing.repo import DOCS, ROOT
+from support.repo import DOCS, ROOT
 
 ROBOT_KEYS = DOCS / "reference" / "formats" / "_robot_keys.md"
 

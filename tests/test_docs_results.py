@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from mjtrack.testing.repo import DOCS, RESULTS, ROOT, load_file
+from support.repo import BENCHMARKS, DOCS, RESULTS, ROOT, TESTS, load_file
 
 pages = load_file(DOCS / "_ext" / "results_pages.py", "results_pages")
 
@@ -106,7 +106,9 @@ def generated(tmp_path_factory):
 
 
 def test_results_root_is_the_one_constant():
+    """The results pages, the benchmark scripts and the tests name the same result folder."""
     assert pages.RESULTS == RESULTS
+    assert load_file(BENCHMARKS / "_results.py", "_results").RESULTS == RESULTS
 
 
 def test_every_number_on_every_results_page_is_its_result_file_value(generated):
@@ -150,3 +152,71 @@ def test_a_changed_number_or_result_file_is_caught(generated, tmp_path):
                 other.parent.mkdir(parents=True, exist_ok=True)
                 shutil.copyfile(ROOT / p["file"], other)
     assert any("holds" in p for p in problems(page, text, prov, copy_root))
+
+
+# -- the result files and the pages that cite them --------------------------------------------
+JOIN = re.compile(r"""["']\s*/\s*["']""")  # RESULTS / "a" / "b.json" reads as "a/b.json"
+CITED_SCRIPT = re.compile(r"benchmarks/([\w-]+\.py)")
+CITED_RESULT = re.compile(r"benchmarks/results/([\w./+-]*[\w/])")
+HISTORY = {"changelog.md"}  # names what past releases shipped, scripts since retired included
+
+
+def _readers(generated_pages: Path | None = None) -> dict[str, str]:
+    """The text of every docs page, README and test, and of the results pages as generated into
+    ``generated_pages``; path joins of Python written as one path."""
+    paths = [ROOT / "README.md", *DOCS.rglob("*.md"), *TESTS.rglob("*.py")]
+    skip = (DOCS / "_build", DOCS / "results")  # build output and results pages generated earlier
+    out = {p.relative_to(ROOT).as_posix(): JOIN.sub("/", p.read_text()) for p in paths
+           if not any(p.is_relative_to(s) for s in skip)}
+    if generated_pages is not None:
+        out |= {f"results/{p.name}": p.read_text() for p in generated_pages.glob("*.md")}
+    return out
+
+
+def _pages() -> dict[str, str]:
+    """The written documentation: README and the docs pages (not the generated ones, not history)."""
+    return {k: v for k, v in _readers().items() if k.endswith(".md") and Path(k).name not in HISTORY}
+
+
+def test_every_result_file_is_read_by_a_docs_page_or_a_test(generated):
+    """A stored result earns its place by a page (a results page as generated) or a test reading
+    it: its path under benchmarks/results named in their text."""
+    text = "\n".join(_readers(generated[0]).values())
+    orphans = [rel for rel in sorted(p.relative_to(RESULTS).as_posix() for p in RESULTS.rglob("*") if p.is_file())
+               if not re.search(rf"(?<![\w-]){re.escape(rel)}(?![\w.-])", text)]
+    assert not orphans, f"result files read by no docs page and no test: {orphans}"
+
+
+def test_every_script_and_result_file_a_page_cites_exists():
+    missing = []
+    for page, text in _pages().items():
+        missing += [f"{page}: benchmarks/{m}" for m in CITED_SCRIPT.findall(text)
+                    if not (BENCHMARKS / m).is_file() and not m[:-3].isupper()]  # NAME.py: a placeholder
+        missing += [f"{page}: benchmarks/results/{m}" for m in CITED_RESULT.findall(text)
+                    if not (RESULTS / m).exists()]
+    assert not missing, f"cited but not in the repository: {missing}"
+
+
+def test_the_benchmarks_are_at_most_twenty_scripts():
+    scripts = sorted(p.name for p in BENCHMARKS.glob("*.py") if not p.name.startswith("_"))
+    assert len(scripts) <= 20, scripts
+
+
+def test_the_citation_checks_can_fail(tmp_path):
+    """An orphan result file and a cited script that is gone are each caught by the rules above."""
+    text = "see `python benchmarks/no_such_study.py`, result benchmarks/results/no_such.json"
+    assert CITED_SCRIPT.findall(text) == ["no_such_study.py"] and CITED_RESULT.findall(text) == ["no_such.json"]
+    assert JOIN.sub("/", 'RESULTS / "fidelity" / "fidelity.json"') == 'RESULTS / "fidelity/fidelity.json"'
+    assert re.search(r"(?<![\w-])fidelity/fidelity\.json(?![\w.-])", "\n".join(_readers().values()))
+    assert "no_such.json" not in JOIN.sub("/", (ROOT / "README.md").read_text())
+
+
+def test_the_surrogates_model_form_constants_are_their_measured_values():
+    """Two constants of the diagnosis surrogate are measured by benchmark scripts; the code holds the
+    values their stored results print."""
+    from mjtrack.diagnose.surrogate_baseline import MODEL_ABS
+
+    spread = re.search(r"icr_spread gaps .* RMS (\d\.\d+)", (RESULTS / "generator_spread.txt").read_text())
+    assert spread and MODEL_ABS["icr_spread"] == float(spread.group(1))
+    steps = json.loads((RESULTS / "diagnose_transient_steps.json").read_text())
+    assert MODEL_ABS["friction_scale"] == pytest.approx(steps["model_abs_friction_scale"]["all"], abs=5e-4)  # 3 digits

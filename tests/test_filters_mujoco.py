@@ -1,6 +1,6 @@
 """The filters against the ICRs (tracked-robot thesis eq. 2.13) of a MuJoCo rollout (short run).
 
-The experiment ``benchmarks/filters_on_mujoco.py`` holds the procedure (noise, reference
+The accuracy runs of ``benchmarks/filter_consistency.py`` (``--accuracy``) hold the procedure (noise, reference
 ICRs, causal 2 s predictions); this test runs it on one left and one right 10 s turn of the
 robot with the centre of gravity 0.05 m forward (about 2 s of CPU).
 """
@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 from mjtrack.io.robot import Robot
-from mjtrack.testing.repo import load_benchmark
+from support.repo import load_benchmark
 
 
 @pytest.fixture(scope="module")
 def exp():
-    return load_benchmark("filters_on_mujoco")
+    return load_benchmark("filter_consistency")
 
 
 @pytest.fixture(scope="module")

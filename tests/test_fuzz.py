@@ -385,7 +385,7 @@ def test_terrain_specs(case):
 
 
 # -- command lines: every option of every command, random and extreme values, interrupts --------
-# Each generated command line runs as a real process forked from a warm one (mjtrack.testing.cli.Forker)
+# Each generated command line runs as a real process forked from a warm one (support.cli.Forker)
 # under a 4 GB address-space cap. A run still going after LIMIT_S gets SIGINT, as a user would
 # stop it; some runs get SIGINT or SIGTERM at a random moment. Properties: no hang (the process
 # ends within GRACE_S of a signal), no traceback, no death by a signal or by memory, exit 0, 1, 2
@@ -488,7 +488,7 @@ def command_line(draw, commands=None) -> tuple[str, list[str], tuple[int, float]
 
 @pytest.fixture(scope="module")
 def forker():
-    from mjtrack.testing.cli import Forker
+    from support.cli import Forker
 
     with Forker() as fk:
         yield fk

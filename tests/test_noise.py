@@ -12,7 +12,7 @@ import mjtrack
 from mjtrack.errors import InputError
 from mjtrack.io.logs import DriveLog, log_to_csv_text, read_log
 from mjtrack.sim.noise import CHANNELS, PRESETS, add_noise, log_noise, measured_noise
-from mjtrack.testing.cli import assert_usage_error, run_cli
+from support.cli import assert_usage_error, run_cli
 
 DATA = Path(__file__).parent / "data"
 

@@ -25,7 +25,7 @@ from mjtrack.control.paths import figure_eight_path
 from mjtrack.errors import InputError
 from mjtrack.io.robot import Robot
 from mjtrack.models.wheeled import DiffDriveKinematic
-from mjtrack.testing.cli import assert_usage_error, run_cli
+from support.cli import assert_usage_error, run_cli
 
 HUSKY = {"traction": "wheels", "track_gauge": 0.555, "wheel_radius": 0.165, "wheelbase": 0.512, "mass": 50.0,
          "cg_z": 0.2, "track_width": 0.11}

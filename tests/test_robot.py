@@ -21,7 +21,7 @@ from mjtrack.commands._common import (
 )
 from mjtrack.errors import InputError
 from mjtrack.io.robot import Robot, read_robot, write_robot
-from mjtrack.testing.cli import assert_usage_error, run_cli
+from support.cli import assert_usage_error, run_cli
 
 DATA = Path(__file__).parent / "data"
 

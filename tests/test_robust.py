@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjtrack.testing.cli import Forker, run_cli
+from support.cli import Forker, run_cli
 from mjtrack.errors import InputError
 
 

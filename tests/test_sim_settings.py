@@ -16,7 +16,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.models.coulomb import steady_state as coulomb
 from mjtrack.sim.config import MAX_STEP_DIVISIONS, SimConfig, previous_defaults
 from mjtrack.sim.steady import case_timestep, steady_batch
-from mjtrack.testing.repo import load_benchmark
+from support.repo import load_benchmark
 
 
 def test_solver_and_drive_settings_are_validated():
@@ -148,7 +148,7 @@ def test_wide_grid_x_c_error_is_the_friction_horizon_offset_v_dt():
     """The friction rows' reference acceleration -v_slip/dt makes the noslip friction oppose the
     slip predicted one step ahead, which the turn has rotated by w dt, so the steady x_c lies
     v_x dt ahead of the Coulomb one (derivation and checks: assets/README.md, benchmarks/
-    gentle_turns.py: RK4 gives the same offset, a longer friction time constant a longer one).
+    the gentle-turns study: RK4 gives the same offset, a longer friction time constant a longer one).
     The lag budget picks each case's step so that v dt <= 0.01 L: every turn of the quick grid
     but R = 10 m at 0.2 m/s is then within 0.02 L, and stays so less the offset v_x dt at the
     case's own step (before the budget, at 5 ms throughout: 0.056 L for the 5 kg robot with
@@ -205,7 +205,7 @@ def test_lag_budget_step_rule():
 def test_lag_budget_removes_the_friction_lag_offset_of_x_c():
     """A 0.18 m track at 2 m/s in a 5 m turn (the wide grid's worst x_c): the steady x_c sits v dt
     off the Coulomb reference with load transfer (independent code), the noslip friction's one-step
-    lag (benchmarks/gentle_turns.py section 5). Measured: 10.0 mm = 0.056 L at the fixed 5 ms,
+    lag (the gentle-turns study section 5). Measured: 10.0 mm = 0.056 L at the fixed 5 ms,
     1.78 mm = 0.0099 L at the 0.83 ms the budget picks (v dt = 1.67 mm)."""
     robot = Robot(track_gauge=0.3, track_length=0.18, track_width=0.08, mass=5.0, cg_z=0.045, cg_y=0.015)
     v, w = 2.0, 2.0 / 5.0
@@ -273,7 +273,7 @@ def _roller_surface_speeds(model, data, side: str, n: int, r: float) -> np.ndarr
 def test_belt_makes_the_rollers_of_a_track_run_at_one_speed():
     """SimConfig.belt_timeconst: in a gentle turn (the wide grid's 80 kg robot, cg 0.1 L ahead, R 10 m at
     0.2 m/s) the servos alone let the roller surface speeds of a track spread by F_i/(kv/N), mm/s
-    like the slips, and x_c then missed Coulomb by 0.03 L (benchmarks/gentle_turns.py, section 5);
+    like the slips, and x_c then missed Coulomb by 0.03 L (the gentle-turns study, section 5);
     with the belt every roller runs at the track speed and x_c is within 0.005 L (measured 0.0017).
     The Coulomb reference is independent code (models.coulomb)."""
     import mujoco

@@ -6,7 +6,7 @@ import json
 import pytest
 
 from mjtrack.io.robot import Robot, write_robot
-from mjtrack.testing.cli import run_cli
+from support.cli import run_cli
 
 SHORT = ["--settle", "0.2", "--window", "0.2"]
 
@@ -58,7 +58,7 @@ def test_the_robot_files_simulator_timestep_is_used(tmp_path):
 def test_validate_scenarios_use_and_sweep_refuses_the_recorded_step(tmp_path):
     from mjtrack.cli import build_parser
     from mjtrack.commands.validate import source_from_args
-    from mjtrack.testing.cli import assert_usage_error
+    from support.cli import assert_usage_error
 
     plain, fitted = tmp_path / "plain.json", tmp_path / "fitted.json"
     plain.write_text(json.dumps({"track_gauge": 0.4}))

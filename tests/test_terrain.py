@@ -23,7 +23,7 @@ from mjtrack.sim.rollout import simulate
 from mjtrack.sim.steady import steady_state
 from mjtrack.sim.surfacevel import set_track_speeds
 from mjtrack.sim.terrain import parse_terrain, timestep_for
-from mjtrack.testing.cli import run_cli
+from support.cli import run_cli
 
 MODELS = ["rollers", "surfacevel"]
 

@@ -298,7 +298,7 @@ def test_compensated_figure_eight_halves_the_cross_track_error():
 
 @pytest.mark.parametrize("scenario, mu, cg_x, speed", [("circle", 0.8, -0.05, 1.0), ("lane_change", 0.8, 0.05, 1.0)])
 def test_compensation_is_not_worse_than_none_on_grid_points(scenario, mu, cg_x, speed):
-    """Two points of benchmarks/compensation_grid.py (seed 0): the case where the first
+    """Two points of benchmarks/controllers.py --grid (seed 0): the case where the first
     icr mode raised the RMS by 65-91 %, and a lane change (both turn directions)."""
     robot = Robot(mu=mu, cg_x=cg_x)
     met = {m: run_tracking(robot, scenario=scenario, compensation=m, speed=speed).metrics for m in ("none", "icr", "vir")}
@@ -345,7 +345,7 @@ def test_coulomb_map_inverts_its_own_physics_and_falls_back_where_there_is_none(
 def test_compensation_from_the_coulomb_map_where_slip_is_large():
     """Circle, mu 0.4, CG 5 cm ahead, 1 m/s (none 210 mm RMS): the compensation started from the
     Coulomb map of the robot's description errs 0.11 of none's RMS, against 0.33 from the nominal
-    map (seed 0, measured; benchmarks/compensation_grid.py --reference-map coulomb)."""
+    map (seed 0, measured; benchmarks/controllers.py --grid --reference-map coulomb)."""
     robot = Robot(mu=0.4, cg_x=0.05)
     kw = dict(scenario="circle", speed=1.0, compensation="icr")
     nominal = run_tracking(robot, **kw).metrics["rms_cross_track_m"]
@@ -392,7 +392,7 @@ def test_the_grid_miss_is_the_estimate_not_the_absence_of_slip():
 
 @pytest.mark.slow
 def test_quick_compensation_grid_names_the_reason_of_each_miss(tmp_path):
-    """benchmarks/compensation_grid.py --quick (24 cases, seed 0); the full 72-case grid is the script.
+    """benchmarks/controllers.py --grid --quick (24 cases, seed 0); the full 72-case grid is the script.
 
     "Never worse than none" is not met on the lane change with mu 0.4, cg -0.05 m at 0.5 m/s
     (none 2.6 mm RMS): vir's maximum ratio is 1.004 (measured), so the script exits 1. Every mode
@@ -402,9 +402,9 @@ def test_quick_compensation_grid_names_the_reason_of_each_miss(tmp_path):
     import subprocess
     import sys
 
-    from mjtrack.testing.repo import BENCHMARKS, ROOT
+    from support.repo import BENCHMARKS, ROOT
 
-    res = subprocess.run([sys.executable, str(BENCHMARKS / "compensation_grid.py"), "--quick",
+    res = subprocess.run([sys.executable, str(BENCHMARKS / "controllers.py"), "--grid", "--quick",
                           "--out", str(tmp_path / "grid.json")], cwd=ROOT, capture_output=True, text=True)
     assert res.returncode in (0, 1), res.stdout[-3000:] + res.stderr[-3000:]
     cases = json.loads((tmp_path / "grid.json").read_text())["cases"]
@@ -434,7 +434,7 @@ def cli(monkeypatch):
     from mjtrack import cli as cli_mod
 
     monkeypatch.setitem(cli_mod.COMMANDS, "track", "track")
-    from mjtrack.testing.cli import run_cli
+    from support.cli import run_cli
 
     return run_cli
 

@@ -229,7 +229,7 @@ def test_carried_covariance_grows_by_the_random_walk_over_the_gap():
 @pytest.fixture
 def cli(monkeypatch):
     import mjtrack.cli
-    from mjtrack.testing.cli import run_cli
+    from support.cli import run_cli
 
     monkeypatch.setitem(mjtrack.cli.COMMANDS, "validate", "validate")
     return run_cli
@@ -248,7 +248,7 @@ def test_cli_validate_a_log_writes_report_and_metrics(cli, drive, tmp_path):
 
 
 def test_cli_validate_refuses_bad_input(cli, drive, tmp_path):
-    from mjtrack.testing.cli import assert_usage_error
+    from support.cli import assert_usage_error
 
     assert_usage_error(cli(["validate", "--out", tmp_path / "o"]), "LOG.csv or --scenario")
     log_path = tmp_path / "norobot.csv"

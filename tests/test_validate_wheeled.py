@@ -178,7 +178,7 @@ def test_dynamic1_follows_its_force_limited_straight_start():
 
 
 def test_validate_help_documents_the_wheeled_models():
-    from mjtrack.testing.cli import run_cli
+    from support.cli import run_cli
 
     out = run_cli(["validate", "--help"])
     assert out.rc == 0

@@ -10,7 +10,7 @@ import functools
 
 import pytest
 
-from mjtrack.testing.repo import BENCHMARKS, load_file
+from support.repo import BENCHMARKS, load_file
 
 
 @functools.lru_cache(maxsize=2)

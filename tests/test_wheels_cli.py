@@ -8,7 +8,7 @@ import math
 
 import pytest
 
-from mjtrack.testing.cli import assert_usage_error, run_cli
+from support.cli import assert_usage_error, run_cli
 
 WHEELED = {"traction": "wheels", "track_gauge": 0.555, "sprocket_radius": 0.165, "wheelbase": 0.512,
            "wheels_per_side": 2, "mass": 50.0, "cg_x": 0.02, "cg_z": 0.2, "track_width": 0.11}

@@ -6,7 +6,7 @@ starts) or alone::
     python docs/_ext/results_pages.py [OUT_DIR]       # default docs/results
 
 Every number on a results page is read here from a result file under
-:data:`mjtrack.testing.repo.RESULTS`; nothing is typed. Beside the pages the generator writes
+:data:`RESULTS`; nothing is typed. Beside the pages the generator writes
 ``_provenance.json``: for every number, the file and the JSON pointer it came from (and the
 reduction, for a mean or maximum over a list), so that ``tests/test_docs_results.py`` can check
 each printed number against its file independently of this module.
@@ -23,9 +23,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from mjtrack.testing.repo import RESULTS, ROOT
-
 HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]  # docs/_ext/results_pages.py
+RESULTS = ROOT / "benchmarks" / "results"
+"""The stored result files the pages are generated from (the benchmark scripts' folder)."""
 DEFAULT_OUT = HERE.parent / "results"
 SIGNIFICANT = 3  # significant digits of a printed float
 
@@ -114,6 +115,13 @@ class Page:
     sources: list[Source]
     tables: list[Table]
     figures: list[tuple[Path, str]] = field(default_factory=list)  # (result figure, caption)
+    written: list[Path] = field(default_factory=list)  # files the runs wrote beside the result files
+
+
+def add_rows(table: Table, src: Source, rows: list[tuple[str, str]]) -> None:
+    """One (label, number at pointer) row per pair, for a two-column quantity table."""
+    for label, pointer in rows:
+        table.add(label, number(src, pointer))
 
 
 def add_load(table: Table, src: Source, before: str, after: str) -> None:
@@ -230,25 +238,29 @@ def _implementations() -> Page:
 
 def _filters() -> Page:
     src = Source(RESULTS / "filter_consistency.json")
-    table = Table("Normalised innovation and estimation error squared per degree of freedom (NIS, NEES), mean over "
-                  "the seeds; a consistent filter lies inside the bands of the last table. Pass: inside both bands.",
-                  ["case", "filter", "NIS / dof", "NEES / dof", "pass"])
+    table = Table("Normalised innovation and estimation error squared per degree of freedom (NIS, NEES) of each "
+                  "filter, the mean over every sample of the three noise seeds, beside the two-sided interval a "
+                  "consistent filter's mean of that many samples lies in with probability `p = 0.95`: "
+                  "`chi2.ppf((1 -+ p)/2, N*d) / (N*d)` for N samples of d degrees of freedom "
+                  "(`mjtrack.estimation.consistency.pooled`, the rule the benchmark passes or fails by). The NIS "
+                  "samples of a consistent filter are independent; the NEES samples are correlated from step to "
+                  "step, so their interval is narrower than the mean's real spread: a NEES mean outside it is a "
+                  "flag, not a proof. Pass: both means inside.",
+                  ["case", "filter", "NIS / dof", "NIS low", "NIS high", "NEES / dof", "NEES low", "NEES high",
+                   "NIS inside", "NEES inside", "pass"])
     for case, c in src.data["cases"].items():
         for name in c["filters"]:
-            p = f"/cases/{case}/filters/{name}"
-            table.add(case, name, number(src, p, reduce="mean", field_name="nis_per_dof"),
-                      number(src, p, reduce="mean", field_name="nees_per_dof"),
+            p = f"/cases/{case}/pooled/{name}"
+            table.add(case, name, number(src, p + "/nis_per_dof"), number(src, p + "/nis_band/0"),
+                      number(src, p + "/nis_band/1"), number(src, p + "/nees_per_dof"), number(src, p + "/nees_band/0"),
+                      number(src, p + "/nees_band/1"), number(src, p + "/nis_inside"), number(src, p + "/nees_inside"),
                       number(src, f"/cases/{case}/pass/{name}"))
-    bands = Table("Bands a consistent filter's mean NIS and NEES per degree of freedom lie in.",
-                  ["quantity", "low", "high"])
-    bands.add("NIS / dof", number(src, "/nis_band/0"), number(src, "/nis_band/1"))
-    bands.add("NEES / dof", number(src, "/nees_band/0"), number(src, "/nees_band/1"))
     return Page(
         "filter-consistency", "Filter consistency",
         "The three parameter filters (slip EKF, ICR EKF, virtual-robot filter), each as a plain random walk and with "
         "adaptive process noise (`_imm`), run on MuJoCo logs with seeded measurement noise. Written by "
         "`python benchmarks/filter_consistency.py`.",
-        [src], [table, bands])
+        [src], [table])
 
 
 def _speed() -> Page:
@@ -278,23 +290,33 @@ def _speed() -> Page:
     whole = Table("Calibration of the whole shared Marmotte log at calibrate's defaults (the rollers per track of "
                   "the real-robot results), with the machine's load and the target wall time.",
                   ["quantity", "value"])
-    whole.add("rollers per track", number(cal, "/rollers"))
-    whole.add("target wall time [min]", number(cal, "/target_minutes"))
-    whole.add("windows in the log", number(cal, "/windows"))
-    whole.add("windows the fit used", number(cal, "/fit_windows"))
-    whole.add("wall time [min]", number(cal, "/minutes"))
-    for stage in ("before", "fit", "after"):
-        whole.add(f"stage {stage} [s]", number(cal, f"/timings_s/{stage}"))
-    whole.add("parameter sets the fits evaluated", number(cal, "/parameter_sets"))
-    whole.add("windows simulated per second", number(cal, "/windows_per_second"))
-    whole.add("2 s position RMSE before [m]", number(cal, "/rms_before"))
-    whole.add("2 s position RMSE after [m]", number(cal, "/rms_after"))
-    whole.add("windows blown up after calibration", number(cal, "/diverged/1"))
+    add_rows(whole, cal, [("rollers per track", "/rollers"), ("target wall time [min]", "/target_minutes"),
+                          ("windows in the log", "/windows"), ("windows the fit used", "/fit_windows"),
+                          ("wall time [min]", "/minutes"),
+                          *((f"stage {stage} [s]", f"/timings_s/{stage}") for stage in ("before", "fit", "after")),
+                          ("parameter sets the fits evaluated", "/parameter_sets"),
+                          ("windows simulated per second", "/windows_per_second"),
+                          ("2 s position RMSE before [m]", "/rms_before"), ("2 s position RMSE after [m]", "/rms_after"),
+                          ("windows blown up after calibration", "/diverged/1")])
     add_load(whole, cal, "/load_before/0", "/load_after/0")
+    demo = Source(RESULTS / "bench_demo.json")
+    dem = Table("`mjtrack demo` end to end on its defaults: wall time, per stage.", ["quantity", "value"])
+    add_rows(dem, demo, [("wall time [s]", "/wall_s"),
+                         *((f"stage {stage} [s]", f"/stage_s/{stage}") for stage in demo.data["stage_s"]),
+                         ("CPUs", "/cpus")])
+    add_load(dem, demo, "/load_average_before/0", "/load_average_after/0")
+    sweep = Source(RESULTS / "bench_sweep.json")
+    sw = Table("`mjtrack sweep` of a small grid on a local cluster of one and of two worker processes (median of "
+               "the repeats): the sweep's own time, the whole call, and whether both wrote the same sweep.csv.",
+               ["quantity", "value"])
+    add_rows(sw, sweep, [("cases", "/cases"), ("one worker, sweep [s]", "/one_worker/run_seconds"),
+                         ("two workers, sweep [s]", "/two_workers/run_seconds"), ("speed-up of the sweep", "/speedup_run"),
+                         ("speed-up of the whole call", "/speedup_total"), ("identical sweep.csv", "/identical_csv")])
+    add_load(sw, sweep, "/loadavg_before/0", "/loadavg_after/0")
     return Page(
         "speed", "Speed",
         "Timings depend on the machine and its load; each table gives the load averages of its run.",
-        [src, cal], [rt, prof, rollers, other, whole])
+        [src, cal, demo, sweep], [rt, prof, rollers, other, whole, dem, sw])
 
 
 def _wheeled() -> Page:
@@ -446,6 +468,18 @@ def _controllers() -> Page:
     load.add("load before", number(src, "/load_average_before/0"))
     load.add("load after", number(src, "/load_average_after/0"))
     load.add("wall time [s]", number(src, "/wall_s"))
+    grid = Source(RESULTS / "compensation_grid.json")
+    comp = Table("The slip compensation over a grid of cases (paths, friction, centre of mass, speed, noise seeds; "
+                 "the tracker with each compensation against none): cases where it is not worse than none in RMS and in "
+                 "maximum, and the ratio of its cross-track error to none's (below one: better).",
+                 ["compensation", "cases", "not worse", "median RMS ratio", "worst RMS ratio", "median max ratio",
+                  "worst max ratio"])
+    for mode in grid.data["summary"]:
+        q = f"/summary/{mode}"
+        comp.add(mode, number(grid, q + "/cases"), number(grid, q + "/passed"), number(grid, q + "/median_rms_ratio"),
+                 number(grid, q + "/worst_rms_ratio"), number(grid, q + "/median_max_ratio"),
+                 number(grid, q + "/worst_max_ratio"))
+    tables.append(comp)
     return Page(
         "controllers", "Path controllers",
         "The thesis's five path controllers (feed-forward, pole placement, reactive, posture, line following) and the "
@@ -458,7 +492,7 @@ def _controllers() -> Page:
         "noisy columns). Started from the Coulomb reference's steady ICRs of the robot's description "
         "(feedforward_coulomb: `mjtrack track --reference-map coulomb`), the compensation predicts the slip from the "
         "physics, and the open-loop feed-forward follows the path with or without measurement noise.",
-        [src], [*tables, load])
+        [src, grid], [*tables, load])
 
 
 def _calibration() -> Page:
@@ -549,13 +583,16 @@ def _calibration() -> Page:
         summaries.add(name, "; ".join("+".join(g["parameters"]) for g in r["causes"]) or "none",
                       f"{r.get('drive_input', 'commanded')} track speeds",
                       r["diagnose"]["cause"] if "diagnose" in r else "not run")
+    written = [real.path.parent / "real_robots" / name / f for name in real.data["robots"]
+               for f in ("robot.json", "calibration.json", "report.html")]
     return Page(
         "calibration", "Calibration",
         "What `mjtrack calibrate` finds on logs whose truth is known (the MuJoCo robot's own logs, one change each), "
         "and on three real robots: Marmotte (tracked), Husky and Warthog (wheeled skid-steer), from the DRIVE data. "
         "A parameter the log does not determine keeps its described value and is marked so; intervals carry the "
         "correlation of a log's windows and the measured model-form error of simulating a window from a logged "
-        "state.", [bat, real], [cases, rows, robots, context, speed, params, summaries])
+        "state.", [bat, real], [cases, rows, robots, context, speed, params, summaries],
+        written=[p for p in written if p.exists()])
 
 
 #: the peer models of benchmarks/peers.py, in the order and words of the page
@@ -681,7 +718,12 @@ def render(page: Page) -> tuple[str, list[dict]]:
     for src in page.sources:
         made = f", written by `{src.command}`" if src.command else ""
         lines.append(f"- `{src.rel}`{made}")
+    lines += [f"- `{fig.relative_to(ROOT).as_posix()}` (the figure)" for fig, _ in page.figures]
     lines.append("")
+    if page.written:
+        lines += ["**Written beside them** (the calibrated robots and their reports)", ""]
+        lines += [f"- `{p.relative_to(ROOT).as_posix()}`" for p in page.written]
+        lines.append("")
     return "\n".join(lines), provenance
 
 

@@ -29,7 +29,7 @@ MODEL_REL = 0.071
 # - icr_spread: the benchmark's generator (mjtrack/testing/diagnose_physics.py, at its settings) turns with a
 #   wider steady ICR spread than the Coulomb reference of the description the surrogate's q0 come
 #   from: +3.68 +3.68 +1.69 / +3.27 +3.28 +1.60 / +1.84 +1.85 +1.85 % (small / large / wheeled x 3
-#   commands; python benchmarks/generator_spread.py prints the RMS): 0.0267.
+#   commands; python benchmarks/diagnose_transient_steps.py --icr-spread prints the RMS): 0.0267.
 # - friction_scale: the generator's yaw transients are faster than the Coulomb rollout's (the
 #   surrogate's rigid-body reference); friction_scale shortens every transient as 1/fs, so a dead
 #   time ratio r = generator / coulomb reads as fs = 1/r: r = 0.890 0.935 0.887 0.938 (small),
@@ -43,7 +43,7 @@ MODEL_ABS = {"icr_spread": 0.0267, "friction_scale": 0.118}
 MODEL_FORM = ModelForm(MODEL_REL, MODEL_ABS,
                        measured_by="python benchmarks/diagnose_benchmark.py (rel, from "
                                    "benchmarks/results/diagnose_mujoco_effects.json); python "
-                                   "benchmarks/generator_spread.py (icr_spread); python "
+                                   "benchmarks/diagnose_transient_steps.py --icr-spread (icr_spread); python "
                                    "benchmarks/diagnose_transient_steps.py (friction_scale)")
 
 # what each effect changes in the surrogate (:mod:`mjtrack.diagnose.effects`)

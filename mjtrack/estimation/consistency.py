@@ -9,9 +9,14 @@ A filter is consistent when its errors are as large as its covariances say:
   It needs true parameters.
 
 ``band95`` is the two-sided 95 % band of a *single step's* value (χ² quantiles): the band the
-report draws around NIS over time. Averages over many correlated steps have no simple band;
-the acceptance used by ``benchmarks/filter_consistency.py`` is nis/dof in [0.5, 2] and
-nees/dof in [1/3, 3].
+report draws around NIS over time. The mean of N independent χ²(d) values is χ²(N·d)/N, so the
+mean per degree of freedom of a consistent filter lies, with probability 95 %, in
+χ²⁻¹(0.025, N·d)/(N·d) .. χ²⁻¹(0.975, N·d)/(N·d) (:func:`mean_band`). :func:`pooled` judges a
+filter's runs (seeds) by that one rule: the mean over every sample of every run, against the
+interval for their total number. The samples are independent for NIS (a consistent filter's
+innovations are white); the estimation errors of NEES are correlated from step to step, so for
+NEES the interval is narrower than the mean's real spread and a value outside it is a flag to
+look at, not a proof of inconsistency.
 
 **True parameters of a physical truth** (a MuJoCo rollout, or any noise-free twist with the
 track speeds that drive the filter). The ψ parametrisation's own value at a sample is exact:
@@ -24,7 +29,7 @@ not act on the motion there). MPP's own slips: u_L,R = v_x ∓ ωT/2 are the act
 s = 1 − u/V, tan α = −v_y/v_x (:func:`own_slips`), undefined where |V_L|, |V_R| or |v_x| is small.
 Per sample these carry the drives' transient after each change of command (the twist and the
 track speeds respond at different rates), which no kinematic model describes. As in
-``benchmarks/filters_on_mujoco.py``, the truth of a constant-command stretch is therefore the
+``benchmarks/filter_consistency.py --accuracy``, the truth of a constant-command stretch is therefore the
 *mean* of the per-sample own values over its steady part (from ``settle_s`` after the command
 changed to the next change), and NEES is evaluated on those steady parts only
 (:func:`steady_truth`).
@@ -148,3 +153,37 @@ def per_dof(c: dict) -> tuple[float, float]:
     nis = c["nis_mean"] / c["nis_dof"] if c.get("nis_mean") is not None else math.nan
     nees = c["nees_mean"] / c["nees_dof"] if c.get("nees_mean") is not None else math.nan
     return nis, nees
+
+
+def mean_band(dof: int, samples: int, p: float = 0.95) -> tuple[float, float]:
+    """Two-sided ``p`` interval of the mean per degree of freedom of ``samples`` independent χ²(``dof``)
+    values: χ²⁻¹((1 ∓ p)/2, samples·dof) / (samples·dof)."""
+    lo, hi = chi2_band(dof, samples, p)
+    return lo / dof, hi / dof
+
+
+def pooled(runs: list[dict], p: float = 0.95) -> dict:
+    """One filter's runs (:func:`summary` of each seed) judged by one rule (module docstring).
+
+    Returns:
+        ``{nis_per_dof, nis_samples, nis_band, nis_inside, nees_..., pass}``: for NIS and NEES the mean
+        per degree of freedom over every sample of every run, the number of samples, the ``p``
+        interval of :func:`mean_band` for that number (None without truth) and whether the mean
+        lies inside it; ``pass``: both inside (NEES only where there is truth).
+    """
+    out: dict = {}
+    ok = True
+    for q in ("nis", "nees"):
+        have = [r for r in runs if r.get(f"{q}_mean") is not None and r[f"n_{q}"] > 0]
+        if not have:
+            out.update({f"{q}_per_dof": None, f"{q}_samples": 0, f"{q}_band": None, f"{q}_inside": None})
+            continue
+        dof = have[0][f"{q}_dof"]
+        n = sum(r[f"n_{q}"] for r in have)
+        mean = sum(r[f"{q}_mean"] * r[f"n_{q}"] for r in have) / (n * dof)
+        band = mean_band(dof, n, p)
+        inside = bool(band[0] <= mean <= band[1])
+        out.update({f"{q}_per_dof": mean, f"{q}_samples": n, f"{q}_band": list(band), f"{q}_inside": inside})
+        ok &= inside
+    out["pass"] = bool(ok)
+    return out

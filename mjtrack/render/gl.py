@@ -152,9 +152,3 @@ def make_context(width: int, height: int):
             f"offscreen backend MUJOCO_GL={backend} failed: {type(exc).__name__}: {_last_line(str(exc))}; {INSTALL_HINT}"
         ) from exc
     return context
-
-
-def _reset_for_tests() -> None:
-    """Forget the cached choice (tests only)."""
-    global _chosen
-    _chosen = None

@@ -225,7 +225,7 @@ def previous_defaults() -> SimConfig:
     return SimConfig(**PREVIOUS_ROLLER_DEFAULTS)
 
 
-# Settings measured for the surfacevel track model (benchmarks/surfacevel_study.py; why each
+# Settings measured for the surfacevel track model (the surfacevel study; why each
 # one: mjtrack/sim/surfacevel.py's docstring), pinned here: the SimConfig
 # defaults are tuned for the roller chain and change with it. Why each one: module docstring.
 SURFACEVEL_SETTINGS = dict(

@@ -30,8 +30,7 @@ import numpy as np
 
 from mjtrack.errors import InputError
 from mjtrack.io.robot import Robot
-from mjtrack.sim.chassis import (Suspension, TrackModel, build_robot_model, build_robot_scene,
-                                 build_robot_spec, element_positions)
+from mjtrack.sim.chassis import (Suspension, TrackModel, build_robot_model, build_robot_spec, element_positions)
 from mjtrack.sim.config import SURFACEVEL_SETTINGS, SimConfig, surfacevel_config  # noqa: F401 (this module's API)
 from mjtrack.sim.drivetrain import drive_of
 from mjtrack.sim.scene import SIDES
@@ -135,13 +134,6 @@ def _add_element(body, element: str, *, name: str, x: float, r: float, cell: flo
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[cell / 2, width / 2, r], pos=[x, 0, r], **common)
 
 
-def build_surfacevel_spec(robot: Robot, config: SimConfig | None = None, terrain: Terrain | None = None,
-                          **options) -> mujoco.MjSpec:
-    """Robot and scene (:func:`mjtrack.sim.chassis.build_robot_scene`); ``options``:
-    :class:`SurfacevelTracks`."""
-    return build_robot_scene(robot, config, SurfacevelTracks(**options), terrain)
-
-
 def build_surfacevel_model(robot: Robot, config: SimConfig | None = None, terrain: Terrain | None = None,
                            **options) -> mujoco.MjModel:
     """Compiled model with the tracks at rest; drive it with :func:`set_track_speeds`.
@@ -151,7 +143,7 @@ def build_surfacevel_model(robot: Robot, config: SimConfig | None = None, terrai
     """
     config = config or surfacevel_config()
     for problem in setting_problems(config):
-        log.warning("surfacevel: %s (benchmarks/surfacevel_study.py); see surfacevel_config()", problem)
+        log.warning("surfacevel: %s (the surfacevel study); see surfacevel_config()", problem)
     return build_robot_model(robot, config, SurfacevelTracks(**options), terrain)
 
 

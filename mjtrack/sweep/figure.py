@@ -12,7 +12,6 @@ counted in the title.
 from __future__ import annotations
 
 import math
-import os
 from collections import defaultdict
 from typing import Any, Sequence
 
@@ -25,13 +24,6 @@ MAX_COLUMNS = 6
 
 def _fmt(v: Any) -> str:
     return "straight" if v is None else f"{v:g}"
-
-
-def icr_map(records: Sequence[dict[str, Any]], grid: Grid, path: str | os.PathLike) -> None:
-    """Draw the map of ``records`` (sweep rows as dicts) to ``path`` (PNG, written atomically)."""
-    from mjtrack.io.atomic import atomic_write_bytes
-
-    atomic_write_bytes(path, icr_map_png(records, grid))
 
 
 def icr_map_png(records: Sequence[dict[str, Any]], grid: Grid) -> bytes:

@@ -353,8 +353,3 @@ def _record(cols: list[str], row: list[str]) -> dict[str, Any]:
         except ValueError:
             rec[c] = cell
     return rec
-
-
-def read_sweep(path: str | os.PathLike) -> list[dict[str, Any]]:
-    """The case records of a finished ``sweep.json``."""
-    return json.loads(Path(path).read_text(encoding="utf-8"))["cases"]

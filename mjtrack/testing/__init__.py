@@ -10,14 +10,13 @@ is used to check (each module's docstring says what it shares with mjtrack and w
   without ``mjtrack.diagnose``.
 * :mod:`mjtrack.testing.ground_balance`: the steady-state force and moment balance of a rigid
   two-track vehicle on a given ground, by quadrature (oracle of the ground models).
-* :mod:`mjtrack.testing.builder_fingerprints`: hashes of the compiled MuJoCo models, a detector
-  of unintended model changes.
-* :mod:`mjtrack.testing.cli`: run ``mjtrack ARGS`` in-process or in a subprocess and check its
-  exit status and error line; :class:`~mjtrack.testing.cli.Forker` runs command lines as real
-  processes forked from a warm one (:mod:`mjtrack.testing.cli_zygote`), under a memory cap, a time
-  limit and signals.
-* :mod:`mjtrack.testing.repo`: where the repository's tests, benchmark scripts and result files
-  are (meaningful in a source checkout only).
+* :mod:`mjtrack.testing.bristle_physics`: a second independent generator of drive logs (bristle
+  friction, driven belts with inertia), sharing no code with the first.
+* :mod:`mjtrack.testing.implementations` and :mod:`mjtrack.testing.battery`: the cases of the
+  diagnosis across implementations and of the calibration battery, with their truth.
+
+The tests' own machinery (running the command line, repository paths, model fingerprints) is
+in the repository's ``tests/support``, not in the package.
 
 Nothing in the library imports this package; importing it does not load MuJoCo.
 """

@@ -1,7 +1,7 @@
 """Drive logs with a record the ground cannot explain in one window, for the tests of the windows
 left out.
 
-    from mjtrack.testing.records import with_backward_window, with_held_window
+    from support.records import with_backward_window, with_held_window
 
     bad, (s, e) = with_backward_window(log, start_row=80, end_row=120)
     held, (s, e) = with_held_window(log, start_row=80, end_row=120)

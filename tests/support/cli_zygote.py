@@ -1,6 +1,6 @@
 """A process that has imported mjtrack once and forks one child per command line (tests only).
 
-Started by :class:`mjtrack.testing.cli.Forker`. It reads one JSON request per line on stdin:
+Started by ``support.cli.Forker``. It reads one JSON request per line on stdin:
 ``{"argv": [...], "cwd": DIR, "memory": BYTES, "limit_s": S, "signal": [SIGNUM, DELAY_S] | null,
 "grace_s": S}`` and answers one JSON line on stdout: ``{"rc", "stdout", "stderr", "seconds",
 "signalled_at", "after_signal_s", "killed"}``.

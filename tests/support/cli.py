@@ -1,6 +1,6 @@
 """Helpers for CLI-level tests: run ``mjtrack ARGS`` and look at exit status, stdout, stderr.
 
-    from mjtrack.testing.cli import run_cli, assert_usage_error
+    from support.cli import run_cli, assert_usage_error
 
     res = run_cli(["diagnose", str(log_path), "--out", str(tmp_path / "d")])
     assert res.rc == 0, res.err
@@ -78,7 +78,7 @@ class ForkResult:
 
 
 class Forker:
-    """Runs ``mjtrack ARGS`` as real processes forked from a warm one (:mod:`mjtrack.testing.cli_zygote`), under a
+    """Runs ``mjtrack ARGS`` as real processes forked from a warm one (``cli_zygote.py`` beside this module), under a
     memory cap and a time limit, optionally interrupted by a signal (see that module).
 
         with Forker() as fk:
@@ -86,7 +86,7 @@ class Forker:
     """
 
     def __init__(self) -> None:
-        self.proc = subprocess.Popen([sys.executable, "-m", "mjtrack.testing.cli_zygote"],
+        self.proc = subprocess.Popen([sys.executable, str(Path(__file__).with_name("cli_zygote.py"))],
                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
         ready = self.proc.stdout.readline()
         if ready.strip() != "ready":

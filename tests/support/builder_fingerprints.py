@@ -10,8 +10,8 @@ surfacevel element variants. Every setting is pinned in the stored file (the Sim
 are stored, not taken from the current defaults), so a change of a default elsewhere does not
 show up here; a change of what the builders make from the same inputs does.
 
-    python -m mjtrack.testing.builder_fingerprints --write   # store tests/data/builder_fingerprints.json
-    python -m mjtrack.testing.builder_fingerprints           # compare with the stored file, list differences
+    python tests/support/builder_fingerprints.py --write  # store tests/data/builder_fingerprints.json
+    python tests/support/builder_fingerprints.py          # compare with the stored file, list differences
 
 ``tests/test_builder_fingerprints.py`` runs the comparison by default. The hashes are bit-exact
 (same MuJoCo build and CPU family); regenerate the file only for an intended model change, and
@@ -25,6 +25,7 @@ import dataclasses
 import hashlib
 import json
 import sys
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -34,9 +35,8 @@ from mjtrack.sim.builder import build_model, build_spec, control_matrix
 from mjtrack.sim.config import SimConfig, surfacevel_config
 from mjtrack.sim.surfacevel import build_surfacevel_model, robot_spec, set_track_speeds
 from mjtrack.sim.terrain import HField, Step, Terrain
-from mjtrack.testing.repo import TESTS
 
-STORE = TESTS / "data" / "builder_fingerprints.json"
+STORE = Path(__file__).resolve().parents[1] / "data" / "builder_fingerprints.json"  # tests/data
 STEPS = 150  # rollout length [steps]
 COMMAND = (0.3, 0.5)  # (V_L, V_R) [m/s]: a gentle left turn
 
