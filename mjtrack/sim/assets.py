@@ -13,8 +13,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import mujoco
-
 from mjtrack.io.atomic import atomic_write_text
 from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import ROLLER_CHAIN, build_model, build_spec
