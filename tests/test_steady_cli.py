@@ -73,3 +73,18 @@ def test_validate_scenarios_use_and_sweep_refuses_the_recorded_step(tmp_path):
     res = run_cli(["sweep", "--grid", tmp_path / "grid.json", "--robot", fitted, "--out", tmp_path / "s"])
     assert_usage_error(res, r"simulator settings timestep are not used by sweep")
     assert not (tmp_path / "s").exists()
+
+
+def test_simulate_notes_that_a_measured_drive_input_is_not_used(tmp_path):
+    """A simulated run has no logged track speeds: the key is named as unused, the log still written."""
+    robot = tmp_path / "cal.json"
+    robot.write_text(json.dumps({"track_gauge": 0.4, "simulator": {"drive_input": "measured"}}))
+    res = run_cli(["simulate", "--scenario", "straight", "--duration", "0.2", "--robot", robot,
+                   "--out", tmp_path / "run.csv"])
+    assert res.rc == 0, res.err
+    assert "simulator.drive_input 'measured'" in res.err and (tmp_path / "run.csv").exists()
+    plain = tmp_path / "plain.json"
+    plain.write_text(json.dumps({"track_gauge": 0.4}))
+    res = run_cli(["simulate", "--scenario", "straight", "--duration", "0.2", "--robot", plain,
+                   "--out", tmp_path / "run2.csv"])
+    assert res.rc == 0 and "drive_input" not in res.err

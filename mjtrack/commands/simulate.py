@@ -9,7 +9,9 @@ the measurement noise under key "noise" when --noise adds some). The same argume
 a byte-identical log, noise included.
 
 A robot file's simulator settings (simulator.track_model, n_rollers, timestep: what a calibrated
-robot was fitted with) are used; --track-model and --timestep override them.
+robot was fitted with) are used; --track-model and --timestep override them. Its
+simulator.drive_input 'measured' is noted and not used: a simulated run has no logged track
+speeds to follow, so the tracks are driven from the commands.
 
 Time step of the roller chain (without --timestep, nor one in the robot file): 5 ms (smaller on terrain edges), the step at
 which calibrate and diagnose simulate a log's windows. With fast commands on short tracks a turn's
@@ -21,6 +23,7 @@ its step for that): --timestep S with v_max S <= 0.01 L removes it.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from mjtrack.commands._common import (add_output_options, add_robot_options, add_terrain_option, bounded,
@@ -63,7 +66,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from mjtrack.io.logs import robot_path_for, write_log
     from mjtrack.io.robot import write_robot
-    from mjtrack.sim.config import sim_config
+    from mjtrack.sim.config import robot_sim_settings, sim_config
     from mjtrack.sim.noise import add_noise, log_noise, with_noise_record
     from mjtrack.sim.rollout import drive_log
     from mjtrack.sim.scenarios import read_commands, scenario_commands
@@ -76,6 +79,10 @@ def run(args: argparse.Namespace) -> int:
     out = check_out_file(args.out, suffixes=(".csv",), inputs=inputs)
     check_overwrite([out, robot_path_for(out)], args.force, inputs)
     config = sim_config(args.track_model, timestep=args.timestep, robot=robot)
+    if robot_sim_settings(robot).get("drive_input") == "measured":
+        # a simulated run has no logged track speeds to follow: say so rather than drop the key silently
+        print("note: the robot file's simulator.drive_input 'measured' applies to logged runs (calibrate, "
+              "diagnose); simulate drives the tracks from the commands", file=sys.stderr)
     if args.scenario:
         table, duration = scenario_commands(args.scenario, robot, duration=args.duration, seed=args.seed)
     else:
