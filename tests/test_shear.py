@@ -131,3 +131,18 @@ def test_shear_modulus_from_the_argument_only_here():
         shear.steady_state(WHEELED, 0.2, 0.6, shear_modulus=0.01, patch_length=0.0)
     s = shear.steady_state(ROBOT, 0.4, 0.4, shear_modulus=0.01)
     assert s.straight and s.vx == 0.4
+
+
+def test_slower_side_grips_more_on_wheels():
+    """Derived (docs/theory/shear.md): a slow side's patch elements slide further before they
+    leave, so with one side slow the yaw ratio falls below Coulomb's, while a symmetric pivot,
+    the same displacement profile under every wheel, hardly moves (quasi-static, K = 0.03 m)."""
+    T = WHEELED.track_gauge
+
+    def ratio(vl, vr, K):
+        return _yaw_ratio(shear.steady_state(WHEELED, vl, vr, shear_modulus=K, inertial=False, n_points=60), T)
+
+    slow_side, gentle = ratio(0.125, 0.875, 0.03), ratio(0.45, 0.55, 0.03)
+    assert slow_side < ratio(0.125, 0.875, 0.0) - 0.05
+    assert slow_side < gentle - 0.05
+    assert abs(ratio(-0.5, 0.5, 0.03) - ratio(-0.5, 0.5, 0.0)) < 0.005

@@ -21,7 +21,7 @@ Its touch-down point is the body point p_e then, which is R(-wz t)(p_e - C) abou
 exact for any rotation during contact (the integral of the sliding velocity in the ground frame).
 A stopped track (V_s = 0) has slid forever: saturated (Coulomb) where it slides.
 
-Wheels. A wheel's tyre is a short track: its load is spread evenly over a contact patch of
+Wheels (S3). A wheel's tyre is a short track: its load is spread evenly over a contact patch of
 ``patch_length`` centred under the axle, the elements entering at the patch's front.
 
 Derivation, assumptions and measurements: docs/theory/shear.md.
@@ -154,14 +154,16 @@ def contact_wrench(robot: Robot, vx: float, vy: float, wz: float, v_left: float,
 
 def steady_state(robot: Robot, v_left: float, v_right: float, *, shear_modulus: float | None = None,
                  inertial: bool = True, load_transfer: bool = True, n_points: int = DEFAULT_N_POINTS,
-                 patch_length: float | None = None, tol: float = 1e-12) -> SteadyState:
-    """Steady twist and ICRs for constant track speeds v_left, v_right [m/s] on the shear ground.
+                 patch_length: float | None = None, start: SteadyState | None = None,
+                 tol: float = 1e-12) -> SteadyState:
+    """Steady twist and ICRs for constant track speeds v_left, v_right [m/s] on the shear ground (S4).
 
     ``shear_modulus`` K [m] (default: the robot's ground parameter); K = 0 is the Coulomb
     reference's law. Balance as the Coulomb reference's eq. (3) (centripetal force and load
     transfer when ``inertial``/``load_transfer``), solved in the ICR coordinates from the Coulomb
     steady state, then by continuation in K when the direct solve fails. Raises MjtrackError
-    when no solution with a residual <= 1e-10 m g is found.
+    when no solution with a residual <= 1e-10 m g is found. ``start``: a turning steady state of
+    the same speeds to start from (default: the Coulomb reference's, solved here).
     """
     K = shear_modulus_of(robot, shear_modulus)
     vl, vr = float(v_left), float(v_right)
@@ -194,8 +196,9 @@ def steady_state(robot: Robot, v_left: float, v_right: float, *, shear_modulus: 
         res = float(np.max(np.abs(r))) if np.all(np.isfinite(r)) else np.inf
         return q, res
 
-    ref = coulomb_steady_state(robot, vl, vr, inertial=inertial, load_transfer=load_transfer, n_points=n_points)
-    q0 = np.array(ref.icr) / T
+    if start is None or start.icr is None:
+        start = coulomb_steady_state(robot, vl, vr, inertial=inertial, load_transfer=load_transfer, n_points=n_points)
+    q0 = np.array(start.icr) / T
     q, res = solve(q0, K)
     if not res <= _RESIDUAL_MAX and K > 0:
         log.info("shear: direct solve failed at K=%g; continuation from the Coulomb state", K)
