@@ -88,19 +88,7 @@ class ShearContacts:
     def displacement(self, vx: float, vy: float, wz: float, v_left: float, v_right: float) -> np.ndarray:
         """j (n,) [m]: each point's shear displacement (S2); inf on a stopped side."""
         V = np.where(self.left, v_left, v_right)
-        xe = np.where(V >= 0.0, self.x_entry[:, 0], self.x_entry[:, 1])
-        moving = V != 0.0
-        t = np.where(moving, np.abs(xe - self.x) / np.where(moving, np.abs(V), 1.0), 0.0)
-        if wz == 0.0:  # translation: the element slid at u for t
-            ux = vx - V
-            j = np.hypot(ux, vy) * t
-        else:
-            cx, cy = -vy / wz, vx / wz
-            px, py = self.x - cx, self.y - cy
-            ex, ey = xe - cx, self.y - cy
-            c, s = np.cos(wz * t), np.sin(-wz * t)
-            j = np.hypot(px - (c * ex - s * ey), py - (s * ex + c * ey))
-        return np.where(moving, j, np.inf)
+        return shear_displacement(self.x, self.y, self.x_entry, V, (vx, vy, wz))
 
     def wrench(self, vx: float, vy: float, wz: float, v_left: float, v_right: float, N: np.ndarray,
                shear_modulus: float) -> np.ndarray:
@@ -121,12 +109,39 @@ class ShearContacts:
                             N, shear_modulus)
 
     def _forces(self, ux, uy, nrm, j, N, K: float) -> np.ndarray:
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            build = 1.0 if K == 0.0 else -np.expm1(-j / K)
-        build = np.where(j > 0.0, build, 0.0)
+        build = shear_factor(j, K)
         k = np.where(nrm > 0.0, self.mu * N * build / np.where(nrm > 0.0, nrm, 1.0), 0.0)
         fx, fy = -k * ux, -k * uy
         return np.array([fx.sum(), fy.sum(), np.sum(self.x * fy - self.y * fx)])
+
+
+def shear_displacement(x: np.ndarray, y: np.ndarray, x_entry: np.ndarray, v_side: np.ndarray, twist) -> np.ndarray:
+    """j (n,) [m] of (S2): the shear displacement of the track elements now at body points (x, y)
+    (n,) [m] whose side runs at v_side (n,) [m/s] relative to the body, with ``x_entry`` (n, 2) the
+    front and rear ends of their contact, in the steady turn of body twist (vx, vy, wz); inf on a
+    stopped side (it has slid for ever)."""
+    vx, vy, wz = (float(v) for v in twist)
+    V = np.asarray(v_side, dtype=float)
+    xe = np.where(V >= 0.0, x_entry[:, 0], x_entry[:, 1])
+    moving = V != 0.0
+    t = np.where(moving, np.abs(xe - x) / np.where(moving, np.abs(V), 1.0), 0.0)
+    if wz == 0.0:  # translation: the element slid at u for t
+        j = np.hypot(vx - V, vy) * t
+    else:
+        cx, cy = -vy / wz, vx / wz
+        px, py = x - cx, y - cy
+        ex, ey = xe - cx, y - cy
+        c, s = np.cos(wz * t), np.sin(-wz * t)
+        j = np.hypot(px - (c * ex - s * ey), py - (s * ex + c * ey))
+    return np.where(moving, j, np.inf)
+
+
+def shear_factor(j: np.ndarray, shear_modulus: float) -> np.ndarray:
+    """1 - exp(-j/K) of (S1): the share of Coulomb's friction built up at shear displacement j
+    [m]; 1 wherever j > 0 at K = 0, 0 at j = 0."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        build = np.ones_like(j) if shear_modulus == 0.0 else -np.expm1(-j / shear_modulus)
+    return np.where(j > 0.0, build, 0.0)
 
 
 def shear_modulus_of(robot: Robot, shear_modulus: float | None) -> float:
