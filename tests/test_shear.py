@@ -146,3 +146,41 @@ def test_slower_side_grips_more_on_wheels():
     assert slow_side < ratio(0.125, 0.875, 0.0) - 0.05
     assert slow_side < gentle - 0.05
     assert abs(ratio(-0.5, 0.5, 0.03) - ratio(-0.5, 0.5, 0.0)) < 0.005
+
+
+# -- the MuJoCo robot on the shear ground (surfacevel track model) ---------------------------------
+def _mujoco_icr(robot, vl, vr):
+    from mjtrack.sim.config import surfacevel_config
+    from mjtrack.sim.steady import steady_state as mujoco_steady
+
+    s = mujoco_steady(robot, vl, vr, config=surfacevel_config())
+    return np.array([s.y_l, s.y_r, s.x_c])
+
+
+def test_mujoco_shear_ground_agrees_with_its_reference():
+    """One turn of the fidelity grid (benchmarks/shear_fidelity.py runs all of it): the MuJoCo
+    robot's steady ICRs within 0.02 T/2 of the reference's at the surfacevel model's 12 elements."""
+    robot = Robot(ground={"model": "shear", "shear_modulus": 0.03})
+    got = _mujoco_icr(robot, 0.2, 0.6)
+    ref = np.array(shear.steady_state(robot, 0.2, 0.6, n_points=12).icr)
+    assert np.max(np.abs(got - ref)) <= 0.02 * robot.track_gauge / 2, (got, ref)
+    coulomb_ref = np.array(coulomb.steady_state(robot, 0.2, 0.6, n_points=12).icr)
+    assert np.max(np.abs(got - coulomb_ref)) > 0.05 * robot.track_gauge / 2  # the ground changed the turn
+
+
+@pytest.mark.slow
+def test_mujoco_shear_ground_recovers_the_coulomb_robot():
+    """K -> 0: the MuJoCo robot on the shear ground turns as the Coulomb one within 0.005 T/2."""
+    for vl, vr in ((-0.5, 0.5), (0.2, 0.6), (0.5, 0.7)):
+        a = _mujoco_icr(Robot(ground={"model": "shear", "shear_modulus": 1e-4}), vl, vr)
+        b = _mujoco_icr(ROBOT, vl, vr)
+        assert np.max(np.abs(a - b)) <= 0.005 * ROBOT.track_gauge / 2, (vl, vr, a, b)
+
+
+def test_shear_ground_only_where_it_is_built():
+    from mjtrack.sim.builder import build_model
+
+    with pytest.raises(InputError, match="surfacevel track model of a tracked robot only"):
+        build_model(Robot(ground="shear"))
+    with pytest.raises(InputError, match="surfacevel"):
+        build_model(Robot(traction="wheels", track_gauge=0.5, ground="shear"))
