@@ -3,6 +3,7 @@ shared DRIVE logs (Marmotte tracked, Husky and Warthog wheeled skid-steer; ../sh
 against the steady state of each candidate ground's reference model.
 
     python benchmarks/ground_selection.py [--robots marmotte,husky,warthog] [--n-points 60]
+                                          [--candidates coulomb,shear,...]   # the others kept from the file
 
 Measured: the log's windows of 2 s, each window's yaw ratio (chord yaw rate over the nominal
 (v_R - v_L)/T of its mean measured track speeds) where calibrate measures one
@@ -17,7 +18,13 @@ windows and scored on the rest:
 * ``coulomb``: the Coulomb reference (:mod:`mjtrack.models.coulomb`) as described (nothing fitted);
 * ``coulomb_length``: Coulomb with the contact length (tracks) / wheelbase (wheels) fitted;
 * ``shear``: the shear-displacement ground (:mod:`mjtrack.models.shear`) with K fitted;
-* ``shear_length``: shear with K and the contact length / wheelbase fitted.
+* ``shear_length``: shear with K and the contact length / wheelbase fitted;
+* ``resistance``: Coulomb with a motion resistance f_r (robot key ``rolling_resistance``, the
+  reference's eq. S5) fitted, the load-dependent resistance candidate;
+* ``resistance_length``: the same with the contact length / wheelbase fitted too.
+
+A robot selects the candidate with the lowest held-out class gap among those with no parameter
+within 1 % of its search range's ends (a fit that ends on a bound describes something else).
 
 A wheel's tyre patch is the reference's default (``mjtrack.models.shear.DEFAULT_PATCH_LENGTH``).
 Writes benchmarks/results/ground_selection.json; prints the same and the machine's load.
@@ -51,6 +58,7 @@ HORIZON_S = 2.0
 TRAIN_SHARE = 0.7
 K_BOUNDS = (1e-4, 0.3)  # [m] shear modulus searched (log scale)
 LENGTH_BOUNDS = (0.3, 2.5)  # contact length / wheelbase searched, as a factor of the described one
+F_R_BOUNDS = (0.0, 0.5)  # motion resistance searched [-]
 
 
 def measured_windows(name: str) -> dict:
@@ -116,44 +124,54 @@ def class_gap(pred: np.ndarray, ratio: np.ndarray, cls: np.ndarray) -> float:
     return float(np.sqrt(num / den))
 
 
-def fit(meas: dict, candidate: str, n_points: int) -> dict:
-    """The candidate's parameters fitted on the training windows, and its class medians."""
-    robot, v, tr = meas["robot"], meas["v"], meas["train"]
-    shear_k, sized = candidate.startswith("shear"), candidate.endswith("_length")
+#: each candidate's fitted parameters: "K" the shear modulus (searched in log K), "length" the
+#: contact length (wheelbase) as a factor of the described one, "f_r" the motion resistance
+CANDIDATES = {"coulomb": (), "coulomb_length": ("length",), "shear": ("K",), "shear_length": ("K", "length"),
+              "resistance": ("f_r",), "resistance_length": ("f_r", "length")}
+BOUNDS = {"K": tuple(np.log(K_BOUNDS)), "length": LENGTH_BOUNDS, "f_r": F_R_BOUNDS}
+GRIDS = {"K": 9, "length": 5, "f_r": 9}  # starting grid points of a one-parameter fit
+STARTS = {"K": np.linspace(*np.log(K_BOUNDS), 5), "length": (0.7, 1.0, 1.5), "f_r": (0.02, 0.1, 0.3)}
 
-    def unpack(p):  # (log K, length factor)
-        return (float(np.exp(p[0])) if shear_k else None), (float(p[1]) if sized else 1.0)
+
+def fit(meas: dict, candidate: str, n_points: int) -> dict:
+    """The candidate's parameters fitted on the training windows (a grid, then a bounded scalar
+    search for one parameter; the best of a grid of starts, then Nelder-Mead for two), and its
+    class medians on the training windows, the held-out ones and all."""
+    robot, v, tr = meas["robot"], meas["v"], meas["train"]
+    names = CANDIDATES[candidate]
+
+    def model(p):  # (robot, K)
+        d = dict(zip(names, p))
+        r = with_length(robot, d.get("length", 1.0)).replace(rolling_resistance=float(d.get("f_r", 0.0)))
+        return r, (float(np.exp(d["K"])) if "K" in d else None)
 
     def f(p):  # only the training windows enter the fit
-        K, factor = unpack(p)
-        return class_gap(predicted(with_length(robot, factor), v[tr], K, n_points), meas["ratio"][tr], meas["cls"][tr])
+        r, K = model(p)
+        return class_gap(predicted(r, v[tr], K, n_points), meas["ratio"][tr], meas["cls"][tr])
 
-    lk = np.log(K_BOUNDS)
-    if candidate == "coulomb":
-        p = np.array([0.0, 1.0])
-    elif candidate == "coulomb_length":
-        res = optimize.minimize_scalar(lambda a: f([0.0, a]), bounds=LENGTH_BOUNDS, method="bounded",
-                                       options={"xatol": 2e-3})
-        p = np.array([0.0, res.x])
-    elif candidate == "shear":
-        grid = np.linspace(*lk, 9)
-        best = grid[int(np.argmin([f([g, 1.0]) for g in grid]))]
-        res = optimize.minimize_scalar(lambda a: f([a, 1.0]), bounds=(max(lk[0], best - 0.9), min(lk[1], best + 0.9)),
-                                       method="bounded", options={"xatol": 0.02})
-        p = np.array([res.x, 1.0])
+    lo, hi = np.array([BOUNDS[n][0] for n in names]), np.array([BOUNDS[n][1] for n in names])
+    if not names:
+        p = np.zeros(0)
+    elif len(names) == 1:
+        grid = np.linspace(lo[0], hi[0], GRIDS[names[0]])
+        best = grid[int(np.argmin([f([g]) for g in grid]))]
+        step = grid[1] - grid[0]
+        res = optimize.minimize_scalar(lambda a: f([a]), bounds=(max(lo[0], best - step), min(hi[0], best + step)),
+                                       method="bounded", options={"xatol": 1e-3 * (hi[0] - lo[0])})
+        p = np.array([res.x])
     else:
-        starts = [np.array([g, a]) for g in np.linspace(*lk, 5) for a in (0.7, 1.0, 1.5)]
+        starts = [np.array(q) for q in np.stack(np.meshgrid(*(STARTS[n] for n in names)), -1).reshape(-1, len(names))]
         p0 = min(starts, key=f)
-        res = optimize.minimize(f, p0, method="Nelder-Mead", options={"xatol": 0.01, "fatol": 1e-6, "maxiter": 80})
-        p = np.clip(res.x, [lk[0], LENGTH_BOUNDS[0]], [lk[1], LENGTH_BOUNDS[1]])
-    K, factor = unpack(p)
-    r = with_length(robot, factor)
+        res = optimize.minimize(f, p0, method="Nelder-Mead", bounds=list(zip(lo, hi)),
+                                options={"xatol": 0.01, "fatol": 1e-6, "maxiter": 80})
+        p = np.clip(res.x, lo, hi)
+    r, K = model(p)
     pred = predicted(r, v, K, n_points)
     key = "wheelbase" if robot.traction == "wheels" else "track_length"
-    on_bound = (K is not None and not K_BOUNDS[0] * 1.05 < K < K_BOUNDS[1] / 1.05) or (
-        sized and not LENGTH_BOUNDS[0] + 0.01 < factor < LENGTH_BOUNDS[1] - 0.01)
-    out = {"shear_modulus": K, key: float(getattr(r, key)), "length_factor": factor, "on_bound": bool(on_bound),
-           "parameters": int(shear_k) + int(sized)}
+    margin = 0.01 * (hi - lo)
+    out = {"shear_modulus": K, key: float(getattr(r, key)), "length_factor": float(getattr(r, key) / getattr(robot, key)),
+           "rolling_resistance": r.rolling_resistance, "parameters": len(names),
+           "on_bound": bool(np.any((p < lo + margin) | (p > hi - margin)))}
     for part, m in (("train", tr), ("test", ~tr), ("all", np.ones_like(tr))):
         rows = zip(class_medians(pred[m], meas["cls"][m]), class_medians(meas["ratio"][m], meas["cls"][m]))
         out[part] = {"classes": [None if p is None else {"predicted": p[0], "measured": q[0], "windows": p[1],
@@ -163,15 +181,15 @@ def fit(meas: dict, candidate: str, n_points: int) -> dict:
     return out
 
 
-CANDIDATES = ("coulomb", "coulomb_length", "shear", "shear_length")
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--robots", default=",".join(ROBOTS))
     ap.add_argument("--n-points", type=int, default=60, help="contact points per track of the references (default 60)")
+    ap.add_argument("--candidates", default=",".join(CANDIDATES),
+                    help="candidates to fit (default all); the others keep what the result file holds")
     args = ap.parse_args(argv)
     load0 = os.getloadavg()
+    command = "python benchmarks/ground_selection.py " + " ".join(sys.argv[1:] if argv is None else argv)
     old = json.loads(RESULT.read_text()) if RESULT.exists() else {}
     robots = old.get("robots", {})
     for name in args.robots.split(","):
@@ -179,8 +197,9 @@ def main(argv=None) -> int:
         meas = measured_windows(name)
         r = {"traction": meas["robot"].traction, "track_gauge": meas["robot"].track_gauge,
              "windows": int(len(meas["ratio"])), "train_windows": int(meas["train"].sum()),
-             "turn_classes": [list(c) for c in TURN_CLASSES], "candidates": {}}
-        for cand in CANDIDATES:
+             "turn_classes": [list(c) for c in TURN_CLASSES],
+             "candidates": robots.get(name, {}).get("candidates", {}), "commands": robots.get(name, {}).get("commands", [])}
+        for cand in args.candidates.split(","):
             r["candidates"][cand] = fit(meas, cand, args.n_points)
             c = r["candidates"][cand]
             print(f"{name:9s} {cand:15s} K={c['shear_modulus'] if c['shear_modulus'] is None else round(c['shear_modulus'], 5)}"
@@ -188,13 +207,14 @@ def main(argv=None) -> int:
                   f"{c['test']['rms_gap']:.3f}  classes (pred/meas/n, all): "
                   + "; ".join("-" if k is None else f"{k['predicted']:.3f}/{k['measured']:.3f}/{k['windows']}"
                               for k in c["all"]["classes"]), flush=True)
-        fair = [c for c in CANDIDATES if not r["candidates"][c]["on_bound"]]
+        fair = [c for c in r["candidates"] if not r["candidates"][c]["on_bound"]]
         r["selected"] = min(fair, key=lambda c: r["candidates"][c]["test"]["rms_gap"]) if fair else None
-        r["seconds"] = time.time() - t0
+        r["seconds"] = robots.get(name, {}).get("seconds", 0.0) + time.time() - t0  # over every run that made it
+        r["commands"] = r["commands"] + [command]
         robots[name] = r
         print(f"{name}: selects {r['selected']} (lowest held-out class gap, no parameter on a bound); {r['seconds']:.0f} s")
     RESULT.parent.mkdir(parents=True, exist_ok=True)
-    RESULT.write_text(json.dumps({"command": "python benchmarks/ground_selection.py " + " ".join(sys.argv[1:] if argv is None else argv),
+    RESULT.write_text(json.dumps({"command": "; ".join(sorted({c for r in robots.values() for c in r["commands"]})),
                                   "robots": robots, "n_points": args.n_points, "horizon_s": HORIZON_S,
                                   "train_share": TRAIN_SHARE, "k_bounds": list(K_BOUNDS),
                                   "length_bounds": list(LENGTH_BOUNDS), "patch_length": shear.DEFAULT_PATCH_LENGTH,

@@ -184,3 +184,24 @@ def test_shear_ground_only_where_it_is_built():
         build_model(Robot(ground="shear"))
     with pytest.raises(InputError, match="surfacevel"):
         build_model(Robot(traction="wheels", track_gauge=0.5, ground="shear"))
+
+
+def test_motion_resistance_balance_and_sign():
+    """(S5): at the quasi-static solution the contact wrench (checked independently above) balances
+    the two sides' resistances written here from the robot key's definition: f_r times the weight
+    each side carries at rest, against the velocity of its mid-contact along x. And the
+    resistance lowers the yaw rate of a pivot (it resists the counter-running sides)."""
+    robot = Robot(rolling_resistance=0.1, cg_y=0.02)
+    T, W, n, K = robot.track_gauge, robot.weight, 200, 0.02
+    c = shear.ShearContacts(robot, n_points=n)
+    for v in ((-0.5, 0.5), (0.3, 0.6)):
+        s = shear.steady_state(robot, *v, shear_modulus=K, inertial=False, n_points=n)
+        total = c.wrench(s.vx, s.vy, s.wz, s.v_left, s.v_right, c.loads(), K)
+        for y, share in ((T / 2, 0.5 + robot.cg_y / T), (-T / 2, 0.5 - robot.cg_y / T)):
+            fx = -0.1 * W * share * np.tanh((s.vx - s.wz * y) / shear.RESISTANCE_EPS)
+            total += [fx, 0.0, -y * fx]
+        assert np.all(np.abs(total) <= 1e-8 * W), total
+    with_r = _yaw_ratio(shear.steady_state(robot, -0.5, 0.5, shear_modulus=K, inertial=False), T)
+    without = _yaw_ratio(shear.steady_state(robot.replace(rolling_resistance=0.0), -0.5, 0.5, shear_modulus=K,
+                                            inertial=False), T)
+    assert with_r < without - 0.01, (with_r, without)

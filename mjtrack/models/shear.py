@@ -21,6 +21,11 @@ Its touch-down point is the body point p_e then, which is R(-wz t)(p_e - C) abou
 exact for any rotation during contact (the integral of the sliding velocity in the ground frame).
 A stopped track (V_s = 0) has slid forever: saturated (Coulomb) where it slides.
 
+Motion resistance (S5). The robot key ``rolling_resistance`` f_r adds, per side, a force
+-f_r W_s tanh(v_s / eps) along x at the middle of the side's contact (0, +-T/2), W_s the weight
+the side carries at rest and v_s that point's velocity along x (a regularised sign, eps =
+``RESISTANCE_EPS``): rolling, bulldozing and tread losses, opposing the motion over the ground.
+
 Wheels (S3). A wheel's tyre is a short track: its load is spread evenly over a contact patch of
 ``patch_length`` centred under the axle, the elements entering at the patch's front.
 
@@ -44,6 +49,7 @@ log = logging.getLogger(__name__)
 DEFAULT_PATCH_LENGTH = 0.1  # [m] a tyre's contact patch on firm ground (wheels only)
 PATCH_POINTS = 16  # points along a wheel's patch
 _RESIDUAL_MAX = 1e-10  # as the Coulomb reference: |balance| / (m g) accepted at the solution
+RESISTANCE_EPS = 0.01  # [m/s] regularisation of the motion resistance's sign (S5)
 
 
 class ShearContacts:
@@ -190,6 +196,9 @@ def steady_state(robot: Robot, v_left: float, v_right: float, *, shear_modulus: 
     c = ShearContacts(robot, n_points=n_points, patch_length=patch_length)
     T, m = robot.track_gauge, robot.mass * (1.0 if inertial else 0.0)
     N_static = c.loads()
+    side_y = np.array([T / 2, -T / 2])
+    # motion resistance (robot key rolling_resistance): f_r times the weight each side carries at rest
+    resist = robot.rolling_resistance * robot.weight * (0.5 + np.array([1.0, -1.0]) * robot.cg_y / T)
 
     def twist_of(q):  # eq. (2.14), ICRs q = (y_l, y_r, x_c) / T
         yl, yr, xc = q * T
@@ -202,6 +211,10 @@ def steady_state(robot: Robot, v_left: float, v_right: float, *, shear_modulus: 
         acc = np.array([-wz * (vy + wz * cx), wz * (vx - wz * cy)]) if m > 0 else np.zeros(2)
         N = c.loads(acc) if (load_transfer and m > 0) else N_static
         Fx, Fy, Mz = c.wrench_icr(wz, *(q * T), vl, vr, N, k)
+        if resist.any():  # (S5): at (0, y_s), against that point's velocity along x, v_s + wz (y_icr_s - y_s)
+            ground_v = np.array([vl, vr]) + wz * (q[:2] * T - side_y)
+            fx = -resist * np.tanh(ground_v / RESISTANCE_EPS)
+            Fx, Mz = Fx + fx.sum(), Mz - float(side_y @ fx)
         return np.array([Fx - m * acc[0], Fy - m * acc[1], (Mz - (cx * Fy - cy * Fx)) / robot.contact_length]) / robot.weight
 
     def solve(q0, k: float) -> tuple[np.ndarray, float]:
