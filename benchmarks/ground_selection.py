@@ -23,8 +23,9 @@ windows and scored on the rest:
   reference's eq. S5) fitted, the load-dependent resistance candidate;
 * ``resistance_length``: the same with the contact length / wheelbase fitted too.
 
-A robot selects the candidate with the lowest held-out class gap among those with no parameter
-within 1 % of its search range's ends (a fit that ends on a bound describes something else).
+A robot selects, among the candidates with no parameter within 1 % of its search range's ends (a
+fit that ends on a bound describes something else), the one with the fewest parameters whose
+held-out class gap is within one bootstrap standard error of the lowest (:func:`select`).
 
 A wheel's tyre patch is the reference's default (``mjtrack.models.shear.DEFAULT_PATCH_LENGTH``).
 Writes benchmarks/results/ground_selection.json; prints the same and the machine's load.
@@ -59,6 +60,7 @@ TRAIN_SHARE = 0.7
 K_BOUNDS = (1e-4, 0.3)  # [m] shear modulus searched (log scale)
 LENGTH_BOUNDS = (0.3, 2.5)  # contact length / wheelbase searched, as a factor of the described one
 F_R_BOUNDS = (0.0, 0.5)  # motion resistance searched [-]
+BOOTSTRAP = 400  # resamples of the held-out windows (selection's standard error)
 
 
 def measured_windows(name: str) -> dict:
@@ -178,7 +180,34 @@ def fit(meas: dict, candidate: str, n_points: int) -> dict:
                                                          "gap": p[0] - q[0]} for p, q in rows],
                      "rms_gap": class_gap(pred[m], meas["ratio"][m], meas["cls"][m]),
                      "no_steady_state": int(np.isnan(pred[m]).sum())}
+    out["window_predictions"] = [None if np.isnan(x) else float(x) for x in pred]  # for the selection's bootstrap
     return out
+
+
+def select(r: dict, seed: int = 0) -> dict:
+    """The ground a robot selects: among the candidates with no parameter on a bound, the one with
+    the fewest parameters whose held-out class gap is within one bootstrap standard error (held-out
+    windows resampled, ``BOOTSTRAP`` times, seeded) of the lowest (the one-standard-error rule: a
+    parameter is kept only when the held-out windows show it helps)."""
+    ratio, cls = np.array(r["window_ratios"]), np.array(r["window_classes"])
+    test = ~np.array(r["window_train"])
+    fair = {c: np.array([np.nan if x is None else x for x in k["window_predictions"]])
+            for c, k in r["candidates"].items() if not k["on_bound"]}
+    if not fair:
+        return {"selected": None}
+    gaps = {c: class_gap(p[test], ratio[test], cls[test]) for c, p in fair.items()}
+    best = min(gaps, key=gaps.get)
+    rng = np.random.default_rng(seed)
+    idx = np.flatnonzero(test)
+    boot = []
+    for _ in range(BOOTSTRAP):
+        b = rng.choice(idx, idx.size)
+        boot.append(class_gap(fair[best][b], ratio[b], cls[b]))
+    se = float(np.std(boot))
+    near = [c for c in fair if gaps[c] <= gaps[best] + se]
+    chosen = min(near, key=lambda c: (r["candidates"][c]["parameters"], gaps[c]))
+    return {"selected": chosen, "lowest": best, "lowest_gap": gaps[best], "standard_error": se,
+            "within_one_se": sorted(near)}
 
 
 def main(argv=None) -> int:
@@ -197,7 +226,8 @@ def main(argv=None) -> int:
         meas = measured_windows(name)
         r = {"traction": meas["robot"].traction, "track_gauge": meas["robot"].track_gauge,
              "windows": int(len(meas["ratio"])), "train_windows": int(meas["train"].sum()),
-             "turn_classes": [list(c) for c in TURN_CLASSES],
+             "turn_classes": [list(c) for c in TURN_CLASSES], "window_ratios": meas["ratio"].tolist(),
+             "window_classes": meas["cls"].tolist(), "window_train": meas["train"].tolist(),
              "candidates": robots.get(name, {}).get("candidates", {}), "commands": robots.get(name, {}).get("commands", [])}
         for cand in args.candidates.split(","):
             r["candidates"][cand] = fit(meas, cand, args.n_points)
@@ -207,12 +237,12 @@ def main(argv=None) -> int:
                   f"{c['test']['rms_gap']:.3f}  classes (pred/meas/n, all): "
                   + "; ".join("-" if k is None else f"{k['predicted']:.3f}/{k['measured']:.3f}/{k['windows']}"
                               for k in c["all"]["classes"]), flush=True)
-        fair = [c for c in r["candidates"] if not r["candidates"][c]["on_bound"]]
-        r["selected"] = min(fair, key=lambda c: r["candidates"][c]["test"]["rms_gap"]) if fair else None
+        r["selection"] = select(r)
+        r["selected"] = r["selection"]["selected"]
         r["seconds"] = robots.get(name, {}).get("seconds", 0.0) + time.time() - t0  # over every run that made it
         r["commands"] = r["commands"] + [command]
         robots[name] = r
-        print(f"{name}: selects {r['selected']} (lowest held-out class gap, no parameter on a bound); {r['seconds']:.0f} s")
+        print(f"{name}: selects {r['selected']} ({r['selection']}); {r['seconds']:.0f} s")
     RESULT.parent.mkdir(parents=True, exist_ok=True)
     RESULT.write_text(json.dumps({"command": "; ".join(sorted({c for r in robots.values() for c in r["commands"]})),
                                   "robots": robots, "n_points": args.n_points, "horizon_s": HORIZON_S,

@@ -577,8 +577,9 @@ def _shear_ground() -> Page:
     selection = Table("Steady yaw ratio per turn class (all windows), measured on the shared logs and predicted by "
                       "each ground's reference, its parameters fitted on the first part of the log; the held-out "
                       "gap is on the rest.", header)
-    chosen = Table("The ground each robot selects: the lowest held-out class gap among the candidates with no "
-                   "parameter on a bound.", ["robot", "selected", "windows", "seconds"])
+    chosen = Table("The ground each robot selects: among the candidates with no parameter on a bound, the one with "
+                   "the fewest parameters whose held-out class gap is within one bootstrap standard error of the "
+                   "lowest.", ["robot", "selected", "lowest held-out gap", "its standard error", "windows", "seconds"])
     for robot, r in sel.data["robots"].items():
         for cand, c in r["candidates"].items():
             p = f"/robots/{robot}/candidates/{cand}"
@@ -588,7 +589,8 @@ def _shear_ground() -> Page:
                 q = f"{p}/all/classes/{i}"
                 cells += ["–"] * 3 if k is None else [number(sel, q + f"/{f}") for f in ("predicted", "measured", "windows")]
             selection.add(*cells)
-        chosen.add(robot, r["selected"] or "none", number(sel, f"/robots/{robot}/windows"),
+        chosen.add(robot, r["selected"] or "none", number(sel, f"/robots/{robot}/selection/lowest_gap"),
+                   number(sel, f"/robots/{robot}/selection/standard_error"), number(sel, f"/robots/{robot}/windows"),
                    number(sel, f"/robots/{robot}/seconds"))
     add_load(chosen, sel, "/load_before/0", "/load_after/0")
     return Page(
