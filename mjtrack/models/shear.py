@@ -21,13 +21,13 @@ Its touch-down point is the body point p_e then, which is R(-wz t)(p_e - C) abou
 exact for any rotation during contact (the integral of the sliding velocity in the ground frame).
 A stopped track (V_s = 0) has slid forever: saturated (Coulomb) where it slides.
 
+Wheels (S3). A wheel's tyre is a short track: its load is spread evenly over a contact patch of
+``patch_length`` centred under the axle, the elements entering at the patch's front.
+
 Motion resistance (S5). The robot key ``rolling_resistance`` f_r adds, per side, a force
 -f_r W_s tanh(v_s / eps) along x at the middle of the side's contact (0, +-T/2), W_s the weight
 the side carries at rest and v_s that point's velocity along x (a regularised sign, eps =
 ``RESISTANCE_EPS``): rolling, bulldozing and tread losses, opposing the motion over the ground.
-
-Wheels (S3). A wheel's tyre is a short track: its load is spread evenly over a contact patch of
-``patch_length`` centred under the axle, the elements entering at the patch's front.
 
 Derivation, assumptions and measurements: docs/theory/shear.md.
 """
