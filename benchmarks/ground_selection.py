@@ -19,8 +19,9 @@ windows and scored on the rest:
 * ``coulomb_length``: Coulomb with the contact length (tracks) / wheelbase (wheels) fitted;
 * ``shear``: the shear-displacement ground (:mod:`mjtrack.models.shear`) with K fitted;
 * ``shear_length``: shear with K and the contact length / wheelbase fitted;
-* ``resistance``: Coulomb with a motion resistance f_r (robot key ``rolling_resistance``, the
-  reference's eq. S5) fitted, the load-dependent resistance candidate;
+* ``resistance``: Coulomb with a motion resistance f_r (robot key ``rolling_resistance``, eq. S5
+  of the shear reference, evaluated there at K = 0: Coulomb's law, on tyre patches for wheels)
+  fitted, the load-dependent resistance candidate;
 * ``resistance_length``: the same with the contact length / wheelbase fitted too.
 
 A robot selects, among the candidates with no parameter within 1 % of its search range's ends (a
@@ -106,8 +107,8 @@ def predicted(robot, v: np.ndarray, K: float | None, n_points: int) -> np.ndarra
     for j, (vl, vr) in enumerate(v):
         try:
             s = coulomb.steady_state(robot, vl, vr, n_points=n_points)
-            if K is not None:
-                s = shear.steady_state(robot, vl, vr, shear_modulus=K, n_points=n_points, start=s)
+            if K is not None or robot.rolling_resistance > 0:  # (the Coulomb reference has no resistance)
+                s = shear.steady_state(robot, vl, vr, shear_modulus=K or 0.0, n_points=n_points, start=s)
         except MjtrackError:
             continue
         out[j] = s.wz / ((vr - vl) / T)
