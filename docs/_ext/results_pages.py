@@ -569,9 +569,12 @@ def _shear_ground() -> Page:
     fidelity.add("K -> 0 against the Coulomb robot", number(fid, "/summary/limit_cases"),
                  number(fid, "/summary/limit_passed"), number(fid, "/limit_tolerance_over_half_gauge"),
                  number(fid, "/summary/limit_max_diff_over_half_gauge"))
-    add_load(fidelity, fid, "/load_before/0", "/load_after/0")
+    runs = Table("The runs: seconds and the machine's one-minute load average before and after.", ["run", "value"])
+    runs.add("fidelity grid: seconds", number(fid, "/elapsed_s"))
+    runs.add("fidelity grid: load before", number(fid, "/load_before/0"))
+    runs.add("fidelity grid: load after", number(fid, "/load_after/0"))
     classes = sel.data["robots"][next(iter(sel.data["robots"]))]["turn_classes"]
-    header = ["robot", "ground", "K [m]", "length factor", "on a bound", "held-out class gap (RMS)"]
+    header = ["robot", "ground", "K [m]", "f_r", "length factor", "on a bound", "held-out class gap (RMS)"]
     for lo, hi in classes:
         header += [f"|turn ratio| {lo:g} to {hi:g}: {what}" for what in ("predicted", "measured", "windows")]
     selection = Table("Steady yaw ratio per turn class (all windows), measured on the shared logs and predicted by "
@@ -583,7 +586,8 @@ def _shear_ground() -> Page:
     for robot, r in sel.data["robots"].items():
         for cand, c in r["candidates"].items():
             p = f"/robots/{robot}/candidates/{cand}"
-            cells = [robot, cand, number(sel, p + "/shear_modulus"), number(sel, p + "/length_factor"),
+            cells = [robot, cand, number(sel, p + "/shear_modulus"), number(sel, p + "/rolling_resistance"),
+                     number(sel, p + "/length_factor"),
                      number(sel, p + "/on_bound"), number(sel, p + "/test/rms_gap")]
             for i, k in enumerate(c["all"]["classes"]):
                 q = f"{p}/all/classes/{i}"
@@ -592,12 +596,13 @@ def _shear_ground() -> Page:
         chosen.add(robot, r["selected"] or "none", number(sel, f"/robots/{robot}/selection/lowest_gap"),
                    number(sel, f"/robots/{robot}/selection/standard_error"), number(sel, f"/robots/{robot}/windows"),
                    number(sel, f"/robots/{robot}/seconds"))
-    add_load(chosen, sel, "/load_before/0", "/load_after/0")
+    runs.add("ground selection, last run: load before", number(sel, "/load_before/0"))
+    runs.add("ground selection, last run: load after", number(sel, "/load_after/0"))
     return Page(
         "shear_ground", "The shear-displacement ground",
         "The Janosi-Hanamoto shear ground (theory: the shear-displacement ground page): the MuJoCo robot against "
         "its reference and its Coulomb limit, and which ground the three real robots' steady turns select.",
-        [fid, sel], [fidelity, selection, chosen])
+        [fid, sel], [fidelity, selection, chosen, runs])
 
 
 PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _implementations, _filters, _speed, _wheeled,
