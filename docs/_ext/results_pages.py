@@ -689,8 +689,55 @@ def _peers() -> Page:
         [src], [rep, split, models, turns, regions, theirs, load])
 
 
+def _shear_ground() -> Page:
+    fid = Source(RESULTS / "shear_fidelity.json")
+    sel = Source(RESULTS / "ground_selection.json")
+    fidelity = Table("The MuJoCo robot (surfacevel track model) on the shear ground against the shear reference, "
+                     "and at K = 1e-4 m against the MuJoCo robot on the Coulomb ground. Errors over half the gauge T/2.",
+                     ["check", "cases", "passed", "tolerance / (T/2)", "worst / (T/2)"])
+    fidelity.add("against the reference", number(fid, "/summary/cases"), number(fid, "/summary/passed"),
+                 number(fid, "/tolerance_over_half_gauge"), number(fid, "/summary/max_err_over_half_gauge"))
+    fidelity.add("K -> 0 against the Coulomb robot", number(fid, "/summary/limit_cases"),
+                 number(fid, "/summary/limit_passed"), number(fid, "/limit_tolerance_over_half_gauge"),
+                 number(fid, "/summary/limit_max_diff_over_half_gauge"))
+    runs = Table("The runs: seconds and the machine's one-minute load average before and after.", ["run", "value"])
+    runs.add("fidelity grid: seconds", number(fid, "/elapsed_s"))
+    runs.add("fidelity grid: load before", number(fid, "/load_before/0"))
+    runs.add("fidelity grid: load after", number(fid, "/load_after/0"))
+    classes = sel.data["robots"][next(iter(sel.data["robots"]))]["turn_classes"]
+    header = ["robot", "ground", "K [m]", "f_r", "length factor", "on a bound", "held-out class gap (RMS)"]
+    for lo, hi in classes:
+        header += [f"|turn ratio| {lo:g} to {hi:g}: {what}" for what in ("predicted", "measured", "windows")]
+    selection = Table("Steady yaw ratio per turn class (all windows), measured on the shared logs and predicted by "
+                      "each ground's reference, its parameters fitted on the first part of the log; the held-out "
+                      "gap is on the rest.", header)
+    chosen = Table("The ground each robot selects: among the candidates with no parameter on a bound, the one with "
+                   "the fewest parameters whose held-out class gap is within one bootstrap standard error of the "
+                   "lowest.", ["robot", "selected", "lowest held-out gap", "its standard error", "windows", "seconds"])
+    for robot, r in sel.data["robots"].items():
+        for cand, c in r["candidates"].items():
+            p = f"/robots/{robot}/candidates/{cand}"
+            cells = [robot, cand, number(sel, p + "/shear_modulus"), number(sel, p + "/rolling_resistance"),
+                     number(sel, p + "/length_factor"),
+                     number(sel, p + "/on_bound"), number(sel, p + "/test/rms_gap")]
+            for i, k in enumerate(c["all"]["classes"]):
+                q = f"{p}/all/classes/{i}"
+                cells += ["–"] * 3 if k is None else [number(sel, q + f"/{f}") for f in ("predicted", "measured", "windows")]
+            selection.add(*cells)
+        chosen.add(robot, r["selected"] or "none", number(sel, f"/robots/{robot}/selection/lowest_gap"),
+                   number(sel, f"/robots/{robot}/selection/standard_error"), number(sel, f"/robots/{robot}/windows"),
+                   number(sel, f"/robots/{robot}/seconds"))
+    runs.add("ground selection, last run: load before", number(sel, "/load_before/0"))
+    runs.add("ground selection, last run: load after", number(sel, "/load_after/0"))
+    return Page(
+        "shear_ground", "The shear-displacement ground",
+        "The Janosi-Hanamoto shear ground (theory: the shear-displacement ground page): the MuJoCo robot against "
+        "its reference and its Coulomb limit, and which ground the three real robots' steady turns select.",
+        [fid, sel], [fidelity, selection, chosen, runs])
+
+
 PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _implementations, _filters, _speed, _wheeled,
-                                          _wheeled_models, _controllers, _calibration, _peers)
+                                          _wheeled_models, _controllers, _calibration, _peers, _shear_ground)
 
 
 # -- writing -----------------------------------------------------------------------------------

@@ -100,6 +100,9 @@ GROUND_MODELS: dict[str, dict[str, tuple[float, float, float]]] = {
     "road_wheels": {"wheels": (4.0, 1.0, 20.0), "concentration": (0.8, 0.0, 0.95), "span": (1.0, 0.05, 1.0)},
     # friction anisotropic in the track's frame: lateral / longitudinal coefficient (mu is longitudinal)
     "anisotropic": {"lateral_ratio": (0.5, 0.05, 1.0)},
+    # Janosi-Hanamoto shear: friction builds up as mu (1 - exp(-j/K)) with the shear displacement j
+    # [m]; shear_modulus K [m], 0 = coulomb (docs/theory/shear.md)
+    "shear": {"shear_modulus": (0.01, 0.0, 0.5)},
 }
 
 

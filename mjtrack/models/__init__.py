@@ -1,5 +1,5 @@
 """Models of tracked-robot motion: kinematic (nominal, MPP, MICR, MVIR), the rigid-track Coulomb
-reference and the simplified tracked dynamics (2.4)–(2.6)."""
+reference, the shear-displacement ground reference and the simplified tracked dynamics (2.4)–(2.6)."""
 
 from mjtrack.models.kinematic import MICR as MICR
 from mjtrack.models.kinematic import MODELS as MODELS
@@ -17,6 +17,7 @@ from mjtrack.models.coulomb import normal_loads as normal_loads
 from mjtrack.models.coulomb import pivot_turn_closed_form as pivot_turn_closed_form
 from mjtrack.models.coulomb import rollout as coulomb_rollout  # noqa: F401 (re-exported under a longer name)
 from mjtrack.models.coulomb import steady_state as steady_state
+from mjtrack.models.shear import steady_state as shear_steady_state
 from mjtrack.models.dynamics import TrackedDynamics as TrackedDynamics
 from mjtrack.models.dynamics import lateral_friction_force as lateral_friction_force
 from mjtrack.models.dynamics import simulate as simulate_dynamics  # noqa: F401 (re-exported under a longer name)

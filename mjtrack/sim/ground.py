@@ -27,6 +27,12 @@ measurements: ``assets/README.md`` ("Ground models").
   rho mu, longitudinal mu. The elliptic cone
   (f_lat / (rho mu))^2 + (f_long / mu)^2 <= f_n^2 with the noslip pass's hard friction gives the
   maximum-dissipation force on that ellipse, f = -f_n M^2 u / |M u|, M = diag(mu, rho mu).
+* ``shear`` (shear_modulus K): Janosi-Hanamoto friction, on the surface-velocity track model
+  only (its contact elements sit at fixed body points, so the belt element over each is known).
+  MuJoCo's contact is Coulomb; :class:`ShearFriction` sets each element's pair friction before
+  every step to mu (1 - exp(-j/K)) (eq. S1 of :mod:`mjtrack.models.shear`), j the shear
+  displacement (S2) of the belt element over it in the steady turn of the body's present twist
+  (low-passed over ``TWIST_FILTER_S``): exact in a steady turn, quasi-steady in a transient.
 """
 
 from __future__ import annotations
@@ -38,11 +44,18 @@ import numpy as np
 
 from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
-from mjtrack.sim.chassis import suspension_stiffness
+from mjtrack.models.shear import shear_displacement, shear_factor
+from mjtrack.sim.chassis import element_positions, suspension_stiffness
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.scene import SIDES
 
 CAPSULE_HALF = 0.001  # [m] half-length of an anisotropic roller's capsule (across the track)
+#: [s] low-pass of the twist the shear displacement is computed from: it keeps the friction from
+#: following the contact solver's step-to-step jitter; 10 steps of the surfacevel model
+TWIST_FILTER_S = 0.02
+#: friction floor of a contact whose shear has not built up, as a share of mu (a zero friction
+#: coefficient on a condim-3 pair is a degenerate cone)
+FRICTION_FLOOR = 1e-4
 
 
 def load_shares(robot: Robot, roller_x: np.ndarray) -> np.ndarray:
@@ -52,7 +65,14 @@ def load_shares(robot: Robot, roller_x: np.ndarray) -> np.ndarray:
 
 
 def require_supported(robot: Robot, config: SimConfig) -> None:
-    """Refuse a ground model that the chosen track model does not realise (surfacevel: only coulomb)."""
+    """Refuse a ground model that the chosen track model does not realise (surfacevel: coulomb and
+    shear; the roller chain: all but shear)."""
+    if robot.ground.model == "shear":
+        if config.track_model != "surfacevel" or robot.traction == "wheels":
+            raise InputError("robot: ground model 'shear' is built for the surfacevel track model of a tracked "
+                             "robot only (simulator track_model \"surfacevel\"); its reference is "
+                             "mjtrack.models.shear")
+        return
     if config.track_model != "rollers" and not robot.ground.is_default:
         raise InputError(f"robot: ground model {robot.ground.model!r} is built for the roller chain only "
                          f"(track model {config.track_model!r} has the coulomb ground)")
@@ -96,3 +116,44 @@ def _anisotropic(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> None:
             geom.quat = [math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0]  # capsule z-axis -> body y
             pair = spec.pair(f"contact_{side}_{i}")
             pair.friction = [rho * mu, mu, 0.0, 0.0, 0.0]
+
+
+class ShearFriction:
+    """The shear ground on a surfacevel model: call :meth:`update` before every ``mj_step``.
+
+    Each track element's pair ``contact_<side>_<i>`` gets friction mu_side (1 - exp(-j/K)) from the
+    shear displacement j of the belt element over it (module docstring), at least
+    ``FRICTION_FLOOR`` mu_side. Elements at the cell midpoints of L (the surfacevel model's).
+    """
+
+    def __init__(self, model: mujoco.MjModel, robot: Robot, config: SimConfig) -> None:
+        n = config.n_rollers
+        self.model, self.K = model, robot.ground["shear_modulus"]
+        self.pairs = np.array([model.pair(f"contact_{s}_{i}").id for s in SIDES for i in range(n)])
+        xe = element_positions(robot, n)
+        self.x = np.concatenate([xe, xe])
+        self.left = np.arange(2 * n) < n
+        self.y = np.where(self.left, robot.track_gauge / 2, -robot.track_gauge / 2)
+        L = robot.track_length
+        self.x_entry = np.tile([L / 2, -L / 2], (2 * n, 1))
+        self.mu = np.where(self.left, robot.friction_left, robot.friction_right)
+        self.lin = int(model.sensor("body_linvel").adr[0])
+        self.ang = int(model.sensor("body_angvel").adr[0])
+        self.alpha = 1.0 - math.exp(-model.opt.timestep / TWIST_FILTER_S)
+        self.twist: np.ndarray | None = None
+
+    def update(self, data: mujoco.MjData, v_left: float, v_right: float) -> None:
+        """Set the pairs' friction for the next step, the tracks running at v_left, v_right [m/s]."""
+        s = data.sensordata
+        now = np.array([s[self.lin], s[self.lin + 1], s[self.ang + 2]])
+        self.twist = now if self.twist is None else self.twist + self.alpha * (now - self.twist)
+        V = np.where(self.left, v_left, v_right)
+        mu = self.mu * np.maximum(shear_factor(shear_displacement(self.x, self.y, self.x_entry, V, self.twist),
+                                               self.K), FRICTION_FLOOR)
+        self.model.pair_friction[self.pairs, 0] = mu
+        self.model.pair_friction[self.pairs, 1] = mu
+
+
+def ground_stepper(model: mujoco.MjModel, robot: Robot, config: SimConfig) -> ShearFriction | None:
+    """What a surfacevel step loop must call before each step for the robot's ground (None: nothing)."""
+    return ShearFriction(model, robot, config) if robot.ground.model == "shear" else None

@@ -40,6 +40,7 @@ from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_commands
 from mjtrack.sim.scene import ELEMENT_KINDS
+from mjtrack.sim.ground import ground_stepper
 from mjtrack.sim.surfacevel import TrackDrive
 from mjtrack.sim.terrain import Terrain, timestep_for
 
@@ -424,7 +425,7 @@ def _simulate_surfacevel(robot: Robot, commands: np.ndarray, *, config: SimConfi
     model = build_model(robot, config, terrain)
     stride = steps_per_sample(model.opt.timestep, log_rate)
     data = mujoco.MjData(model)
-    drive = TrackDrive(model, robot, config)
+    drive = TrackDrive(model, robot, config, ground=ground_stepper(model, robot, config))
     for _ in range(int(round(SETTLE_S / model.opt.timestep))):
         drive.step(data, 0.0, 0.0)
     smap = {n: int(model.sensor(n).adr[0]) for n in ("body_linvel", "body_angvel", "body_pos", "body_quat")}

@@ -33,6 +33,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model
 from mjtrack.sim.config import MAX_STEP_DIVISIONS, SimConfig
 from mjtrack.sim.drivetrain import drive_commands
+from mjtrack.sim.ground import ground_stepper
 from mjtrack.sim.surfacevel import run_steady
 from mjtrack.sim.terrain import Terrain, timestep_for
 from mjtrack.sim.rollout import MAX_STEPS, SensorMap, run_batch, settled_state
@@ -236,8 +237,9 @@ def _surfacevel(robot: Robot, cmd: np.ndarray, config: SimConfig, settle_s: floa
     commands; no window standard deviations, reported as NaN; roller_contact as the mean of
     the per-track fractions)."""
     scale = robot.track_speed_scale  # kinematic tracks: the scaled commands are the speeds
-    run = run_steady(build_model(robot, config, terrain), scale * float(cmd[0]), scale * float(cmd[1]),
-                     duration=settle_s + window_s, average=window_s)
+    model = build_model(robot, config, terrain)
+    run = run_steady(model, scale * float(cmd[0]), scale * float(cmd[1]), duration=settle_s + window_s,
+                     average=window_s, ground=ground_stepper(model, robot, config))
     y_l, y_r, x_c, reason = icrs_or_reason(run.vx, run.vy, run.wz, run.v_left, run.v_right, robot.track_gauge / 2)
     nan = math.nan
     return SteadyResult(

@@ -241,7 +241,7 @@ class TrackDrive:
     """
 
     def __init__(self, model: mujoco.MjModel, robot: Robot, config: SimConfig | None = None,
-                 *, torque_limited: bool = False, traction_filter: float = 0.01) -> None:
+                 *, torque_limited: bool = False, traction_filter: float = 0.01, ground=None) -> None:
         config = config or surfacevel_config()
         if not traction_filter > 0:
             raise InputError(f"surfacevel: 'traction_filter' must be positive, got {traction_filter!r}")
@@ -258,6 +258,7 @@ class TrackDrive:
         self.speeds = np.zeros(2)  # V [m/s], (left, right)
         self.force = np.zeros(2)  # servo force F [N]
         self.traction = np.zeros(2)  # filtered F_g [N]
+        self.ground = ground  # the ground's per-step update (mjtrack.sim.ground.ground_stepper), or None
 
     def step(self, data: mujoco.MjData, v_left: float, v_right: float) -> None:
         """Advance the drive and the simulation by one timestep under commands V_L, V_R [m/s]."""
@@ -279,6 +280,8 @@ class TrackDrive:
             dv = np.clip(self.setpoint - self.speeds, -self.max_accel * dt, self.max_accel * dt)
             self.speeds = self.speeds + dv
         set_track_speeds(self.model, *self.speeds, ids=self.ids)
+        if self.ground is not None:
+            self.ground.update(data, *self.speeds)
         mujoco.mj_step(self.model, data)
 
 
@@ -313,8 +316,9 @@ class SteadyRun:
 
 
 def run_steady(model: mujoco.MjModel, v_left: float, v_right: float, *,
-               duration: float = 4.0, average: float = 1.5) -> SteadyRun:
-    """Drive from rest at constant V_L, V_R [m/s] for ``duration`` [s]; average the last ``average`` s."""
+               duration: float = 4.0, average: float = 1.5, ground=None) -> SteadyRun:
+    """Drive from rest at constant V_L, V_R [m/s] for ``duration`` [s]; average the last ``average`` s.
+    ``ground``: the ground's per-step update (:func:`mjtrack.sim.ground.ground_stepper`), or None."""
     if not 0 < average <= duration:
         raise InputError(f"surfacevel: need 0 < average <= duration, got {average!r}, {duration!r}")
     data = mujoco.MjData(model)
@@ -330,6 +334,8 @@ def run_steady(model: mujoco.MjModel, v_left: float, v_right: float, *,
     for k in range(n):
         if k == n - n_avg:
             p0, yaw0 = data.qpos[:2].copy(), _yaw(data)
+        if ground is not None:
+            ground.update(data, v_left, v_right)
         mujoco.mj_step(model, data)
         contact[k] = ground_contact(data, side_of)
         if k >= n - n_avg:
