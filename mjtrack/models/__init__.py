@@ -17,7 +17,6 @@ from mjtrack.models.coulomb import normal_loads as normal_loads
 from mjtrack.models.coulomb import pivot_turn_closed_form as pivot_turn_closed_form
 from mjtrack.models.coulomb import rollout as coulomb_rollout  # noqa: F401 (re-exported under a longer name)
 from mjtrack.models.coulomb import steady_state as steady_state
-from mjtrack.models.shear import steady_state as shear_steady_state
 from mjtrack.models.dynamics import TrackedDynamics as TrackedDynamics
 from mjtrack.models.dynamics import lateral_friction_force as lateral_friction_force
 from mjtrack.models.dynamics import simulate as simulate_dynamics  # noqa: F401 (re-exported under a longer name)
