@@ -49,7 +49,7 @@ from mjtrack.diagnose.residuals import turn_ratio
 from mjtrack.errors import MjtrackError
 from mjtrack.io import read_log_with_robot
 from mjtrack.models import coulomb, shear
-from mjtrack.sim.windows import make_windows, measured_window_poses
+from mjtrack.windows import make_windows, measured_window_poses
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
