@@ -158,7 +158,7 @@ def _mujoco_icr(robot, vl, vr):
 
 
 def test_mujoco_shear_ground_agrees_with_its_reference():
-    """One turn of the fidelity grid (benchmarks/shear_fidelity.py runs all of it): the MuJoCo
+    """One turn of the fidelity grid (python benchmarks/ground_selection.py --fidelity runs all of it): the MuJoCo
     robot's steady ICRs within 0.02 T/2 of the reference's at the surfacevel model's 12 elements."""
     robot = Robot(ground={"model": "shear", "shear_modulus": 0.03})
     got = _mujoco_icr(robot, 0.2, 0.6)
