@@ -1,6 +1,6 @@
 """Wall time of ``mjtrack demo`` and of each of its stages, plus its headline numbers.
 
-    python benchmarks/bench_demo.py [--out DIR] [--json FILE]
+    python benchmarks/bench_demo.py [--out DIR] [--json FILE] [--readme-frame]
 
 Runs :func:`mjtrack.demo.run_demo` exactly as ``mjtrack demo --out DIR --quiet`` does (into a
 temporary folder unless --out is given) and prints the wall time, the time of each stage
@@ -8,6 +8,9 @@ temporary folder unless --out is given) and prints the wall time, the time of ea
 the MPP truth, and writes them to benchmarks/results/bench_demo.json (or --json FILE) with the
 machine's load average. Exit status 1 when the demo takes 3 minutes or more; no unit test times it
 (the machine's load decides too much).
+
+``--readme-frame`` also writes the picture README shows, the middle frame of the demo's video, to
+benchmarks/results/readme/video_frame.png.
 """
 
 from __future__ import annotations
@@ -24,11 +27,24 @@ from pathlib import Path
 from _results import RESULTS, benchmark_command
 
 
+def readme_frame(demo_dir: Path) -> Path:
+    """Write the middle frame of ``demo_dir``'s video as README's picture; its path."""
+    import imageio.v3 as iio
+
+    frames = iio.imread(demo_dir / "video.mp4")
+    (RESULTS / "readme").mkdir(parents=True, exist_ok=True)
+    iio.imwrite(RESULTS / "readme" / "video_frame.png", frames[len(frames) // 2])
+    return RESULTS / "readme" / "video_frame.png"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=None, help="demo output folder (default: a temporary one)")
     parser.add_argument("--json", type=Path, default=RESULTS / "bench_demo.json",
                         help="result file (default benchmarks/results/bench_demo.json)")
+    parser.add_argument("--readme-frame", action="store_true",
+                        help="also write README's picture: the middle frame of the demo's video "
+                             "(benchmarks/results/readme/video_frame.png)")
     args = parser.parse_args(argv)
 
     from mjtrack.demo import run_demo
@@ -39,6 +55,8 @@ def main(argv: list[str] | None = None) -> int:
         start = time.perf_counter()
         res = run_demo(out, quiet=True)
         wall = time.perf_counter() - start
+        if args.readme_frame:
+            print(f"wrote {readme_frame(out)}")
     print(f"machine: {platform.machine()}, {os.cpu_count()} cpus, python {platform.python_version()}")
     print(f"demo wall time: {wall:.1f} s (limit 180 s)")
     for stage, seconds in res.stage_s.items():
