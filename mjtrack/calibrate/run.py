@@ -29,11 +29,12 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
 from mjtrack.calibrate.causes import Cause, find_causes, summary
-from mjtrack.calibrate.fit import FitResult, central_jacobian, fit, objective
+from mjtrack.calibrate.fit import FitResult, central_jacobian, fit, objective, start_points, windows_done
 from mjtrack.calibrate.identify import Linearised, ModelForm, Verdict, final_verdicts, fmt_value, select
 from mjtrack.calibrate.params import described_values, parse_names, specs_for, start_values, window_params
 from mjtrack.diagnose import residuals as rs
@@ -42,6 +43,7 @@ from mjtrack.geometry import _sinc_terms, relative_pose
 from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
+from mjtrack.progress import clock_text
 from mjtrack.sim.config import SimConfig, sim_config
 from mjtrack.sim.windows import (AGAINST_WHY, DRIVE_DEFAULTS, STUCK_WHY, WARMUP_S, WindowResult, WindowSet,
                                  WindowSim, commanded_log, geometry_robot, make_windows, measured_drive_log,
@@ -306,8 +308,8 @@ def calibrated_robot(robot: Robot, values: dict[str, float], config: SimConfig,
 
 
 def _score(sim: WindowSim, lg: DriveLog, ws: WindowSet, variants: list[dict], *, nthread: int,
-           warmup_s: float) -> list[Scored]:
-    res = simulate_windows(sim, lg, ws, variants, nthread=nthread, warmup_s=warmup_s)
+           warmup_s: float, progress: Callable[[int], None] | None = None) -> list[Scored]:
+    res = simulate_windows(sim, lg, ws, variants, nthread=nthread, warmup_s=warmup_s, progress=windows_done(progress))
     return [Scored.of(res, p) for p in range(len(variants))]
 
 
@@ -443,7 +445,7 @@ class _Fitter:
     max_iter: int
     nthread: int
     warmup_s: float
-    quiet: bool
+    meter: _Meter
     specs: dict = field(init=False)
     floors: dict[str, float] = field(init=False)
 
@@ -456,7 +458,8 @@ class _Fitter:
         return max(3, self.max_iter // 2)
 
     def objective(self, fws: WindowSet, names: list[str]):
-        return objective(self.sim, self.train, fws, names, nthread=self.nthread, warmup_s=self.warmup_s)
+        return objective(self.sim, self.train, fws, names, nthread=self.nthread, warmup_s=self.warmup_s,
+                         progress=self.meter.windows)
 
     def scaled(self, point: dict[str, float]) -> np.ndarray:
         return np.array([point[n] / self.specs[n].scale for n in self.names])
@@ -512,6 +515,56 @@ class _Clock:
     def total(self) -> dict[str, float]:
         self.timings["total"] = time.perf_counter() - self.t0
         return self.timings
+
+
+#: passes over the fit windows that the model-form sources cost, in windows simulated (a finer
+#: simulator and a longer warm-up; each counted once, though the finer one takes about twice as long)
+MODEL_FORM_PASSES = 2
+
+
+class _Meter:
+    """calibrate's progress on stderr (a TTY, unless quiet): windows simulated out of those
+    expected, the stage and round as the bar's note, and once the robot as described is scored
+    (its rate measured), a line saying how long the whole is expected to take."""
+
+    def __init__(self, quiet: bool) -> None:
+        from mjtrack.progress import Progress
+
+        self.bar = Progress(total=None, label="calibrate", quiet=quiet)
+        self.tail = 0  # windows expected after the fit (every training window, the test's, the causes')
+
+    def windows(self, n: int) -> None:
+        self.bar.update(n)
+
+    def stage(self, note: str, remaining: float | None = None) -> None:
+        """Now in ``note``; ``remaining``: windows still expected from here on, all stages."""
+        if remaining is not None:
+            self.bar.total = self.bar.count + max(1, int(round(remaining)))
+        self.bar.label = f"calibrate: {note}"  # first on the line: a narrow terminal cuts the end
+        self.bar.update(0)
+
+    def say(self, text: str) -> None:
+        log.info(text)
+        self.bar.say(text)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def expected_passes(n: int, starts: int, max_iter: int, refit_iter: int, rounds: int = 1) -> int:
+    """Passes over the fit windows that the fit of ``n`` candidates is expected to take: the
+    ``starts``, the first fit (a forward difference, then about one pass per iteration and one
+    rejected step in two, :class:`mjtrack.calibrate.fit.SecantJacobian`), the central differences at
+    its end, the model-form sources, and ``rounds`` refits (:func:`round_passes`)."""
+    first = starts + 2 + (n + 1) + int(1.5 * max_iter) + (2 * n + 1) + MODEL_FORM_PASSES
+    return first + rounds * round_passes(n, refit_iter)
+
+
+def round_passes(n: int, refit_iter: int) -> int:
+    """Passes of one refit of a few (two) of ``n`` candidates: its start and forward difference,
+    its iterations, the central differences of the refitted ones (one-sided for the others) and the
+    model-form sources at its end."""
+    return 2 + 2 + int(1.5 * refit_iter) + (n + 3) + MODEL_FORM_PASSES
 
 
 def _prepare(train: DriveLog, robot: Robot, test: DriveLog | None, names, *, horizon_s: float, n_rollers,
@@ -572,6 +625,7 @@ def _decision_rounds(fx: _Fitter, obj, fws: WindowSet, cur: _Linearisation, roun
     sources there (and their sizes), and the refits."""
     fits: list[FitResult] = []
     for round_ in range(rounds + 1):
+        fx.meter.stage(f"round {round_ + 1}")
         sources, size = model_form_sources(obj, cur.point, cur.resid, cur.jac, fx.config)
         theta = fx.scaled(cur.point)
         lin = fx.linearised(obj, theta, cur.jac, cur.resid, sources)
@@ -584,6 +638,8 @@ def _decision_rounds(fx: _Fitter, obj, fws: WindowSet, cur: _Linearisation, roun
         if (sel.free == cur.free and converged) or not sel.free or round_ == rounds:
             return sel, cur, theta, sources, size, fits
         free = sel.free
+        fx.meter.stage(f"round {round_ + 1} refit",
+                       round_passes(len(fx.names), fx.refit_iter) * len(fws) + fx.meter.tail)
         begin = {n: float(np.clip(sel.values[n], fx.specs[n].lo, fx.specs[n].hi)) for n in free}
         fr = fit(fx.objective(fws, free), begin, max_iter=fx.refit_iter, multistart=False, on_iter=on_iter)
         fits.append(fr)
@@ -629,16 +685,11 @@ def _final_verdicts(fx: _Fitter, obj, sel, cur: _Linearisation, theta: np.ndarra
 def _fit_attempt(fx: _Fitter, fws: WindowSet, start_at: dict[str, float], only: list[str] | None = None) -> _Fitted:
     """One attempt: the first fit, the rounds of decisions, the verdicts (``only``: the guard's
     second attempt, see :func:`_guarded_fit`)."""
-    from mjtrack.progress import Progress
-
     obj = fx.objective(fws, fx.names)
-    iters = fx.max_iter if only is None else fx.refit_iter
     rounds = MAX_ROUNDS if only is None else GUARD_ROUNDS
-    with Progress(total=iters + rounds * fx.refit_iter, label="calibrate", quiet=fx.quiet) as bar:
-        def on_iter(i, c):
-            bar.update()
-        result, cur = _first_fit(fx, obj, fws, start_at, only, on_iter)
-        sel, cur, theta, sources, size, fits = _decision_rounds(fx, obj, fws, cur, rounds, on_iter)
+    fx.meter.stage("fit" if only is None else "guard refit")
+    result, cur = _first_fit(fx, obj, fws, start_at, only, None)
+    sel, cur, theta, sources, size, fits = _decision_rounds(fx, obj, fws, cur, rounds, None)
     verdicts, values, model_form, u, lin, ties = _final_verdicts(fx, obj, sel, cur, theta, sources, size, rounds)
     return _Fitted(result=result, refit=fits[-1] if fits else None, verdicts=verdicts, values=values,
                    model_form=model_form, u=u, lin=lin, ties=ties, fws=fws)
@@ -663,6 +714,7 @@ def _guarded_fit(fx: _Fitter, pb: _Problem, fit_windows: int | None, before: Sco
         changed = [n for n in pb.names if att.verdicts[n].changed]
         wp = window_params({n: att.values[n] for n in changed}, pb.robot)
         with clock.stage("guard"):
+            fx.meter.stage("guard", fx.meter.tail)
             after = _score(fx.sim, pb.train, ws, [wp], **kw)[0] if changed else before
         new = np.setdiff1d(np.flatnonzero(after.diverged_mask & ~before.diverged_mask), fit_index)
         if attempt == 1 or new.size == 0:
@@ -735,20 +787,46 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     and its rounds of decisions), guard (every training window scored after; guard_refit when the
     second attempt runs), after (the test log scored after, the causes), explain."""
     clock = _Clock()
+    meter = _Meter(quiet)
+    try:
+        return _stages(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
+                       max_iter=max_iter, nthread=nthread, train_path=train_path, test_path=test_path,
+                       warmup_s=warmup_s, drive_input=drive_input, fit_windows=fit_windows,
+                       keep_contradicting=keep_contradicting, clock=clock, meter=meter)
+    finally:
+        meter.close()
+
+
+def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, train_path,
+            test_path, warmup_s, drive_input, fit_windows, keep_contradicting, clock: _Clock,
+            meter: _Meter) -> Calibration:
     src = train_path or train.source or "train log"
     test_src = None if test is None else (test_path or test.source or "test log")
     with clock.stage("prepare"):
         pb = _prepare(train, robot, test, names, horizon_s=horizon_s, n_rollers=n_rollers,
                       keep_contradicting=keep_contradicting, src=src, test_src=test_src)
         sim = WindowSim(robot, pb.config, resisted="rolling_resistance" in pb.names)
-    kw = dict(nthread=nthread, warmup_s=warmup_s)
+    fx = _Fitter(sim=sim, train=train, names=pb.names, described=pb.described, config=pb.config, max_iter=max_iter,
+                 nthread=nthread, warmup_s=warmup_s, meter=meter)
+    n_fit = len(fit_index_of(pb.ws, fit_windows))
+    n_test = 0 if pb.tws is None else len(pb.tws)
+    starts = len(start_points(pb.names, fx.specs, np.zeros(len(pb.names))))
+    # the fit, then every training window (the guard), the test windows, and the causes' variants
+    passes = expected_passes(len(pb.names), starts, max_iter, fx.refit_iter)
+    after_windows = len(pb.ws) + n_test + 2 * len(pb.ws)
+    meter.tail = after_windows
+    meter.stage("as described", len(pb.ws) + n_test + passes * n_fit + after_windows)
+    kw = dict(nthread=nthread, warmup_s=warmup_s, progress=meter.windows)
     with clock.stage("before"):
         before = _score(sim, train, pb.ws, [{}], **kw)[0]
         test_before = _score(sim, test, pb.tws, [{}], **kw)[0] if test is not None else None
-    fx = _Fitter(sim=sim, train=train, names=pb.names, described=pb.described, config=pb.config, max_iter=max_iter,
-                 nthread=nthread, warmup_s=warmup_s, quiet=quiet)
+    rate = (len(pb.ws) + n_test) / max(clock.timings["before"], 1e-9)
+    meter.say(f"calibrate {src}: {len(pb.ws) + n_test} windows simulated in {clock.timings['before']:.1f} s; "
+              f"the fit of {len(pb.names)} parameters takes about {passes} passes over {n_fit} windows: about "
+              f"{clock_text((passes * n_fit + after_windows) / rate)} more")
     att, changed, wp, after = _guarded_fit(fx, pb, fit_windows, before, clock, kw)
     with clock.stage("after"):
+        meter.stage("causes", n_test + 2 * len(pb.ws))
         test_after = None
         if test is not None:
             test_after = _score(sim, test, pb.tws, [wp], **kw)[0] if changed else test_before
@@ -759,7 +837,8 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
             corr = att.u.corr[np.ix_(cidx, cidx)]
 
         def score(variants):
-            res = simulate_windows(sim, train, pb.ws, [window_params(v, robot) for v in variants], **kw)
+            res = simulate_windows(sim, train, pb.ws, [window_params(v, robot) for v in variants], nthread=nthread,
+                                   warmup_s=warmup_s, progress=windows_done(meter.windows))
             return res.rms()
 
         causes = find_causes(changed, att.values, pb.described, corr, att.ties, score, before.rms, after.rms,
