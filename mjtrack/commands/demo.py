@@ -1,4 +1,5 @@
-"""The main job on built-in defaults, end to end (about 30 s on 2 cores: benchmarks/bench_demo.py).
+"""The main job on built-in defaults, end to end (one to three minutes on 2 cores, depending on
+their load: benchmarks/bench_demo.py).
 
 A MuJoCo rollout of the default robot with its centre of gravity 5 cm ahead of the geometric
 centre (cg_x = +0.05 m) driving seeded everyday manoeuvres; its ICRs; the nominal, MPP, MICR
