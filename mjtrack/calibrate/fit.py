@@ -57,6 +57,7 @@ LM_MU_FACTOR = 10.0
 #: share of the predicted reduction of the cost a step must reach for the secant Jacobian to be
 #: kept (:class:`SecantJacobian`); below it the slope has changed more than one update can follow
 SECANT_TRUST = 0.25
+KEPT_RESIDUALS = 64  # parameter vectors whose residuals an objective keeps (Objective.residuals; a few kB each)
 
 
 @dataclass
@@ -77,6 +78,7 @@ class Objective:
     seconds: float = 0.0
     _meas: np.ndarray = field(init=False, repr=False)
     _idx: np.ndarray = field(init=False, repr=False)
+    _kept: dict = field(init=False, repr=False, default_factory=dict)
 
     def __post_init__(self) -> None:
         self._meas = measured_window_poses(self.log, self.windows)
@@ -97,12 +99,25 @@ class Objective:
         return {n: float(v) for n, v in zip(self.names, np.asarray(z, float) * self.scales)}
 
     def residuals(self, Z: np.ndarray) -> np.ndarray:
-        """Residuals (R, k) of k scaled parameter vectors Z (n, k); (R,) for one vector (n,)."""
+        """Residuals (R, k) of k scaled parameter vectors Z (n, k); (R,) for one vector (n,).
+
+        The last few vectors' residuals are kept: the optimiser evaluates its start point that
+        :func:`fit` has just costed, and its last iterate again where :func:`central_jacobian`
+        starts; each is a pass over every window, and the same vector gives the same bytes."""
         Z = np.asarray(Z, float)
         one = Z.ndim == 1
         Z2 = Z[:, None] if one else Z
-        variants = [window_params(self.params_of(Z2[:, j]), self.sim.robot) for j in range(Z2.shape[1])]
-        return self.residuals_of(variants, one=one)
+        keys = [Z2[:, j].tobytes() for j in range(Z2.shape[1])]
+        todo = [j for j, k in enumerate(keys) if k not in self._kept]
+        if todo:
+            variants = [window_params(self.params_of(Z2[:, j]), self.sim.robot) for j in todo]
+            R = self.residuals_of(variants)
+            for i, j in enumerate(todo):
+                self._kept[keys[j]] = R[:, i].copy()
+            while len(self._kept) > KEPT_RESIDUALS:
+                self._kept.pop(next(iter(self._kept)))
+        out = np.stack([self._kept[k] for k in keys], -1)
+        return out[:, 0] if one else out
 
     def residuals_of(self, variants: list[dict], *, one: bool = False, sim: WindowSim | None = None,
                      warmup_s: float | None = None) -> np.ndarray:
