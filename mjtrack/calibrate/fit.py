@@ -168,7 +168,7 @@ class FitResult:
     seconds: float
     sim_seconds: float
     method: str
-    jac: np.ndarray
+    jac: np.ndarray | None
     resid: np.ndarray
 
 
@@ -256,11 +256,13 @@ class SecantJacobian:
 
 def fit(obj: Objective, start: dict[str, float], *, max_iter: int = 8, multistart: bool = True,
         on_iter: Callable[[int, float], None] | None = None, mu_min: float | None = None,
-        mu_factor: float | None = None, broyden: bool = True) -> FitResult:
+        mu_factor: float | None = None, broyden: bool = True, final_jacobian: bool = True) -> FitResult:
     """Fit ``obj.names`` from ``start`` (physical values); see the module docstring.
     ``mu_min`` / ``mu_factor``: Levenberg-Marquardt damping (default :data:`LM_MU_MIN`,
     :data:`LM_MU_FACTOR`, read at call time); ``broyden``: the optimiser's Jacobian by
-    :class:`SecantJacobian` (else a forward difference at every iterate)."""
+    :class:`SecantJacobian` (else a forward difference at every iterate); ``final_jacobian``: the
+    central differences at the end point (False where the caller linearises a larger set of
+    parameters there anyway: ``jac`` is then None)."""
     import mujoco.sysid as sysid
 
     t0 = time.perf_counter()
@@ -294,7 +296,7 @@ def fit(obj: Objective, start: dict[str, float], *, max_iter: int = 8, multistar
                                  mu_min=LM_MU_MIN if mu_min is None else mu_min,
                                  mu_factor=LM_MU_FACTOR if mu_factor is None else mu_factor)
     z = opt.as_vector()
-    r, J = central_jacobian(obj, z)
+    r, J = central_jacobian(obj, z) if final_jacobian else (obj.residuals(z), None)
     return FitResult(names=list(obj.names), values=obj.params_of(z),
                      start={n: float(v) for n, v in obj.params_of(z_start).items()},
                      starts_tried=tried, cost_start=cost_start, cost_final=float(np.sum(r ** 2)),

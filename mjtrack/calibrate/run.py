@@ -612,7 +612,7 @@ def _first_fit(fx: _Fitter, obj, fws: WindowSet, start_at: dict[str, float], onl
         result = fit(obj, start_at, max_iter=fx.max_iter, multistart=True, on_iter=on_iter)
         return result, _Linearisation(dict(result.values), result.resid, result.jac, list(fx.names))
     result = fit(fx.objective(fws, only), {n: start_at[n] for n in only}, max_iter=fx.refit_iter,
-                 multistart=False, on_iter=on_iter)
+                 multistart=False, on_iter=on_iter, final_jacobian=False)
     point = {**fx.described, **result.values}
     resid, jac = central_jacobian(obj, fx.scaled(point), central=np.array([n in only for n in fx.names]))
     return result, _Linearisation(point, resid, jac, list(only))
@@ -641,7 +641,8 @@ def _decision_rounds(fx: _Fitter, obj, fws: WindowSet, cur: _Linearisation, roun
         fx.meter.stage(f"round {round_ + 1} refit",
                        round_passes(len(fx.names), fx.refit_iter) * len(fws) + fx.meter.tail)
         begin = {n: float(np.clip(sel.values[n], fx.specs[n].lo, fx.specs[n].hi)) for n in free}
-        fr = fit(fx.objective(fws, free), begin, max_iter=fx.refit_iter, multistart=False, on_iter=on_iter)
+        fr = fit(fx.objective(fws, free), begin, max_iter=fx.refit_iter, multistart=False, on_iter=on_iter,
+                 final_jacobian=False)  # linearised below with every candidate
         fits.append(fr)
         point = {**fx.described, **fr.values}
         resid, jac = central_jacobian(obj, fx.scaled(point), central=np.array([n in free for n in fx.names]))
