@@ -12,7 +12,8 @@ What ``mujoco.sysid`` does here: the parameters are a ``sysid.ParameterDict`` (i
 parameter's typical change, so one finite-difference step suits all), ``sysid.optimize`` runs
 ``mujoco.minimize.least_squares`` (Levenberg-Marquardt with box bounds) on a *vectorised* residual:
 its finite-difference Jacobian asks for all n perturbed points at once, and they run as one batch
-of n x M windows through ``mujoco.rollout`` on threads; the intervals are
+of n x M windows through ``mujoco.rollout`` on threads (taken once, then updated from each step by
+Broyden's secant rule, :class:`SecantJacobian`); the intervals are
 ``sysid.calculate_intervals`` on the final Jacobian. What sysid could not do: its own residual
 builder (``build_residual_fn`` / ``sysid_rollout``) rolls out whole recorded sequences from one
 initial state, with parameters applied by recompiling an ``MjSpec``; it has no notion of many
@@ -302,7 +303,8 @@ def fit(obj: Objective, start: dict[str, float], *, max_iter: int = 8, multistar
                      starts_tried=tried, cost_start=cost_start, cost_final=float(np.sum(r ** 2)),
                      iterations=len(iters), evaluations=obj.evaluations - evals0, seconds=time.perf_counter() - t0,
                      sim_seconds=obj.seconds - sim0, jac=J, resid=np.asarray(r, float),
-                     method="mujoco.sysid.optimize (mujoco.minimize.least_squares, vectorised finite differences)")
+                     method="mujoco.sysid.optimize (mujoco.minimize.least_squares, vectorised finite differences"
+                            + (" updated by Broyden's secant rule)" if broyden else ")"))
 
 
 def central_jacobian(obj: Objective, z: np.ndarray, central: np.ndarray | None = None
