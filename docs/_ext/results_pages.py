@@ -313,7 +313,8 @@ def _calibration_ab(cal: Source, caption: str) -> Table:
                 cells.append("–")
                 continue
             cells.append(number(cal, pointer(k)))
-        table.add(name, *cells)
+        if any(c != "–" for c in cells):  # (a stage neither run went through is left out)
+            table.add(name, *cells)
 
     row("wall time, median [s]", lambda k: f"/medians/{k}/wall_s")
     row("CPU time (both threads), median [s]", lambda k: f"/medians/{k}/cpu_s")
