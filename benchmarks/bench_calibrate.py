@@ -1,13 +1,24 @@
-"""Wall time of a calibration on the whole shared Marmotte log (target: < 10 min on 2 cores).
+"""Wall and CPU time of a calibration, the code before a change against the code now, in one run.
 
-    nice -n 10 python benchmarks/bench_calibrate.py [--rollers N] [--max-iter N]
+    nice -n 10 python benchmarks/bench_calibrate.py [--old-tree DIR] [--case sim60|marmotte] [--repeats N]
 
-All 432 windows of ../shared/data/marmotte/marmotte_boreal.csv; the Marmotte's starting robot of
-``benchmarks/real_robots.py`` (coulomb ground), calibrate's defaults (candidates, rounds,
-iterations, the fit on ``FIT_WINDOWS`` windows spread over the log, every window scored before and
-after, the causes on every window); 6 rollers per track, as ``benchmarks/real_robots.py``. Prints the wall time, the windows simulated per second and the
-machine's load average before and after (the machine is shared: the load says how much of its
-2 cores the run had), and writes benchmarks/results/bench_calibrate.json.
+``--old-tree DIR``: a checkout of the code to compare against (e.g. ``git archive REV | tar -x -C
+DIR``); without it only the code now is measured. Cases:
+
+* ``sim60`` (default): a 60 s ``random_steps`` log of the default robot with its centre of mass
+  6 cm ahead (``cg_x`` 0.06 m), calibrated from the robot as described (``cg_x`` 0) with a held-out
+  60 s log of the same robot (``calibrate TRAIN --robot DESCRIBED --test TEST``), calibrate's
+  defaults; the logs are simulated here (seeds 1 and 2), by the code now, for both.
+* ``marmotte``: the whole shared Marmotte log (../shared/data/marmotte/marmotte_boreal.csv) from
+  the Marmotte's starting robot of ``benchmarks/real_robots.py``, 6 rollers per track.
+
+Old and new alternate (old, new, old, new, ...), each calibration in a fresh Python process with
+that code on its path, so that both see the same load. Each run reports its wall time, its CPU time
+(all threads), the windows it simulated (every window of every parameter set, counted where the
+window simulator is called), its stage times, and its answer (changed parameters, their values
+and intervals, the summary). The machine is shared: the load average before and after each run is
+printed and stored, and the ratios quoted are of medians. Writes
+benchmarks/results/bench_calibrate.json (or bench_calibrate_marmotte.json).
 """
 
 from __future__ import annotations
@@ -15,57 +26,146 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
-from real_robots import ROBOTS, starting_robot
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+RESULTS = HERE / "results"
+SIM_ROBOT = {"cg_x": 0.06}  # the hidden change of the sim60 case
 
-from mjtrack.calibrate.run import calibrate
-from mjtrack.io import read_log_with_robot
 
-OUT = Path(__file__).resolve().parent / "results" / "bench_calibrate.json"
-DATA = ROBOTS["marmotte"]["log"]
+def _child(case: str, data: str) -> None:
+    """One calibration with the ``mjtrack`` on the path; prints one JSON line."""
+    import mjtrack.calibrate.fit as fit_mod
+    import mjtrack.calibrate.run as run_mod
+    from mjtrack.io import read_log_with_robot, read_robot
+
+    count = {"calls": 0, "parameter_sets": 0, "windows": 0}
+
+    def counted(f):
+        def g(sim, log, ws, variants=None, **kw):
+            p = 1 if variants is None else len(variants)
+            count["calls"] += 1
+            count["parameter_sets"] += p
+            count["windows"] += p * len(ws)
+            return f(sim, log, ws, variants, **kw)
+        return g
+
+    import mjtrack.sim.windows as sim_windows
+
+    original = sim_windows.simulate_windows
+    wrapped = counted(original)
+    # wherever the simulator is bound: the modules that import it by name, and its own module for
+    # the functions that import it when they run
+    for mod in (sim_windows, fit_mod, run_mod):
+        if getattr(mod, "simulate_windows", None) is original:
+            mod.simulate_windows = wrapped
+    kw: dict = {}
+    if case == "sim60":
+        train, _ = read_log_with_robot(Path(data) / "train.csv")
+        test, _ = read_log_with_robot(Path(data) / "test.csv")
+        robot = read_robot(Path(data) / "described.json")
+        kw = {"test": test, "train_path": "train.csv", "test_path": "test.csv"}
+    else:  # the starting robot written by the parent, so that either tree reads the same one
+        log_path = Path((Path(data) / "log_path.txt").read_text().strip())
+        train, _ = read_log_with_robot(log_path)
+        robot = read_robot(Path(data) / "start.json")
+        kw = {"n_rollers": 6, "train_path": log_path.name}
+    load0 = os.getloadavg()
+    t0, c0 = time.perf_counter(), time.process_time()
+    cal = run_mod.calibrate(train, robot, quiet=True, **kw)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    j = cal.to_json()
+    print(json.dumps({
+        "wall_s": wall, "cpu_s": cpu, "load_before": load0, "load_after": os.getloadavg(), **count,
+        "timings_s": j["timings_s"], "changed": j["changed"],
+        "values": {n: j["parameters"][n] for n in j["changed"]},
+        "intervals": {n: j["intervals"].get(n) for n in j["changed"]},
+        "rms": [j["train"]["before"], j["train"]["after"]] + ([j["test"]["before"], j["test"]["after"]]
+                                                               if "test" in j else []),
+        "fits": [{"parameters": f["parameters"], "iterations": f["iterations"]} for f in j["method"]["fits"]],
+        "summary": j["summary"]}))
+
+
+def _simulate_logs(out: Path) -> None:
+    """The sim60 case's logs and the described robot, made as a user makes them (``mjtrack simulate``)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "MUJOCO_GL": "egl"}
+
+    def simulate(*args: str) -> None:
+        subprocess.run([sys.executable, "-m", "mjtrack", "simulate", "-q", "--force", *args], env=env, check=True,
+                       cwd=str(out))
+
+    simulate("--scenario", "straight", "--duration", "1", "--out", "described.csv")  # the default robot
+    robot = json.loads((out / "described.json").read_text())
+    (out / "hidden.json").write_text(json.dumps({**robot, **SIM_ROBOT}, indent=1))
+    for name, seed in (("train", 1), ("test", 2)):
+        simulate("--scenario", "random_steps", "--duration", "60", "--seed", str(seed), "--robot", "hidden.json",
+                 "--out", f"{name}.csv")
+
+
+def _run(tree: Path, case: str, data: str) -> dict:
+    env = {**os.environ, "PYTHONPATH": str(tree), "MUJOCO_GL": "egl"}
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--child", case, "--data", data]
+    out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False, cwd=str(tree))
+    if out.returncode != 0:
+        raise SystemExit(f"{tree}: calibration failed:\n{out.stderr[-3000:]}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--rollers", type=int, default=6)
-    ap.add_argument("--max-iter", type=int, default=8, help="optimiser iterations (calibrate's default 8)")
+    ap.add_argument("--old-tree", type=Path, help="a checkout of the code to compare against")
+    ap.add_argument("--case", choices=("sim60", "marmotte"), default="sim60")
+    ap.add_argument("--repeats", type=int, default=1, help="runs of each (alternating; default 1)")
+    ap.add_argument("--child", help=argparse.SUPPRESS)
+    ap.add_argument("--data", help=argparse.SUPPRESS)
     args = ap.parse_args()
-    if not DATA.exists():
-        print(f"{DATA} not found (the shared Marmotte data); nothing to do")
+    if args.child:
+        _child(args.child, args.data)
         return 0
-    log, base = read_log_with_robot(DATA)
-    robot = starting_robot(base, ROBOTS["marmotte"]["public"])
-    load0 = os.getloadavg()
-    t0 = time.perf_counter()
-    cal = calibrate(log, robot, n_rollers=args.rollers, max_iter=args.max_iter,
-                    quiet=not sys.stderr.isatty(), train_path=DATA.name)
-    wall = time.perf_counter() - t0
-    load1 = os.getloadavg()
-    fits = [cal.fit] + ([cal.refit] if cal.refit is not None else [])
-    sets = sum(f.evaluations for f in fits)
-    sims = sets * len(cal.fitted_windows)
-    sim_s = sum(f.sim_seconds for f in fits)
-    print(f"whole log: {len(cal.train_windows)} windows ({len(cal.fitted_windows)} fitted), {len(cal.names)} candidates, "
-          f"{len(cal.changed)} changed, "
-          f"fits {[f.iterations for f in fits]} iterations, {sets} parameter sets (fits only)")
-    print(f"calibration wall time {wall:.1f} s ({wall / 60:.2f} min; target < 10 min); fit {cal.timings['fit']:.1f} s, "
-          f"{sims / max(sim_s, 1e-9):.1f} windows of 2 s simulated per second")
-    print(f"2 s position RMSE {cal.before.rms:.4f} -> {cal.after.rms:.4f} m")
-    print(f"load average before {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}, after {load1[0]:.2f} {load1[1]:.2f} "
-          f"{load1[2]:.2f} ({os.cpu_count()} CPUs; shared machine)")
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    OUT.write_text(json.dumps({"command": "python benchmarks/bench_calibrate.py " + " ".join(sys.argv[1:]),
-                               "windows": len(cal.train_windows), "fit_windows": len(cal.fitted_windows),
-                               "candidates": cal.names, "changed": cal.changed,
-                               "wall_s": wall, "minutes": wall / 60, "target_minutes": 10, "timings_s": cal.timings,
-                               "rollers": args.rollers, "parameter_sets": sets,
-                               "windows_per_second": sims / max(sim_s, 1e-9),
-                               "diverged": [cal.before.diverged, cal.after.diverged],
-                               "max_iter": args.max_iter, "rms_before": cal.before.rms, "rms_after": cal.after.rms,
-                               "load_before": load0, "load_after": load1}, indent=1) + "\n")
+    with tempfile.TemporaryDirectory() as tmp:
+        data = Path(tmp)
+        if args.case == "sim60":
+            _simulate_logs(data)
+        else:
+            sys.path.insert(0, str(HERE))
+            from mjtrack.io import read_log_with_robot
+            from mjtrack.io.robot import write_robot
+            from real_robots import ROBOTS, starting_robot
+
+            log_path = ROBOTS["marmotte"]["log"]
+            if not log_path.exists():
+                print(f"{log_path} not found (the shared Marmotte data); nothing to do")
+                return 0
+            _, base = read_log_with_robot(log_path)
+            write_robot(starting_robot(base, ROBOTS["marmotte"]["public"]), data / "start.json")
+            (data / "log_path.txt").write_text(str(log_path))
+        trees = [("new", ROOT)] + ([("old", args.old_tree.resolve())] if args.old_tree else [])
+        runs: dict[str, list[dict]] = {label: [] for label, _ in trees}
+        for _ in range(args.repeats):
+            for label, tree in reversed(trees):  # old first, then new
+                r = _run(tree, args.case, str(data))
+                runs[label].append(r)
+                print(f"{label}: wall {r['wall_s']:.1f} s, CPU {r['cpu_s']:.1f} s, {r['windows']} windows simulated, "
+                      f"load {r['load_before'][0]:.2f} -> {r['load_after'][0]:.2f}; changed {r['changed']} "
+                      f"{ {n: round(v, 5) for n, v in r['values'].items()} }", flush=True)
+    med = {label: {k: statistics.median(r[k] for r in rs) for k in ("wall_s", "cpu_s", "windows")}
+           for label, rs in runs.items()}
+    if "old" in med:
+        for k in ("wall_s", "cpu_s", "windows"):
+            med.setdefault("ratio_old_over_new", {})[k] = med["old"][k] / max(med["new"][k], 1e-9)
+        print("medians old / new: " + ", ".join(f"{k} {v:.2f}" for k, v in med["ratio_old_over_new"].items()))
+    out = RESULTS / ("bench_calibrate.json" if args.case == "sim60" else "bench_calibrate_marmotte.json")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps({"command": "python benchmarks/bench_calibrate.py " + " ".join(
+        a for a in sys.argv[1:] if not a.startswith("/")), "case": args.case, "cpus": os.cpu_count(),
+        "target_wall_s": 60 if args.case == "sim60" else 120, "medians": med, "runs": runs}, indent=1) + "\n")
+    print(f"wrote {out.relative_to(ROOT)}")
     return 0
 
 

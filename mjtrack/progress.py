@@ -39,7 +39,7 @@ def _is_tty(stream: TextIO) -> bool:
         return False
 
 
-def _clock_text(seconds: float) -> str:
+def clock_text(seconds: float) -> str:
     seconds = int(round(seconds))
     h, rest = divmod(seconds, 3600)
     m, s = divmod(rest, 60)
@@ -95,6 +95,15 @@ class Progress:
         if self.enabled and self._clock() - self._last_draw >= self.min_interval:
             self._draw()
 
+    def say(self, text: str) -> None:
+        """A line of its own (a stage's start, an expected duration) above the bar, which is then
+        drawn again below it; on a TTY only, never when quiet, like the bar."""
+        if not self.enabled or self._closed:
+            return
+        self.stream.write("\r" + " " * self._width + "\r" + text + "\n")
+        self._width = 0
+        self._draw()
+
     def text(self) -> str:
         """The line as it would be drawn now (without the carriage return)."""
         parts = [self.label] if self.label else []
@@ -106,13 +115,13 @@ class Progress:
             width = len(str(self.total))
             parts.append(f"{self.count:>{width}}/{self.total}")
             parts.append(f"{100 * frac:3.0f}%")
-            timing = f"{_clock_text(elapsed)} elapsed"
+            timing = f"{clock_text(elapsed)} elapsed"
             if 0 < self.count < self.total:
-                timing += f", ~{_clock_text(elapsed * (self.total - self.count) / self.count)} left"
+                timing += f", ~{clock_text(elapsed * (self.total - self.count) / self.count)} left"
             parts.append(timing)
         else:
             parts.append(str(self.count))
-            parts.append(f"{_clock_text(elapsed)} elapsed")
+            parts.append(f"{clock_text(elapsed)} elapsed")
         if self.note:
             parts.append(self.note)
         return "  ".join(parts)

@@ -71,3 +71,24 @@ def test_redraws_are_throttled():
             bar.update()
     assert tty.getvalue().count("\r") == 2  # the first update and the final state
     assert "1000/1000" in tty.getvalue()
+
+
+def test_a_said_line_stands_above_the_bar_which_is_drawn_again():
+    tty = FakeTTY()
+    with Progress(total=10, label="calibrate", stream=tty, clock=Clock()) as bar:
+        bar.update(2, note="fit")
+        bar.say("calibrate: about 0:40 expected")
+        bar.update(3)
+    lines = tty.getvalue().split("\n")
+    frame, wipe, said = lines[0].split("\r")[1:]
+    assert frame.startswith("calibrate  [####------")
+    assert wipe == " " * len(frame)  # the frame is wiped, not left half-overwritten
+    assert said == "calibrate: about 0:40 expected"  # on a line of its own
+    assert lines[1].split("\r")[-1].startswith("calibrate  [##########----------]   5/10") and lines[-1] == ""
+
+
+def test_said_lines_are_silent_when_quiet_or_not_a_tty():
+    for quiet, stream in ((True, FakeTTY()), (False, io.StringIO())):
+        with Progress(total=2, stream=stream, quiet=quiet) as bar:
+            bar.say("hello")
+        assert stream.getvalue() == ""

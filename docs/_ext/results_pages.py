@@ -286,19 +286,20 @@ def _speed() -> Page:
     other.add("surfacevel real-time factor", number(src, "/surfacevel/realtime_factor"))
     other.add("surfacevel time step [s]", number(src, "/surfacevel/timestep"))
     add_load(other, src, "/loadavg_before/0", "/loadavg_after/0")
-    cal = Source(RESULTS / "bench_calibrate.json")
-    whole = Table("Calibration of the whole shared Marmotte log at calibrate's defaults (the rollers per track of "
-                  "the real-robot results), with the machine's load and the target wall time.",
-                  ["quantity", "value"])
-    add_rows(whole, cal, [("rollers per track", "/rollers"), ("target wall time [min]", "/target_minutes"),
-                          ("windows in the log", "/windows"), ("windows the fit used", "/fit_windows"),
-                          ("wall time [min]", "/minutes"),
-                          *((f"stage {stage} [s]", f"/timings_s/{stage}") for stage in ("before", "fit", "after")),
-                          ("parameter sets the fits evaluated", "/parameter_sets"),
-                          ("windows simulated per second", "/windows_per_second"),
-                          ("2 s position RMSE before [m]", "/rms_before"), ("2 s position RMSE after [m]", "/rms_after"),
-                          ("windows blown up after calibration", "/diverged/1")])
-    add_load(whole, cal, "/load_before/0", "/load_after/0")
+    tables = [rt, prof, rollers, other]
+    sources = [src]
+    sim60 = RESULTS / "bench_calibrate.json"
+    if sim60.exists():
+        cal = Source(sim60)
+        sources.append(cal)
+        tables.append(_calibration_ab(cal, "Calibration of a 60 s simulated log with one hidden change (centre of "
+                                           "mass 6 cm ahead) and a held-out 60 s log, calibrate's defaults: the code "
+                                           "before the speed work (old) and now (new), alternating in one run, "
+                                           "medians; stage times of the first run of each."))
+    marmotte = Source(RESULTS / "bench_calibrate_marmotte.json")
+    sources.append(marmotte)
+    tables.append(_calibration_ab(marmotte, "Calibration of the whole shared Marmotte log, 6 rollers per track.")
+                  if "runs" in marmotte.data else _calibration_whole(marmotte))
     demo = Source(RESULTS / "bench_demo.json")
     dem = Table("`mjtrack demo` end to end on its defaults: wall time, per stage.", ["quantity", "value"])
     add_rows(dem, demo, [("wall time [s]", "/wall_s"),
@@ -316,7 +317,58 @@ def _speed() -> Page:
     return Page(
         "speed", "Speed",
         "Timings depend on the machine and its load; each table gives the load averages of its run.",
-        [src, cal, demo, sweep], [rt, prof, rollers, other, whole, dem, sw])
+        sources + [demo, sweep], tables + [dem, sw])
+
+
+#: calibrate's stages (Calibration.timings), in their order; an older run may lack some
+CALIBRATE_STAGES = ("prepare", "before", "fit", "guard", "guard_refit", "after", "explain", "total")
+
+
+def _calibration_ab(cal: Source, caption: str) -> Table:
+    """Old and new calibrations of one case (benchmarks/bench_calibrate.py): times, windows
+    simulated, stage times, the answer, the load."""
+    labels = [k for k in ("old", "new") if k in cal.data["runs"]]
+    table = Table(caption, ["quantity"] + labels)
+
+    def row(name: str, pointer) -> None:
+        cells = []
+        for k in labels:
+            try:
+                pointer_get(cal.data, pointer(k))
+            except (KeyError, IndexError):
+                cells.append("–")
+                continue
+            cells.append(number(cal, pointer(k)))
+        if any(c != "–" for c in cells):  # (a stage neither run went through is left out)
+            table.add(name, *cells)
+
+    row("wall time, median [s]", lambda k: f"/medians/{k}/wall_s")
+    row("CPU time (both threads), median [s]", lambda k: f"/medians/{k}/cpu_s")
+    row("windows simulated, median", lambda k: f"/medians/{k}/windows")
+    for stage in CALIBRATE_STAGES:
+        row(f"stage {stage} [s]", lambda k, st=stage: f"/runs/{k}/0/timings_s/{st}")
+    for n in cal.data["runs"][labels[-1]][0]["changed"]:
+        row(f"calibrated {n}", lambda k, n=n: f"/runs/{k}/0/values/{n}")
+    row("load average before (one minute)", lambda k: f"/runs/{k}/0/load_before/0")
+    row("load average after (one minute)", lambda k: f"/runs/{k}/0/load_after/0")
+    return table
+
+
+def _calibration_whole(cal: Source) -> Table:
+    """The whole-Marmotte calibration as an earlier benchmarks/bench_calibrate.py stored it (one run)."""
+    whole = Table("Calibration of the whole shared Marmotte log at calibrate's defaults (the rollers per track of "
+                  "the real-robot results), with the machine's load and the target wall time.",
+                  ["quantity", "value"])
+    add_rows(whole, cal, [("rollers per track", "/rollers"), ("target wall time [min]", "/target_minutes"),
+                          ("windows in the log", "/windows"), ("windows the fit used", "/fit_windows"),
+                          ("wall time [min]", "/minutes"),
+                          *((f"stage {stage} [s]", f"/timings_s/{stage}") for stage in ("before", "fit", "after")),
+                          ("parameter sets the fits evaluated", "/parameter_sets"),
+                          ("windows simulated per second", "/windows_per_second"),
+                          ("2 s position RMSE before [m]", "/rms_before"), ("2 s position RMSE after [m]", "/rms_after"),
+                          ("windows blown up after calibration", "/diverged/1")])
+    add_load(whole, cal, "/load_before/0", "/load_after/0")
+    return whole
 
 
 def _wheeled() -> Page:

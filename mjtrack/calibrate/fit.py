@@ -12,7 +12,8 @@ What ``mujoco.sysid`` does here: the parameters are a ``sysid.ParameterDict`` (i
 parameter's typical change, so one finite-difference step suits all), ``sysid.optimize`` runs
 ``mujoco.minimize.least_squares`` (Levenberg-Marquardt with box bounds) on a *vectorised* residual:
 its finite-difference Jacobian asks for all n perturbed points at once, and they run as one batch
-of n x M windows through ``mujoco.rollout`` on threads; the intervals are
+of n x M windows through ``mujoco.rollout`` on threads (taken once, then updated from each step by
+Broyden's secant rule, :class:`SecantJacobian`); the intervals are
 ``sysid.calculate_intervals`` on the final Jacobian. What sysid could not do: its own residual
 builder (``build_residual_fn`` / ``sysid_rollout``) rolls out whole recorded sequences from one
 initial state, with parameters applied by recompiling an ``MjSpec``; it has no notion of many
@@ -55,6 +56,10 @@ FD_EPS = 0.05  # finite-difference step in units of a parameter's typical change
 # (the classic Levenberg-Marquardt factor) reach it in 2-3 passes. benchmarks/bench_calibrate.py.
 LM_MU_MIN = 1e-3
 LM_MU_FACTOR = 10.0
+#: share of the predicted reduction of the cost a step must reach for the secant Jacobian to be
+#: kept (:class:`SecantJacobian`); below it the slope has changed more than one update can follow
+SECANT_TRUST = 0.25
+KEPT_RESIDUALS = 64  # parameter vectors whose residuals an objective keeps (Objective.residuals; a few kB each)
 
 
 @dataclass
@@ -69,11 +74,13 @@ class Objective:
     yaw_length: float
     nthread: int = 2
     warmup_s: float = WARMUP_S
-    progress: Callable[[int, int], None] | None = None
+    #: called with the number of windows just simulated (after each rollout chunk)
+    progress: Callable[[int], None] | None = None
     evaluations: int = 0
     seconds: float = 0.0
     _meas: np.ndarray = field(init=False, repr=False)
     _idx: np.ndarray = field(init=False, repr=False)
+    _kept: dict = field(init=False, repr=False, default_factory=dict)
 
     def __post_init__(self) -> None:
         self._meas = measured_window_poses(self.log, self.windows)
@@ -94,24 +101,36 @@ class Objective:
         return {n: float(v) for n, v in zip(self.names, np.asarray(z, float) * self.scales)}
 
     def residuals(self, Z: np.ndarray) -> np.ndarray:
-        """Residuals (R, k) of k scaled parameter vectors Z (n, k); (R,) for one vector (n,)."""
+        """Residuals (R, k) of k scaled parameter vectors Z (n, k); (R,) for one vector (n,).
+
+        The last few vectors' residuals are kept: the optimiser evaluates its start point that
+        :func:`fit` has just costed, and its last iterate again where :func:`central_jacobian`
+        starts; each is a pass over every window, and the same vector gives the same bytes."""
         Z = np.asarray(Z, float)
         one = Z.ndim == 1
         Z2 = Z[:, None] if one else Z
-        variants = [window_params(self.params_of(Z2[:, j]), self.sim.robot) for j in range(Z2.shape[1])]
-        return self.residuals_of(variants, one=one)
+        keys = [Z2[:, j].tobytes() for j in range(Z2.shape[1])]
+        todo = [j for j, k in enumerate(keys) if k not in self._kept]
+        if todo:
+            variants = [window_params(self.params_of(Z2[:, j]), self.sim.robot) for j in todo]
+            R = self.residuals_of(variants)
+            for i, j in enumerate(todo):
+                self._kept[keys[j]] = R[:, i].copy()
+            while len(self._kept) > KEPT_RESIDUALS:
+                self._kept.pop(next(iter(self._kept)))
+        out = np.stack([self._kept[k] for k in keys], -1)
+        return out[:, 0] if one else out
 
     def residuals_of(self, variants: list[dict], *, one: bool = False, sim: WindowSim | None = None,
                      warmup_s: float | None = None) -> np.ndarray:
         """Residuals (R, P) of P window-parameter dicts (optionally on another simulator or warm-up)."""
         t0 = time.perf_counter()
         res = simulate_windows(sim or self.sim, self.log, self.windows, variants, nthread=self.nthread,
-                               warmup_s=self.warmup_s if warmup_s is None else warmup_s)
+                               warmup_s=self.warmup_s if warmup_s is None else warmup_s,
+                               progress=windows_done(self.progress))
         self.seconds += time.perf_counter() - t0
         self.evaluations += len(variants)
         R = self._residuals(res.poses, res.diverged)
-        if self.progress is not None:
-            self.progress(self.evaluations, 0)
         return R[:, 0] if one else R
 
     def _residuals(self, poses: np.ndarray, diverged: np.ndarray) -> np.ndarray:
@@ -151,13 +170,24 @@ class FitResult:
     seconds: float
     sim_seconds: float
     method: str
-    jac: np.ndarray
+    jac: np.ndarray | None
     resid: np.ndarray
 
 
 def _multistart(obj: Objective, z0: np.ndarray) -> tuple[np.ndarray, list[tuple[dict[str, float], float]]]:
     """A few starts differing in the turning-resistance and lag parameters, evaluated in one batch."""
     names = obj.names
+    Z = np.stack(start_points(names, obj.specs, z0), -1)
+    lo = np.array([obj.specs[n].lo for n in names]) / obj.scales
+    hi = np.array([obj.specs[n].hi for n in names]) / obj.scales
+    Z = np.clip(Z, lo[:, None], hi[:, None])
+    costs = obj.cost(Z)
+    tried = [(obj.params_of(Z[:, j]), float(costs[j])) for j in range(Z.shape[1])]
+    return Z[:, int(np.argmin(costs))], tried
+
+
+def start_points(names: list[str], specs: dict[str, ParamSpec], z0: np.ndarray) -> list[np.ndarray]:
+    """The scaled starting points (n,) the multi-start tries from ``z0`` (the first)."""
     cands = [z0.copy()]
     turn = [n for n in ("track_length", "wheelbase", "lateral_ratio", "span") if n in names]
     grid = {"track_length": (0.3, 0.5, 0.8), "wheelbase": (0.3, 0.6, 1.1), "lateral_ratio": (0.4, 0.7, 1.0),
@@ -166,7 +196,7 @@ def _multistart(obj: Objective, z0: np.ndarray) -> tuple[np.ndarray, list[tuple[
         i = names.index(n)
         for v in grid[n]:
             z = z0.copy()
-            z[i] = v / obj.specs[n].scale
+            z[i] = v / specs[n].scale
             cands.append(z)
     # each start also with a drive lag of 0.3 s and with a dead time of 0.2 s: the cost is not convex
     # in either (a 0.15 s dead time was fitted as 0.03 s from a start at 0 with the track length
@@ -176,23 +206,65 @@ def _multistart(obj: Objective, z0: np.ndarray) -> tuple[np.ndarray, list[tuple[
             i = names.index(name)
             for z in list(cands):
                 zz = z.copy()
-                zz[i] = value / obj.specs[name].scale
+                zz[i] = value / specs[name].scale
                 cands.append(zz)
-    Z = np.stack(cands, -1)
-    lo = np.array([obj.specs[n].lo for n in names]) / obj.scales
-    hi = np.array([obj.specs[n].hi for n in names]) / obj.scales
-    Z = np.clip(Z, lo[:, None], hi[:, None])
-    costs = obj.cost(Z)
-    tried = [(obj.params_of(Z[:, j]), float(costs[j])) for j in range(Z.shape[1])]
-    return Z[:, int(np.argmin(costs))], tried
+    return cands
+
+
+class SecantJacobian:
+    """The Jacobian for ``mujoco.minimize.least_squares``: a forward difference of :data:`FD_EPS`
+    (n + 1 points in one batch, as the optimiser's own) at the first iterate, then Broyden's
+    rank-one secant update from each accepted step (no rollout at all), and a fresh forward
+    difference whenever the last step fell short of what the updated Jacobian predicted (actual
+    reduction of the cost below :data:`SECANT_TRUST` of the predicted one).
+
+    Why: a forward-difference Jacobian costs n rollouts of every fit window per iteration, ten
+    times the step itself with the default candidates; near the optimum the steps are small and
+    the slope hardly changes from one iterate to the next. The update keeps the Jacobian exact along
+    the step just taken; the directions it has not explored keep the last difference's slope. The
+    fit's verdicts never rest on it: its end point is checked by :func:`central_jacobian`, and
+    :mod:`mjtrack.calibrate.run` fits again where that says the optimum is still ahead."""
+
+    def __init__(self, residuals: Callable[[np.ndarray], np.ndarray], eps: float, bounds: list[np.ndarray]) -> None:
+        self.residuals, self.eps, self.bounds = residuals, float(eps), bounds
+        self.J: np.ndarray | None = None
+        self.x: np.ndarray | None = None
+        self.r: np.ndarray | None = None
+        self.differences = 0  # forward differences taken
+        self.updates = 0  # secant updates
+
+    def __call__(self, x: np.ndarray, r: np.ndarray) -> np.ndarray:
+        from mujoco.minimize import jacobian_fd
+
+        x = np.asarray(x, float).reshape(-1, 1)
+        r = np.asarray(r, float).reshape(-1)
+        fresh = self.J is None
+        if not fresh:
+            dx = (x - self.x)[:, 0]
+            pred = self.r + self.J @ dx
+            want = float(self.r @ self.r - pred @ pred)
+            got = float(self.r @ self.r - r @ r)
+            fresh = not (want > 0 and got >= SECANT_TRUST * want) or not float(dx @ dx) > 0
+        if fresh:
+            J, _ = jacobian_fd(self.residuals, x, r.reshape(-1, 1), np.float64(self.eps), 0, self.bounds)
+            self.J = np.asarray(J, float)
+            self.differences += 1
+        else:
+            self.J = self.J + np.outer((r - self.r) - self.J @ dx, dx) / float(dx @ dx)
+            self.updates += 1
+        self.x, self.r = x.copy(), r.copy()
+        return self.J.copy()
 
 
 def fit(obj: Objective, start: dict[str, float], *, max_iter: int = 8, multistart: bool = True,
         on_iter: Callable[[int, float], None] | None = None, mu_min: float | None = None,
-        mu_factor: float | None = None) -> FitResult:
+        mu_factor: float | None = None, broyden: bool = True, final_jacobian: bool = True) -> FitResult:
     """Fit ``obj.names`` from ``start`` (physical values); see the module docstring.
     ``mu_min`` / ``mu_factor``: Levenberg-Marquardt damping (default :data:`LM_MU_MIN`,
-    :data:`LM_MU_FACTOR`, read at call time)."""
+    :data:`LM_MU_FACTOR`, read at call time); ``broyden``: the optimiser's Jacobian by
+    :class:`SecantJacobian` (else a forward difference at every iterate); ``final_jacobian``: the
+    central differences at the end point (False where the caller linearises a larger set of
+    parameters there anyway: ``jac`` is then None)."""
     import mujoco.sysid as sysid
 
     t0 = time.perf_counter()
@@ -219,18 +291,21 @@ def fit(obj: Objective, start: dict[str, float], *, max_iter: int = 8, multistar
         if on_iter is not None:
             on_iter(len(trace), float(trace[-1].objective))
 
+    lo, hi = pdict.get_bounds()
+    jacobian = None if not broyden else SecantJacobian(obj.residuals, FD_EPS, [lo.reshape(-1, 1), hi.reshape(-1, 1)])
     opt, result = sysid.optimize(pdict, residual_fn, optimizer="mujoco", verbose=False, max_iters=max_iter,
-                                 eps=FD_EPS, iter_callback=callback, output=io.StringIO(),
+                                 eps=FD_EPS, iter_callback=callback, output=io.StringIO(), jacobian=jacobian,
                                  mu_min=LM_MU_MIN if mu_min is None else mu_min,
                                  mu_factor=LM_MU_FACTOR if mu_factor is None else mu_factor)
     z = opt.as_vector()
-    r, J = central_jacobian(obj, z)
+    r, J = central_jacobian(obj, z) if final_jacobian else (obj.residuals(z), None)
     return FitResult(names=list(obj.names), values=obj.params_of(z),
                      start={n: float(v) for n, v in obj.params_of(z_start).items()},
                      starts_tried=tried, cost_start=cost_start, cost_final=float(np.sum(r ** 2)),
                      iterations=len(iters), evaluations=obj.evaluations - evals0, seconds=time.perf_counter() - t0,
                      sim_seconds=obj.seconds - sim0, jac=J, resid=np.asarray(r, float),
-                     method="mujoco.sysid.optimize (mujoco.minimize.least_squares, vectorised finite differences)")
+                     method="mujoco.sysid.optimize (mujoco.minimize.least_squares, vectorised finite differences"
+                            + (" updated by Broyden's secant rule)" if broyden else ")"))
 
 
 def central_jacobian(obj: Objective, z: np.ndarray, central: np.ndarray | None = None
@@ -274,8 +349,22 @@ def central_jacobian(obj: Objective, z: np.ndarray, central: np.ndarray | None =
 
 
 def objective(sim: WindowSim, log_: DriveLog, windows: WindowSet, names: list[str], *, nthread: int = 2,
-              warmup_s: float = WARMUP_S) -> Objective:
-    """The objective of ``names`` on ``log_``'s windows for the robot of ``sim``."""
+              warmup_s: float = WARMUP_S, progress: Callable[[int], None] | None = None) -> Objective:
+    """The objective of ``names`` on ``log_``'s windows for the robot of ``sim`` (``progress``:
+    called with the number of windows just simulated)."""
     robot = sim.robot
     return Objective(sim=sim, log=log_, windows=windows, names=list(names), specs=specs_for(robot),
-                     yaw_length=robot.track_gauge / 2, nthread=nthread, warmup_s=warmup_s)
+                     yaw_length=robot.track_gauge / 2, nthread=nthread, warmup_s=warmup_s, progress=progress)
+
+
+def windows_done(step: Callable[[int], None] | None) -> Callable[[int, int], None] | None:
+    """:func:`simulate_windows`' progress callback (windows done so far in the call, of all) as
+    increments for ``step`` (windows just done); None for None."""
+    if step is None:
+        return None
+    last = [0]
+
+    def cb(done: int, total: int) -> None:
+        step(done - last[0])
+        last[0] = done
+    return cb

@@ -225,7 +225,10 @@ def aligned_rollout(model_arg, data_arg, state0: np.ndarray, control: np.ndarray
     if control.shape[0] > 1 or extended.shape[1] <= chunk_steps:
         # a batch runs in one call: the solver's warm start of each case is not returned, so a
         # batch cannot be cut in time without changing its bytes (batches are short: windows, steady cases)
-        state, sensordata = mj_rollout.rollout(model_arg, data_arg, state0, np.ascontiguousarray(extended))
+        # threads: one pool kept for the process (starting one per call cost a window's Python overhead)
+        pooled = isinstance(data_arg, (list, tuple)) and len(data_arg) > 1
+        state, sensordata = mj_rollout.rollout(model_arg, data_arg, state0, np.ascontiguousarray(extended),
+                                               persistent_pool=pooled)
         return (state[:, :-1] if keep_states else None), sensordata[:, 1:]
     model = model_arg if isinstance(model_arg, mujoco.MjModel) else model_arg[0]
     data = data_arg if isinstance(data_arg, mujoco.MjData) else data_arg[0]

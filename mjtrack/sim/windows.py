@@ -225,10 +225,13 @@ class WindowSim:
         return out
 
 
-    def pinned(self, model: mujoco.MjModel, state: np.ndarray, pose: np.ndarray, twist: np.ndarray) -> np.ndarray:
+    def pinned(self, model: mujoco.MjModel, state: np.ndarray, pose: np.ndarray, twist: np.ndarray,
+               data: mujoco.MjData | None = None) -> np.ndarray:
         """``state`` (nstate,) moved to the planar ``pose`` (x, y, yaw) and ``twist`` (vx, vy, wz),
-        every other state kept: height, roll, pitch and their rates, the tracks, the drives."""
-        data = mujoco.MjData(model)
+        every other state kept: height, roll, pitch and their rates, the tracks, the drives.
+        ``data``: a scratch MjData of ``model`` (allocating one per window cost more than the
+        rest of this function)."""
+        data = mujoco.MjData(model) if data is None else data
         mujoco.mj_setState(model, data, state, STATE_SPEC)
         q = data.qpos[self.qadr + 3:self.qadr + 7].copy()
         turn = float(pose[2]) - float(yaw_of(q))
@@ -270,11 +273,12 @@ def warm_states(sim: WindowSim, model: mujoco.MjModel, log: DriveLog, ws: Window
         st = sim.initial_states(model, rest, p0, start_twists(log, wws), sp0)
         cmds = window_commands(log, wws, sim.dt, int(n), delay=delay, scale=scale, before=sp0)
         states, _ = aligned_rollout([model] * g.size, datas if len(datas) > 1 else datas[0], st, cmds @ sim.B.T)
+        scratch = mujoco.MjData(model)
         for i, j in enumerate(g):
             end = states[i, -1]
             if np.all(np.isfinite(end)):
                 pose = np.array([log.x[ws.starts[j]], log.y[ws.starts[j]], log.yaw[ws.starts[j]]], float)
-                out[j] = sim.pinned(model, end, pose, twists[j])
+                out[j] = sim.pinned(model, end, pose, twists[j], scratch)
     return out
 
 
