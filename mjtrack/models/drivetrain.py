@@ -1,0 +1,180 @@
+"""The drivetrain response: a side's track (wheel) speed command -> its track speed, in numpy.
+
+Per side, in the order a real drive applies them:
+
+    c --(x s)--(dead time d)--> clip(., +-v_max) --(rate limit a_max)--> r --(first-order lag tau)--> V
+
+* ``s`` (``track_speed_scale``): actual / commanded speed, the calibration of the conversion from
+  command to motor speed (a wheel radius, an encoder count); it scales what the controller is
+  asked for, so the limits below are in track speeds, the units the log's measured speeds are in;
+* ``d`` (``drive_delay``, per side ``drive_delay_left/right``): transport and processing delay
+  before the controller sees the command (a pure time shift; it commutes with the two static
+  stages around it);
+* ``v_max`` (``drive_speed_limit[_left/_right]``): the robot's own speed controller clamps the
+  set-point to what its motors can reach (a Clearpath or Roboteq firmware limit), so a command
+  above it gives a track speed at the limit, reached as the lag reaches any set-point;
+* ``a_max`` (``drive_accel_limit``): the controller's ramp: its set-point moves towards the
+  clamped command at most ``a_max`` per second (applied after the clamp: the ramp is what the
+  controller does with the set-point it accepted);
+* ``tau`` (``drive_lag``, per side ``drive_lag_left/right``): the closed speed loop's response
+  to its set-point, first order, exact discretisation V_{k+1} = r_{k+1} + (V_k - r_{k+1})
+  exp(-h/tau) (the set-point of a step acts in that step, as MuJoCo's ``actearly`` filter).
+
+What follows in the MuJoCo robot (the servo with its force limit, the ground's traction on the
+track) is :mod:`mjtrack.sim.drivetrain`'s; it feeds MuJoCo the set-point sequence
+:func:`setpoints` returns and realises the lag in the actuators. Identification from a log's
+measured speeds: :mod:`mjtrack.calibrate.drivetrain`. Theory: docs/theory/simulator.md, "The
+track drives".
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from mjtrack.errors import InputError
+from mjtrack.io.robot import Robot
+
+
+@dataclass(frozen=True)
+class Chain:
+    """The drivetrain of both sides (SI units); each per-side field is (left, right).
+
+    ``speed_limit`` entries and ``accel_limit`` are None for no limit.
+    """
+
+    scale: float = 1.0
+    delay: tuple[float, float] = (0.0, 0.0)
+    speed_limit: tuple[float | None, float | None] = (None, None)
+    accel_limit: float | None = None
+    lag: tuple[float, float] = (0.0, 0.0)
+
+    @classmethod
+    def of_robot(cls, robot: Robot) -> "Chain":
+        """The chain a robot description sets (per-side keys win over both-sides keys)."""
+        return cls(scale=robot.track_speed_scale, delay=robot.delay_per_side,
+                   speed_limit=robot.speed_limit_per_side, accel_limit=robot.drive_accel_limit,
+                   lag=robot.lag_per_side)
+
+
+def delay_steps(delay: float, timestep: float) -> int:
+    """A dead time in whole time steps (round to nearest)."""
+    return int(round(delay / timestep))
+
+
+def clamp(u: np.ndarray, limits: tuple[float | None, float | None]) -> np.ndarray:
+    """u (..., 2) with each side's set-point clipped to +-its speed limit (None: unchanged)."""
+    if limits[0] is None and limits[1] is None:
+        return u
+    lim = np.array([np.inf if v is None else v for v in limits])
+    return np.clip(u, -lim, lim)
+
+
+def ramp(u: np.ndarray, accel_limit: float | None, h: float, start: np.ndarray | float = 0.0) -> np.ndarray:
+    """The rate-limited set-point r (N, ...) of target set-points u (N, ...): r_{k+1} = r_k +
+    clip(u_k - r_k, +-a_max h) from r_0 = ``start``; returns r_1..r_N (the set-point in force over
+    each step). ``accel_limit`` None: u itself."""
+    if accel_limit is None:
+        return u
+    if not accel_limit > 0:
+        raise InputError(f"drivetrain: acceleration limit must be > 0 m/s^2, got {accel_limit!r}")
+    step = accel_limit * h
+    out = np.empty_like(u)
+    r = np.broadcast_to(np.asarray(start, dtype=float), u.shape[1:]).copy()
+    for k in range(u.shape[0]):
+        r = r + np.clip(u[k] - r, -step, step)
+        out[k] = r
+    return out
+
+
+def lag(r: np.ndarray, tau: np.ndarray | float, h: float, start: np.ndarray | float = 0.0) -> np.ndarray:
+    """Track speeds V (N, ...) after each step of set-points r (N, ...) through first-order lags
+    ``tau`` (broadcast on the last axes; 0: none), exact for a set-point held over each step,
+    from V_0 = ``start``."""
+    tau = np.asarray(tau, dtype=float)
+    a = np.where(tau > 0, np.exp(-h / np.where(tau > 0, tau, 1.0)), 0.0)
+    out = np.empty_like(r)
+    v = np.broadcast_to(np.asarray(start, dtype=float), r.shape[1:]).copy()
+    for k in range(r.shape[0]):
+        v = r[k] + (v - r[k]) * a
+        out[k] = v
+    return out
+
+
+def setpoints(chain: Chain, commands: np.ndarray, timestep: float, start: np.ndarray | float = 0.0) -> np.ndarray:
+    """The set-points (nstep, 2) [m/s] a simulator's drives receive from per-step commands
+    (nstep, 2): scaled, each side shifted by its dead time in whole steps, clamped to its speed
+    limit, ramped by the acceleration limit. Before t = 0 the drives were at ``start`` (2,) and
+    commanded so (default: at rest). What is left -- the lag -- is the simulator's. Null limits,
+    equal delays, at rest: ``commands * scale`` shifted, exactly."""
+    start = np.broadcast_to(np.asarray(start, dtype=float), (2,))
+    out = np.asarray(commands, dtype=float) * chain.scale
+    ks = [delay_steps(d, timestep) for d in chain.delay]
+    if ks[0] == ks[1] and start[0] == start[1]:
+        out = _shift(out, ks[0], start[0])
+    else:
+        out = np.stack([_shift(out[:, i], k, start[i]) for i, k in enumerate(ks)], axis=1)
+    return ramp(clamp(out, chain.speed_limit), chain.accel_limit, timestep, start)
+
+
+def _shift(x: np.ndarray, k: int, fill: float) -> np.ndarray:
+    """x delayed by k rows, ``fill`` before."""
+    if k <= 0:
+        return x
+    return np.concatenate([np.full((min(k, len(x)),) + x.shape[1:], fill), x[:max(len(x) - k, 0)]])
+
+
+def response(chain: Chain, commands: np.ndarray, timestep: float, start: np.ndarray | float = 0.0) -> np.ndarray:
+    """Track speeds (nstep, 2) after each step of per-step commands (nstep, 2): the whole chain
+    (:func:`setpoints`, then the lag), the drives at ``start`` before t = 0 (a stiff servo: the
+    speed is the lagged set-point)."""
+    return lag(setpoints(chain, commands, timestep, start), np.array(chain.lag), timestep, start)
+
+
+def window_response(t: np.ndarray, cmd: np.ndarray, v0: np.ndarray, *, scale: float, delay: np.ndarray,
+                    speed_limit: np.ndarray, accel_limit: float, tau: np.ndarray, substeps: int = 10) -> np.ndarray:
+    """Track speeds predicted at the rows of M windows of a log, each started from its measured speed.
+
+    Args:
+        t: (M, K) row times from each window's first row (0); rows past a window's end repeat its
+            last time + k (they are predicted and ignored by the caller).
+        cmd: (M, K, 2) commands of the rows, each in force until the next row.
+        v0: (M, 2) measured speeds at each window's first row; before it the drive was at v0 and
+            commanded so (the command's history before a window is not in it).
+        scale, accel_limit: both sides (``accel_limit`` inf: none); delay, speed_limit, tau: (2,)
+            per side (``speed_limit`` inf: none).
+        substeps: integration steps per median row period.
+
+    The dead time enters as the mean of the delayed, held command over each step (the exact
+    integral), so the prediction is continuous in it and least squares can move it.
+    """
+    M, K = t.shape
+    periods = np.diff(t, axis=1)
+    h = float(np.median(periods[periods > 0])) / substeps if K > 1 else 0.01
+    N = int(math.ceil(float(np.max(t)) / h)) + 1
+    grid = np.arange(N + 1) * h
+    u = np.empty((N, M, 2))
+    for i in range(2):
+        pre = v0[:, i] / scale  # the command that held the drive at v0
+        for j in range(M):
+            c = cmd[j, :, i]
+            F_rows = np.concatenate([[0.0], np.cumsum(c[:-1] * periods[j])])
+            e = grid - delay[i]
+            F = np.where(e < 0, pre[j] * e, np.interp(e, t[j], F_rows) + np.where(e > t[j, -1], c[-1] * (e - t[j, -1]), 0.0))
+            u[:, j, i] = np.diff(F) / h
+    u = np.clip(u * scale, -speed_limit, speed_limit)
+    r = ramp(u, None if not math.isfinite(accel_limit) else accel_limit, h, v0)
+    v = lag(r, tau, h, v0)
+    v = np.concatenate([v0[None], v])  # (N + 1, M, 2) at grid
+    out = np.empty((M, K, 2))
+    k = np.clip(t / h, 0, N)
+    k0 = np.minimum(np.floor(k).astype(int), N - 1)
+    w = (k - k0)[..., None]
+    jj = np.arange(M)[:, None]
+    out[:] = v[k0, jj] * (1 - w) + v[k0 + 1, jj] * w
+    return out
+
+
+__all__ = ["Chain", "clamp", "delay_steps", "lag", "ramp", "response", "setpoints", "window_response"]
