@@ -99,6 +99,32 @@ DRIVE_START = {"drive_lag": 0.05, "drive_delay": 0.02, "track_speed_scale": 1.0}
 RESISTANCE_START = 0.02
 
 
+def chain_specs() -> dict[str, ParamSpec]:
+    """The drivetrain chain's parameters (:mod:`mjtrack.models.drivetrain`), fitted by
+    :mod:`mjtrack.calibrate.drivetrain` to a log's measured track speeds (command -> measured
+    speed), not to its poses. Resolutions: a change that moves a 20 Hz log's predicted speeds by
+    about 1 % of a 1 m/s step."""
+    return {s.name: s for s in (
+        ParamSpec("track_speed_scale", 0.3, 3.0, 0.05, 0.02, "–", "drive", "actual / commanded track speed"),
+        ParamSpec("drive_delay_left", 0.0, 0.5, 0.01, 0.01, "s", "drive", "dead time of the left drive"),
+        ParamSpec("drive_delay_right", 0.0, 0.5, 0.01, 0.01, "s", "drive", "dead time of the right drive"),
+        ParamSpec("drive_lag_left", 0.0, 3.0, 0.05, 0.02, "s", "drive", "time constant of the left drive"),
+        ParamSpec("drive_lag_right", 0.0, 3.0, 0.05, 0.02, "s", "drive", "time constant of the right drive"),
+        ParamSpec("drive_speed_limit_left", 0.02, 50.0, 0.05, 0.02, "m/s", "drive",
+                  "speed at which the left drive's controller saturates"),
+        ParamSpec("drive_speed_limit_right", 0.02, 50.0, 0.05, 0.02, "m/s", "drive",
+                  "speed at which the right drive's controller saturates"),
+        ParamSpec("drive_accel_limit", 0.05, 100.0, 0.2, 0.1, "m/s^2", "drive",
+                  "largest rate of change of a drive's set-point"),
+        ParamSpec("drive_turn_scale", 0.1, 5.0, 0.05, 0.02, "–", "drive",
+                  "set-point half difference / commanded one (a twist controller's track separation)"),
+        ParamSpec("drive_mean_speed_limit", 0.02, 50.0, 0.05, 0.02, "m/s", "drive",
+                  "a twist controller's limit on the two sides' mean speed"),
+        ParamSpec("drive_turn_limit", 0.02, 50.0, 0.05, 0.02, "m/s", "drive",
+                  "a twist controller's limit on the two sides' half difference"),
+    )}
+
+
 def specs_for(robot: Robot) -> dict[str, ParamSpec]:
     """Every parameter's spec for this robot (cg bounds and resolutions follow its geometry)."""
     return _specs(robot)

@@ -49,7 +49,8 @@ MAX_RESISTANCE = 1.0  # [-] largest accepted rolling_resistance (beyond: the rob
 NULLABLE = ("mu_left", "mu_right", "drive_force_limit", "wheelbase")  # keys that may be JSON null
 # drivetrain keys that may be JSON null (none / the both-sides key) and are written only when set
 DRIVE_SIDE_KEYS = ("drive_speed_limit", "drive_speed_limit_left", "drive_speed_limit_right", "drive_lag_left",
-                   "drive_lag_right", "drive_delay_left", "drive_delay_right", "drive_accel_limit")
+                   "drive_lag_right", "drive_delay_left", "drive_delay_right", "drive_accel_limit",
+                   "drive_mean_speed_limit", "drive_turn_limit")
 MAX_DRIVE_SPEED = 100.0  # [m/s] largest accepted drive_speed_limit (beyond: a unit error)
 MAX_DRIVE_ACCEL = 1000.0  # [m/s^2] largest accepted drive_accel_limit (100 g: a unit error)
 TRACTIONS = ("tracks", "wheels")
@@ -192,6 +193,11 @@ class Robot:
             ``None``: ``drive_lag`` / ``drive_delay``.
         drive_accel_limit: largest rate of change of a side's set-point [m/s^2] (the controller's
             ramp); ``None``: no limit. The chain: :mod:`mjtrack.models.drivetrain`.
+        drive_turn_scale: a twist controller's half difference of the two sides' set-points over
+            the (scaled) commanded one [-] (1: none; an effective track separation other than the gauge).
+        drive_mean_speed_limit, drive_turn_limit: a twist controller's limits on the mean and the
+            half difference of the two sides' set-points [m/s] (its linear speed limit, its angular
+            speed limit times half the gauge); ``None``: none.
         track_speed_scale: actual / commanded track speed, both tracks [-].
         rolling_resistance: motion resistance coefficient f_r [-]: each side is held back by a
             force f_r times the weight it carries, opposing its motion over the ground (rolling,
@@ -230,6 +236,9 @@ class Robot:
     drive_delay_left: float | None = None
     drive_delay_right: float | None = None
     drive_accel_limit: float | None = None
+    drive_turn_scale: float = 1.0
+    drive_mean_speed_limit: float | None = None
+    drive_turn_limit: float | None = None
     ground: Ground = field(default_factory=Ground)
     traction: str = "tracks"
     wheelbase: float | None = None
@@ -291,8 +300,12 @@ class Robot:
     def _check_drive_sides(self) -> None:
         """The per-side and limit drivetrain keys: null, or a number in their range."""
         checks = [(n, 0.0, MAX_DRIVE_TIME, "s", True) for n in DRIVE_SIDE_KEYS if n.startswith(("drive_lag", "drive_delay"))]
-        checks += [(n, 0.0, MAX_DRIVE_SPEED, "m/s", False) for n in DRIVE_SIDE_KEYS if n.startswith("drive_speed_limit")]
+        checks += [(n, 0.0, MAX_DRIVE_SPEED, "m/s", False) for n in DRIVE_SIDE_KEYS
+                   if n.startswith("drive_speed_limit") or n in ("drive_mean_speed_limit", "drive_turn_limit")]
         checks += [("drive_accel_limit", 0.0, MAX_DRIVE_ACCEL, "m/s^2", False)]
+        if not _is_finite_number(self.drive_turn_scale) or not 0 < self.drive_turn_scale <= MAX_SPEED_SCALE:
+            raise InputError(f"robot: 'drive_turn_scale' must be a number in (0, {MAX_SPEED_SCALE:g}], "
+                             f"got {self.drive_turn_scale!r}")
         for name, low, high, unit, closed in checks:
             value = getattr(self, name)
             if value is None:
@@ -387,6 +400,7 @@ class Robot:
         of ``sprocket_radius``) only for a wheeled robot, so that tracked descriptions keep their keys."""
         skip = ("extra", "provided") + (WHEEL_KEYS if self.traction == "tracks" else ())
         skip += tuple(k for k in DRIVE_SIDE_KEYS if getattr(self, k) is None)  # unset: descriptions keep their keys
+        skip += ("drive_turn_scale",) if self.drive_turn_scale == 1.0 else ()
         d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in skip}
         d["ground"] = self.ground.to_dict()
         if self.traction == "wheels":

@@ -2,7 +2,7 @@
 
 Per side, in the order a real drive applies them:
 
-    c --(x s)--(dead time d)--> clip(., +-v_max) --(rate limit a_max)--> r --(first-order lag tau)--> V
+    c --(x s)--(dead time d)--> twist stage --> clip(., +-v_max) --(rate limit a_max)--> r --(lag tau)--> V
 
 * ``s`` (``track_speed_scale``): actual / commanded speed, the calibration of the conversion from
   command to motor speed (a wheel radius, an encoder count); it scales what the controller is
@@ -10,6 +10,13 @@ Per side, in the order a real drive applies them:
 * ``d`` (``drive_delay``, per side ``drive_delay_left/right``): transport and processing delay
   before the controller sees the command (a pure time shift; it commutes with the two static
   stages around it);
+* the twist stage (``drive_turn_scale`` k, ``drive_mean_speed_limit`` V, ``drive_turn_limit`` W):
+  many robots' controllers take a body twist (v, omega), not two track speeds, and limit it
+  before they split it between the sides (ROS ``diff_drive_controller``, Clearpath firmware:
+  linear and angular speed limits; an effective track separation other than the gauge). In
+  track speeds: the mean m = (c_l + c_r)/2 is clipped to +-V, the half difference
+  d = (c_r - c_l)/2 is multiplied by k and clipped to +-W, and the sides are m -+ d. k = 1 and no
+  V, W: the stage does nothing;
 * ``v_max`` (``drive_speed_limit[_left/_right]``): the robot's own speed controller clamps the
   set-point to what its motors can reach (a Clearpath or Roboteq firmware limit), so a command
   above it gives a track speed at the limit, reached as the lag reaches any set-point;
@@ -50,18 +57,37 @@ class Chain:
     speed_limit: tuple[float | None, float | None] = (None, None)
     accel_limit: float | None = None
     lag: tuple[float, float] = (0.0, 0.0)
+    turn_scale: float = 1.0
+    mean_limit: float | None = None
+    turn_limit: float | None = None
 
     @classmethod
     def of_robot(cls, robot: Robot) -> "Chain":
         """The chain a robot description sets (per-side keys win over both-sides keys)."""
         return cls(scale=robot.track_speed_scale, delay=robot.delay_per_side,
                    speed_limit=robot.speed_limit_per_side, accel_limit=robot.drive_accel_limit,
-                   lag=robot.lag_per_side)
+                   lag=robot.lag_per_side, turn_scale=robot.drive_turn_scale,
+                   mean_limit=robot.drive_mean_speed_limit, turn_limit=robot.drive_turn_limit)
 
 
 def delay_steps(delay: float, timestep: float) -> int:
     """A dead time in whole time steps (round to nearest)."""
     return int(round(delay / timestep))
+
+
+def twist(u: np.ndarray, turn_scale: float = 1.0, mean_limit: float | None = None,
+          turn_limit: float | None = None) -> np.ndarray:
+    """The twist stage on u (..., 2): the sides' mean clipped to +-``mean_limit``, their half
+    difference times ``turn_scale`` clipped to +-``turn_limit`` (None: no limit)."""
+    if turn_scale == 1.0 and mean_limit is None and turn_limit is None:
+        return u
+    m = 0.5 * (u[..., 0] + u[..., 1])
+    d = 0.5 * (u[..., 1] - u[..., 0]) * turn_scale
+    if mean_limit is not None:
+        m = np.clip(m, -mean_limit, mean_limit)
+    if turn_limit is not None:
+        d = np.clip(d, -turn_limit, turn_limit)
+    return np.stack([m - d, m + d], axis=-1)
 
 
 def clamp(u: np.ndarray, limits: tuple[float | None, float | None]) -> np.ndarray:
@@ -116,6 +142,7 @@ def setpoints(chain: Chain, commands: np.ndarray, timestep: float, start: np.nda
         out = _shift(out, ks[0], start[0])
     else:
         out = np.stack([_shift(out[:, i], k, start[i]) for i, k in enumerate(ks)], axis=1)
+    out = twist(out, chain.turn_scale, chain.mean_limit, chain.turn_limit)
     return ramp(clamp(out, chain.speed_limit), chain.accel_limit, timestep, start)
 
 
@@ -134,7 +161,8 @@ def response(chain: Chain, commands: np.ndarray, timestep: float, start: np.ndar
 
 
 def window_response(t: np.ndarray, cmd: np.ndarray, v0: np.ndarray, *, scale: float, delay: np.ndarray,
-                    speed_limit: np.ndarray, accel_limit: float, tau: np.ndarray, substeps: int = 10) -> np.ndarray:
+                    speed_limit: np.ndarray, accel_limit: float, tau: np.ndarray, turn_scale: float = 1.0,
+                    mean_limit: float = math.inf, turn_limit: float = math.inf, substeps: int = 10) -> np.ndarray:
     """Track speeds predicted at the rows of M windows of a log, each started from its measured speed.
 
     Args:
@@ -144,7 +172,8 @@ def window_response(t: np.ndarray, cmd: np.ndarray, v0: np.ndarray, *, scale: fl
         v0: (M, 2) measured speeds at each window's first row; before it the drive was at v0 and
             commanded so (the command's history before a window is not in it).
         scale, accel_limit: both sides (``accel_limit`` inf: none); delay, speed_limit, tau: (2,)
-            per side (``speed_limit`` inf: none).
+            per side (``speed_limit`` inf: none); turn_scale, mean_limit, turn_limit: the twist
+            stage (limits inf: none).
         substeps: integration steps per median row period.
 
     The dead time enters as the mean of the delayed, held command over each step (the exact
@@ -164,7 +193,9 @@ def window_response(t: np.ndarray, cmd: np.ndarray, v0: np.ndarray, *, scale: fl
             e = grid - delay[i]
             F = np.where(e < 0, pre[j] * e, np.interp(e, t[j], F_rows) + np.where(e > t[j, -1], c[-1] * (e - t[j, -1]), 0.0))
             u[:, j, i] = np.diff(F) / h
-    u = np.clip(u * scale, -speed_limit, speed_limit)
+    u = twist(u * scale, turn_scale, None if math.isinf(mean_limit) else mean_limit,
+              None if math.isinf(turn_limit) else turn_limit)
+    u = np.clip(u, -speed_limit, speed_limit)
     r = ramp(u, None if not math.isfinite(accel_limit) else accel_limit, h, v0)
     v = lag(r, tau, h, v0)
     v = np.concatenate([v0[None], v])  # (N + 1, M, 2) at grid
@@ -177,4 +208,4 @@ def window_response(t: np.ndarray, cmd: np.ndarray, v0: np.ndarray, *, scale: fl
     return out
 
 
-__all__ = ["Chain", "clamp", "delay_steps", "lag", "ramp", "response", "setpoints", "window_response"]
+__all__ = ["Chain", "clamp", "delay_steps", "lag", "ramp", "response", "setpoints", "twist", "window_response"]
