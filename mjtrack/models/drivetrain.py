@@ -2,14 +2,16 @@
 
 Per side, in the order a real drive applies them:
 
-    c --(x s)--(dead time d)--> twist stage --> clip(., +-v_max) --(rate limit a_max)--> r --(lag tau)--> V
+    c --(x s)--> twist stage --> clip(., +-v_max) --(rate limit a_max)--(dead time d)--> r --(lag tau)--> V
 
 * ``s`` (``track_speed_scale``): actual / commanded speed, the calibration of the conversion from
   command to motor speed (a wheel radius, an encoder count); it scales what the controller is
   asked for, so the limits below are in track speeds, the units the log's measured speeds are in;
-* ``d`` (``drive_delay``, per side ``drive_delay_left/right``): transport and processing delay
-  before the controller sees the command (a pure time shift; it commutes with the two static
-  stages around it);
+* ``d`` (``drive_delay``, per side ``drive_delay_left/right``): transport and processing delay.
+  A pure time shift commutes with every other stage (they are time-invariant), so where it sits
+  changes nothing with equal delays; it is applied per side after the controller's stages (a
+  shift of the ramp's input would be lost in its clip, and the twist stage sees both sides'
+  commands together, as a controller receives them);
 * the twist stage (``drive_turn_scale`` k, ``drive_mean_speed_limit`` V, ``drive_turn_limit`` W):
   many robots' controllers take a body twist (v, omega), not two track speeds, and limit it
   before they split it between the sides (ROS ``diff_drive_controller``, Clearpath firmware:
@@ -99,9 +101,10 @@ def clamp(u: np.ndarray, limits: tuple[float | None, float | None]) -> np.ndarra
 
 
 def ramp(u: np.ndarray, accel_limit: float | None, h: float, start: np.ndarray | float = 0.0) -> np.ndarray:
-    """The rate-limited set-point r (N, ...) of target set-points u (N, ...): r_{k+1} = r_k +
-    clip(u_k - r_k, +-a_max h) from r_0 = ``start``; returns r_1..r_N (the set-point in force over
-    each step). ``accel_limit`` None: u itself."""
+    """The rate-limited set-point of target set-points u (N, ...): r_{k+1} = r_k +
+    clip(u_k - r_k, +-a_max h) from r_0 = ``start``; returns the mean over each step,
+    (r_k + r_{k+1}) / 2 (the ramp is linear inside a step: r_{k+1} held over the step would run
+    half a step ahead, and a dead time fitted to it half a step long). ``accel_limit`` None: u itself."""
     if accel_limit is None:
         return u
     if not accel_limit > 0:
@@ -110,8 +113,9 @@ def ramp(u: np.ndarray, accel_limit: float | None, h: float, start: np.ndarray |
     out = np.empty_like(u)
     r = np.broadcast_to(np.asarray(start, dtype=float), u.shape[1:]).copy()
     for k in range(u.shape[0]):
-        r = r + np.clip(u[k] - r, -step, step)
-        out[k] = r
+        r_next = r + np.clip(u[k] - r, -step, step)
+        out[k] = 0.5 * (r + r_next)
+        r = r_next
     return out
 
 
@@ -131,19 +135,18 @@ def lag(r: np.ndarray, tau: np.ndarray | float, h: float, start: np.ndarray | fl
 
 def setpoints(chain: Chain, commands: np.ndarray, timestep: float, start: np.ndarray | float = 0.0) -> np.ndarray:
     """The set-points (nstep, 2) [m/s] a simulator's drives receive from per-step commands
-    (nstep, 2): scaled, each side shifted by its dead time in whole steps, clamped to its speed
-    limit, ramped by the acceleration limit. Before t = 0 the drives were at ``start`` (2,) and
-    commanded so (default: at rest). What is left -- the lag -- is the simulator's. Null limits,
-    equal delays, at rest: ``commands * scale`` shifted, exactly."""
+    (nstep, 2): scaled, through the twist stage, clamped to each side's speed limit, ramped by the
+    acceleration limit, each side shifted by its dead time in whole steps. Before t = 0 the drives
+    were at ``start`` (2,) and commanded so (default: at rest). What is left -- the lag -- is the
+    simulator's. Null limits, equal delays, at rest: ``commands * scale`` shifted, exactly."""
     start = np.broadcast_to(np.asarray(start, dtype=float), (2,))
     out = np.asarray(commands, dtype=float) * chain.scale
+    out = twist(out, chain.turn_scale, chain.mean_limit, chain.turn_limit)
+    out = ramp(clamp(out, chain.speed_limit), chain.accel_limit, timestep, start)
     ks = [delay_steps(d, timestep) for d in chain.delay]
     if ks[0] == ks[1] and start[0] == start[1]:
-        out = _shift(out, ks[0], start[0])
-    else:
-        out = np.stack([_shift(out[:, i], k, start[i]) for i, k in enumerate(ks)], axis=1)
-    out = twist(out, chain.turn_scale, chain.mean_limit, chain.turn_limit)
-    return ramp(clamp(out, chain.speed_limit), chain.accel_limit, timestep, start)
+        return _shift(out, ks[0], start[0])
+    return np.stack([_shift(out[:, i], k, start[i]) for i, k in enumerate(ks)], axis=1)
 
 
 def _shift(x: np.ndarray, k: int, fill: float) -> np.ndarray:
@@ -162,49 +165,58 @@ def response(chain: Chain, commands: np.ndarray, timestep: float, start: np.ndar
 
 def window_response(t: np.ndarray, cmd: np.ndarray, v0: np.ndarray, *, scale: float, delay: np.ndarray,
                     speed_limit: np.ndarray, accel_limit: float, tau: np.ndarray, turn_scale: float = 1.0,
-                    mean_limit: float = math.inf, turn_limit: float = math.inf, substeps: int = 10) -> np.ndarray:
+                    mean_limit: float = math.inf, turn_limit: float = math.inf, substeps: int = 5) -> np.ndarray:
     """Track speeds predicted at the rows of M windows of a log, each started from its measured speed.
 
     Args:
-        t: (M, K) row times from each window's first row (0); rows past a window's end repeat its
-            last time + k (they are predicted and ignored by the caller).
+        t: (M, K) row times, increasing in each window; the prediction starts at its first row
+            (rows before the part the caller fits warm the drive up); rows past a window's end
+            are predicted and ignored by the caller.
         cmd: (M, K, 2) commands of the rows, each in force until the next row.
-        v0: (M, 2) measured speeds at each window's first row; before it the drive was at v0 and
-            commanded so (the command's history before a window is not in it).
+        v0: (M, 2) measured speeds at each window's first row; the drive's set-point and speed
+            start there, and before it the drive was commanded v0 / scale.
         scale, accel_limit: both sides (``accel_limit`` inf: none); delay, speed_limit, tau: (2,)
             per side (``speed_limit`` inf: none); turn_scale, mean_limit, turn_limit: the twist
             stage (limits inf: none).
         substeps: integration steps per median row period.
 
-    The dead time enters as the mean of the delayed, held command over each step (the exact
-    integral), so the prediction is continuous in it and least squares can move it.
+    The dead time, a time shift of time-invariant stages, is applied to the output by linear
+    interpolation between steps, so the prediction is continuous in it (a shift of the input
+    would be lost in the ramp's clip) and least squares can move it.
     """
     M, K = t.shape
+    t = t - t[:, :1]
     periods = np.diff(t, axis=1)
     h = float(np.median(periods[periods > 0])) / substeps if K > 1 else 0.01
     N = int(math.ceil(float(np.max(t)) / h)) + 1
     grid = np.arange(N + 1) * h
+    # the integral F of the held command from each window's first row, at the delayed grid times,
+    # for all windows at once: window j's times offset by j * span make one increasing sequence
+    span = float(np.max(t) - np.min(t)) + grid[-1] + 1.0
+    off = np.arange(M)[:, None] * span
+    tf = (t + off).ravel()
+    first = np.arange(M)[:, None] * K
     u = np.empty((N, M, 2))
+    e = grid[None, :] + off  # (M, N + 1)
+    idx = np.maximum(np.searchsorted(tf, e.ravel(), side="right").reshape(e.shape) - 1, first)
     for i in range(2):
-        pre = v0[:, i] / scale  # the command that held the drive at v0
-        for j in range(M):
-            c = cmd[j, :, i]
-            F_rows = np.concatenate([[0.0], np.cumsum(c[:-1] * periods[j])])
-            e = grid - delay[i]
-            F = np.where(e < 0, pre[j] * e, np.interp(e, t[j], F_rows) + np.where(e > t[j, -1], c[-1] * (e - t[j, -1]), 0.0))
-            u[:, j, i] = np.diff(F) / h
+        c = cmd[..., i]
+        F_rows = np.concatenate([np.zeros((M, 1)), np.cumsum(c[:, :-1] * periods, axis=1)], axis=1).ravel()
+        F = F_rows[idx] + c.ravel()[idx] * (e - tf[idx])
+        u[:, :, i] = (np.diff(F, axis=1) / h).T  # the mean of the held command over each step
     u = twist(u * scale, turn_scale, None if math.isinf(mean_limit) else mean_limit,
               None if math.isinf(turn_limit) else turn_limit)
     u = np.clip(u, -speed_limit, speed_limit)
     r = ramp(u, None if not math.isfinite(accel_limit) else accel_limit, h, v0)
     v = lag(r, tau, h, v0)
-    v = np.concatenate([v0[None], v])  # (N + 1, M, 2) at grid
+    v = np.concatenate([v0[None], v])  # (N + 1, M, 2) at the grid
     out = np.empty((M, K, 2))
-    k = np.clip(t / h, 0, N)
-    k0 = np.minimum(np.floor(k).astype(int), N - 1)
-    w = (k - k0)[..., None]
     jj = np.arange(M)[:, None]
-    out[:] = v[k0, jj] * (1 - w) + v[k0 + 1, jj] * w
+    for i in range(2):  # the dead time: each side's speed read d earlier (v0 before the start)
+        k = np.clip((t - delay[i]) / h, 0, N)
+        k0 = np.minimum(np.floor(k).astype(int), N - 1)
+        w = k - k0
+        out[..., i] = v[k0, jj, i] * (1 - w) + v[k0 + 1, jj, i] * w
     return out
 
 
