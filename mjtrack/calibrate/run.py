@@ -20,6 +20,7 @@ Stages (timed):
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import logging
@@ -410,13 +411,113 @@ def fit_index_of(ws: WindowSet, n: int | None) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, len(ws) - 1, int(n))).astype(int))
 
 
-def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, quiet,
-               train_path, test_path, warmup_s, drive_input, fit_windows, keep_contradicting) -> Calibration:
-    from mjtrack.progress import Progress
+@dataclass
+class _Problem:
+    """What the stages share: the logs, their windows, the candidates and where they start."""
 
-    timings: dict[str, float] = {}
-    t0 = time.perf_counter()
-    src = train_path or train.source or "train log"
+    train: DriveLog
+    test: DriveLog | None
+    robot: Robot
+    src: str
+    test_src: str | None
+    config: SimConfig
+    names: list[str]
+    start: dict[str, float]
+    described: dict[str, float]
+    ws: WindowSet
+    tws: WindowSet | None
+    left_out: dict[str, list[dict]]
+    fixed: dict[str, float]
+    assumed: dict[str, str]
+
+
+@dataclass
+class _Fitter:
+    """The fit's settings and simulator (the fit and its rounds of decisions)."""
+
+    sim: WindowSim
+    train: DriveLog
+    names: list[str]
+    described: dict[str, float]
+    config: SimConfig
+    max_iter: int
+    nthread: int
+    warmup_s: float
+    quiet: bool
+    specs: dict = field(init=False)
+    floors: dict[str, float] = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.specs = specs_for(self.sim.robot)
+        self.floors = {n: self.sim.dt for n in ("drive_lag", "drive_delay")}  # timing is resolved to one step at best
+
+    @property
+    def refit_iter(self) -> int:
+        return max(3, self.max_iter // 2)
+
+    def objective(self, fws: WindowSet, names: list[str]):
+        return objective(self.sim, self.train, fws, names, nthread=self.nthread, warmup_s=self.warmup_s)
+
+    def scaled(self, point: dict[str, float]) -> np.ndarray:
+        return np.array([point[n] / self.specs[n].scale for n in self.names])
+
+    def linearised(self, obj, theta, jac, resid, sources, names=None) -> Linearised:
+        return Linearised(names=list(self.names if names is None else names), theta=theta, jac=jac, resid=resid,
+                          rows_per_window=obj.rows_per_window, specs=self.specs, model_form=sources,
+                          floors=self.floors)
+
+
+@dataclass
+class _Fitted:
+    """One attempt of the fit: the first fit, the verdicts of every candidate, the values, the
+    final linearisation of the kept parameters and their uncertainty."""
+
+    result: FitResult
+    refit: FitResult | None
+    verdicts: dict[str, Verdict]
+    values: dict[str, float]
+    model_form: dict
+    u: object
+    lin: Linearised | None
+    ties: dict[str, list[str]]
+    fws: WindowSet
+
+
+@dataclass
+class _Linearisation:
+    """The objective of every candidate linearised at the current point."""
+
+    point: dict[str, float]
+    resid: np.ndarray
+    jac: np.ndarray
+    free: list[str]
+
+
+class _Clock:
+    """Wall clock of each stage (``Calibration.timings``, seconds)."""
+
+    def __init__(self) -> None:
+        self.t0 = time.perf_counter()
+        self.timings: dict[str, float] = {}
+
+    @contextlib.contextmanager
+    def stage(self, name: str):
+        t = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.timings[name] = self.timings.get(name, 0.0) + time.perf_counter() - t
+            log.info("calibrate: %s %.1f s", name, self.timings[name])
+
+    def total(self) -> dict[str, float]:
+        self.timings["total"] = time.perf_counter() - self.t0
+        return self.timings
+
+
+def _prepare(train: DriveLog, robot: Robot, test: DriveLog | None, names, *, horizon_s: float, n_rollers,
+             keep_contradicting: bool, src: str, test_src: str | None) -> _Problem:
+    """The simulator settings, the candidates and their start and described values, the windows
+    of both logs (less those the ground cannot explain), what is fixed and what is assumed."""
     config = sim_config(None, robot=robot)
     if config.track_model != "rollers":
         raise InputError("calibrate: the robot's simulator is surfacevel; windows restart the robot through "
@@ -425,8 +526,6 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
         config = config.replace(n_rollers=int(n_rollers))
     if isinstance(names, str) or names is None:
         names = parse_names(names, robot, train)
-    start = start_values(robot, names, config)
-    described = described_values(robot, names, config)
     ws = make_windows(train, horizon_s)
     if len(ws) == 0:
         longest = max(float(train.t[s][-1] - train.t[s][0]) for s in train.segment_slices())
@@ -435,164 +534,154 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     if test is not None:
         tws = make_windows(test, horizon_s)
         if len(tws) == 0:
-            raise InputError(f"{test_path or test.source}: too short for one {horizon_s:g} s window")
+            raise InputError(f"{test_src}: too short for one {horizon_s:g} s window")
     left_out: dict[str, list[dict]] = {}
     if not keep_contradicting:
         ws, left_out["train"] = _without_contradicting(train, ws, src, robot.track_gauge)
         if test is not None:
-            tws, left_out["test"] = _without_contradicting(test, tws, test_path or test.source or "test log",
-                                                           robot.track_gauge)
+            tws, left_out["test"] = _without_contradicting(test, tws, test_src, robot.track_gauge)
     fixed = {"track_gauge": robot.track_gauge}
     for k in ("track_length", "mass", "sprocket_radius", "cg_z", "track_width"):
         if k not in names and (robot.provided is None or k in robot.provided):
             fixed[k] = getattr(robot, k)
-    assumed = assumed_values(robot, names)
-    timings["prepare"] = time.perf_counter() - t0
+    return _Problem(train=train, test=test, robot=robot, src=src, test_src=test_src, config=config,
+                    names=list(names), start=start_values(robot, names, config),
+                    described=described_values(robot, names, config), ws=ws, tws=tws, left_out=left_out,
+                    fixed=fixed, assumed=assumed_values(robot, names))
 
-    # the robot as described
-    t1 = time.perf_counter()
-    sim = WindowSim(robot, config, resisted="rolling_resistance" in names)
-    kw = dict(nthread=nthread, warmup_s=warmup_s)
-    before = _score(sim, train, ws, [{}], **kw)[0]
-    test_before = _score(sim, test, tws, [{}], **kw)[0] if test is not None else None
-    timings["before"] = time.perf_counter() - t1
 
-    # every candidate fitted; then, until it settles: what the log determines and needs changed,
-    # the rest back at its described value, the kept ones fitted again
-    t2 = time.perf_counter()
-    specs = specs_for(robot)
-    floors = {n: sim.dt for n in ("drive_lag", "drive_delay")}  # timing is resolved to one step at best
-    refit_iter = max(3, max_iter // 2)
+def _first_fit(fx: _Fitter, obj, fws: WindowSet, start_at: dict[str, float], only: list[str] | None,
+               on_iter) -> tuple[FitResult, _Linearisation]:
+    """Every candidate fitted from ``start_at`` (several starts); or, for the guard's second
+    attempt, only the parameters ``only`` a first attempt changed, then every candidate linearised
+    at that point (the others at their described value)."""
+    if only is None:
+        result = fit(obj, start_at, max_iter=fx.max_iter, multistart=True, on_iter=on_iter)
+        return result, _Linearisation(dict(result.values), result.resid, result.jac, list(fx.names))
+    result = fit(fx.objective(fws, only), {n: start_at[n] for n in only}, max_iter=fx.refit_iter,
+                 multistart=False, on_iter=on_iter)
+    point = {**fx.described, **result.values}
+    resid, jac = central_jacobian(obj, fx.scaled(point), central=np.array([n in only for n in fx.names]))
+    return result, _Linearisation(point, resid, jac, list(only))
 
-    def fit_stage(fws: WindowSet, start_at: dict[str, float], only: list[str] | None = None):
-        # only: the parameters a first attempt changed (the guard's second attempt): they alone are
-        # fitted again, from start_at, before the rounds decide again for every candidate
-        obj = objective(sim, train, fws, names, nthread=nthread, warmup_s=warmup_s)
-        iters = max_iter if only is None else refit_iter
-        rounds = MAX_ROUNDS if only is None else GUARD_ROUNDS
-        with Progress(total=iters + rounds * refit_iter, label="calibrate", quiet=quiet) as bar:
-            if only is None:
-                result = fit(obj, start_at, max_iter=iters, multistart=True, on_iter=lambda i, c: bar.update())
-                point, resid, jac = dict(result.values), result.resid, result.jac  # every candidate, at the current point
-            else:
-                fobj = objective(sim, train, fws, only, nthread=nthread, warmup_s=warmup_s)
-                result = fit(fobj, {n: start_at[n] for n in only}, max_iter=iters, multistart=False,
-                             on_iter=lambda i, c: bar.update())
-                point = {**described, **result.values}
-                resid, jac = central_jacobian(obj, np.array([point[n] / specs[n].scale for n in names]),
-                                              central=np.array([n in only for n in names]))
-            fits = [result]
-            free = list(names if only is None else only)
-            for round_ in range(rounds + 1):
-                # every candidate linearised at the current point (the dropped ones at their described
-                # value): what the log determines and needs changed is decided again for all of them
-                sources, size = model_form_sources(obj, point, resid, jac, config)
-                theta = np.array([point[n] / specs[n].scale for n in names])
-                lin = Linearised(names=list(names), theta=theta, jac=jac, resid=resid,
-                                 rows_per_window=obj.rows_per_window, specs=specs, model_form=sources, floors=floors)
-                fidx = [names.index(n) for n in free]
-                rest = np.abs(lin.step(fidx)[fidx]) * lin.scales[fidx]
-                converged = bool(np.all(rest <= STEP_TOL * lin.uncertainty(fidx).half))
-                ahead = Linearised(names=list(names), theta=theta, jac=jac, resid=resid,
-                                   rows_per_window=obj.rows_per_window, specs=specs, model_form=sources, floors=floors)
-                ahead.advance()
-                sel = select(ahead, described)
-                if (sel.free == free and converged) or not sel.free or round_ == rounds:
-                    break
-                free = sel.free
-                fobj = objective(sim, train, fws, free, nthread=nthread, warmup_s=warmup_s)
-                begin = {n: float(np.clip(sel.values[n], specs[n].lo, specs[n].hi)) for n in free}
-                fr = fit(fobj, begin, max_iter=refit_iter, multistart=False, on_iter=lambda i, c: bar.update())
-                fits.append(fr)
-                point = {**described, **fr.values}
-                resid, jac = central_jacobian(obj, np.array([point[n] / specs[n].scale for n in names]),
-                                              central=np.array([n in free for n in names]))
-            # the verdicts: those the last decision sent back to their description, and, unless it sent
-            # back every one, the fitted ones at the current point (when the rounds ran out first, the
-            # last fit stands as fitted)
-            kept = [] if not sel.free else free
-            verdicts: dict[str, Verdict] = {n: v for n, v in sel.verdicts.items() if n not in kept}
-            # the rounds ran out while the last decision freed a parameter the last fit had not moved:
-            # it is determined, but no fit reached its value, so it stays at its description and says so
-            for n in sel.free:
-                if n not in kept:
-                    s = specs[n]
-                    verdicts[n] = Verdict(n, True, False, described[n], described[n], None,
-                                          f"the log points at {fmt_value(sel.values[n], s.unit)} (linearised), but the "
-                                          f"fit did not settle within {rounds} rounds; it stays at its described "
-                                          f"value {fmt_value(described[n], s.unit)}, which the log does not confirm",
-                                          points_at=float(sel.values[n]))
-            ties = {k: v for k, v in sel.ties.items() if k in kept}
-            values = {**described}
-            model_form: dict[str, dict] = {}
-            u = None
-            if kept:
-                kidx = [names.index(n) for n in kept]
-                klin = Linearised(names=list(kept), theta=theta[kidx], jac=jac[:, kidx], resid=resid,
-                                  rows_per_window=obj.rows_per_window, specs=specs,
-                                  model_form=[ModelForm(m.name, m.g[kidx]) for m in sources], floors=floors)
-                final, u, rest = final_verdicts(klin, described, ties)
-                verdicts.update(final)
-                values.update({n: point[n] for n in kept})
-                model_form = {"residual_change_m": size,
-                              "shift": {src_: {n: float(v) for n, v in zip(kept, sh)} for src_, sh in u.shifts.items()},
-                              "optimiser": {n: float(v) for n, v in zip(kept, rest)}}
-                lin = klin
-            refit = fits[-1] if len(fits) > 1 else None
-        return result, verdicts, values, model_form, u, (lin if kept else None), refit, ties
 
-    # the fit holds on every training window, not only on those it used: a calibrated robot whose
-    # simulation blows up on a window the fit did not see (its values left the simulator's stable
-    # range there) is fitted again with those windows added (they then count as diverged), from where
-    # the first fit ended: the fit has found its basin, the added windows only push it back into the
-    # stable range, so neither the several starts nor the first fit's iterations are needed again: only
-    # the changed parameters are fitted, and the decision for every candidate is made again once
-    # (GUARD_ROUNDS)
+def _decision_rounds(fx: _Fitter, obj, fws: WindowSet, cur: _Linearisation, rounds: int, on_iter):
+    """Until it settles (at most ``rounds`` refits): every candidate linearised at the current
+    point, what the log determines and needs changed decided again for all of them, the kept ones
+    fitted again. Returns the last decision, the linearisation it was made at, the model-form
+    sources there (and their sizes), and the refits."""
+    fits: list[FitResult] = []
+    for round_ in range(rounds + 1):
+        sources, size = model_form_sources(obj, cur.point, cur.resid, cur.jac, fx.config)
+        theta = fx.scaled(cur.point)
+        lin = fx.linearised(obj, theta, cur.jac, cur.resid, sources)
+        fidx = [fx.names.index(n) for n in cur.free]
+        rest = np.abs(lin.step(fidx)[fidx]) * lin.scales[fidx]
+        converged = bool(np.all(rest <= STEP_TOL * lin.uncertainty(fidx).half))
+        ahead = fx.linearised(obj, theta, cur.jac, cur.resid, sources)
+        ahead.advance()
+        sel = select(ahead, fx.described)
+        if (sel.free == cur.free and converged) or not sel.free or round_ == rounds:
+            return sel, cur, theta, sources, size, fits
+        free = sel.free
+        begin = {n: float(np.clip(sel.values[n], fx.specs[n].lo, fx.specs[n].hi)) for n in free}
+        fr = fit(fx.objective(fws, free), begin, max_iter=fx.refit_iter, multistart=False, on_iter=on_iter)
+        fits.append(fr)
+        point = {**fx.described, **fr.values}
+        resid, jac = central_jacobian(obj, fx.scaled(point), central=np.array([n in free for n in fx.names]))
+        cur = _Linearisation(point, resid, jac, list(free))
+    raise AssertionError("unreachable: the last round returns")
+
+
+def _final_verdicts(fx: _Fitter, obj, sel, cur: _Linearisation, theta: np.ndarray, sources, size, rounds: int):
+    """The verdicts: those the last decision sent back to their description, and, unless it sent
+    back every one, the fitted ones at the current point (when the rounds ran out first, the last
+    fit stands as fitted). Returns verdicts, values, model_form, uncertainty, linearisation, ties."""
+    names, specs, described = fx.names, fx.specs, fx.described
+    kept = [] if not sel.free else cur.free
+    verdicts: dict[str, Verdict] = {n: v for n, v in sel.verdicts.items() if n not in kept}
+    # the rounds ran out while the last decision freed a parameter the last fit had not moved:
+    # it is determined, but no fit reached its value, so it stays at its description and says so
+    for n in sel.free:
+        if n not in kept:
+            s = specs[n]
+            verdicts[n] = Verdict(n, True, False, described[n], described[n], None,
+                                  f"the log points at {fmt_value(sel.values[n], s.unit)} (linearised), but the "
+                                  f"fit did not settle within {rounds} rounds; it stays at its described "
+                                  f"value {fmt_value(described[n], s.unit)}, which the log does not confirm",
+                                  points_at=float(sel.values[n]))
+    ties = {k: v for k, v in sel.ties.items() if k in kept}
+    values = {**described}
+    if not kept:
+        return verdicts, values, {}, None, None, ties
+    kidx = [names.index(n) for n in kept]
+    klin = fx.linearised(obj, theta[kidx], cur.jac[:, kidx], cur.resid,
+                         [ModelForm(m.name, m.g[kidx]) for m in sources], names=kept)
+    final, u, rest = final_verdicts(klin, described, ties)
+    verdicts.update(final)
+    values.update({n: cur.point[n] for n in kept})
+    model_form = {"residual_change_m": size,
+                  "shift": {src_: {n: float(v) for n, v in zip(kept, sh)} for src_, sh in u.shifts.items()},
+                  "optimiser": {n: float(v) for n, v in zip(kept, rest)}}
+    return verdicts, values, model_form, u, klin, ties
+
+
+def _fit_attempt(fx: _Fitter, fws: WindowSet, start_at: dict[str, float], only: list[str] | None = None) -> _Fitted:
+    """One attempt: the first fit, the rounds of decisions, the verdicts (``only``: the guard's
+    second attempt, see :func:`_guarded_fit`)."""
+    from mjtrack.progress import Progress
+
+    obj = fx.objective(fws, fx.names)
+    iters = fx.max_iter if only is None else fx.refit_iter
+    rounds = MAX_ROUNDS if only is None else GUARD_ROUNDS
+    with Progress(total=iters + rounds * fx.refit_iter, label="calibrate", quiet=fx.quiet) as bar:
+        def on_iter(i, c):
+            bar.update()
+        result, cur = _first_fit(fx, obj, fws, start_at, only, on_iter)
+        sel, cur, theta, sources, size, fits = _decision_rounds(fx, obj, fws, cur, rounds, on_iter)
+    verdicts, values, model_form, u, lin, ties = _final_verdicts(fx, obj, sel, cur, theta, sources, size, rounds)
+    return _Fitted(result=result, refit=fits[-1] if fits else None, verdicts=verdicts, values=values,
+                   model_form=model_form, u=u, lin=lin, ties=ties, fws=fws)
+
+
+def _guarded_fit(fx: _Fitter, pb: _Problem, fit_windows: int | None, before: Scored, clock: _Clock, kw: dict
+                 ) -> tuple[_Fitted, list[str], dict, Scored]:
+    """The fit, held on every training window, not only on those it used: a calibrated robot whose
+    simulation blows up on a window the fit did not see (its values left the simulator's stable
+    range there) is fitted again with those windows added (they then count as diverged), from where
+    the first fit ended: the fit has found its basin, the added windows only push it back into the
+    stable range, so neither the several starts nor the first fit's iterations are needed again: only
+    the changed parameters are fitted, and the decision for every candidate is made again once
+    (GUARD_ROUNDS). Returns the attempt, the changed parameters, their window parameters and the
+    calibrated robot scored on every training window."""
+    ws = pb.ws
     fit_index = fit_index_of(ws, fit_windows)
-    start_at, only = start, None
+    start_at, only = pb.start, None
     for attempt in range(2):
-        fws = ws.subset(fit_index)
-        result, verdicts, values, model_form, u, lin, refit, ties = fit_stage(fws, start_at, only)
-        changed = [n for n in names if verdicts[n].changed]
-        wp = window_params({n: values[n] for n in changed}, robot)
-        after = _score(sim, train, ws, [wp], **kw)[0] if changed else before
-        new = np.flatnonzero(after.diverged_mask & ~before.diverged_mask)
-        new = np.setdiff1d(new, fit_index)
+        with clock.stage("fit" if attempt == 0 else "guard_refit"):
+            att = _fit_attempt(fx, ws.subset(fit_index), start_at, only)
+        changed = [n for n in pb.names if att.verdicts[n].changed]
+        wp = window_params({n: att.values[n] for n in changed}, pb.robot)
+        with clock.stage("guard"):
+            after = _score(fx.sim, pb.train, ws, [wp], **kw)[0] if changed else before
+        new = np.setdiff1d(np.flatnonzero(after.diverged_mask & ~before.diverged_mask), fit_index)
         if attempt == 1 or new.size == 0:
             break
         log.info("calibrate: the fitted robot diverges on %d training windows the fit did not use; fitting again "
                  "with them", new.size)
         fit_index = np.union1d(fit_index, new)
-        start_at = {n: float(np.clip(values[n], specs[n].lo, specs[n].hi)) for n in names}
+        start_at = {n: float(np.clip(att.values[n], fx.specs[n].lo, fx.specs[n].hi)) for n in pb.names}
         only = changed
-    timings["fit"] = time.perf_counter() - t2
+    return att, changed, wp, after
 
-    # the calibrated robot, scored on the same windows and on the test log; the causes
-    t3 = time.perf_counter()
-    test_after = (_score(sim, test, tws, [wp], **kw)[0] if changed else test_before) if test is not None else None
-    cal_robot = calibrated_robot(robot, {n: values[n] for n in changed}, config, drive_input)
-    corr = np.eye(len(changed))
-    if changed and u is not None:
-        cidx = [lin.names.index(n) for n in changed]
-        corr = u.corr[np.ix_(cidx, cidx)]
 
-    def score(variants):
-        res = simulate_windows(sim, train, ws, [window_params(v, robot) for v in variants], **kw)
-        return res.rms()
-
-    causes = find_causes(changed, values, described, corr, ties, score, before.rms, after.rms,
-                         wheels=robot.traction == "wheels", measured=drive_input == "measured")
-    timings["after"] = time.perf_counter() - t3
-
-    findings = []
-    scope = [("train", train, ws, before, after)]
-    if test is not None:
-        scope.append(("test", test, tws, test_before, test_after))
-    meas_by = {}
+def _turn_findings(pb: _Problem, scope) -> tuple[list[dict], dict]:
+    """Yaw ratio, forward speed ratios and ICRs, measured and simulated before and after, per part."""
+    findings, meas_by = [], {}
     for label, lg, w, b, a in scope:
-        meas = turn_measures(lg, w, robot, measured_window_poses(lg, w), measured_speeds(lg, w))
-        tb = turn_measures(lg, w, robot, b.poses, b.speeds)
-        ta = turn_measures(lg, w, robot, a.poses, a.speeds)
+        meas = turn_measures(lg, w, pb.robot, measured_window_poses(lg, w), measured_speeds(lg, w))
+        tb = turn_measures(lg, w, pb.robot, b.poses, b.speeds)
+        ta = turn_measures(lg, w, pb.robot, a.poses, a.speeds)
         meas_by[label] = (meas, tb, ta)
         findings.append({"what": "yaw ratio", "part": label, "measured": meas["yaw_ratio"],
                          "simulated_before": tb["yaw_ratio"], "simulated_after": ta["yaw_ratio"],
@@ -610,15 +699,21 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
                                      "simulated_before": tb["icr"].get(side, {}).get(key, float("nan")),
                                      "simulated_after": ta["icr"].get(side, {}).get(key, float("nan")),
                                      "windows": meas["icr"][side]["windows"]})
-    part = "test" if test is not None else "train"
-    m, tb, _ = meas_by[part]
-    rms = (test_before.rms, test_after.rms) if test is not None else (before.rms, after.rms)
-    sentence = summary(causes, rms, where="held-out" if test is not None else "training",
+    return findings, meas_by
+
+
+def _explain(pb: _Problem, att: _Fitted, changed: list[str], causes: list[Cause], scope) -> tuple[list[dict], str]:
+    """The findings (turn measures, diverged windows) and the summary sentence."""
+    findings, meas_by = _turn_findings(pb, scope)
+    test = pb.test is not None
+    m, tb, _ = meas_by["test" if test else "train"]
+    _, _, _, b, a = scope[-1]
+    sentence = summary(causes, (b.rms, a.rms), where="held-out" if test else "training",
                        yaw=(m["yaw_ratio"], tb["yaw_ratio"]),
-                       undetermined=[n for n in names if not verdicts[n].determined],
-                       unsettled={n: fmt_value(verdicts[n].points_at, specs[n].unit) for n in names
-                                  if verdicts[n].points_at is not None})
-    for label, b, a in [("train", before, after)] + ([("test", test_before, test_after)] if test is not None else []):
+                       undetermined=[n for n in pb.names if not att.verdicts[n].determined],
+                       unsettled={n: fmt_value(att.verdicts[n].points_at, specs_for(pb.robot)[n].unit)
+                                  for n in pb.names if att.verdicts[n].points_at is not None})
+    for label, _, _, b, a in scope:
         findings.append({"what": "diverged windows", "part": label, "measured": None, "simulated_before": b.diverged,
                          "simulated_after": a.diverged, "windows": int(b.diverged_mask.size),
                          "definition": "windows whose simulation blew up (body faster than 20 m/s or not finite)"})
@@ -626,20 +721,64 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
             sentence += (f" Warning: the calibrated robot's simulation blows up in {a.diverged} of "
                          f"{a.diverged_mask.size} {label} windows ({b.diverged} as described): its values leave the "
                          "simulator's stable range there; its errors there count in the position error.")
-    for label, rows in left_out.items():
+    for label, rows in pb.left_out.items():
         if rows:
-            kept = len(ws) if label == "train" else len(tws)
+            kept = len(pb.ws) if label == "train" else len(pb.tws)
             sentence += (f" {len(rows)} of {len(rows) + kept} {label} windows were left out: {left_out_counts(rows)} "
                          "(listed under left_out).")
-    timings["total"] = time.perf_counter() - t0
+    return findings, sentence
+
+
+def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, quiet,
+               train_path, test_path, warmup_s, drive_input, fit_windows, keep_contradicting) -> Calibration:
+    """The stages, each timed: prepare, before (the robot as described scored), fit (the first fit
+    and its rounds of decisions), guard (every training window scored after; guard_refit when the
+    second attempt runs), after (the test log scored after, the causes), explain."""
+    clock = _Clock()
+    src = train_path or train.source or "train log"
+    test_src = None if test is None else (test_path or test.source or "test log")
+    with clock.stage("prepare"):
+        pb = _prepare(train, robot, test, names, horizon_s=horizon_s, n_rollers=n_rollers,
+                      keep_contradicting=keep_contradicting, src=src, test_src=test_src)
+        sim = WindowSim(robot, pb.config, resisted="rolling_resistance" in pb.names)
+    kw = dict(nthread=nthread, warmup_s=warmup_s)
+    with clock.stage("before"):
+        before = _score(sim, train, pb.ws, [{}], **kw)[0]
+        test_before = _score(sim, test, pb.tws, [{}], **kw)[0] if test is not None else None
+    fx = _Fitter(sim=sim, train=train, names=pb.names, described=pb.described, config=pb.config, max_iter=max_iter,
+                 nthread=nthread, warmup_s=warmup_s, quiet=quiet)
+    att, changed, wp, after = _guarded_fit(fx, pb, fit_windows, before, clock, kw)
+    with clock.stage("after"):
+        test_after = None
+        if test is not None:
+            test_after = _score(sim, test, pb.tws, [wp], **kw)[0] if changed else test_before
+        cal_robot = calibrated_robot(robot, {n: att.values[n] for n in changed}, pb.config, drive_input)
+        corr = np.eye(len(changed))
+        if changed and att.u is not None:
+            cidx = [att.lin.names.index(n) for n in changed]
+            corr = att.u.corr[np.ix_(cidx, cidx)]
+
+        def score(variants):
+            res = simulate_windows(sim, train, pb.ws, [window_params(v, robot) for v in variants], **kw)
+            return res.rms()
+
+        causes = find_causes(changed, att.values, pb.described, corr, att.ties, score, before.rms, after.rms,
+                             wheels=robot.traction == "wheels", measured=drive_input == "measured")
+    with clock.stage("explain"):
+        scope = [("train", train, pb.ws, before, after)]
+        if test is not None:
+            scope.append(("test", test, pb.tws, test_before, test_after))
+        findings, sentence = _explain(pb, att, changed, causes, scope)
+    names = pb.names
     return Calibration(
         train_path=str(train_path or train.source), test_path=None if test is None else str(test_path or test.source),
-        robot=robot, calibrated=cal_robot, track_model=config.track_model, horizon_s=float(horizon_s),
-        names=list(names), values={n: float(values[n]) for n in names}, described=described, verdicts=verdicts,
-        fixed=fixed, assumed=assumed, fit=result, refit=refit, model_form=model_form, causes=causes,
-        train_windows=ws, test_windows=tws, train_log=train, test_log=test, before=before, after=after,
-        test_before=test_before, test_after=test_after, findings=_clean(findings), sentence=sentence,
-        config=config.to_dict(), timings=timings, drive_input=drive_input, fit_windows=fws, left_out=left_out)
+        robot=robot, calibrated=cal_robot, track_model=pb.config.track_model, horizon_s=float(horizon_s),
+        names=list(names), values={n: float(att.values[n]) for n in names}, described=pb.described,
+        verdicts=att.verdicts, fixed=pb.fixed, assumed=pb.assumed, fit=att.result, refit=att.refit,
+        model_form=att.model_form, causes=causes, train_windows=pb.ws, test_windows=pb.tws, train_log=train,
+        test_log=test, before=before, after=after, test_before=test_before, test_after=test_after,
+        findings=_clean(findings), sentence=sentence, config=pb.config.to_dict(), timings=clock.total(),
+        drive_input=drive_input, fit_windows=att.fws, left_out=pb.left_out)
 
 
 LEFT_OUT_WHY = (f'kind "against": {AGAINST_WHY}; kind "stuck": {STUCK_WHY} '
