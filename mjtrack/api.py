@@ -311,7 +311,7 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
         horizon_s: window length [s].
         max_iter: optimiser iterations.
         out_dir: when given, ``robot.json``, ``calibration.json`` and ``report.html`` are written.
-        quiet: no progress display. drive_input: ``"commanded"`` or ``"measured"`` (``--drive-input``).
+        quiet: no progress display. drive_input: ``"commanded"``, ``"measured"`` or ``"fitted"`` (``--drive-input``).
         fit_windows: windows the fit uses, spread over the log (``--fit-windows``; None: all;
             default: the command's).
 

@@ -98,3 +98,40 @@ def test_chain_response_matches_the_generator():
     d = v[np.arange(log.t.size - 1) * per_row + per_row - 1] - np.stack([log.v_left, log.v_right], -1)[1:]
     assert np.sqrt(np.mean(d ** 2)) == pytest.approx(NOISE, rel=0.1)
     assert np.max(np.abs(d)) < 5 * NOISE
+
+
+def test_calibrate_fits_the_drives_to_the_measured_speeds_first(monkeypatch):
+    """--drive-input fitted: the contact's fit gets the log driven by the speeds the fitted chain
+    predicts from its commands (within the noise of the measured ones), a robot without a
+    drivetrain and no drive timing to fit; the calibrated robot carries the chain, its speeds times
+    the rolling radius ratio the contact's fit found."""
+    from types import SimpleNamespace
+
+    import mjtrack.calibrate.run as run
+    from mjtrack.errors import InputError
+
+    seen = {}
+
+    def fake(train, robot, **kw):
+        seen.update(kw, train=train, robot=robot)
+        return SimpleNamespace(values={"track_speed_scale": 1.1}, changed=["track_speed_scale"], sentence="",
+                               calibrated=robot.replace(track_speed_scale=1.1, mu=0.5), robot=robot)
+
+    monkeypatch.setattr(run, "_calibrate", fake)
+    lg = _truth_log(40.0, 4, TRUTH)
+    cal = run.calibrate(lg, Robot(drive_lag=0.5), drive_input="fitted")
+    driven = np.stack([seen["train"].v_left_cmd, seen["train"].v_right_cmd], -1)[1:]
+    assert np.sqrt(np.mean((driven - np.stack([lg.v_left, lg.v_right], -1)[1:]) ** 2)) < 2 * NOISE
+    assert np.array_equal(seen["train"].extra["logged_v_left_cmd"], lg.v_left_cmd)
+    assert "drive_lag" not in seen["names"] and "drive_delay" not in seen["names"]
+    assert seen["robot"].lag_per_side == (0.0, 0.0) and seen["drive_input"] == "commanded"
+    chain = cal.drivetrain.values
+    assert cal.robot.drive_lag == 0.5  # the description as given
+    assert cal.calibrated.mu == 0.5
+    assert cal.calibrated.track_speed_scale == pytest.approx(1.1 * chain["track_speed_scale"])
+    assert cal.calibrated.speed_limit_per_side[0] == pytest.approx(1.1 * chain["drive_speed_limit_left"])
+    assert cal.calibrated.lag_per_side == pytest.approx((chain["drive_lag_left"], chain["drive_lag_right"]))
+    assert cal.sentence.startswith("The drives were fitted first to the log's measured track speeds")
+    with pytest.raises(InputError, match="measured track speeds"):
+        run.calibrate(DriveLog(t=lg.t, v_left_cmd=lg.v_left_cmd, v_right_cmd=lg.v_right_cmd, x=lg.x, y=lg.y,
+                               yaw=lg.yaw), Robot(), drive_input="fitted")

@@ -24,6 +24,7 @@ rows after their first, for the chain as described (before) and as fitted (after
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -164,7 +165,7 @@ class ChainFit:
     def robot(self, robot: Robot) -> Robot:
         """``robot`` with the stage's chain (per-side keys, which win over the both-sides ones; a
         limit the log does not show stays as described)."""
-        return robot.replace(**{k: float(v) for k, v in self.values.items()})
+        return chain_robot(robot, self.values)
 
     def to_dict(self) -> dict:
         return {"values": dict(self.values), "half_width_95": dict(self.half), "verdicts": dict(self.verdicts),
@@ -312,4 +313,57 @@ def _limit_activity(sw: SpeedWindows, values: dict[str, float], name: str) -> tu
     return float(changed.sum() / max(sw.valid.sum(), 1)), int(changed.any(axis=1).sum())
 
 
-__all__ = ["ChainFit", "SpeedWindows", "described_chain", "fit_chain", "predict", "rms", "speed_windows"]
+
+
+def has_measured_speeds(log: DriveLog) -> bool:
+    """Whether the log has measured track speeds on most rows (the stage has something to fit)."""
+    if log.v_left is None or log.v_right is None:
+        return False
+    return bool(np.mean(np.isfinite(log.v_left) & np.isfinite(log.v_right)) >= MIN_MEASURED)
+
+
+def predicted_drive_log(log: DriveLog, values: dict[str, float]) -> DriveLog:
+    """The log driven by the track speeds the chain ``values`` predicts from its commands (each
+    segment from its measured start speeds, else at rest), the logged commands kept under
+    ``LOGGED_COMMANDS`` as :func:`mjtrack.sim.windows.measured_drive_log` keeps them (which
+    windows are steady turns stays a property of the commands)."""
+    from mjtrack.sim.windows import LOGGED_COMMANDS
+
+    slices = log.segment_slices()
+    K = max(sl.stop - sl.start for sl in slices)
+    S = len(slices)
+    t = np.empty((S, K))
+    cmd = np.empty((S, K, 2))
+    v0 = np.zeros((S, 2))
+    c_all = np.stack([log.v_left_cmd, log.v_right_cmd], -1).astype(float)
+    for j, sl in enumerate(slices):
+        n = sl.stop - sl.start
+        tj = np.asarray(log.t[sl], float) - float(log.t[sl.start])
+        t[j, :n] = tj
+        t[j, n:] = tj[-1] + np.arange(1, K - n + 1) * (tj[-1] / max(n - 1, 1) if n > 1 else 0.05)
+        cmd[j, :n] = c_all[sl]
+        cmd[j, n:] = c_all[sl.stop - 1]
+        if log.v_left is not None and log.v_right is not None:
+            v0[j] = np.nan_to_num([log.v_left[sl.start], log.v_right[sl.start]])
+    pred = predict(SpeedWindows(t=t, cmd=cmd, meas=np.zeros_like(cmd), valid=np.zeros(t.shape, bool), v0=v0), values)
+    out = np.empty_like(c_all)
+    for j, sl in enumerate(slices):
+        out[sl] = pred[j, :sl.stop - sl.start]
+    return dataclasses.replace(log, v_left_cmd=out[:, 0], v_right_cmd=out[:, 1],
+                               extra={**log.extra, LOGGED_COMMANDS[0]: log.v_left_cmd,
+                                      LOGGED_COMMANDS[1]: log.v_right_cmd})
+
+
+def chain_robot(robot: Robot, values: dict[str, float], rolling: float = 1.0) -> Robot:
+    """``robot`` driven by the chain ``values`` (command -> measured speed) and a contact whose
+    track speed is ``rolling`` times the measured one (the effective rolling radius over the
+    nominal one that the contact's fit found): the scale and the speed limits and ramp, in
+    measured-speed units in ``values``, are multiplied by it."""
+    speedy = ("drive_speed_limit_left", "drive_speed_limit_right", "drive_accel_limit", "drive_mean_speed_limit",
+              "drive_turn_limit")
+    changes = {k: float(v) * (rolling if k in speedy or k == "track_speed_scale" else 1.0) for k, v in values.items()}
+    return robot.replace(**changes)
+
+
+__all__ = ["ChainFit", "SpeedWindows", "chain_robot", "described_chain", "fit_chain", "has_measured_speeds", "predict",
+           "predicted_drive_log", "rms", "speed_windows"]
