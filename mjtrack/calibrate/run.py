@@ -814,7 +814,8 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
             return res.rms()
 
         causes = find_causes(changed, att.values, pb.described, corr, att.ties, score, before.rms, after.rms,
-                             wheels=robot.traction == "wheels", measured=drive_input == "measured")
+                             wheels=robot.traction == "wheels", measured=drive_input == "measured",
+                             bounds={n: (s.lo, s.hi, s.resolution) for n, s in fx.specs.items()})
     with clock.stage("explain"):
         scope = [("train", train, pb.ws, before, after)]
         if test is not None:
