@@ -205,3 +205,22 @@ def test_unset_keys_drive_as_before(model):
     adr = int(m.sensor("body_pos").adr[0])
     stride = int(round(0.01 / dt))
     assert np.array_equal(out["x"][1:], sens[0, stride - 1::stride, adr])
+
+
+def test_window_simulator_drives_through_the_robots_controller():
+    """The window simulator (calibrate, diagnose) clamps and ramps as the robot's controller does:
+    a window commanded 0.9 m/s from rest with a 0.5 m/s limit and a 1 m/s^2 ramp reaches 0.25 m/s
+    at 0.25 s and runs at the limit; without the keys it reaches the command."""
+    from mjtrack.io.logs import DriveLog
+    from mjtrack.sim.windows import WindowSim, make_windows, simulate_windows
+
+    t = np.arange(0.0, 2.0001, 0.05)
+    z = np.zeros_like(t)
+    log = DriveLog(t=t, v_left_cmd=z + 0.9, v_right_cmd=z + 0.9, x=z, y=z, yaw=z, v_left=z, v_right=z)
+    ws = make_windows(log, 2.0)
+    limited = Robot(drive_speed_limit=0.5, drive_accel_limit=1.0)
+    speeds = simulate_windows(WindowSim(limited), log, ws).speeds[0, 0]
+    assert np.interp(0.25, t, speeds[:, 0]) == pytest.approx(0.25, abs=0.02)
+    assert speeds[-1] == pytest.approx([0.5, 0.5], abs=0.01)
+    free = simulate_windows(WindowSim(Robot()), log, ws).speeds[0, 0]
+    assert free[-1] == pytest.approx([0.9, 0.9], abs=0.01)

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjtrack.io.robot import Robot
-from mjtrack.models.drivetrain import Chain, setpoints
+from mjtrack.models.drivetrain import Chain, clamp, ramp, setpoints, twist
 from mjtrack.sim.config import SimConfig
 
 
@@ -61,3 +61,14 @@ def drive_commands(robot: Robot, commands: np.ndarray, timestep: float) -> np.nd
     :func:`mjtrack.models.drivetrain.setpoints` of the robot's chain (scale, dead time, speed
     limit, acceleration limit; zero command before t = 0: the robot starts at rest)."""
     return setpoints(Chain.of_robot(robot), commands, timestep)
+
+
+def controller_stages(robot: Robot, commands: np.ndarray, timestep: float, start: np.ndarray) -> np.ndarray:
+    """Per-step commands (M, nstep, 2) of M windows, already scaled and delayed, through the
+    robot's own controller: twist stage, speed clamp and ramp (:mod:`mjtrack.models.drivetrain`;
+    the ramp starts at ``start`` (M, 2), the measured speeds). Unchanged without those keys."""
+    chain = Chain.of_robot(robot)
+    out = clamp(twist(commands, chain.turn_scale, chain.mean_limit, chain.turn_limit), chain.speed_limit)
+    if chain.accel_limit is not None:
+        out = ramp(np.swapaxes(out, 0, 1), chain.accel_limit, timestep, start).swapaxes(0, 1)
+    return out
