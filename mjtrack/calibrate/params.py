@@ -106,14 +106,12 @@ def chain_specs() -> dict[str, ParamSpec]:
     about 1 % of a 1 m/s step."""
     return {s.name: s for s in (
         ParamSpec("track_speed_scale", 0.3, 3.0, 0.05, 0.02, "–", "drive", "actual / commanded track speed"),
-        ParamSpec("drive_delay_left", 0.0, 0.5, 0.01, 0.01, "s", "drive", "dead time of the left drive"),
-        ParamSpec("drive_delay_right", 0.0, 0.5, 0.01, 0.01, "s", "drive", "dead time of the right drive"),
-        ParamSpec("drive_lag_left", 0.0, 3.0, 0.05, 0.02, "s", "drive", "time constant of the left drive"),
-        ParamSpec("drive_lag_right", 0.0, 3.0, 0.05, 0.02, "s", "drive", "time constant of the right drive"),
-        ParamSpec("drive_speed_limit_left", 0.02, 50.0, 0.05, 0.02, "m/s", "drive",
-                  "speed at which the left drive's controller saturates"),
-        ParamSpec("drive_speed_limit_right", 0.02, 50.0, 0.05, 0.02, "m/s", "drive",
-                  "speed at which the right drive's controller saturates"),
+        *(ParamSpec(f"drive_delay_{side}", 0.0, 0.5, 0.01, 0.01, "s", "drive", f"dead time of the {side} drive")
+          for side in ("left", "right")),
+        *(ParamSpec(f"drive_lag_{side}", 0.0, 3.0, 0.05, 0.02, "s", "drive", f"time constant of the {side} drive")
+          for side in ("left", "right")),
+        *(ParamSpec(f"drive_speed_limit_{side}", 0.02, 50.0, 0.05, 0.02, "m/s", "drive",
+                    f"speed at which the {side} drive's controller saturates") for side in ("left", "right")),
         ParamSpec("drive_accel_limit", 0.05, 100.0, 0.2, 0.1, "m/s^2", "drive",
                   "largest rate of change of a drive's set-point"),
         ParamSpec("drive_turn_scale", 0.1, 5.0, 0.05, 0.02, "–", "drive",
