@@ -200,7 +200,14 @@ def fit_chain(log: DriveLog, robot: Robot, *, horizon_s: float = 2.0) -> ChainFi
     free = list(start)
     fixed: dict[str, float] = {}
     verdicts: dict[str, str] = {}
+    half: dict[str, float] = {}
+    clusters = 0
+    values = dict(fixed)
+    # each pass either ends the loop or takes one candidate out of ``free``: it always ends
     for _ in range(len(start) + 1):
+        if not free:
+            values = dict(fixed)
+            break
         theta = _least_squares(sw, specs, {n: start[n] for n in free}, fixed)
         values = {**fixed, **theta}
         start.update(theta)  # a refit after a change starts where this one ended
@@ -216,7 +223,7 @@ def fit_chain(log: DriveLog, robot: Robot, *, horizon_s: float = 2.0) -> ChainFi
             continue
         lin = _linearised(sw, specs, values, free)
         unc = lin.uncertainty(list(range(len(free))))
-        half = dict(zip(free, unc.half))
+        half, clusters = dict(zip(free, unc.half)), unc.clusters
         vague = [n for n in free if n in LIMITS and (half[n] > LIMIT_SPREAD * values[n]
                                                       or values[n] >= specs[n].hi - specs[n].resolution)]
         if vague:
@@ -244,7 +251,7 @@ def fit_chain(log: DriveLog, robot: Robot, *, horizon_s: float = 2.0) -> ChainFi
     out_values = {k: v for k, v in values.items() if k in free or k in fixed}
     return ChainFit(values=out_values, half={n: float(half[n]) for n in free},
                     verdicts={n: verdicts[n] for n in specs if n in verdicts}, rms_before=before, rms_after=after,
-                    windows=len(sw), clusters=unc.clusters, described=described)
+                    windows=len(sw), clusters=clusters, described=described)
 
 
 def _start(sw: SpeedWindows, robot: Robot) -> dict[str, float]:
