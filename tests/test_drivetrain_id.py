@@ -114,8 +114,9 @@ def test_calibrate_fits_the_drives_to_the_measured_speeds_first(monkeypatch):
 
     def fake(train, robot, **kw):
         seen.update(kw, train=train, robot=robot)
+        calibrated = robot.replace(track_speed_scale=1.1, mu=0.5, extra={"simulator": {"drive_input": "measured"}})
         return SimpleNamespace(values={"track_speed_scale": 1.1}, changed=["track_speed_scale"], sentence="",
-                               calibrated=robot.replace(track_speed_scale=1.1, mu=0.5), robot=robot)
+                               calibrated=calibrated, robot=robot, drive_input=kw["drive_input"])
 
     monkeypatch.setattr(run, "_calibrate", fake)
     lg = _truth_log(40.0, 4, TRUTH)
@@ -124,7 +125,10 @@ def test_calibrate_fits_the_drives_to_the_measured_speeds_first(monkeypatch):
     assert np.sqrt(np.mean((driven - np.stack([lg.v_left, lg.v_right], -1)[1:]) ** 2)) < 2 * NOISE
     assert np.array_equal(seen["train"].extra["logged_v_left_cmd"], lg.v_left_cmd)
     assert "drive_lag" not in seen["names"] and "drive_delay" not in seen["names"]
-    assert seen["robot"].lag_per_side == (0.0, 0.0) and seen["drive_input"] == "commanded"
+    # the contact's fit is --drive-input measured's on the predicted speeds; the calibrated robot
+    # is driven by its commands (no simulator drive_input recorded)
+    assert seen["robot"].lag_per_side == (0.0, 0.0) and seen["drive_input"] == "measured"
+    assert cal.drive_input == "commanded" and "drive_input" not in cal.calibrated.extra["simulator"]
     chain = cal.drivetrain.values
     assert cal.robot.drive_lag == 0.5  # the description as given
     assert cal.calibrated.mu == 0.5

@@ -405,7 +405,7 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
                              "fitted to the measured track speeds first")
         chain, robot_in = fit_chain(train, robot, horizon_s=horizon_s), robot
         train, test, robot, names = _on_predicted_speeds(chain, train, test, robot, names)
-        drive_input = "commanded"  # the calibrated robot is driven by its commands, through the fitted chain
+        drive_input = "measured"  # the contact's fit: its drives follow the speeds the chain predicts
     with summarised_mujoco_warnings(f"calibrate {src}", log):  # one line, not one per diverged window
         cal = _calibrate(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
                          max_iter=max_iter, nthread=nthread, quiet=quiet, train_path=train_path,
@@ -413,8 +413,11 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
                          keep_contradicting=keep_contradicting)
     if chain is not None:
         rolling = cal.values["track_speed_scale"] if "track_speed_scale" in cal.changed else 1.0
-        cal.robot, cal.calibrated = robot_in, chain_robot(cal.calibrated, chain.values, rolling)
-        cal.drivetrain = chain
+        calibrated = chain_robot(cal.calibrated, chain.values, rolling)
+        simulator = {k: v for k, v in calibrated.extra.get("simulator", {}).items() if k != "drive_input"}
+        # the calibrated robot is driven by its commands, through the fitted chain it now carries
+        cal.robot, cal.drive_input, cal.drivetrain = robot_in, "commanded", chain
+        cal.calibrated = dataclasses.replace(calibrated, extra={**calibrated.extra, "simulator": simulator})
         cal.sentence = (f"The drives were fitted first to the log's measured track speeds (wheel-speed RMS "
                         f"{_mean2(chain.rms_before):.3f} m/s as described, {_mean2(chain.rms_after):.3f} m/s fitted) "
                         f"and the contact to the poses with the drives so fixed. " + cal.sentence)
