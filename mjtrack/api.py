@@ -327,8 +327,10 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
         out_dir: when given, ``robot.json``, ``calibration.json`` and ``report.html`` are written.
         quiet: no progress display.
         drive_input: what the simulated drives follow: ``"commanded"`` (the logged commands; the
-            drive's lag, delay and speed scale are fitted too) or ``"measured"`` (the logged track
-            speeds, for a robot whose own speed controller caps its commands; ``--drive-input``).
+            drive's lag, delay and speed scale are fitted too), ``"measured"`` (the logged track
+            speeds, for a robot whose own speed controller caps its commands) or ``"fitted"`` (the
+            drivetrain is first fitted to the log's measured track speeds, command to speed, and the
+            contact then to the poses under the speeds it predicts from the commands).
         fit_windows: windows the fit uses, spread over the log (``--fit-windows``; None: all;
             default: the command's).
 

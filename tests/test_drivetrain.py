@@ -1,9 +1,11 @@
 """Drivetrain keys of the robot description (drive_lag, drive_delay, drive_force_limit,
-track_speed_scale): validation, JSON round trip, and what both MuJoCo track models make of them.
+track_speed_scale; per side and the speed and acceleration limits): validation, JSON round trip,
+and what both MuJoCo track models make of them.
 
 The expectations are closed forms of the drive (first-order lag: 63 % of a step after one time
-constant; dead time: a shift; scale: a factor; force limit: a bounded acceleration), not code
-shared with mjtrack.sim.drivetrain."""
+constant; dead time: a shift; scale: a factor; force limit: a bounded acceleration; speed limit:
+a ceiling; acceleration limit: a ramp of that slope), not code shared with mjtrack.sim.drivetrain
+or mjtrack.models.drivetrain."""
 
 from __future__ import annotations
 
@@ -27,6 +29,11 @@ from mjtrack.sim.rollout import simulate
         (dict(drive_force_limit=0.0), r"'drive_force_limit' must be a positive number \(N per track\) or null"),
         (dict(drive_force_limit=float("nan")), r"'drive_force_limit' must be a positive number"),
         (dict(track_speed_scale=0.0), r"'track_speed_scale' must be a number in \(0, 10\], got 0\.0"),
+        (dict(drive_speed_limit=0.0), r"'drive_speed_limit' must be a number in \(0, 100\] m/s or null, got 0\.0"),
+        (dict(drive_speed_limit_right=-1.0), r"'drive_speed_limit_right' must be a number in \(0, 100\] m/s"),
+        (dict(drive_lag_left=-0.1), r"'drive_lag_left' must be a number in \[0, 10\] s or null, got -0\.1"),
+        (dict(drive_delay_right=float("nan")), r"'drive_delay_right' must be a number in \[0, 10\] s or null"),
+        (dict(drive_accel_limit=0.0), r"'drive_accel_limit' must be a number in \(0, 1000\] m/s\^2 or null"),
     ],
 )
 def test_drive_keys_refuse_bad_values(fields, pattern):
@@ -101,3 +108,119 @@ def test_drive_scales_with_mass():
     light = _rise_63(*_step_response(Robot(mass=20.0, drive_lag=0.1), "rollers")[:2], 0.5)
     heavy = _rise_63(*_step_response(Robot(mass=150.0, drive_lag=0.1), "rollers")[:2], 0.5)
     assert heavy == pytest.approx(light, abs=0.01)
+
+
+def test_side_and_limit_keys_round_trip(tmp_path):
+    """Per-side keys fall back on the both-sides key; unset ones are not written (a description keeps its keys)."""
+    data = {"track_gauge": 0.5, "drive_lag": 0.2, "drive_lag_right": 0.3, "drive_delay_left": 0.04,
+            "drive_speed_limit": 1.1, "drive_speed_limit_left": 0.9, "drive_accel_limit": None}
+    path = tmp_path / "r.json"
+    path.write_text(json.dumps(data))
+    robot = read_robot(path)
+    assert robot.lag_per_side == (0.2, 0.3)
+    assert robot.delay_per_side == (0.04, 0.0)
+    assert robot.speed_limit_per_side == (0.9, 1.1)
+    assert robot.drive_accel_limit is None
+    write_robot(robot, tmp_path / "back.json")
+    back = json.loads((tmp_path / "back.json").read_text())
+    assert read_robot(tmp_path / "back.json") == robot
+    assert "drive_accel_limit" not in back and "drive_lag_left" not in back and back["drive_lag_right"] == 0.3
+    assert "drive_speed_limit" not in json.loads(json.dumps(Robot().to_dict()))
+
+
+@pytest.mark.parametrize("model", ["rollers", "surfacevel"])
+def test_speed_limit_caps_the_track_speed(model):
+    """A step to 0.8 m/s with a 0.5 m/s limit on the left only: the left track settles at the limit,
+    the right at the command (the controller clamps its set-point, the servo follows it)."""
+    robot = Robot(drive_lag=0.05, drive_speed_limit_left=0.5)
+    config = sim_config(model)
+    cmd = np.full((int(round(1.0 / config.timestep)), 2), 0.8)
+    out = simulate(robot, cmd, config=config, log_rate=100)
+    assert out["v_left"][-1] == pytest.approx(0.5, abs=0.01)
+    assert out["v_right"][-1] == pytest.approx(0.8, abs=0.01)
+    assert out["v_left"].max() < 0.5 + 0.01
+    assert out["v_left_cmd"][-1] == 0.8  # the log keeps the commanded speed
+
+
+@pytest.mark.parametrize("model", ["rollers", "surfacevel"])
+def test_per_side_lag_and_delay(model):
+    """Left lag 0.1 s, right 0.3 s; right dead time 0.1 s: each side's measured 63 % rise time is
+    its own delay + time constant."""
+    robot = Robot(drive_lag=0.1, drive_lag_right=0.3, drive_delay_right=0.1)
+    config = sim_config(model)
+    dt = config.timestep
+    cmd = np.zeros((int(round(2.0 / dt)), 2))
+    cmd[int(round(0.2 / dt)):] = 0.5
+    out = simulate(robot, cmd, config=config, log_rate=100)
+    t = out["t"] - 0.2
+    assert _rise_63(t, out["v_left"], 0.5) == pytest.approx(0.1, abs=0.02)
+    assert _rise_63(t, out["v_right"], 0.5) == pytest.approx(0.4, abs=0.03)
+    # during its dead time the right drive holds 0 up to its servo's droop: the left side, already
+    # moving, pulls it through the ground (1.3 mm/s measured), so 1 % of the step, not 1e-3
+    assert np.all(np.abs(out["v_right"][t < 0.1 - 1e-9]) < 0.005)
+
+
+@pytest.mark.parametrize("model", ["rollers", "surfacevel"])
+def test_accel_limit_ramps_the_track_speed(model):
+    """No lag, a 1 m/s^2 ramp: a step to 0.6 m/s gives a track speed that rises at 1 m/s^2 (half
+    way at 0.3 s after the step) and reaches 0.6 m/s 0.6 s after it."""
+    robot = Robot(drive_accel_limit=1.0)
+    config = sim_config(model)
+    dt = config.timestep
+    cmd = np.zeros((int(round(1.2 / dt)), 2))
+    cmd[int(round(0.2 / dt)):] = 0.6
+    out = simulate(robot, cmd, config=config, log_rate=100)
+    t, v = out["t"] - 0.2, out["v_left"]
+    mid = (t > 0.1) & (t < 0.5)
+    slope = np.polyfit(t[mid], v[mid], 1)[0]
+    assert slope == pytest.approx(1.0, rel=0.03)
+    assert float(np.interp(0.3, v, t)) == pytest.approx(0.3, abs=0.02)
+    assert v[-1] == pytest.approx(0.6, abs=0.005)
+
+
+@pytest.mark.parametrize("model", ["rollers", "surfacevel"])
+def test_unset_keys_drive_as_before(model):
+    """Without the new keys a rollout is the MuJoCo robot fed the scaled commands shifted by the
+    dead time (the drive of before, written out here), bit for bit; per-side keys equal to the
+    both-sides ones change nothing."""
+    from mjtrack.sim.builder import build_model
+    from mjtrack.sim.rollout import run_batch, settled_state
+
+    robot = Robot(drive_lag=0.1, drive_delay=0.05, track_speed_scale=1.2)
+    config = sim_config(model)
+    dt = config.timestep
+    rng = np.random.default_rng(3)
+    cmd = np.repeat(rng.uniform(-0.6, 0.6, (6, 2)), int(round(0.2 / dt)), axis=0)
+    out = simulate(robot, cmd, config=config, log_rate=100)
+    same = simulate(robot.replace(drive_lag_left=0.1, drive_lag_right=0.1, drive_delay_left=0.05,
+                                  drive_delay_right=0.05), cmd, config=config, log_rate=100)
+    for k in out:
+        assert np.array_equal(out[k], same[k]), k
+    if model != "rollers":
+        return
+    k = int(round(0.05 / dt))
+    driven = np.concatenate([np.zeros((k, 2)), (cmd * 1.2)[:-k]])
+    m = build_model(robot, config)
+    _, sens = run_batch([m], driven[None], state0=settled_state(m)[None], keep_states=False)
+    adr = int(m.sensor("body_pos").adr[0])
+    stride = int(round(0.01 / dt))
+    assert np.array_equal(out["x"][1:], sens[0, stride - 1::stride, adr])
+
+
+def test_window_simulator_drives_through_the_robots_controller():
+    """The window simulator (calibrate, diagnose) clamps and ramps as the robot's controller does:
+    a window commanded 0.9 m/s from rest with a 0.5 m/s limit and a 1 m/s^2 ramp reaches 0.25 m/s
+    at 0.25 s and runs at the limit; without the keys it reaches the command."""
+    from mjtrack.io.logs import DriveLog
+    from mjtrack.sim.windows import WindowSim, make_windows, simulate_windows
+
+    t = np.arange(0.0, 2.0001, 0.05)
+    z = np.zeros_like(t)
+    log = DriveLog(t=t, v_left_cmd=z + 0.9, v_right_cmd=z + 0.9, x=z, y=z, yaw=z, v_left=z, v_right=z)
+    ws = make_windows(log, 2.0)
+    limited = Robot(drive_speed_limit=0.5, drive_accel_limit=1.0)
+    speeds = simulate_windows(WindowSim(limited), log, ws).speeds[0, 0]
+    assert np.interp(0.25, t, speeds[:, 0]) == pytest.approx(0.25, abs=0.02)
+    assert speeds[-1] == pytest.approx([0.5, 0.5], abs=0.01)
+    free = simulate_windows(WindowSim(Robot()), log, ws).speeds[0, 0]
+    assert free[-1] == pytest.approx([0.9, 0.9], abs=0.01)

@@ -8,17 +8,28 @@ parameters back at their described values (``share``: the fraction of the improv
 the described robot with only the cause's changes (``gain_alone``: its relative improvement).
 Causes are ordered by ``share``; the summary sentence is built from them, never from a template of
 what usually goes wrong. No change, no cause: ``causes`` is empty and the summary says so.
+
+Plausibility. A fitted value that ends on a bound of its range (within one resolution of it), or an
+effective geometry far from the described one (a contact length or wheelbase more than
+:data:`GEOMETRY_RATIO` times or less than 1 / :data:`GEOMETRY_RATIO` of the described), is not the
+robot's: the fit has pushed a candidate to stand in for something none of them describes. Such a
+cause is reported as "the log shows something no candidate describes, which acts like ...", never
+as a cause, and the summary says so.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 
 COUPLED = 0.7  # |correlation| above which changed parameters form one cause
+#: effective / described contact length or wheelbase beyond which (or below 1 / it) the geometry is
+#: not the robot's (a Husky's 0.51 m wheelbase fitted to 1.02 m: the fit stands in for something else)
+GEOMETRY_RATIO = 1.5
+GEOMETRY = ("track_length", "wheelbase")
 
 
 @dataclass
@@ -32,11 +43,31 @@ class Cause:
     share: float
     gain_alone: float
     sentence: str
+    implausible: list[str] = field(default_factory=list)  # why its values are not the robot's (module docstring)
+
+    @property
+    def plausible(self) -> bool:
+        return not self.implausible
 
     def to_json(self) -> dict:
         return {"parameters": self.parameters, "share": self.share, "gain_alone": self.gain_alone,
                 "changes": {k: {"described": a, "calibrated": b} for k, (a, b) in self.changed.items()},
-                "tied": self.tied, "sentence": self.sentence}
+                "tied": self.tied, "sentence": self.sentence, "plausible": self.plausible,
+                "implausible": self.implausible}
+
+
+def implausibility(name: str, value: float, described: float,
+                   bounds: tuple[float, float, float] | None) -> str | None:
+    """Why a fitted ``value`` is not the robot's, in words, or None (module docstring);
+    ``bounds``: (low, high, resolution) of its range."""
+    if bounds is not None:
+        lo, hi, res = bounds
+        if value >= hi - res or (lo != 0 and value <= lo + res):  # (a bound at 0 is physics: no lag, no resistance)
+            return f"{name} ended on its bound, {value:.3g} (range {lo:.3g} to {hi:.3g})"
+    if name in GEOMETRY and described > 0 and not 1 / GEOMETRY_RATIO <= value / described <= GEOMETRY_RATIO:
+        return (f"{name} {value:.3g} m is {value / described:.2f} times the described {described:.3g} m "
+                f"(beyond {1 / GEOMETRY_RATIO:.2f} to {GEOMETRY_RATIO:g})")
+    return None
 
 
 def groups(names: list[str], corr: np.ndarray) -> list[list[str]]:
@@ -139,7 +170,7 @@ def sentence_of(params: list[str], values: dict[str, float], described: dict[str
 def find_causes(changed: list[str], values: dict[str, float], described: dict[str, float], corr: np.ndarray,
                 ties: dict[str, list[str]], score: Callable[[list[dict[str, float]]], np.ndarray],
                 rms_before: float, rms_after: float, *, wheels: bool = False,
-                measured: bool = False) -> list[Cause]:
+                measured: bool = False, bounds: dict[str, tuple[float, float, float]] | None = None) -> list[Cause]:
     """The causes of the improvement ``rms_before`` -> ``rms_after`` (module docstring).
 
     Args:
@@ -153,6 +184,7 @@ def find_causes(changed: list[str], values: dict[str, float], described: dict[st
         wheels: the robot is wheeled (its sentences speak of wheels, not tracks).
         measured: the simulated drives followed the measured track speeds (a speed scale is then
             an effective rolling radius).
+        bounds: parameter -> (low, high, resolution) of its range, for the plausibility check.
     """
     if not changed:
         return []
@@ -168,10 +200,14 @@ def find_causes(changed: list[str], values: dict[str, float], described: dict[st
     for k, g in enumerate(gs):
         without, alone = float(rms[2 * k]), float(rms[2 * k + 1])
         tied = sorted({t for n in g for t in ties.get(n, [])})
+        why = [w for n in g if (w := implausibility(n, values[n], described[n], (bounds or {}).get(n)))]
+        sentence = sentence_of(g, values, described, tied, wheels, measured)
+        if why:
+            sentence = f"the log shows something no candidate describes, which acts like this: {sentence} ({'; '.join(why)})"
         out.append(Cause(parameters=g + tied, changed={n: (described[n], values[n]) for n in g}, tied=tied,
                          share=(without - rms_after) / gain if gain > 0 else 0.0,
                          gain_alone=1.0 - alone / rms_before if rms_before > 0 else 0.0,
-                         sentence=sentence_of(g, values, described, tied, wheels, measured)))
+                         sentence=sentence, implausible=why))
     out.sort(key=lambda c: -c.share)
     return out
 
@@ -219,14 +255,24 @@ def _summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: 
                 f"{', '.join(p for c in causes for p in c.changed)} ({first.sentence}), but the {where} 2 s "
                 f"position error went from {before:.3g} m to {after:.3g} m. The simulation errs for a reason none "
                 "of the candidates describes; do not read the changed values as the robot's.")
-    text = f"The described MuJoCo robot erred mostly because {first.sentence}"
-    text += f" ({share_words(first.share)}; alone it removes {100 * first.gain_alone:.0f} % of the error)"
-    more = [c for c in causes[1:] if c.share >= 0.1]
-    if more:
-        text += "; also " + "; ".join(f"{c.sentence} ({share_words(c.share)})" for c in more)
+    named = [c for c in causes if c.plausible]
+    unexplained = [c for c in causes if not c.plausible and c.share >= 0.1]
+    if named and (named[0].share > 0 or named[0].gain_alone > 0):
+        first = named[0]
+        text = f"The described MuJoCo robot erred mostly because {first.sentence}"
+        text += f" ({share_words(first.share)}; alone it removes {100 * first.gain_alone:.0f} % of the error)"
+        more = [c for c in named[1:] if c.share >= 0.1]
+        if more:
+            text += "; also " + "; ".join(f"{c.sentence} ({share_words(c.share)})" for c in more)
+        if unexplained:
+            text += ". Besides, " + "; ".join(f"{c.sentence} ({share_words(c.share)})" for c in unexplained)
+    else:
+        text = ("No candidate the fit moved plausibly explains the error: "
+                + "; ".join(f"{c.sentence} ({share_words(c.share)})" for c in (unexplained or causes[:1]))
+                + ". Do not read these values as the robot's")
     if yaw is not None and all(np.isfinite(yaw)):
         text += f". Steady-turn yaw ratio: measured {yaw[0]:.2f}, described robot {yaw[1]:.2f}"
     return text + f". {where.capitalize()} 2 s position error {before:.3g} m before, {after:.3g} m after calibration."
 
 
-__all__ = ["COUPLED", "Cause", "find_causes", "groups", "summary"]
+__all__ = ["COUPLED", "GEOMETRY_RATIO", "Cause", "find_causes", "groups", "implausibility", "summary"]

@@ -99,6 +99,30 @@ DRIVE_START = {"drive_lag": 0.05, "drive_delay": 0.02, "track_speed_scale": 1.0}
 RESISTANCE_START = 0.02
 
 
+def chain_specs() -> dict[str, ParamSpec]:
+    """The drivetrain chain's parameters (:mod:`mjtrack.models.drivetrain`), fitted by
+    :mod:`mjtrack.calibrate.drivetrain` to a log's measured track speeds (command -> measured
+    speed), not to its poses. Resolutions: a change that moves a 20 Hz log's predicted speeds by
+    about 1 % of a 1 m/s step."""
+    return {s.name: s for s in (
+        ParamSpec("track_speed_scale", 0.3, 3.0, 0.05, 0.02, "–", "drive", "actual / commanded track speed"),
+        *(ParamSpec(f"drive_delay_{side}", 0.0, 0.5, 0.01, 0.01, "s", "drive", f"dead time of the {side} drive")
+          for side in ("left", "right")),
+        *(ParamSpec(f"drive_lag_{side}", 0.0, 3.0, 0.05, 0.02, "s", "drive", f"time constant of the {side} drive")
+          for side in ("left", "right")),
+        *(ParamSpec(f"drive_speed_limit_{side}", 0.02, 50.0, 0.05, 0.02, "m/s", "drive",
+                    f"speed at which the {side} drive's controller saturates") for side in ("left", "right")),
+        ParamSpec("drive_accel_limit", 0.05, 100.0, 0.2, 0.1, "m/s^2", "drive",
+                  "largest rate of change of a drive's set-point"),
+        ParamSpec("drive_turn_scale", 0.1, 5.0, 0.05, 0.02, "–", "drive",
+                  "set-point half difference / commanded one (a twist controller's track separation)"),
+        ParamSpec("drive_mean_speed_limit", 0.02, 50.0, 0.05, 0.02, "m/s", "drive",
+                  "a twist controller's limit on the two sides' mean speed"),
+        ParamSpec("drive_turn_limit", 0.02, 50.0, 0.05, 0.02, "m/s", "drive",
+                  "a twist controller's limit on the two sides' half difference"),
+    )}
+
+
 def specs_for(robot: Robot) -> dict[str, ParamSpec]:
     """Every parameter's spec for this robot (cg bounds and resolutions follow its geometry)."""
     return _specs(robot)

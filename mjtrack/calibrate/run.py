@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 from mjtrack.calibrate.causes import Cause, find_causes, summary
+from mjtrack.calibrate.drivetrain import chain_robot, fit_chain, has_measured_speeds, predicted_drive_log
 from mjtrack.calibrate.identify import Linearised, ModelFormSource, Verdict, final_verdicts, fmt_value, select
 from mjtrack.calibrate.params import described_values, parse_names, specs_for, start_values, window_params
 from mjtrack.errors import InputError
@@ -134,6 +135,9 @@ class Calibration:
     #: windows left out because their poses move against the tracks (see
     #: :func:`mjtrack.sim.windows.contradicting_windows`), by part ("train", "test")
     left_out: dict[str, list[dict]] = field(default_factory=dict)
+    #: the drivetrain fitted first to the log's measured track speeds (commanded drive, a log
+    #: with measured speeds: :mod:`mjtrack.calibrate.drivetrain`), else None
+    drivetrain: object = None
 
     @property
     def fitted_windows(self) -> WindowSet:
@@ -178,6 +182,9 @@ class Calibration:
             "timings_s": self.timings,
             "left_out": {part: {"why": LEFT_OUT_WHY, "windows": rows} for part, rows in self.left_out.items() if rows},
         }
+        if self.drivetrain is not None:
+            out["drivetrain"] = {**self.drivetrain.to_dict(), "metric": "wheel_speed_rms_m_s (measured - the "
+                                 "chain's prediction from the commands, rows of every window after its start)"}
         if self.test_before is not None and self.test_after is not None:
             b, a = self.test_before.rms, self.test_after.rms
             out["test"] = {"log": self.test_path, "metric": "pos_err_m", "horizon_s": self.horizon_s,
@@ -370,7 +377,11 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
             track speeds, for a robot whose own speed controller caps or shapes its commands in
             ways the drive keys do not describe; the contact, the speed scale (then the effective
             rolling radius over the nominal one) and the drives' force limit (how fast the simulated
-            drives can follow the measured speeds) are calibrated.
+            drives can follow the measured speeds) are calibrated; ``"fitted"``: the drivetrain
+            (:mod:`mjtrack.calibrate.drivetrain`) fitted first to the log's measured track speeds
+            and fixed, the contact then fitted as with ``"measured"`` on the track speeds the fitted
+            drivetrain predicts from the commands; the calibrated robot carries the drivetrain's
+            keys and is driven by its commands.
         fit_windows: windows the fit uses, spread evenly over the log (None: every window); the
             errors before and after and the causes use every window.
         keep_contradicting: keep the windows whose poses move against the tracks (by default they
@@ -392,14 +403,57 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
         if bad:
             raise InputError(f"params={','.join(bad)}: describe when the drives follow their commands; with "
                              f"drive_input='measured' the drives follow the measured track speeds")
+    chain = None
+    if drive_input == "fitted":
+        if not has_measured_speeds(train):
+            raise InputError(f"{src}: drive_input='fitted' fits the drives to the log's measured track speeds "
+                             "(columns v_left, v_right on most rows); the log has none")
+        if names is not None and set(parse_names(names, robot, train) if isinstance(names, str) else names) & set(
+                COMMAND_PARAMS):
+            raise InputError(f"params={','.join(COMMAND_PARAMS)}: with drive_input='fitted' the drives' timing is "
+                             "fitted to the measured track speeds first")
+        chain, robot_in = fit_chain(train, robot, horizon_s=horizon_s), robot
+        train, test, robot, names = _on_predicted_speeds(chain, train, test, robot, names)
+        drive_input = "measured"  # the contact's fit: its drives follow the speeds the chain predicts
     with summarised_mujoco_warnings(f"calibrate {src}", log):  # one line, not one per diverged window
-        return _calibrate(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
-                          max_iter=max_iter, nthread=nthread, quiet=quiet, train_path=train_path,
-                          test_path=test_path, warmup_s=warmup_s, drive_input=drive_input, fit_windows=fit_windows,
-                          keep_contradicting=keep_contradicting)
+        cal = _calibrate(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
+                         max_iter=max_iter, nthread=nthread, quiet=quiet, train_path=train_path,
+                         test_path=test_path, warmup_s=warmup_s, drive_input=drive_input, fit_windows=fit_windows,
+                         keep_contradicting=keep_contradicting)
+    if chain is not None:
+        rolling = cal.values["track_speed_scale"] if "track_speed_scale" in cal.changed else 1.0
+        calibrated = chain_robot(cal.calibrated, chain.values, rolling)
+        simulator = {k: v for k, v in calibrated.extra.get("simulator", {}).items() if k != "drive_input"}
+        # the calibrated robot is driven by its commands, through the fitted chain it now carries
+        cal.robot, cal.drive_input, cal.drivetrain = robot_in, "commanded", chain
+        cal.calibrated = dataclasses.replace(calibrated, extra={**calibrated.extra, "simulator": simulator})
+        cal.sentence = (f"The drives were fitted first to the log's measured track speeds (wheel-speed RMS "
+                        f"{_mean2(chain.rms_before):.3f} m/s as described, {_mean2(chain.rms_after):.3f} m/s fitted) "
+                        f"and the contact to the poses with the drives so fixed. " + cal.sentence)
+    return cal
 
 
-DRIVE_INPUTS = ("commanded", "measured")
+def _mean2(pair) -> float:
+    return float(math.sqrt((pair[0] ** 2 + pair[1] ** 2) / 2))
+
+
+def _on_predicted_speeds(chain, train: DriveLog, test: DriveLog | None, robot: Robot, names):
+    """The contact's fit with the drivetrain fixed from the measured speeds: both logs driven by the
+    track speeds the fitted chain predicts from their commands, the robot without a drivetrain of its
+    own (the chain has it all; the drives' force limit stays), the candidates those of
+    ``--drive-input measured`` (the speed scale is then the effective rolling radius)."""
+    train = predicted_drive_log(train, chain.values)
+    test = None if test is None else predicted_drive_log(test, chain.values)
+    plain = {k: None for k in ("drive_lag_left", "drive_lag_right", "drive_delay_left", "drive_delay_right",
+                               "drive_speed_limit", "drive_speed_limit_left", "drive_speed_limit_right",
+                               "drive_accel_limit", "drive_mean_speed_limit", "drive_turn_limit")}
+    robot = robot.replace(drive_lag=0.0, drive_delay=0.0, track_speed_scale=1.0, drive_turn_scale=1.0, **plain)
+    if names is None:
+        names = [n for n in parse_names(None, robot, train) if n not in COMMAND_PARAMS] + list(MEASURED_PARAMS)
+    return train, test, robot, names
+
+
+DRIVE_INPUTS = ("commanded", "measured", "fitted")
 # when the drives follow their commands: not candidates with --drive-input measured. The speed scale
 # stays one: against measured track speeds (wheel or sprocket turn rate times its nominal radius) it
 # is the effective rolling radius over the nominal one (a loaded tyre rolls on less than its radius)
@@ -859,7 +913,8 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
             return res.rms()
 
         causes = find_causes(changed, att.values, pb.described, corr, att.ties, score, before.rms, after.rms,
-                             wheels=robot.traction == "wheels", measured=drive_input == "measured")
+                             wheels=robot.traction == "wheels", measured=drive_input == "measured",
+                             bounds={n: (s.lo, s.hi, s.resolution) for n, s in fx.specs.items()})
     with clock.stage("explain"):
         scope = [("train", train, pb.ws, before, after)]
         if test is not None:

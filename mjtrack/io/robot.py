@@ -71,6 +71,12 @@ MAX_DRIVE_TIME = 10.0  # [s] largest accepted drive_lag / drive_delay (beyond: a
 MAX_SPEED_SCALE = 10.0  # [-] largest accepted track_speed_scale
 MAX_RESISTANCE = 1.0  # [-] largest accepted rolling_resistance (beyond: the robot could not move on any ground)
 NULLABLE = ("mu_left", "mu_right", "drive_force_limit", "wheelbase")  # keys that may be JSON null
+# drivetrain keys that may be JSON null (none / the both-sides key) and are written only when set
+DRIVE_SIDE_KEYS = ("drive_speed_limit", "drive_speed_limit_left", "drive_speed_limit_right", "drive_lag_left",
+                   "drive_lag_right", "drive_delay_left", "drive_delay_right", "drive_accel_limit",
+                   "drive_mean_speed_limit", "drive_turn_limit")
+MAX_DRIVE_SPEED = 100.0  # [m/s] largest accepted drive_speed_limit (beyond: a unit error)
+MAX_DRIVE_ACCEL = 1000.0  # [m/s^2] largest accepted drive_accel_limit (100 g: a unit error)
 TRACTIONS = ("tracks", "wheels")
 MAX_WHEELS_PER_SIDE = 10
 # cg_z (the height of the centre of mass above the ground) is at most this multiple of the
@@ -214,6 +220,18 @@ class Robot:
         drive_delay: dead time from track command to track speed [s].
         drive_force_limit: traction force limit of one track drive [N]; ``None``: the simulator's
             default, which scales with the mass (:meth:`mjtrack.sim.config.SimConfig.for_robot_mass`).
+        drive_speed_limit: track speed [m/s] at which the robot's own speed controller saturates a
+            side's set-point (the command after scale and dead time); ``None``: no limit.
+        drive_speed_limit_left, drive_speed_limit_right: per side; ``None``: ``drive_speed_limit``.
+        drive_lag_left, drive_lag_right, drive_delay_left, drive_delay_right: per side [s];
+            ``None``: ``drive_lag`` / ``drive_delay``.
+        drive_accel_limit: largest rate of change of a side's set-point [m/s^2] (the controller's
+            ramp); ``None``: no limit. The chain: :mod:`mjtrack.models.drivetrain`.
+        drive_turn_scale: a twist controller's half difference of the two sides' set-points over
+            the (scaled) commanded one [-] (1: none; an effective track separation other than the gauge).
+        drive_mean_speed_limit, drive_turn_limit: a twist controller's limits on the mean and the
+            half difference of the two sides' set-points [m/s] (its linear speed limit, its angular
+            speed limit times half the gauge); ``None``: none.
         track_speed_scale: actual / commanded track speed, both tracks [-].
         rolling_resistance: motion resistance coefficient f_r [-]: each side is held back by a
             force f_r times the weight it carries, opposing its motion over the ground (rolling,
@@ -244,6 +262,17 @@ class Robot:
     drive_force_limit: float | None = None
     track_speed_scale: float = 1.0
     rolling_resistance: float = 0.0
+    drive_speed_limit: float | None = None
+    drive_speed_limit_left: float | None = None
+    drive_speed_limit_right: float | None = None
+    drive_lag_left: float | None = None
+    drive_lag_right: float | None = None
+    drive_delay_left: float | None = None
+    drive_delay_right: float | None = None
+    drive_accel_limit: float | None = None
+    drive_turn_scale: float = 1.0
+    drive_mean_speed_limit: float | None = None
+    drive_turn_limit: float | None = None
     ground: Ground = field(default_factory=Ground)
     traction: str = "tracks"
     wheelbase: float | None = None
@@ -284,6 +313,7 @@ class Robot:
         if not _is_finite_number(self.rolling_resistance) or not 0 <= self.rolling_resistance <= MAX_RESISTANCE:
             raise InputError(f"robot: 'rolling_resistance' must be a number in [0, {MAX_RESISTANCE:g}] (a share of "
                              f"the weight), got {self.rolling_resistance!r}")
+        self._check_drive_sides()
         for name, (low, high, unit) in PLAUSIBLE_ROBOT.items():
             value = getattr(self, name)
             if value is not None and not low <= value <= high:
@@ -310,6 +340,40 @@ class Robot:
                 f"{MAX_CG_HEIGHT_RATIO:g} x max(track_gauge, {length}) = {self.max_cg_z:g} m above the ground "
                 "(higher, the robot would tip over in a gentle turn)"
             )
+
+    def _check_drive_sides(self) -> None:
+        """The per-side and limit drivetrain keys: null, or a number in their range."""
+        checks = [(n, 0.0, MAX_DRIVE_TIME, "s", True) for n in DRIVE_SIDE_KEYS if n.startswith(("drive_lag", "drive_delay"))]
+        checks += [(n, 0.0, MAX_DRIVE_SPEED, "m/s", False) for n in DRIVE_SIDE_KEYS
+                   if n.startswith("drive_speed_limit") or n in ("drive_mean_speed_limit", "drive_turn_limit")]
+        checks += [("drive_accel_limit", 0.0, MAX_DRIVE_ACCEL, "m/s^2", False)]
+        if not _is_finite_number(self.drive_turn_scale) or not 0 < self.drive_turn_scale <= MAX_SPEED_SCALE:
+            raise InputError(f"robot: 'drive_turn_scale' must be a number in (0, {MAX_SPEED_SCALE:g}], "
+                             f"got {self.drive_turn_scale!r}")
+        for name, low, high, unit, closed in checks:
+            value = getattr(self, name)
+            if value is None:
+                continue
+            if not _is_finite_number(value) or not (low <= value if closed else low < value) or value > high:
+                bracket = "[" if closed else "("
+                raise InputError(f"robot: '{name}' must be a number in {bracket}{low:g}, {high:g}] {unit} or null, "
+                                 f"got {value!r}")
+
+    @property
+    def lag_per_side(self) -> tuple[float, float]:
+        """First-order time constant of the (left, right) drive [s]."""
+        return tuple(self.drive_lag if v is None else v for v in (self.drive_lag_left, self.drive_lag_right))
+
+    @property
+    def delay_per_side(self) -> tuple[float, float]:
+        """Dead time of the (left, right) drive [s]."""
+        return tuple(self.drive_delay if v is None else v for v in (self.drive_delay_left, self.drive_delay_right))
+
+    @property
+    def speed_limit_per_side(self) -> tuple[float | None, float | None]:
+        """Speed-controller saturation of the (left, right) set-point [m/s]; None: none."""
+        return tuple(self.drive_speed_limit if v is None else v
+                     for v in (self.drive_speed_limit_left, self.drive_speed_limit_right))
 
     def _check_traction(self) -> None:
         """The wheeled keys: a known traction, an integer wheel count, a plausible wheelbase."""
@@ -385,6 +449,8 @@ class Robot:
         """The full description: every field; the wheeled keys (and ``wheel_radius``, the alias
         of ``sprocket_radius``) only for a wheeled robot, so that tracked descriptions keep their keys."""
         skip = ("extra", "provided") + (WHEEL_KEYS if self.traction == "tracks" else ())
+        skip += tuple(k for k in DRIVE_SIDE_KEYS if getattr(self, k) is None)  # unset: descriptions keep their keys
+        skip += ("drive_turn_scale",) if self.drive_turn_scale == 1.0 else ()
         d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in skip}
         d["ground"] = self.ground.to_dict()
         if self.traction == "wheels":
@@ -410,7 +476,7 @@ class Robot:
                 if v not in TRACTIONS:
                     raise InputError(f"{source}: key 'traction' must be one of {list(TRACTIONS)}, got {v!r}")
                 continue
-            if v is None and k in NULLABLE:
+            if v is None and (k in NULLABLE or k in DRIVE_SIDE_KEYS):
                 continue
             if not _is_finite_number(v):
                 raise InputError(f"{source}: key '{k}' must be a number, got {v!r}")

@@ -24,6 +24,7 @@ from mjtrack.sim.chassis import Suspension, TrackModel, build_robot_model, build
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_of
 from mjtrack.sim.ground import apply_ground, require_supported
+from mjtrack.sim.scene import SIDES
 from mjtrack.sim.surfacevel import SurfacevelTracks, build_surfacevel_model
 from mjtrack.sim.terrain import Terrain
 
@@ -83,6 +84,7 @@ class RollerChain(TrackModel):
     def add_track(self, spec: mujoco.MjSpec, chassis, robot: Robot, config: SimConfig, *, side: str, y: float,
                   mu: float, suspension: Suspension) -> None:
         drive = drive_of(robot, config)  # the robot's drivetrain keys (mjtrack.sim.drivetrain)
+        lag = drive.lags[SIDES.index(side)]
         n, r = config.n_rollers, config.roller_radius
         mr = self.element_mass(robot, config)
         Rs = robot.sprocket_radius
@@ -117,12 +119,12 @@ class RollerChain(TrackModel):
                 )
             else:
                 _add_servo(spec, f"drive_{side}_{i}", f"roll_{side}_{i}", mujoco.mjtTrn.mjTRN_JOINT,
-                           gear=r, kv=drive.kv / n, fmax=drive.force_limit / n, lag=drive.lag)
+                           gear=r, kv=drive.kv / n, fmax=drive.force_limit / n, lag=lag)
         tendon = spec.add_tendon(name=f"track_{side}")
         if equality:
             tendon.wrap_joint(f"sprocket_{side}", Rs)
             _add_servo(spec, f"drive_{side}", f"track_{side}", mujoco.mjtTrn.mjTRN_TENDON,
-                       gear=1.0, kv=drive.kv, fmax=drive.force_limit, lag=drive.lag)
+                       gear=1.0, kv=drive.kv, fmax=drive.force_limit, lag=lag)
         else:  # mean surface speed of the rollers
             for i in range(n):
                 tendon.wrap_joint(f"roll_{side}_{i}", r / n)

@@ -2,7 +2,8 @@
 
 A track drive, for either track model, is
 
-    command c --(x track_speed_scale)--(dead time drive_delay)--(first-order lag drive_lag)--> u
+    command c --(x track_speed_scale)--(dead time drive_delay)--(clamp +-drive_speed_limit)
+              --(ramp drive_accel_limit)--(first-order lag drive_lag)--> u
     m_t dV/dt = F - F_g,   F = clip(kv (u - V), +-F_max)
 
 with u the servo set-point, V the track speed, F_g the ground's traction on the track,
@@ -10,10 +11,12 @@ m_t the drivetrain inertia reflected to the track surface (``SimConfig.track_mas
 servo gain and F_max the traction force limit per track (``Robot.drive_force_limit``, default
 ``SimConfig.torque_limit / R_s``).
 
-The lag is MuJoCo's exact first-order filter on the actuators (roller chain) or the same
-exact discretisation in :class:`mjtrack.sim.surfacevel.TrackDrive`; the delay and the scale
-are applied to the per-step command sequence (:func:`drive_commands`), so they are exact to
-the time step for both models, and the logged commands stay the commanded ones.
+(per side: ``drive_delay_left/right``, ``drive_speed_limit_left/right``, ``drive_lag_left/right``).
+The chain up to the lag is :mod:`mjtrack.models.drivetrain`'s, applied to the per-step command
+sequence (:func:`drive_commands`), so it is exact to the time step for both models and the
+logged commands stay the commanded ones; the lag is MuJoCo's exact first-order filter on each
+side's actuators (roller chain) or the same exact discretisation in
+:class:`mjtrack.sim.surfacevel.TrackDrive`.
 
 Derivation and measurements: docs/theory/simulator.md, "The track drives".
 """
@@ -25,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjtrack.io.robot import Robot
+from mjtrack.models.drivetrain import Chain, clamp, ramp, setpoints, twist
 from mjtrack.sim.config import SimConfig
 
 
@@ -32,7 +36,7 @@ from mjtrack.sim.config import SimConfig
 class Drive:
     """Simulation terms of one track drive (SI units): see the module docstring."""
 
-    lag: float  # [s] first-order time constant command -> set-point
+    lags: tuple[float, float]  # [s] first-order time constant command -> set-point, (left, right)
     force_limit: float  # [N] traction force limit per track
     kv: float  # [N/(m/s)] servo gain per track
     track_mass: float  # [kg] reflected drivetrain inertia per track
@@ -41,28 +45,30 @@ class Drive:
 def drive_of(robot: Robot, config: SimConfig) -> Drive:
     """The drive of ``robot`` under ``config`` (mass scaling applied, robot keys win).
 
-    ``SimConfig.lag`` is a simulator-side lag kept for older settings; the robot's ``drive_lag``
-    replaces it when non-zero.
+    ``SimConfig.lag`` is a simulator-side lag kept for older settings; a side's lag
+    (``drive_lag_left/right``, else ``drive_lag``) replaces it when non-zero.
     """
     scaled = config.for_robot_mass(robot.mass)
     force_limit = robot.drive_force_limit
     if force_limit is None:
         force_limit = scaled.torque_limit / robot.sprocket_radius
-    return Drive(lag=robot.drive_lag or config.lag, force_limit=float(force_limit), kv=scaled.kv,
+    return Drive(lags=tuple(lag or config.lag for lag in robot.lag_per_side), force_limit=float(force_limit), kv=scaled.kv,
                  track_mass=scaled.track_mass)
 
 
-def delay_steps(robot: Robot, timestep: float) -> int:
-    """``drive_delay`` in whole time steps (round to nearest)."""
-    return int(round(robot.drive_delay / timestep))
-
-
 def drive_commands(robot: Robot, commands: np.ndarray, timestep: float) -> np.ndarray:
-    """The per-step commands (nstep, 2) [m/s] as the drives see them: scaled by
-    ``track_speed_scale`` and shifted by ``drive_delay`` (zero command before t = 0: the robot
-    starts at rest)."""
-    out = np.asarray(commands, dtype=float) * robot.track_speed_scale
-    k = delay_steps(robot, timestep)
-    if k > 0:
-        out = np.concatenate([np.zeros((min(k, len(out)),) + out.shape[1:]), out[:max(len(out) - k, 0)]])
+    """The per-step set-points (nstep, 2) [m/s] the drives' lags receive from per-step commands:
+    :func:`mjtrack.models.drivetrain.setpoints` of the robot's chain (scale, dead time, speed
+    limit, acceleration limit; zero command before t = 0: the robot starts at rest)."""
+    return setpoints(Chain.of_robot(robot), commands, timestep)
+
+
+def controller_stages(robot: Robot, commands: np.ndarray, timestep: float, start: np.ndarray) -> np.ndarray:
+    """Per-step commands (M, nstep, 2) of M windows, already scaled and delayed, through the
+    robot's own controller: twist stage, speed clamp and ramp (:mod:`mjtrack.models.drivetrain`;
+    the ramp starts at ``start`` (M, 2), the measured speeds). Unchanged without those keys."""
+    chain = Chain.of_robot(robot)
+    out = clamp(twist(commands, chain.turn_scale, chain.mean_limit, chain.turn_limit), chain.speed_limit)
+    if chain.accel_limit is not None:
+        out = ramp(np.swapaxes(out, 0, 1), chain.accel_limit, timestep, start).swapaxes(0, 1)
     return out

@@ -227,7 +227,7 @@ class TrackDrive:
     """Track speeds as a state, applied through surfacevel at every step.
 
     Per step of length dt with held commands c (left, right) [m/s]:
-      set-point  u <- c + (u - c) exp(-dt/lag)        (exact first-order lag; u = c if lag = 0)
+      set-point  u <- c + (u - c) exp(-dt/lag)        (exact first-order lag, each side its own; u = c if lag = 0)
       kinematic  V <- V + clip(u - V, +-a_max dt)      (``torque_limited=False``)
       servo      m_t dV/dt = F - F_g,  F = clip(kv (u - V), +-F_max)
     with m_t, kv, F_max and the lag of :func:`mjtrack.sim.drivetrain.drive_of` (the roller chain's
@@ -247,7 +247,7 @@ class TrackDrive:
             raise InputError(f"surfacevel: 'traction_filter' must be positive, got {traction_filter!r}")
         self.model, self.ids = model, track_geom_ids(model)
         drive = drive_of(robot, config)  # the robot's drivetrain keys, scaled defaults
-        self.lag, self.kv, self.track_mass = drive.lag, drive.kv, drive.track_mass
+        self.lags, self.kv, self.track_mass = np.array(drive.lags), drive.kv, drive.track_mass
         self.force_limit = drive.force_limit  # [N]
         # kinematic mode: the track speed changes at most as fast as the force limit can
         # accelerate the drivetrain and the half robot it pushes (m_t + m/2)
@@ -264,7 +264,7 @@ class TrackDrive:
         """Advance the drive and the simulation by one timestep under commands V_L, V_R [m/s]."""
         dt = self.model.opt.timestep
         cmd = np.array([v_left, v_right], dtype=float)
-        a = math.exp(-dt / self.lag) if self.lag > 0 else 0.0
+        a = np.array([math.exp(-dt / lag) if lag > 0 else 0.0 for lag in self.lags])
         self.setpoint = cmd + (self.setpoint - cmd) * a
         if self.torque_limited:
             fg = track_traction(self.model, data, self.ids)

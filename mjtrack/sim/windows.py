@@ -44,6 +44,7 @@ from mjtrack.sim.builder import apply_rest_margins, build_model, control_matrix,
 from mjtrack.sim.chassis import (chassis_mass_properties, resistance_forces, set_body_inertia, set_resistance,
                                  set_rest_springs)
 from mjtrack.sim.config import SimConfig
+from mjtrack.sim.drivetrain import controller_stages
 from mjtrack.sim.rollout import STATE_SPEC, SensorMap, aligned_rollout, collected_mujoco_warnings, settled_state, yaw_of
 from mjtrack.windows.define import WindowSet, start_speeds, start_twists, window_errors
 from mjtrack.windows.params import WINDOW_PARAMS, drive_params, geometry_robot, robot_params, slope_of
@@ -272,6 +273,7 @@ def warm_states(sim: WindowSim, model: mujoco.MjModel, log: DriveLog, ws: Window
         sp0 = start_speeds(log, wws)
         st = sim.initial_states(model, rest, p0, start_twists(log, wws), sp0)
         cmds = window_commands(log, wws, sim.dt, int(n), delay=delay, scale=scale, before=sp0)
+        cmds = controller_stages(sim.robot, cmds, sim.dt, sp0)  # the robot's own speed controller
         states, _ = aligned_rollout([model] * g.size, datas if len(datas) > 1 else datas[0], st, cmds @ sim.B.T)
         scratch = mujoco.MjData(model)
         for i, j in enumerate(g):
@@ -405,6 +407,7 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
                 state0 = warm_states(vsim, model, log, ws, rest, state0, twists, warmup_s, delay=delay, scale=scale,
                                      datas=datas)
             cmds = window_commands(log, ws, sim.dt, nstep, delay=delay, scale=scale, before=speeds0)
+            cmds = controller_stages(vsim.robot, cmds, sim.dt, speeds0)  # the robot's own speed controller
             control = cmds @ sim.B.T
             for lo in range(0, M, CHUNK):
                 hi = min(M, lo + CHUNK)
