@@ -37,6 +37,7 @@ from mjtrack.errors import InputError
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.models.drivetrain import window_response
+from mjtrack.windows import LOGGED_COMMANDS, make_windows
 
 SIDED = ("drive_delay", "drive_lag", "drive_speed_limit")
 LIMITS = ("drive_speed_limit_left", "drive_speed_limit_right", "drive_accel_limit", "drive_mean_speed_limit",
@@ -72,8 +73,6 @@ class SpeedWindows:
 
 def speed_windows(log: DriveLog, horizon_s: float = 2.0) -> SpeedWindows:
     """The log's windows with their commands and measured speeds; InputError without measured speeds."""
-    from mjtrack.sim.windows import make_windows  # (the window definition, loaded where it is used)
-
     if log.v_left is None or log.v_right is None:
         raise InputError("drivetrain: the log has no measured track speeds (columns v_left, v_right)")
     meas = np.stack([log.v_left, log.v_right], -1).astype(float)
@@ -335,7 +334,6 @@ def predicted_drive_log(log: DriveLog, values: dict[str, float]) -> DriveLog:
     segment from its measured start speeds, else at rest), the logged commands kept under
     ``LOGGED_COMMANDS`` as :func:`mjtrack.sim.windows.measured_drive_log` keeps them (which
     windows are steady turns stays a property of the commands)."""
-    from mjtrack.sim.windows import LOGGED_COMMANDS
 
     slices = log.segment_slices()
     K = max(sl.stop - sl.start for sl in slices)
