@@ -332,9 +332,8 @@ def has_measured_speeds(log: DriveLog) -> bool:
 def predicted_drive_log(log: DriveLog, values: dict[str, float]) -> DriveLog:
     """The log driven by the track speeds the chain ``values`` predicts from its commands (each
     segment from its measured start speeds, else at rest), the logged commands kept under
-    ``LOGGED_COMMANDS`` as :func:`mjtrack.sim.windows.measured_drive_log` keeps them (which
+    ``LOGGED_COMMANDS`` as :func:`mjtrack.windows.measured_drive_log` keeps them (which
     windows are steady turns stays a property of the commands)."""
-
     slices = log.segment_slices()
     K = max(sl.stop - sl.start for sl in slices)
     S = len(slices)
