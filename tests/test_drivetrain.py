@@ -212,7 +212,8 @@ def test_window_simulator_drives_through_the_robots_controller():
     a window commanded 0.9 m/s from rest with a 0.5 m/s limit and a 1 m/s^2 ramp reaches 0.25 m/s
     at 0.25 s and runs at the limit; without the keys it reaches the command."""
     from mjtrack.io.logs import DriveLog
-    from mjtrack.sim.windows import WindowSim, make_windows, simulate_windows
+    from mjtrack.sim.windows import WindowSim, simulate_windows
+    from mjtrack.windows import make_windows
 
     t = np.arange(0.0, 2.0001, 0.05)
     z = np.zeros_like(t)
