@@ -162,8 +162,9 @@ def main() -> int:
         print("medians old / new: " + ", ".join(f"{k} {v:.2f}" for k, v in med["ratio_old_over_new"].items()))
     out = RESULTS / ("bench_calibrate.json" if args.case == "sim60" else "bench_calibrate_marmotte.json")
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"command": "python benchmarks/bench_calibrate.py " + " ".join(
-        a for a in sys.argv[1:] if not a.startswith("/")), "case": args.case, "cpus": os.cpu_count(),
+    command = " ".join(["python benchmarks/bench_calibrate.py", "--case", args.case, "--repeats", str(args.repeats)]
+                       + (["--old-tree", "DIR"] if args.old_tree else []))  # (the checkout's place is the user's)
+    out.write_text(json.dumps({"command": command, "case": args.case, "cpus": os.cpu_count(),
         "target_wall_s": 60 if args.case == "sim60" else 120, "medians": med, "runs": runs}, indent=1) + "\n")
     print(f"wrote {out.relative_to(ROOT)}")
     return 0

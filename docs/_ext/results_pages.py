@@ -292,10 +292,10 @@ def _speed() -> Page:
     if sim60.exists():
         cal = Source(sim60)
         sources.append(cal)
-        tables.append(_calibration_ab(cal, "Calibration of a 60 s simulated log with one hidden change (centre of "
-                                           "mass 6 cm ahead) and a held-out 60 s log, calibrate's defaults: the code "
-                                           "before the speed work (old) and now (new), alternating in one run, "
-                                           "medians; stage times of the first run of each."))
+        tables.append(_calibration_ab(cal, "Calibration of a one-minute simulated log with one hidden change (the "
+                                           "centre of mass moved ahead, cg_x) and a held-out log of the same length, "
+                                           "calibrate's defaults: the code before the speed work (old) and now (new), "
+                                           "alternating in one run, medians; stage times of the first run of each."))
     marmotte = Source(RESULTS / "bench_calibrate_marmotte.json")
     sources.append(marmotte)
     tables.append(_calibration_ab(marmotte, "Calibration of the whole shared Marmotte log, 6 rollers per track.")
