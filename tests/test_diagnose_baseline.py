@@ -42,11 +42,11 @@ def surrogate_problem(request):
 def test_model_form_is_one_definition():
     mf = ModelForm(0.1, {"icr_spread": 0.03})
     # relative to the size |theta - nominal|, the absolute term in quadrature
-    assert mf.se("cg_offset_x", [0.05], [0.01]) == pytest.approx([0.004])
+    assert mf.se("cg_x", [0.05], [0.01]) == pytest.approx([0.004])
     assert mf.se("icr_spread", [1.4], [1.0]) == pytest.approx([math.hypot(0.04, 0.03)])
-    # a slope's size is its angle; its direction carries rel x 1 rad
-    assert mf.se("slope", [0.2, 2.0], [0.0, 0.0]) == pytest.approx([0.02, 0.1])
-    assert mf.se("speed_limit", [0.5], [np.inf]) == pytest.approx([0.0])  # a limit from infinity: no size
+    # a slope is a vector: rel x its length on each component
+    assert mf.se("slope", [0.06, -0.08], [0.0, 0.0]) == pytest.approx([0.01, 0.01])
+    assert mf.se("drive_speed_limit", [0.5], [np.inf]) == pytest.approx([0.0])  # a limit from infinity: no size
 
 
 def test_baselines_speak_the_one_vocabulary(surrogate_problem, mujoco_problem):
@@ -84,13 +84,13 @@ def _check_batched_and_nominal(problem, names, windows):
 
 
 def test_surrogate_errors_batched_and_nominal(surrogate_problem):
-    names = ["track_speed_scale", "command_delay", "cg_offset_x", "friction_asymmetry"]
+    names = ["track_speed_scale", "drive_delay", "cg_x", "mu_ratio"]
     _check_batched_and_nominal(surrogate_problem, names, np.arange(0, surrogate_problem.starts.size, 7))
 
 
 def test_mujoco_errors_batched_and_nominal(mujoco_problem):
     windows = np.arange(mujoco_problem.starts.size)
-    _check_batched_and_nominal(mujoco_problem, ["cg_offset_x", "track_speed_scale"], windows)
+    _check_batched_and_nominal(mujoco_problem, ["cg_x", "track_speed_scale"], windows)
 
 
 def test_mujoco_test_split_and_combined_effects(mujoco_problem):
@@ -100,14 +100,14 @@ def test_mujoco_test_split_and_combined_effects(mujoco_problem):
     assert np.all(p.starts[p.fold == 0] >= np.searchsorted(p.data.t, 4.0))
     # effects already found combine with the candidate: friction scale x asymmetry, clip, slope
     r = p.baseline.robot
-    parts = [(EFFECTS["friction_scale"], [0.5]), (EFFECTS["friction_asymmetry"], [2.0]),
-             (EFFECTS["speed_limit"], [0.4]), (EFFECTS["slope"], [0.1, 0.0]), (EFFECTS["cg_offset_x"], [0.02])]
+    parts = [(EFFECTS["friction_scale"], [0.5]), (EFFECTS["mu_ratio"], [2.0]),
+             (EFFECTS["drive_speed_limit"], [0.4]), (EFFECTS["slope"], [math.sin(0.1), 0.0]), (EFFECTS["cg_x"], [0.02])]
     kind, variant, clip = _spec(r, parts)
     assert kind == "base" and clip == 0.4
     assert variant == pytest.approx({"mu_left": r.friction_right * 2.0 * 0.5, "mu_right": r.friction_right * 0.5,
                                      "cg_x": 0.02, "slope_x": math.sin(0.1), "slope_y": 0.0})
     with_base = dataclasses.replace(p, base=((EFFECTS["friction_scale"], np.array([0.5])),))
     w = np.arange(2)
-    one = p.baseline.errors(with_base, w, EFFECTS["cg_offset_x"], [[0.03]])[0]
-    joint = p.baseline._run(w, [_spec(r, [(EFFECTS["friction_scale"], [0.5]), (EFFECTS["cg_offset_x"], [0.03])])])[0]
+    one = p.baseline.errors(with_base, w, EFFECTS["cg_x"], [[0.03]])[0]
+    joint = p.baseline._run(w, [_spec(r, [(EFFECTS["friction_scale"], [0.5]), (EFFECTS["cg_x"], [0.03])])])[0]
     np.testing.assert_allclose(one, joint, atol=1e-12)

@@ -17,8 +17,8 @@ Model-form error (:class:`ModelForm`). No resampling of one log shows a baseline
 systematic error on an effect's size: it is the same in every block. Each baseline therefore
 carries it, measured on logs whose truth is known, as two 1-sigma terms added in quadrature to
 an estimate's statistical standard error: a relative one, ``rel`` x |estimate - nominal| (the
-RMS of |estimate - truth| / |truth - nominal| over the effects of a battery; for ``slope``,
-whose size is its angle, and ``slope_direction``, ``rel`` x 1 rad), and an absolute one per
+RMS of |estimate - truth| / |truth - nominal| over the effects of a battery; for ``slope``, a
+vector, ``rel`` x its length on each component), and an absolute one per
 effect in the effect's units (how far two independent physics of one robot description lie
 apart on a clean log, which does not shrink with the effect's size). ``measured_by`` names the
 script that measured them and the result file it wrote.
@@ -59,8 +59,8 @@ class ModelForm:
         whose no-effect values are ``nominal`` (P,): the relative and absolute terms in quadrature."""
         theta = np.asarray(theta, float)
         size = np.abs(theta - np.asarray(nominal, float))
-        if effect == "slope":
-            size = np.array([abs(float(theta[0])), 1.0])  # the direction: rel x 1 rad
+        if effect == "slope":  # a vector: its size and its direction each off by rel, on both components
+            size = np.full(size.shape, float(np.hypot(*size)))
         rel = self.rel * np.where(np.isfinite(size), size, 0.0)
         return np.hypot(rel, self.absolute.get(effect, 0.0))
 

@@ -170,11 +170,6 @@ def fit(problem: Problem, effect: Effect, train_folds: np.ndarray, *, covariance
     res = optimize.least_squares(resid, x0, bounds=(lo, hi), method="trf", x_scale="jac", diff_step=DIFF_STEP,
                                  xtol=1e-6, ftol=1e-8, max_nfev=60)
     p = res.x
-    if "slope" in effect.params and p[0] < 0:  # a negative angle is the opposite direction
-        p = np.array([-p[0], p[1] + np.pi])
-    if "slope_direction" in effect.params:
-        p = p.copy()
-        p[1] = (p[1] + np.pi) % (2 * np.pi) - np.pi
     log.debug("fit %s on folds %s: %s (cost %.4g, %d evaluations)", effect.name, list(train_folds), p, res.cost, res.nfev)
     if not covariance:
         return p

@@ -67,15 +67,15 @@ def _own(r: Robot, key: str, default: float) -> float:
 
 # what each effect changes in the MuJoCo robot
 CHANGES = {
-    "cg_offset_x": "centre of mass x in the MuJoCo chassis (model field)",
-    "cg_offset_y": "centre of mass y in the MuJoCo chassis (model field)",
+    "cg_x": "centre of mass x in the MuJoCo chassis (model field)",
+    "cg_y": "centre of mass y in the MuJoCo chassis (model field)",
     "friction_scale": "both tracks' contact-pair friction times the scale",
-    "friction_asymmetry": "left-track friction = ratio x right-track friction",
+    "mu_ratio": "left-track friction = ratio x right-track friction",
     "track_speed_scale": "the drives' set-points = scale x command",
-    "actuator_lag": "first-order filter on the drives' set-points (actuator dynamics; time constant)",
-    "command_delay": "dead time on the drives' set-points (total)",
-    "speed_limit": "commands clipped at +-limit",
-    "slope": "gravity of a plane inclined by slope, uphill towards slope_direction (world frame)",
+    "drive_lag": "first-order filter on the drives' set-points (actuator dynamics; time constant)",
+    "drive_delay": "dead time on the drives' set-points (total)",
+    "drive_speed_limit": "commands clipped at +-limit",
+    "slope": "gravity of an inclined plane whose in-plane part is g (slope_x, slope_y) (world frame)",
     "ground_anisotropy": "anisotropic ground: lateral friction = ratio x longitudinal (capsule rollers)",
     "road_wheels": "95 % of the load on 4 road wheels spread over span x the contact length",
     "contact_length": "a track's contact length (a wheeled robot's wheelbase): the robot rebuilt",
@@ -87,14 +87,14 @@ UNTESTABLE = {"icr_spread": "not a physical parameter of the MuJoCo robot",
 # The "no effect" value of each one-parameter effect for a robot and log: around the robot's own
 # value, so that a calibrated robot is extended, not reset (lag and dead time add to its own).
 NOMINAL: dict[str, Callable[[Robot, DriveLog], float]] = {
-    "cg_offset_x": lambda r, lg: r.cg_x,
-    "cg_offset_y": lambda r, lg: r.cg_y,
+    "cg_x": lambda r, lg: r.cg_x,
+    "cg_y": lambda r, lg: r.cg_y,
     "friction_scale": lambda r, lg: 1.0,
-    "friction_asymmetry": lambda r, lg: r.friction_left / r.friction_right,
+    "mu_ratio": lambda r, lg: r.friction_left / r.friction_right,
     "track_speed_scale": lambda r, lg: _own(r, "track_speed_scale", 1.0),
-    "actuator_lag": lambda r, lg: _own(r, "drive_lag", 0.0),
-    "command_delay": lambda r, lg: _own(r, "drive_delay", 0.0),
-    "speed_limit": lambda r, lg: _vmax(lg),
+    "drive_lag": lambda r, lg: _own(r, "drive_lag", 0.0),
+    "drive_delay": lambda r, lg: _own(r, "drive_delay", 0.0),
+    "drive_speed_limit": lambda r, lg: _vmax(lg),
     "ground_anisotropy": lambda r, lg: 1.0,
     "road_wheels": lambda r, lg: 1.0,
     "contact_length": lambda r, lg: r.contact_length,
@@ -102,14 +102,14 @@ NOMINAL: dict[str, Callable[[Robot, DriveLog], float]] = {
 }
 # the fit's grid of each one-parameter effect (module docstring)
 GRIDS: dict[str, Callable[[Robot, DriveLog], np.ndarray]] = {
-    "cg_offset_x": lambda r, lg: r.cg_x + r.contact_length * np.linspace(-0.15, 0.15, 7),
-    "cg_offset_y": lambda r, lg: r.cg_y + r.track_gauge * np.linspace(-0.15, 0.15, 7),
+    "cg_x": lambda r, lg: r.cg_x + r.contact_length * np.linspace(-0.15, 0.15, 7),
+    "cg_y": lambda r, lg: r.cg_y + r.track_gauge * np.linspace(-0.15, 0.15, 7),
     "friction_scale": lambda r, lg: np.geomspace(0.35, 1.6, 7),
-    "friction_asymmetry": lambda r, lg: r.friction_left / r.friction_right * np.geomspace(0.4, 2.5, 7),
+    "mu_ratio": lambda r, lg: r.friction_left / r.friction_right * np.geomspace(0.4, 2.5, 7),
     "track_speed_scale": lambda r, lg: _own(r, "track_speed_scale", 1.0) * np.linspace(0.7, 1.15, 7),
-    "actuator_lag": lambda r, lg: _own(r, "drive_lag", 0.0) + np.array([0.0, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6]),
-    "command_delay": lambda r, lg: _own(r, "drive_delay", 0.0) + np.array([0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4]),
-    "speed_limit": lambda r, lg: _vmax(lg) * np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
+    "drive_lag": lambda r, lg: _own(r, "drive_lag", 0.0) + np.array([0.0, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6]),
+    "drive_delay": lambda r, lg: _own(r, "drive_delay", 0.0) + np.array([0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4]),
+    "drive_speed_limit": lambda r, lg: _vmax(lg) * np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
     "ground_anisotropy": lambda r, lg: np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
     "road_wheels": lambda r, lg: np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
     "contact_length": lambda r, lg: r.contact_length * np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4]),
@@ -148,17 +148,6 @@ def _clip_log(lg: DriveLog, limit: float) -> DriveLog:
                                v_right_cmd=np.clip(lg.v_right_cmd, -limit, limit))
 
 
-def slope_vector(theta) -> tuple[float, float]:
-    """a = sin(s) (cos psi, sin psi) of slope parameters (s, psi) [rad]."""
-    s, psi = float(theta[0]), float(theta[1])
-    return math.sin(s) * math.cos(psi), math.sin(s) * math.sin(psi)
-
-
-def _slope_params(a) -> np.ndarray:
-    """(s, psi) of a = sin(s) (cos psi, sin psi)."""
-    return np.array([math.asin(min(1.0, math.hypot(*a))), math.atan2(a[1], a[0])])
-
-
 def _spec(robot: Robot, parts) -> tuple[str, dict, float | None]:
     """What the effects ``parts`` ((Effect, theta) pairs) do to a simulation: (simulator kind,
     window parameters, command clip limit or None)."""
@@ -171,19 +160,19 @@ def _spec(robot: Robot, parts) -> tuple[str, dict, float | None]:
                 raise InputError("diagnose: the anisotropic ground and road wheels cannot be combined in one MuJoCo robot")
             kind = _SIM_OF[name]
             variant["lateral_ratio" if name == "ground_anisotropy" else "span"] = v
-        elif name == "speed_limit":
+        elif name == "drive_speed_limit":
             clip = v if clip is None else min(clip, v)
         elif name == "slope":
-            variant["slope_x"], variant["slope_y"] = slope_vector(theta)
+            variant["slope_x"], variant["slope_y"] = float(theta[0]), float(theta[1])
         elif name == "friction_scale":
             scale = v
-        elif name == "friction_asymmetry":
+        elif name == "mu_ratio":
             ratio = v
         elif name == "contact_length":
             variant["wheelbase" if robot.traction == "wheels" else "track_length"] = v
         else:
-            variant[{"cg_offset_x": "cg_x", "cg_offset_y": "cg_y", "track_speed_scale": "track_speed_scale",
-                     "actuator_lag": "drive_lag", "command_delay": "drive_delay",
+            variant[{"cg_x": "cg_x", "cg_y": "cg_y", "track_speed_scale": "track_speed_scale",
+                     "drive_lag": "drive_lag", "drive_delay": "drive_delay",
                      "rolling_resistance": "rolling_resistance"}[name]] = v
     if scale is not None or ratio is not None:
         s = 1.0 if scale is None else scale
@@ -377,7 +366,7 @@ class MujocoBaseline(Baseline):
             E0, J = self._slope_jacobian(problem)
 
             def solve(idx):
-                return _slope_params(_slope_a(E0, J, idx))
+                return _slope_a(E0, J, idx)
         else:
             grid, sq = self._curves(problem, effect)
 
@@ -388,8 +377,6 @@ class MujocoBaseline(Baseline):
             return est
         boots = np.array([solve(idx) for idx in self._draws(problem, train)])
         dev = boots - est
-        angular = np.array([n == "slope_direction" for n in effect.params])
-        dev[:, angular] = np.angle(np.exp(1j * dev[:, angular]))
         return est, np.diag(np.mean(dev ** 2, axis=0))  # bootstrap variance around the estimate
 
     def _curves(self, problem: Problem, effect: Effect) -> tuple[np.ndarray, np.ndarray]:

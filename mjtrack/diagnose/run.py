@@ -30,6 +30,7 @@ from mjtrack.diagnose.report import build_report
 from mjtrack.diagnose.result import Diagnosis, extended_robot
 from mjtrack.diagnose.select import forward_select
 from mjtrack.diagnose.surrogate_baseline import SurrogateBaseline
+from mjtrack.diagnose.vocabulary import canonical_effects
 from mjtrack.errors import InputError
 from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.logs import DriveLog
@@ -201,7 +202,9 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n
             extensions -- it can miss an effect the surrogate does not see); "auto": "mujoco" whenever the
             description lets the MuJoCo robot be built, else "surrogate" with the reason in the notes
             and ``baseline.choice``.
-        effects: names to test (default: every effect of :data:`EFFECTS` the baseline can simulate).
+        effects: names to test (default: every effect of :data:`EFFECTS` the baseline can simulate); the
+            names replaced in 0.3 (:data:`mjtrack.diagnose.vocabulary.RENAMED`) are read with a
+            DeprecationWarning.
         max_fit_windows: windows used per surrogate fit (a stride of them); scoring uses all windows.
         max_effects: forward selection stops after this many effects (default: the baseline's
             ``max_effects``: 3 for the surrogates, 1 for MuJoCo, whose every step costs ~8 window
@@ -238,9 +241,8 @@ def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, bas
                          f"{log_.n_samples // 2}")
     if baseline not in BASELINES:
         raise InputError(f"diagnose: unknown baseline {baseline!r} (known: {', '.join(BASELINES)})")
-    unknown = [n for n in effects or () if n not in EFFECTS]
-    if unknown:
-        raise InputError(f"diagnose: unknown effect(s) {', '.join(unknown)} (known: {', '.join(EFFECTS)})")
+    if effects is not None:
+        effects = canonical_effects(effects, EFFECTS)
     if test_log is not None and test_robot is not None:
         differ = same_robot(robot, test_robot)
         if differ:

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -105,12 +104,9 @@ def paired_t(a: np.ndarray, b: np.ndarray) -> float:
     return m / (sd / np.sqrt(d.size))
 
 
-def _jackknife_se(folds: np.ndarray, angular: np.ndarray) -> np.ndarray:
+def _jackknife_se(folds: np.ndarray) -> np.ndarray:
     k = folds.shape[0]
     dev = folds - folds.mean(0)
-    if angular.any():
-        mean_ang = np.angle(np.exp(1j * folds[:, angular]).mean(0))
-        dev[:, angular] = np.angle(np.exp(1j * (folds[:, angular] - mean_ang)))
     return np.sqrt((k - 1) / k * np.sum(dev**2, 0))
 
 
@@ -124,11 +120,10 @@ def model_se(eff: Effect, theta: np.ndarray, problem: fitmod.Problem) -> np.ndar
     return bl.model_form.se(eff.name, theta, bl.nominal(eff, problem))
 
 
-def interval(full: np.ndarray, fold_estimates: np.ndarray, cov: np.ndarray, angular: np.ndarray,
-             n_blocks: int, se_model: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def interval(full: np.ndarray, fold_estimates: np.ndarray, cov: np.ndarray, n_blocks: int, se_model: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """95 % interval (P, 2) and its standard error (P,): the larger of the block-robust sandwich
     and the delete-one-fold jackknife, and the baseline's own error in quadrature (module docstring)."""
-    se_j = _jackknife_se(fold_estimates, angular)
+    se_j = _jackknife_se(fold_estimates)
     se_s = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     se = np.where(np.isfinite(se_s), np.maximum(se_s, se_j), se_j)
     if se_model is not None:
@@ -172,7 +167,6 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
         if bar is not None:
             bar.update()
     ests = np.array(ests)
-    angular = np.array([n == "slope_direction" for n in eff.params])
     valid = problem.valid_mask
     fold_before = np.array([fitmod.pos_rmse(base_err[(problem.fold == k) & valid]) for k in score_folds])
     fold_after = np.array([fitmod.pos_rmse(after_err[(problem.fold == k) & valid]) for k in score_folds])
@@ -184,8 +178,8 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
     # the fit resolves the estimate only so far (an optimum at a kink of the cost, e.g. a dead time
     # fitted to sampled speeds, is located no better): in quadrature with the model-form term
     se_fit = np.hypot(model_se(eff, full, problem), bl.resolution(eff, full))
-    ivl, se = interval(full, ests, cov, angular, gt.blocks, se_fit)
-    se_stat = interval(full, ests, cov, angular, gt.blocks)[1]
+    ivl, se = interval(full, ests, cov, gt.blocks, se_fit)
+    se_stat = interval(full, ests, cov, gt.blocks)[1]
     nominal = bl.nominal(eff, problem)
     passed = gt.lower > 0.0 and gt.relative >= floor
     why = (f"held-out position RMSE {before:.3g} -> {after:.3g} m ({100 * gt.relative:.1f} %, one-sided 95 % bound "
@@ -274,11 +268,11 @@ def _too_few_blocks(before_sq: np.ndarray, after_sq: np.ndarray, block: np.ndarr
 def _contradiction(problem: fitmod.Problem, eff: Effect, theta) -> str | None:
     """A limit the measured speeds exceed: most samples commanded beyond it measure beyond it
     by more than 5 % (a saturation cannot be exceeded), or None."""
-    if eff.name not in ("speed_limit", "yaw_rate_limit") or not np.isfinite(theta[0]):
+    if eff.name not in ("drive_speed_limit", "yaw_rate_limit") or not np.isfinite(theta[0]):
         return None
     ok = problem.speed_ok
     cmd, meas = problem.data.cmd[ok], problem.data.meas[ok]
-    if eff.name == "speed_limit":
+    if eff.name == "drive_speed_limit":
         over = np.abs(cmd) > theta[0]
         beyond = over & (np.abs(meas) > 1.05 * theta[0])
         unit = "m/s"
@@ -294,15 +288,15 @@ def _contradiction(problem: fitmod.Problem, eff: Effect, theta) -> str | None:
 
 
 # -- physics of ties -------------------------------------------------------------------------
-TRACTION_PAIR = ("cg_offset_y", "friction_asymmetry")
+TRACTION_PAIR = ("cg_y", "mu_ratio")
 
 
 def traction_ratio(robot, name: str, value: float) -> float:
     """mu_L N_L / (mu_R N_R), the traction ratio of the two tracks (lever rule for the loads),
-    set by cg_offset_y = value or friction_asymmetry = value, the other at its nominal."""
+    set by cg_y = value or mu_ratio = value, the other at its nominal."""
     half = robot.track_gauge / 2
-    cy = value if name == "cg_offset_y" else robot.cg_y
-    a = value if name == "friction_asymmetry" else robot.friction_left / robot.friction_right
+    cy = value if name == "cg_y" else robot.cg_y
+    a = value if name == "mu_ratio" else robot.friction_left / robot.friction_right
     return a * (half + cy) / (half - cy)
 
 
@@ -310,9 +304,9 @@ def equivalent(robot, name: str, value: float) -> float:
     """The value of the other effect of :data:`TRACTION_PAIR` that sets the same traction ratio."""
     rho = traction_ratio(robot, name, value)
     half = robot.track_gauge / 2
-    if name == "cg_offset_y":  # -> friction_asymmetry, the nominal cg_y kept
+    if name == "cg_y":  # -> mu_ratio, the nominal cg_y kept
         return rho * (half - robot.cg_y) / (half + robot.cg_y)
-    r = rho / (robot.friction_left / robot.friction_right)  # -> cg_offset_y, the nominal asymmetry kept
+    r = rho / (robot.friction_left / robot.friction_right)  # -> cg_y, the nominal asymmetry kept
     return half * (r - 1.0) / (r + 1.0)
 
 
@@ -320,16 +314,16 @@ def physical_tie(robot, a: CandidateResult, b: CandidateResult) -> str | None:
     """Why two findings cannot be separated by physics, or None (module docstring)."""
     if {a.effect.name, b.effect.name} != set(TRACTION_PAIR):
         return None
-    cy, fa = (a, b) if a.effect.name == "cg_offset_y" else (b, a)
-    rho_c = traction_ratio(robot, "cg_offset_y", float(cy.estimate[0]))
-    rho_f = traction_ratio(robot, "friction_asymmetry", float(fa.estimate[0]))
+    cy, fa = (a, b) if a.effect.name == "cg_y" else (b, a)
+    rho_c = traction_ratio(robot, "cg_y", float(cy.estimate[0]))
+    rho_f = traction_ratio(robot, "mu_ratio", float(fa.estimate[0]))
     if (rho_c - 1.0) * (rho_f - 1.0) <= 0:  # they disagree on which track grips more
         return None
-    return (f"under Coulomb friction cg_offset_y and friction_asymmetry both set the traction ratio "
-            f"mu_L N_L / (mu_R N_R) of the two tracks: cg_offset_y = {cy.estimate[0]:.4g} m gives {rho_c:.3g}, "
-            f"as friction_asymmetry = {equivalent(robot, 'cg_offset_y', float(cy.estimate[0])):.4g} would; "
-            f"friction_asymmetry = {fa.estimate[0]:.4g} gives {rho_f:.3g}, as cg_offset_y = "
-            f"{equivalent(robot, 'friction_asymmetry', float(fa.estimate[0])):.4g} m would. A drive log cannot separate "
+    return (f"under Coulomb friction cg_y and mu_ratio both set the traction ratio "
+            f"mu_L N_L / (mu_R N_R) of the two tracks: cg_y = {cy.estimate[0]:.4g} m gives {rho_c:.3g}, "
+            f"as mu_ratio = {equivalent(robot, 'cg_y', float(cy.estimate[0])):.4g} would; "
+            f"mu_ratio = {fa.estimate[0]:.4g} gives {rho_f:.3g}, as cg_y = "
+            f"{equivalent(robot, 'mu_ratio', float(fa.estimate[0])):.4g} m would. A drive log cannot separate "
             f"them; weighing the left and right tracks (or wheels) can: a lateral centre of mass moves the load "
             f"(left share {0.5 + float(cy.estimate[0]) / robot.track_gauge:.3f} here), a friction asymmetry does not")
 

@@ -49,15 +49,15 @@ MODEL_FORM = ModelForm(MODEL_REL, MODEL_ABS,
 # what each effect changes in the surrogate (:mod:`mjtrack.diagnose.effects`)
 CHANGES = {
     "track_speed_scale": "the track speeds driving the ground model = scale x command",
-    "actuator_lag": "first-order lag on the track speeds (exact for held commands)",
-    "command_delay": "dead time on the track speeds (the held commands interpolated)",
-    "speed_limit": "track speeds clipped at +-limit",
+    "drive_lag": "first-order lag on the track speeds (exact for held commands)",
+    "drive_delay": "dead time on the track speeds (the held commands interpolated)",
+    "drive_speed_limit": "track speeds clipped at +-limit",
     "yaw_rate_limit": "the commanded yaw rate (V_R - V_L)/T clipped, the mean track speed kept",
-    "cg_offset_x": "the quasi-static ICRs (exact Coulomb solves, tabulated) and the centripetal load transfer",
-    "cg_offset_y": "the quasi-static ICRs (exact Coulomb solves, tabulated) and the load split of the transient",
+    "cg_x": "the quasi-static ICRs (exact Coulomb solves, tabulated) and the centripetal load transfer",
+    "cg_y": "the quasi-static ICRs (exact Coulomb solves, tabulated) and the load split of the transient",
     "friction_scale": "the inertial response (as 1/scale) and the friction bounds of the transient",
-    "friction_asymmetry": "the quasi-static ICRs (exact Coulomb solves, tabulated) and the transient's force bounds",
-    "slope": "g sin(slope) along the uphill direction added to the effective acceleration",
+    "mu_ratio": "the quasi-static ICRs (exact Coulomb solves, tabulated) and the transient's force bounds",
+    "slope": "g (slope_x, slope_y) in the body frame added to the effective acceleration",
     "icr_spread": "the track ICRs (y_l, y_r) scaled",
 }
 KINEMATIC_UNTESTABLE = {"friction_scale": "acts only through the inertial response, which the kinematic baseline "
@@ -98,7 +98,7 @@ class SurrogateBaseline(Baseline):
 
     def nominal(self, effect: Effect, problem: fitmod.Problem) -> np.ndarray:
         data = problem.data
-        if effect.name == "speed_limit":
+        if effect.name == "drive_speed_limit":
             return np.array([np.max(np.abs(data.cmd))])
         if effect.name == "yaw_rate_limit":
             return np.array([np.max(np.abs(data.cmd[:, 1] - data.cmd[:, 0])) / self.robot.track_gauge])
@@ -117,9 +117,8 @@ class SurrogateBaseline(Baseline):
     def resolution(self, effect: Effect, theta) -> np.ndarray:
         """The optimiser's relative finite-difference step (:data:`mjtrack.diagnose.fit.DIFF_STEP`): an
         optimum at a kink of the cost (a dead time fitted to sampled track speeds) is located no
-        better; none for an angle."""
+        better."""
         out = fitmod.DIFF_STEP * np.maximum(np.abs(np.asarray(theta, float)), 1e-12)
-        out[[n == "slope_direction" for n in effect.params]] = 0.0
         return out
 
     def speeds(self, problem: fitmod.Problem, parts) -> np.ndarray:
