@@ -3,7 +3,7 @@
 :data:`EFFECTS` is the one vocabulary of every baseline (:class:`Effect`: name, parameters,
 kind, meaning, signature, and the surrogate fit's bounds and start grid); what an effect changes
 is each baseline's own (``Baseline.vocabulary``): below, the surrogate's;
-``ground_anisotropy``, ``road_wheels``, ``contact_length`` and ``rolling_resistance`` (contact
+``ground_anisotropy``, ``road_wheels``, ``track_length`` / ``wheelbase`` and ``rolling_resistance`` (contact
 models and forces the surrogate cannot express) only the MuJoCo robot simulates
 (:mod:`mjtrack.diagnose.mujoco_baseline`).
 
@@ -130,12 +130,15 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "95 % of the load on 4 road wheels spread over this share of the contact length",
            "the load concentrates under the wheels: turning resistance as of a shorter contact",
            lambda r: (1.0,), lambda r: ((0.05,), (1.0,)), _grid(0.3, 0.5, 0.75, 1.0)),
-    Effect("contact_length", ("contact_length",), "ground",
-           "length of the ground contact: a track's, a wheeled robot's wheelbase [m]",
-           "turns skid more (longer contact) or less (shorter) than modelled: the yaw ratio off in every turn, "
-           "straight driving exact",
-           lambda r: (r.contact_length,), lambda r: ((0.3 * r.contact_length,), (3.0 * r.contact_length,)),
-           lambda r, d: np.array([[0.7], [0.85], [1.2], [1.5]]) * r.contact_length),
+    # the contact length has the robot file's name of each traction (a track's, a wheeled robot's
+    # wheelbase); a robot tests the one it has
+    *(Effect(key, (key,), "ground", meaning,
+             "turns skid more (longer contact) or less (shorter) than modelled: the yaw ratio off in every turn, "
+             "straight driving exact",
+             lambda r: (r.contact_length,), lambda r: ((0.3 * r.contact_length,), (3.0 * r.contact_length,)),
+             lambda r, d: np.array([[0.7], [0.85], [1.2], [1.5]]) * r.contact_length)
+      for key, meaning in (("track_length", "length of each track's ground contact [m]"),
+                           ("wheelbase", "front to rear axle distance of a wheeled robot [m]"))),
     Effect("rolling_resistance", ("rolling_resistance",), "ground",
            "motion resistance: each side held back by this share of its weight [-]",
            "the body lags its tracks in every motion, more on the loaded side: speed ratio below one even "

@@ -78,7 +78,8 @@ CHANGES = {
     "slope": "gravity of an inclined plane whose in-plane part is g (slope_x, slope_y) (world frame)",
     "ground_anisotropy": "anisotropic ground: lateral friction = ratio x longitudinal (capsule rollers)",
     "road_wheels": "95 % of the load on 4 road wheels spread over span x the contact length",
-    "contact_length": "a track's contact length (a wheeled robot's wheelbase): the robot rebuilt",
+    "track_length": "a track's contact length: the robot rebuilt",
+    "wheelbase": "a wheeled robot's wheelbase: the robot rebuilt",
     "rolling_resistance": "a force holding each side back by this share of its weight (model actuators)",
 }
 UNTESTABLE = {"icr_spread": "not a physical parameter of the MuJoCo robot",
@@ -97,7 +98,8 @@ NOMINAL: dict[str, Callable[[Robot, DriveLog], float]] = {
     "drive_speed_limit": lambda r, lg: _vmax(lg),
     "ground_anisotropy": lambda r, lg: 1.0,
     "road_wheels": lambda r, lg: 1.0,
-    "contact_length": lambda r, lg: r.contact_length,
+    "track_length": lambda r, lg: r.contact_length,
+    "wheelbase": lambda r, lg: r.contact_length,
     "rolling_resistance": lambda r, lg: r.rolling_resistance,
 }
 # the fit's grid of each one-parameter effect (module docstring)
@@ -112,7 +114,8 @@ GRIDS: dict[str, Callable[[Robot, DriveLog], np.ndarray]] = {
     "drive_speed_limit": lambda r, lg: _vmax(lg) * np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
     "ground_anisotropy": lambda r, lg: np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
     "road_wheels": lambda r, lg: np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
-    "contact_length": lambda r, lg: r.contact_length * np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4]),
+    "track_length": lambda r, lg: r.contact_length * np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4]),
+    "wheelbase": lambda r, lg: r.contact_length * np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4]),
     "rolling_resistance": lambda r, lg: r.rolling_resistance + np.array([0.0, 0.02, 0.05, 0.08, 0.12, 0.18, 0.25]),
 }
 _SIM_OF = {"ground_anisotropy": "aniso", "road_wheels": "wheels"}
@@ -168,8 +171,8 @@ def _spec(robot: Robot, parts) -> tuple[str, dict, float | None]:
             scale = v
         elif name == "mu_ratio":
             ratio = v
-        elif name == "contact_length":
-            variant["wheelbase" if robot.traction == "wheels" else "track_length"] = v
+        elif name in ("track_length", "wheelbase"):
+            variant[name] = v
         else:
             variant[{"cg_x": "cg_x", "cg_y": "cg_y", "track_speed_scale": "track_speed_scale",
                      "drive_lag": "drive_lag", "drive_delay": "drive_delay",
@@ -225,16 +228,18 @@ class MujocoBaseline(Baseline):
     noun = "MuJoCo robot"
     model_form = MODEL_FORM
     max_effects = 1  # a forward-selection step costs ~8 window passes per remaining candidate
-    vocabulary = CHANGES
     untestable = UNTESTABLE
     transient = False
 
     def __init__(self, robot: Robot, log: DriveLog, *, horizon_s: float = 2.0, config: SimConfig | None = None,
                  nthread: int = 2, seed: int = 0) -> None:
         self.robot, self.log = robot, log
+        # the contact length under the robot file's key of its traction (the other one is not its own)
+        other = "track_length" if robot.traction == "wheels" else "wheelbase"
+        self.vocabulary = {n: c for n, c in CHANGES.items() if n != other}
         if robot.traction == "wheels":  # the road-wheel ground spreads a track's load; a wheel's is at its axle
             self.untestable = {**UNTESTABLE, "road_wheels": "a wheeled robot carries its load at its axles"}
-            self.vocabulary = {n: c for n, c in CHANGES.items() if n != "road_wheels"}
+            del self.vocabulary["road_wheels"]
         self.config = config or sim_config(None, robot=robot)
         self.nthread, self.seed = nthread, seed
         # windows the ground cannot explain (poses against the tracks, a robot held still by something the

@@ -242,7 +242,7 @@ def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, bas
     if baseline not in BASELINES:
         raise InputError(f"diagnose: unknown baseline {baseline!r} (known: {', '.join(BASELINES)})")
     if effects is not None:
-        effects = canonical_effects(effects, EFFECTS)
+        effects = canonical_effects(effects, EFFECTS, traction=robot.traction)
     if test_log is not None and test_robot is not None:
         differ = same_robot(robot, test_robot)
         if differ:

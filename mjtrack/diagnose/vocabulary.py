@@ -34,19 +34,17 @@ RENAMED: dict[str, str] = {
 RENAMED_PARAMS: dict[str, str] = {"road_wheel_span": "span"}
 
 
-def _warn(old: list[str], where: str) -> None:
-    if old:
-        warnings.warn(f"{where}: {', '.join(f'{o} is now {RENAMED[o]}' for o in old)} (the old names are read "
-                      "until the next release)", DeprecationWarning, stacklevel=3)
-
-
-def canonical_effects(names, known) -> list[str]:
+def canonical_effects(names, known, *, traction: str = "tracks") -> list[str]:
     """Effect names (e.g. what to test) in today's vocabulary: an old name is replaced, with a
-    :class:`DeprecationWarning`; a name that is neither raises :class:`InputError`."""
+    :class:`DeprecationWarning` (``contact_length`` by the robot key of the robot's ``traction``:
+    ``track_length`` or ``wheelbase``); a name that is neither raises :class:`InputError`."""
     names = list(names)
-    old = [n for n in names if n in RENAMED]
-    _warn(old, "effect names")
-    out = [RENAMED.get(n, n) for n in names]
+    renamed = {**RENAMED, "contact_length": "wheelbase" if traction == "wheels" else "track_length"}
+    old = [n for n in names if n in renamed]
+    if old:
+        warnings.warn(f"effect names: {', '.join(f'{o} is now {renamed[o]}' for o in old)} (the old names are "
+                      "read until the next release)", DeprecationWarning, stacklevel=2)
+    out = [renamed.get(n, n) for n in names]
     unknown = [n for n in out if n not in known]
     if unknown:
         raise InputError(f"diagnose: unknown effect(s) {', '.join(unknown)} (known: {', '.join(known)})")
