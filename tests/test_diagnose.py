@@ -385,7 +385,7 @@ def test_gain_within_the_surrogates_resolution_is_not_named(monkeypatch):
     false cause."""
     from mjtrack.testing import diagnose_physics as phys
 
-    from mjtrack.diagnose import surrogate_baseline as sb
+    from mjtrack.diagnose.surrogate import baseline as sb
     from mjtrack.diagnose.baseline import ModelForm
 
     log, robot = phys.make_log({}, geometry="wheeled", seed=5000, duration=120, rate=10, speeds=False)

@@ -300,7 +300,7 @@ def test_model_rel_is_the_measured_one():
 def test_surrogate_model_rel_is_the_measured_one():
     # the surrogate's MODEL_REL is its RMS relative error on the stored MuJoCo matrix, which
     # benchmarks/diagnose_benchmark.py computes from benchmarks/results/diagnose_mujoco_effects.json (3 decimals)
-    from mjtrack.diagnose import surrogate_baseline as sb
+    from mjtrack.diagnose.surrogate import baseline as sb
     from mjtrack.testing.repo import load_benchmark
 
     rms, n = load_benchmark("diagnose_benchmark").model_error_on_mujoco()

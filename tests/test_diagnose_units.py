@@ -6,9 +6,11 @@ import numpy as np
 import pytest
 
 from mjtrack.diagnose import residuals as rs
-from mjtrack.diagnose import surrogate as sg
-from mjtrack.diagnose.effects import EFFECTS, Surrogate
-from mjtrack.diagnose.select import paired_t
+from mjtrack.diagnose.stats import paired_t
+from mjtrack.diagnose.surrogate import Surrogate
+from mjtrack.diagnose.surrogate import response as sg
+from mjtrack.diagnose.surrogate.fit import SETTINGS
+from mjtrack.diagnose.vocabulary import EFFECTS
 from mjtrack.io.robot import G, Robot
 from mjtrack.metrics import horizon_errors
 from mjtrack.models import MICR, Nominal, integrate, steady_state
@@ -54,8 +56,8 @@ def test_effects_at_their_nominal_values_reduce_to_the_baseline(rng):
     data = _data(v, poses=poses)
     s = Surrogate(ROBOT, "coulomb")
     base = s.twist(data, v)
-    for e in EFFECTS.values():
-        nominal = e.nominal(ROBOT)
+    for name, settings in SETTINGS.items():  # every effect the surrogate simulates
+        e, nominal = EFFECTS[name], settings.nominal(ROBOT)
         if e.kind == "input":
             if e.name == "drive_lag":
                 nominal = (1e-12,)  # tau -> 0; the step mean deviates by O(tau/dt)
@@ -85,7 +87,7 @@ def test_input_transforms_exact(rng):
 
 def test_lag_filter_paths_agree(rng):
     """The lfilter path (long segments) equals the exact recursion (short segments)."""
-    import mjtrack.diagnose.effects as eff
+    import mjtrack.diagnose.surrogate.model as eff
 
     v = _steps(rng, n=1000)
     data = _data(v)
@@ -262,8 +264,8 @@ def test_gain_test_sees_an_effect_in_part_of_the_log_and_not_noise():
     assert noise.lower < 0 < noise.upper
 
 
-def test_sandwich_reduces_to_the_iid_formula():
-    from mjtrack.diagnose.stats import sandwich
+def test_cluster_sandwich_reduces_to_the_iid_formula():
+    from mjtrack.diagnose.stats import cluster_sandwich as sandwich
 
     rng = np.random.default_rng(1)
     jac = rng.normal(size=(4000, 2))
@@ -289,7 +291,7 @@ def test_gain_in_one_block_does_not_pass_on_round_off():
 
 
 def test_traction_ratio_equivalents_round_trip():
-    from mjtrack.diagnose.select import equivalent, traction_ratio
+    from mjtrack.diagnose.ties import equivalent, traction_ratio
 
     a = equivalent(ROBOT, "cg_y", 0.06)  # the friction asymmetry that sets the same ratio
     assert traction_ratio(ROBOT, "mu_ratio", a) == pytest.approx(traction_ratio(ROBOT, "cg_y", 0.06))
@@ -324,7 +326,7 @@ def test_transient_carries_on_across_a_chained_window_start():
 def test_min_active_blocks_is_where_the_blocked_bootstrap_bound_leaves_zero():
     """An effect that acts in k of B blocks (exactly no change elsewhere): the one-sided 95 %
     bound of the gain test exceeds zero from k = min_active_blocks(B) on, not below."""
-    from mjtrack.diagnose.select import min_active_blocks
+    from mjtrack.diagnose.stats import min_active_blocks
     from mjtrack.diagnose.stats import gain_test
 
     rng = np.random.default_rng(1)
@@ -351,7 +353,6 @@ def test_pose_floor_is_a_share_of_the_nominal_error():
 
 
 def _candidate(name, sq_err, base=()):
-    from mjtrack.diagnose.effects import EFFECTS
     from mjtrack.diagnose.select import CandidateResult
     err = np.zeros((sq_err.size, 3))
     err[:, 0] = np.sqrt(sq_err)

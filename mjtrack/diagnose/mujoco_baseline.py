@@ -31,8 +31,8 @@ import numpy as np
 
 from mjtrack.diagnose import stats as st
 from mjtrack.diagnose.baseline import Baseline, ModelForm
-from mjtrack.diagnose.effects import Effect
-from mjtrack.diagnose.fit import Problem
+from mjtrack.diagnose.problem import Problem
+from mjtrack.diagnose.vocabulary import Effect
 from mjtrack.diagnose.residuals import DriveData
 from mjtrack.errors import InputError
 from mjtrack.io.logs import DriveLog
@@ -273,7 +273,8 @@ class MujocoBaseline(Baseline):
                                  + ("test log" if fold.all() else "log fitted on"))
             sample_fold = (np.arange(data.n) < n_train).astype(np.int64)
             k, score_folds = 2, (0,)
-        problem = Problem(data=data, baseline=self, horizon_s=ws.horizon_s, dt=data.step_dt(), starts=ws.starts,
+        problem = Problem(data=data, horizon_s=ws.horizon_s, dt=data.step_dt(), yaw_scale=self.robot.track_gauge / 2,
+                          starts=ws.starts,
                           ends=ws.ends, fold=fold, sample_fold=sample_fold,
                           fit_windows=np.flatnonzero(~np.isin(fold, score_folds or ())), measured=None,
                           speed_ok=None, sample_block=st.sample_blocks(data.t, data.seg * k + sample_fold, ws.horizon_s),

@@ -1,10 +1,17 @@
-"""Names of the effect vocabulary and the names they replaced.
+"""The effect vocabulary: names, parameters, kinds and meanings (docs/reference/formats/diagnosis-json.md).
+
+Data only: what an effect changes in a model is each baseline's own (``Baseline.vocabulary``; the
+surrogate's in :mod:`mjtrack.diagnose.surrogate`, the MuJoCo robot's in
+:mod:`mjtrack.diagnose.mujoco_baseline`), and so is how it is fitted.
+
+Two kinds: ``input`` effects act between the command and the track speed, ``ground`` effects
+change the robot or its world.
 
 One name per physical quantity across the robot file, calibration.json, diagnosis.json and the
 API: an effect whose quantity has a robot-file key or a calibration parameter takes that name,
-for the effect and its parameter alike. The names below were diagnose's own until 0.3; they are
-still read (effects to test, older diagnosis.json) with a :class:`DeprecationWarning`, for one
-release.
+for the effect and its parameter alike. The names :data:`RENAMED` were diagnose's own until 0.3;
+they are still read (effects to test, older diagnosis.json) with a :class:`DeprecationWarning`,
+for one release.
 
 The slope is one quantity with two spellings in the past: diagnose's angle and uphill direction
 (``slope``, ``slope_direction``) and calibration's components ``slope_x``, ``slope_y`` (sin(angle)
@@ -18,8 +25,78 @@ from __future__ import annotations
 
 import math
 import warnings
+from dataclasses import dataclass
 
 from mjtrack.errors import InputError
+
+@dataclass(frozen=True)
+class Effect:
+    """One effect of the vocabulary: its name, parameter names, kind ("input" or "ground"), what
+    it means and the signature it leaves in prediction errors."""
+
+    name: str
+    params: tuple[str, ...]
+    kind: str
+    meaning: str
+    signature: str
+
+
+EFFECTS: dict[str, Effect] = {e.name: e for e in (
+    Effect("track_speed_scale", ("track_speed_scale",), "input",
+           "actual / commanded track speed, both tracks",
+           "speed and yaw rate both scaled: along-track error grows with speed, turn shape unchanged"),
+    Effect("drive_lag", ("drive_lag",), "input",
+           "first-order time constant from command to track speed [s]",
+           "errors right after command changes, the model leads the measurement"),
+    Effect("drive_delay", ("drive_delay",), "input",
+           "dead time from command to track speed [s]",
+           "errors right after command changes, the measurement follows the model shifted in time"),
+    Effect("drive_speed_limit", ("drive_speed_limit",), "input",
+           "track speeds saturate at this magnitude [m/s]",
+           "errors only at high commanded speeds, the model too fast"),
+    Effect("yaw_rate_limit", ("yaw_rate_limit",), "input",
+           "the commanded body yaw rate (V_R - V_L)/T saturates at this magnitude [rad/s], the mean track "
+           "speed kept (a velocity controller's twist limit, common on wheeled skid-steer robots)",
+           "errors only in sharp turns and spins, the model turns too fast; straight driving exact"),
+    Effect("cg_x", ("cg_x",), "ground",
+           "centre of mass ahead (+) / behind (-) the geometric centre [m]",
+           "the no-slip line x_c moves with the centre of mass: the robot slides to the outside (cg ahead) "
+           "of its turns, the same x_c for both turn directions"),
+    Effect("cg_y", ("cg_y",), "ground",
+           "centre of mass left (+) / right (-) [m]",
+           "the loaded track slips less: turning asymmetric (y_l, y_r shift together)"),
+    Effect("friction_scale", ("friction_scale",), "ground",
+           "ground friction / nominal",
+           "changes the skid only through the centripetal (inertial) response: visible in fast turns only"),
+    Effect("mu_ratio", ("mu_ratio",), "ground",
+           "left-track friction / right-track friction, the right track keeping the nominal mu",
+           "the grippier track slips less: turning asymmetric (y_l, y_r shift together)"),
+    Effect("slope", ("slope_x", "slope_y"), "ground",
+           "inclined ground: sin(slope angle) x the uphill unit vector, world (log) frame x and y [-]",
+           "a drift whose direction in the robot frame turns with the yaw: errors depend on the heading"),
+    Effect("icr_spread", ("icr_spread",), "ground",
+           "track ICR spread / modelled (effective gauge factor): more (>1) or less (<1) skid in turns",
+           "yaw rate off by the same factor in all turns, straight driving exact"),
+    Effect("ground_anisotropy", ("lateral_ratio",), "ground",
+           "anisotropic ground: lateral / longitudinal friction of the track contact",
+           "turns skid less than the isotropic contact predicts (less lateral resistance), straight driving "
+           "exact"),
+    Effect("road_wheels", ("span",), "ground",
+           "95 % of the load on 4 road wheels spread over this share of the contact length",
+           "the load concentrates under the wheels: turning resistance as of a shorter contact"),
+    Effect("track_length", ("track_length",), "ground",
+           "length of each track's ground contact [m]",
+           "turns skid more (longer contact) or less (shorter) than modelled: the yaw ratio off in every "
+           "turn, straight driving exact"),
+    Effect("wheelbase", ("wheelbase",), "ground",
+           "front to rear axle distance of a wheeled robot [m]",
+           "turns skid more (longer contact) or less (shorter) than modelled: the yaw ratio off in every "
+           "turn, straight driving exact"),
+    Effect("rolling_resistance", ("rolling_resistance",), "ground",
+           "motion resistance: each side held back by this share of its weight [-]",
+           "the body lags its tracks in every motion, more on the loaded side: speed ratio below one even "
+           "straight, turns slowed"),
+)}
 
 #: old effect / parameter name -> the name it has now
 RENAMED: dict[str, str] = {
@@ -113,4 +190,4 @@ def _names_in(data: dict) -> set[str]:
     return {n for n in names if isinstance(n, str)}
 
 
-__all__ = ["RENAMED", "RENAMED_PARAMS", "canonical_effects", "slope_angle", "upgrade_diagnosis"]
+__all__ = ["EFFECTS", "Effect", "RENAMED", "RENAMED_PARAMS", "canonical_effects", "slope_angle", "upgrade_diagnosis"]

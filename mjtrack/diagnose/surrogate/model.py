@@ -1,13 +1,7 @@
-"""The effect vocabulary (docs/reference/formats/diagnosis-json.md) and the surrogate model it extends.
+"""The surrogate model: the baseline's body twist under the logged commands, extended by effects.
 
-:data:`EFFECTS` is the one vocabulary of every baseline (:class:`Effect`: name, parameters,
-kind, meaning, signature, and the surrogate fit's bounds and start grid); what an effect changes
-is each baseline's own (``Baseline.vocabulary``): below, the surrogate's;
-``ground_anisotropy``, ``road_wheels``, ``track_length`` / ``wheelbase`` and ``rolling_resistance`` (contact
-models and forces the surrogate cannot express) only the MuJoCo robot simulates
-(:mod:`mjtrack.diagnose.mujoco_baseline`).
-
-A candidate model = the baseline + one effect with its parameters. Two kinds:
+A candidate model = the baseline + one effect of the vocabulary (:mod:`mjtrack.diagnose.vocabulary`)
+with its parameters. Two kinds:
 
 * input effects transform the track-speed sequence before the ground model (exact, cheap):
   ``track_speed_scale`` k: V = k V_cmd;  ``drive_lag`` tau: V' = (V_cmd - V)/tau, discretised
@@ -15,136 +9,38 @@ A candidate model = the baseline + one effect with its parameters. Two kinds:
   started at the first command of each segment;  ``drive_delay`` d: V(t) = V_cmd(t - d), the
   held command sequence interpolated linearly (the mean over a step of a delayed held signal),
   held at its first value before the segment start;  ``drive_speed_limit`` v: V = clip(V_cmd, -v, v).
-* ground effects change the skid-steer response (see :mod:`mjtrack.diagnose.surrogate`):
-  ``cg_x``, ``cg_y``, ``mu_ratio`` move the quasi-static ICRs q0
-  (tabulated exact Coulomb solves); ``friction_scale`` scales the inertial response by 1/fs;
-  ``slope`` (``slope_x``, ``slope_y``: sin(angle) x the uphill unit vector in the world frame, the
-  calibration's parameters) adds g (slope_x, slope_y) turned into the body frame to the effective acceleration, so
-  its signature changes along the path with the yaw; the extra effect ``icr_spread`` scales the
-  track ICRs (y_l, y_r) -> k (y_l, y_r): more (k > 1) or less skid in turns than modelled, the
-  generic symptom of a ground that is not Coulomb-like.
+* ground effects change the skid-steer response (:mod:`mjtrack.diagnose.surrogate.response`):
+  ``cg_x``, ``cg_y``, ``mu_ratio`` move the quasi-static ICRs q0 (tabulated exact Coulomb
+  solves); ``friction_scale`` scales the inertial response by 1/fs; ``slope`` (``slope_x``,
+  ``slope_y``: sin(angle) x the uphill unit vector in the world frame, calibration's parameters)
+  adds g (slope_x, slope_y) turned into the body frame to the effective acceleration, so its
+  signature changes along the path with the yaw; the extra effect ``icr_spread`` scales the track
+  ICRs (y_l, y_r) -> k (y_l, y_r): more (k > 1) or less skid in turns than modelled, the generic
+  symptom of a ground that is not Coulomb-like.
+
+``ground_anisotropy``, ``road_wheels``, ``track_length`` / ``wheelbase`` and ``rolling_resistance``
+(contact models and forces the surrogate cannot express) only the MuJoCo robot simulates
+(:mod:`mjtrack.diagnose.mujoco_baseline`).
 
 Derivation and measurements: docs/theory/diagnosis.md, "Baselines".
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable
-
 import numpy as np
 from scipy import signal
 
-from mjtrack.diagnose import surrogate as sg
 from mjtrack.diagnose.residuals import DriveData
+from mjtrack.diagnose.surrogate import response as sg
+from mjtrack.diagnose.vocabulary import Effect
 from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
 
 
-@dataclass(frozen=True)
-class Effect:
-    """One effect: name, parameter names, kind ("input" or "ground"), meaning, and per-robot
-    ``nominal(robot)`` values, ``bounds(robot)`` ((P,), (P,)) and ``starts(robot, data)`` (S, P)."""
-
-    name: str
-    params: tuple[str, ...]
-    kind: str
-    meaning: str
-    signature: str
-    nominal: Callable[[Robot], tuple]
-    bounds: Callable[[Robot], tuple]
-    starts: Callable[[Robot, DriveData], np.ndarray]
-
-
-def _grid(*values) -> Callable:
-    return lambda robot, data: np.array(values, float).reshape(len(values), -1)
-
-
-def _max_speed(data: DriveData) -> float:
-    return float(max(np.max(np.abs(data.cmd)), 1e-3))
-
-
-_SLOPE_MAX = float(np.sin(0.5))  # [-] slope components up to a 0.5 rad (29 deg) incline
-
-
-def _cg_lim(robot: Robot, axis: str) -> float:
+def cg_limit(robot: Robot, axis: str) -> float:
+    """[m] the largest centre-of-mass offset along ``axis`` ("x" or "y") the surrogate tabulates
+    and fits: 0.3 L, 0.25 T."""
     return 0.3 * robot.track_length if axis == "x" else 0.25 * robot.track_gauge
-
-
-EFFECTS: dict[str, Effect] = {e.name: e for e in (
-    Effect("track_speed_scale", ("track_speed_scale",), "input", "actual / commanded track speed, both tracks",
-           "speed and yaw rate both scaled: along-track error grows with speed, turn shape unchanged",
-           lambda r: (1.0,), lambda r: ((0.3,), (3.0,)), _grid(0.8, 0.95, 1.05, 1.25)),
-    Effect("drive_lag", ("drive_lag",), "input", "first-order time constant from command to track speed [s]",
-           "errors right after command changes, the model leads the measurement",
-           lambda r: (0.0,), lambda r: ((1e-3,), (3.0,)), _grid(0.02, 0.05, 0.1, 0.2, 0.4, 0.8, 1.6)),
-    Effect("drive_delay", ("drive_delay",), "input", "dead time from command to track speed [s]",
-           "errors right after command changes, the measurement follows the model shifted in time",
-           lambda r: (0.0,), lambda r: ((0.0,), (2.0,)),
-           # the fit to sampled speeds is V-shaped one sample wide: start on a grid of one sample
-           lambda r, d: np.arange(0.0, 1.0, max(float(np.median(np.diff(d.t))), 0.01)).reshape(-1, 1)),
-    Effect("drive_speed_limit", ("drive_speed_limit",), "input", "track speeds saturate at this magnitude [m/s]",
-           "errors only at high commanded speeds, the model too fast",
-           lambda r: (np.inf,), lambda r: ((0.02,), (np.inf,)),
-           lambda r, d: np.quantile(np.abs(d.cmd), [0.5, 0.7, 0.85, 0.95]).reshape(-1, 1)),
-    Effect("yaw_rate_limit", ("yaw_rate_limit",), "input",
-           "the commanded body yaw rate (V_R - V_L)/T saturates at this magnitude [rad/s], the mean track speed kept "
-           "(a velocity controller's twist limit, common on wheeled skid-steer robots)",
-           "errors only in sharp turns and spins, the model turns too fast; straight driving exact",
-           lambda r: (np.inf,), lambda r: ((0.05,), (np.inf,)),
-           lambda r, d: np.quantile(np.abs(d.cmd[:, 1] - d.cmd[:, 0]) / r.track_gauge, [0.5, 0.7, 0.85, 0.95]
-                                    ).reshape(-1, 1) + 1e-3),
-    Effect("cg_x", ("cg_x",), "ground", "centre of mass ahead (+) / behind (-) the geometric centre [m]",
-           "the no-slip line x_c moves with the centre of mass: the robot slides to the outside (cg ahead) "
-           "of its turns, the same x_c for both turn directions",
-           lambda r: (r.cg_x,), lambda r: ((-_cg_lim(r, "x"),), (_cg_lim(r, "x"),)),
-           lambda r, d: np.array([[-0.1], [-0.03], [0.03], [0.1]]) * r.track_length),
-    Effect("cg_y", ("cg_y",), "ground", "centre of mass left (+) / right (-) [m]",
-           "the loaded track slips less: turning asymmetric (y_l, y_r shift together)",
-           lambda r: (r.cg_y,), lambda r: ((-_cg_lim(r, "y"),), (_cg_lim(r, "y"),)),
-           lambda r, d: np.array([[-0.15], [-0.05], [0.05], [0.15]]) * r.track_gauge),
-    Effect("friction_scale", ("friction_scale",), "ground", "ground friction / nominal",
-           "changes the skid only through the centripetal (inertial) response: visible in fast turns only",
-           lambda r: (1.0,), lambda r: ((0.05,), (20.0,)), _grid(0.3, 0.7, 1.5, 3.0)),
-    Effect("mu_ratio", ("mu_ratio",), "ground",
-           "left-track friction / right-track friction, the right track keeping the nominal mu",
-           "the grippier track slips less: turning asymmetric (y_l, y_r shift together)",
-           lambda r: (r.friction_left / r.friction_right,), lambda r: ((1 / 3,), (3.0,)), _grid(0.5, 0.8, 1.25, 2.0)),
-    Effect("slope", ("slope_x", "slope_y"), "ground",
-           "inclined ground: sin(slope angle) x the uphill unit vector, world (log) frame x and y [-]",
-           "a drift whose direction in the robot frame turns with the yaw: errors depend on the heading",
-           lambda r: (0.0, 0.0), lambda r: ((-_SLOPE_MAX, -_SLOPE_MAX), (_SLOPE_MAX, _SLOPE_MAX)),
-           lambda r, d: np.array([[np.sin(s) * np.cos(a), np.sin(s) * np.sin(a)]
-                                  for s in (0.05, 0.15) for a in np.arange(8) * np.pi / 4])),
-    Effect("icr_spread", ("icr_spread",), "ground",
-           "track ICR spread / modelled (effective gauge factor): more (>1) or less (<1) skid in turns",
-           "yaw rate off by the same factor in all turns, straight driving exact",
-           lambda r: (1.0,), lambda r: ((0.3,), (4.0,)), _grid(0.7, 0.9, 1.1, 1.4)),
-    # the MuJoCo robot's own ground extensions (:mod:`mjtrack.diagnose.mujoco_baseline`): contact
-    # models the surrogate cannot express
-    Effect("ground_anisotropy", ("lateral_ratio",), "ground",
-           "anisotropic ground: lateral / longitudinal friction of the track contact",
-           "turns skid less than the isotropic contact predicts (less lateral resistance), straight driving exact",
-           lambda r: (1.0,), lambda r: ((0.05,), (1.5,)), _grid(0.3, 0.5, 0.75, 1.0)),
-    Effect("road_wheels", ("span",), "ground",
-           "95 % of the load on 4 road wheels spread over this share of the contact length",
-           "the load concentrates under the wheels: turning resistance as of a shorter contact",
-           lambda r: (1.0,), lambda r: ((0.05,), (1.0,)), _grid(0.3, 0.5, 0.75, 1.0)),
-    # the contact length has the robot file's name of each traction (a track's, a wheeled robot's
-    # wheelbase); a robot tests the one it has
-    *(Effect(key, (key,), "ground", meaning,
-             "turns skid more (longer contact) or less (shorter) than modelled: the yaw ratio off in every turn, "
-             "straight driving exact",
-             lambda r: (r.contact_length,), lambda r: ((0.3 * r.contact_length,), (3.0 * r.contact_length,)),
-             lambda r, d: np.array([[0.7], [0.85], [1.2], [1.5]]) * r.contact_length)
-      for key, meaning in (("track_length", "length of each track's ground contact [m]"),
-                           ("wheelbase", "front to rear axle distance of a wheeled robot [m]"))),
-    Effect("rolling_resistance", ("rolling_resistance",), "ground",
-           "motion resistance: each side held back by this share of its weight [-]",
-           "the body lags its tracks in every motion, more on the loaded side: speed ratio below one even "
-           "straight, turns slowed",
-           lambda r: (r.rolling_resistance,), lambda r: ((0.0,), (0.5,)), _grid(0.02, 0.05, 0.1, 0.2)),
-)}
 
 
 class Surrogate:
@@ -169,7 +65,7 @@ class Surrogate:
         self.resp = sg.ground_response(robot)
         T = robot.track_gauge
         self.q_nominal = self.resp.q0 if baseline == "coulomb" else np.array([T / 2, -T / 2, 0.0])
-        lim_x, lim_y = _cg_lim(robot, "x"), _cg_lim(robot, "y")
+        lim_x, lim_y = cg_limit(robot, "x"), cg_limit(robot, "y")
         self._tables = {
             "cg_x": ("cg_x", np.linspace(-lim_x, lim_x, 25)),
             "cg_y": ("cg_y", np.linspace(-lim_y, lim_y, 25)),
