@@ -22,6 +22,7 @@ from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.windows import make_windows
 from mjtrack.diagnose.report import build_report
+from mjtrack.diagnose.vocabulary import EFFECTS
 from mjtrack.testing.effect_names import VOCABULARY_NAME, vocabulary_params
 from mjtrack.testing.mujoco_effects import HIDDEN, ROBOT, make_log
 
@@ -130,7 +131,7 @@ def test_windows_whose_poses_move_against_the_tracks_are_left_out_and_said():
 def test_a_robot_calibrated_on_measured_speeds_is_diagnosed_on_them(monkeypatch):
     # simulator.drive_input "measured" in the robot file: the MuJoCo diagnosis drives the robot by
     # the log's measured track speeds, as its calibration did, and says so
-    import mjtrack.diagnose.run as run
+    import mjtrack.diagnose.mujoco_baseline as mb  # (imported by the diagnosis when it simulates)
 
     lg, _ = make_log(None, seed=4, duration=30.0, speeds=True)
     seen = {}
@@ -142,7 +143,7 @@ def test_a_robot_calibrated_on_measured_speeds_is_diagnosed_on_them(monkeypatch)
         seen["log"] = log
         raise Stop
 
-    monkeypatch.setattr(run, "MujocoBaseline", spy)
+    monkeypatch.setattr(mb, "MujocoBaseline", spy)
     robot = Robot.from_dict({**NOMINAL.to_dict(), "simulator": {"drive_input": "measured"}})
     with pytest.raises(Stop):
         diagnose(lg, robot, baseline="mujoco")
@@ -306,3 +307,61 @@ def test_surrogate_model_rel_is_the_measured_one():
     rms, n = load_benchmark("diagnose_benchmark").model_error_on_mujoco()
     assert n >= 10
     assert sb.MODEL_REL == round(rms, 3)
+
+
+# -- simulator warnings -----------------------------------------------------------------------------
+# A centre of mass 0.1 m ahead on this 0.5 m robot (0.2 L: Wong's load at the rear end near zero)
+# makes MuJoCo's step unstable in some windows of this clean log ("Nan, Inf or huge value in QACC"):
+# found by simulating each window alone (windows 6, 10, 11, 12 of 15 when written).
+WARN_LOG = dict(seed=4, duration=30.0)
+
+
+def _warning_windows(model, windows, value):
+    """The windows among ``windows`` whose simulation alone, at cg_x = value, makes MuJoCo warn
+    (the truth, one by one)."""
+    from mjtrack.sim.rollout import collected_mujoco_warnings
+    from mjtrack.sim.windows import WARMUP_S, simulate_windows
+
+    from mjtrack.diagnose.mujoco_baseline import _spec
+
+    _, variant, _ = _spec(model.robot, [(EFFECTS["cg_x"], np.array([value]))])
+    out = []
+    for j in windows:
+        with collected_mujoco_warnings() as messages:
+            simulate_windows(model._sim("base"), model.log, model.ws.subset(np.array([j])), [variant],
+                             warmup_s=WARMUP_S)
+        if messages:
+            out.append(j)
+    return out
+
+
+def test_windows_whose_simulation_warns_are_located_and_count_as_diverged():
+    lg, _ = make_log(None, **WARN_LOG)
+    model = MujocoBaseline(NOMINAL, lg)
+    problem = model.problem(3)
+    assert model.simulator_warnings() == []  # the baseline itself is stable
+    windows = np.arange(5, 13)  # half of the log's windows, some of which warn (the time of the default run)
+    err = model.errors(problem, windows, EFFECTS["cg_x"], [[0.02], [0.1]])
+    truth = _warning_windows(model, windows, 0.1)
+    assert truth, "no window warns at cg_x = 0.1 on this log: choose another"
+    records = model.simulator_warnings()
+    assert sorted({r["window"] for r in records}) == truth
+    assert all(r["simulation"] == "baseline + cg_x = 0.1" and "QACC" in r["warning"] for r in records)
+    assert np.all(np.isnan(err[1, np.searchsorted(windows, truth)])) and np.all(np.isfinite(err[0]))
+
+
+@pytest.mark.slow  # a MuJoCo diagnosis with a pass per grid value and the warnings located: ~1 min
+def test_a_diagnosis_records_the_warnings_and_says_whether_they_change_the_answer(tmp_path):
+    lg, _ = make_log(None, **WARN_LOG)
+    robot = Robot.from_dict({**NOMINAL.to_dict(), "cg_x": 0.025})  # its grid reaches cg_x = 0.1
+    d = diagnose(lg, robot, baseline="mujoco", effects=["cg_x"], n_folds=3)
+    write_outputs(d, tmp_path)
+    js = json.loads((tmp_path / "diagnosis.json").read_text())
+    sw = js["simulator_warnings"]
+    assert sw["windows"] and all(not w["left_out"] for w in sw["windows"])  # candidates warned, not the baseline
+    assert all("cg_x = " in s for w in sw["windows"] for s in w["simulations"])
+    assert {"with_warned_windows", "without_warned_windows", "changes"} <= set(sw["answer"])
+    assert sw["answer"]["without_warned_windows"]["windows"] < sw["answer"]["with_warned_windows"]["windows"]
+    assert any(w.startswith("MuJoCo warned") for w in js["warnings"])
+    html = (tmp_path / "report.html").read_text()
+    assert "Simulator warnings" in html and "QACC" in html

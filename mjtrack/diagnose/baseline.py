@@ -136,10 +136,11 @@ class Baseline(abc.ABC):
         time); by default their estimates as they are."""
         return [np.asarray(theta, float) for _, theta in parts]
 
-    def warned_windows(self) -> dict:
-        """Simulator warnings raised while predicting windows: window index -> the warnings'
-        texts (empty for a model that simulates nothing)."""
-        return {}
+    def simulator_warnings(self) -> list[dict]:
+        """The simulator's warnings so far, each ``{"window": index into the problem's windows, or
+        None when raised outside a window, "simulation": what was simulated, "warning": its text}``;
+        a simulation that warned counts as diverged (empty for a model that simulates nothing)."""
+        return []
 
     def lateral_acceleration(self, problem: Problem) -> float | None:
         """The largest lateral acceleration |vx wz| [m/s^2] of its nominal prediction of the log (a

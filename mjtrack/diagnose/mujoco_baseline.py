@@ -23,10 +23,12 @@ Derivation and measurements: docs/theory/diagnosis.md, "The MuJoCo baseline".
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 from typing import Callable, Sequence
 
+import mujoco
 import numpy as np
 
 from mjtrack.diagnose import stats as st
@@ -38,6 +40,7 @@ from mjtrack.errors import InputError
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.config import SimConfig, sim_config
+from mjtrack.sim.rollout import collected_mujoco_warnings
 from mjtrack.sim.windows import (WARMUP_S, WindowSim, drive_params, make_windows, simulate_windows,
                                  without_contradicting)
 
@@ -247,6 +250,7 @@ class MujocoBaseline(Baseline):
         self.ws, self.left_out = without_contradicting(log, make_windows(log, horizon_s), robot.track_gauge)
         self.horizon_s = float(horizon_s)
         self._sims: dict[str, WindowSim] = {}
+        self.warnings: list[dict] = []  # MuJoCo warnings: {"window", "simulation", "warning"} (:meth:`_run`)
         self._cache: dict[tuple, object] = {}
 
     # -- the problem --------------------------------------------------------------------------------
@@ -297,6 +301,9 @@ class MujocoBaseline(Baseline):
             return np.zeros(2)
         return np.array([NOMINAL[effect.name](self.robot, self.log)])
 
+    def simulator_warnings(self) -> list[dict]:
+        return list(self.warnings)
+
     def interval_method(self) -> str:
         return f"a blocked bootstrap over windows ({N_BOOT} resamples of the MuJoCo fit)"
 
@@ -316,9 +323,13 @@ class MujocoBaseline(Baseline):
                 self._sims[kind] = WindowSim(r, self.config, resisted=True)
         return self._sims[kind]
 
-    def _run(self, windows: np.ndarray, specs: Sequence[tuple]) -> np.ndarray:
-        """Errors (V, W, 3) of the windows under each simulation spec (:func:`_spec`); consecutive
-        specs that differ only in window parameters are one batch."""
+    def _run(self, windows: np.ndarray, specs: Sequence[tuple], labels: Sequence[str]) -> np.ndarray:
+        """Errors (V, W, 3) of the windows under each simulation spec (:func:`_spec`, named by
+        ``labels`` in the warnings' record); consecutive specs that differ only in window
+        parameters are one batch. A window whose simulation diverged, or made MuJoCo warn (an
+        unstable step: MuJoCo resets the state and carries on, so the prediction is not the
+        robot's), is NaN; each warning is recorded with its window (:attr:`warnings`)."""
+        windows = np.asarray(windows)
         ws = self.ws.subset(windows)
         out, i = [], 0
         while i < len(specs):
@@ -327,13 +338,44 @@ class MujocoBaseline(Baseline):
             while j < len(specs) and (specs[j][0], specs[j][2]) == (kind, clip):
                 j += 1
             lg = self.log if clip is None else _clip_log(self.log, clip)
-            res = simulate_windows(self._sim(kind), lg, ws, [s[1] for s in specs[i:j]], nthread=self.nthread,
-                                   warmup_s=WARMUP_S)
+            variants = [s[1] for s in specs[i:j]]
+            with collected_mujoco_warnings() as messages:
+                res = simulate_windows(self._sim(kind), lg, ws, variants, nthread=self.nthread, warmup_s=WARMUP_S)
             err = res.errors.copy()
             err[res.diverged] = np.nan
+            if messages:
+                located = self._locate(kind, lg, windows, variants)
+                for w, v, message in located:
+                    err[v, int(np.flatnonzero(windows == w)[0])] = np.nan
+                    self.warnings.append({"window": int(w), "simulation": labels[i + v], "warning": message.strip()})
+                if not located:  # raised while preparing the simulation (e.g. settling the robot), not in a window
+                    self.warnings.append({"window": None, "simulation": ", ".join(labels[i:j]),
+                                          "warning": messages[0].strip()})
             out.append(err)
             i = j
         return np.concatenate(out)
+
+    def _locate(self, kind: str, lg: DriveLog, windows: np.ndarray, variants: list) -> list[tuple[int, int, str]]:
+        """(window, variant index, first warning) of every simulation among ``windows`` x
+        ``variants`` that makes MuJoCo warn, found by simulating halves of the windows again
+        (windows are independent and the physics deterministic), each leaf window variant by
+        variant. A pass over the windows per halving: only ever run when a batch warned."""
+        def warns(w, vs):
+            with _quiet_warnings() as m:
+                simulate_windows(self._sim(kind), lg, self.ws.subset(w), vs, nthread=self.nthread, warmup_s=WARMUP_S)
+            return m
+
+        if windows.size == 1:
+            if len(variants) == 1:
+                m = warns(windows, variants)
+                return [(int(windows[0]), 0, m[0])] if m else []
+            return [(int(windows[0]), v, m[0]) for v in range(len(variants)) for m in [warns(windows, [variants[v]])]
+                    if m]
+        out = []
+        for half in np.array_split(windows, 2):
+            if warns(half, variants):
+                out += self._locate(kind, lg, half, variants)
+        return out
 
     def errors(self, problem: Problem, windows: np.ndarray, effect: Effect | None = None, values=None) -> np.ndarray:
         windows = np.asarray(windows)
@@ -342,11 +384,14 @@ class MujocoBaseline(Baseline):
         if whole and key in self._cache:
             return self._cache[key]
         base = list(problem.base)
+        on = "".join(f" + {e.name}" for e, _ in base)
         if effect is None:
-            specs = [_spec(self.robot, base)]
+            specs, labels = [_spec(self.robot, base)], ["baseline" + on]
         else:
-            specs = [_spec(self.robot, base + [(effect, np.atleast_1d(np.asarray(v, float)))]) for v in values]
-        out = self._run(windows, specs)
+            values = [np.atleast_1d(np.asarray(v, float)) for v in values]
+            specs = [_spec(self.robot, base + [(effect, v)]) for v in values]
+            labels = [f"baseline{on} + {effect.name} = {', '.join(f'{x:.4g}' for x in v)}" for v in values]
+        out = self._run(windows, specs, labels)
         if whole:
             self._cache[key] = out
         return out
@@ -410,10 +455,24 @@ class MujocoBaseline(Baseline):
                      for a in ((h, 0.0), (-h, 0.0), (0.0, h), (0.0, -h))]
             w = problem.fit_windows
             e = np.full((4, m, 2), np.nan)
-            e[:, w] = self._run(w, specs)[..., :2]
+            e[:, w] = self._run(w, specs, [f"slope_x, slope_y = {a[0]:.3g}, {a[1]:.3g} (slope fit)"
+                                           for a in ((h, 0.0), (-h, 0.0), (0.0, h), (0.0, -h))])[..., :2]
             J = np.stack([(e[0] - e[1]) / (2 * h), (e[2] - e[3]) / (2 * h)], axis=-1)
             self._cache[key] = (self.errors(problem, np.arange(m))[0][:, :2], J)
         return self._cache[key]
+
+
+@contextlib.contextmanager
+def _quiet_warnings():
+    """MuJoCo's warnings collected (yielded) and not passed on: a re-simulation that locates a
+    warning (:meth:`MujocoBaseline._locate`) must not count it twice in an outer summary."""
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(None)  # the outer collectors hidden while these are collected
+    try:
+        with collected_mujoco_warnings() as messages:
+            yield messages
+    finally:
+        mujoco.set_mju_user_warning(previous)
 
 
 def _base_key(problem: Problem) -> tuple:

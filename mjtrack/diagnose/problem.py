@@ -31,8 +31,7 @@ class Problem:
     (:func:`mjtrack.diagnose.stats.sample_blocks`), None = one block per fold; score_folds: the
     folds that are scored, each by the fit on all others (None: every fold, cross-validation;
     (0,): a test log in fold 0, fitted on fold 1); valid: (M,) windows whose baseline prediction
-    exists (a simulator's may diverge: those are neither fitted nor scored), None = all; warned:
-    (M,) windows whose baseline simulation raised a simulator warning, None = none.
+    exists (a simulator's may diverge: those are neither fitted nor scored), None = all.
     """
 
     data: DriveData
@@ -50,7 +49,6 @@ class Problem:
     sample_block: np.ndarray | None = None
     score_folds: tuple | None = None
     valid: np.ndarray | None = None
-    warned: np.ndarray | None = None
 
     @property
     def valid_mask(self) -> np.ndarray:

@@ -237,6 +237,17 @@ def build_report(d: Diagnosis) -> Report:
         sec.table(CANDIDATE_HEADER, _candidate_rows(step.results))
         sec.table(["effect", "decision"], [[r.effect.name, r.why] for r in step.results])
 
+    sw = d.simulator_warnings
+    if sw and (sw["windows"] or sw["outside_windows"]):
+        n = rep.section("Simulator warnings")
+        n.paragraph(d.simulator_warning_sentence() + ".")
+        if sw["windows"]:
+            n.table(["window", "start [s]", "simulations that warned", "warning", "left out"],
+                    [[w["window"], w["t0"], "; ".join(w["simulations"]), "; ".join(w["warnings"]),
+                      "yes" if w["left_out"] else "no"] for w in sw["windows"]])
+        if sw["outside_windows"]:
+            n.table(["outside any window"], [[x] for x in sw["outside_windows"]])
+
     if d.skipped:
         n = rep.section("Not identifiable on this log")
         n.table(["effect", "why it was not tested"], [[k, v] for k, v in d.skipped.items()])

@@ -33,7 +33,9 @@ class Diagnosis:
     how it was chosen ({"requested", "chosen", "why"}; MuJoCo: also "screened_by_surrogate", the
     candidates the surrogate diagnosis ranked best, or None);
     ``starts``, ``ends``, ``base_errors``: the scored windows and the baseline's errors on them;
-    ``diverged``: windows whose baseline simulation diverged (neither fitted nor scored).
+    ``diverged``: windows whose baseline simulation diverged (neither fitted nor scored);
+    ``simulator_warnings``: the simulator's warnings, by window, and the answer with and without
+    the windows that warned (:func:`mjtrack.diagnose.run.diagnose`), None when nothing is simulated.
     """
 
     log_path: str
@@ -58,6 +60,7 @@ class Diagnosis:
     test_log: str | None = None
     choice: dict = field(default_factory=dict)
     diverged: int = 0
+    simulator_warnings: dict | None = None
 
     @property
     def transient(self) -> bool:
@@ -98,6 +101,9 @@ class Diagnosis:
         speeds (input effects) or the pose (ground effects, or input effects without measured
         speeds) suggest in too few blocks of the log to establish them."""
         out = []
+        sw = self.simulator_warnings
+        if sw and (sw["windows"] or sw["outside_windows"]):
+            out.append(self.simulator_warning_sentence())
         last = self.steps[-1].results if self.steps else []
         out += [r.below_floor for r in last if r.below_floor and not r.passed]
         if self.unexplained > UNEXPLAINED and self.final_after > 2.0 * self.noise_floor:
@@ -107,6 +113,27 @@ class Diagnosis:
                        f"the pose noise alone accounts for about {self.noise_floor:.2g} m). Something the effect "
                        "vocabulary does not name is at work: read the symptom tables before trusting the estimates")
         return out
+
+    def simulator_warning_sentence(self) -> str:
+        """The verdict's sentence on the simulator's warnings (:attr:`simulator_warnings`)."""
+        sw = self.simulator_warnings
+        ws = sw["windows"]
+        text = (f"MuJoCo warned in {sw['simulations_warned']} simulation(s)"
+                + (f" of {len(ws)} window(s) (starting at " + ", ".join(f"t = {w['t0']:.2f} s" for w in ws[:8])
+                   + (", ..." if len(ws) > 8 else "") + ")" if ws else "")
+                + (f" and {len(sw['outside_windows'])} time(s) outside any window" if sw["outside_windows"] else "")
+                + f" ({(ws[0]['warnings'] if ws else sw['outside_windows'])[0]}): a simulation that warned is unstable "
+                  "and counts as diverged")
+        if sw["left_out"]:
+            text += f"; {sw['left_out']} window(s) whose baseline simulation warned are left out (not scored)"
+        ans = sw.get("answer")
+        if ans:
+            w, wo = ans["with_warned_windows"], ans["without_warned_windows"]
+            text += (f"; scored without the {w['windows'] - wo['windows']} window(s) that warned, the first step names "
+                     f"{wo['cause']}, with them {w['cause']}: "
+                     + ("the answer changes with them, read it with care" if ans["changes"] else
+                        "the answer does not change"))
+        return text
 
     def summary(self) -> str:
         """The lines a terminal shows: cause(s), estimates, gain, warnings."""
@@ -209,6 +236,7 @@ class Diagnosis:
                            "mujoco": self._confirmation_json()},
             "timings_s": {k: round(v, 3) for k, v in self.timings.items()},
             "diverged_windows": self.diverged,
+            "simulator_warnings": self.simulator_warnings,
         }
         if self.test_log:
             out["test_log"] = self.test_log

@@ -26,7 +26,7 @@ from mjtrack.diagnose.confirm import confirm as confirm_mujoco
 from mjtrack.diagnose.problem import Problem, concat_logs
 from mjtrack.diagnose.report import build_report
 from mjtrack.diagnose.result import Diagnosis, extended_robot
-from mjtrack.diagnose.select import forward_select
+from mjtrack.diagnose.select import Step, first_cause, forward_select
 from mjtrack.diagnose.surrogate.baseline import DEFAULT_HORIZON, surrogate_problem
 from mjtrack.diagnose.vocabulary import EFFECTS, canonical_effects
 from mjtrack.errors import InputError
@@ -124,8 +124,12 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n
         return _diagnose(log_, robot, **kw)
     from mjtrack.sim.rollout import summarised_mujoco_warnings
 
-    with summarised_mujoco_warnings(f"diagnose {log_.source or 'drive log'}", log):
-        return _diagnose(log_, robot, **kw)
+    with summarised_mujoco_warnings(f"diagnose {log_.source or 'drive log'}", log) as messages:
+        diag = _diagnose(log_, robot, **kw)
+    if messages and diag.confirmation is not None and diag.confirmation.get("run"):
+        # the surrogate's cause re-simulated whole (not in windows): the warnings are the confirmation's
+        diag.confirmation["mujoco_warnings"] = {"count": len(messages), "first": messages[0].strip()}
+    return diag
 
 
 def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, baseline, effects, max_fit_windows,
@@ -196,6 +200,7 @@ def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, bas
                      noise_floor=noise_floor(data), diverged=int(np.sum(~problem.valid_mask)),
                      test_log=(str(test_log.source) if test_log.source else "test log") if test_log is not None else None,
                      choice=choice)
+    diag.simulator_warnings = _simulator_warnings(model, problem, steps, base_err, min_gain)
     diag.timings = {"prepare": clock["prepare"] - clock.get("screen", clock["start"]),
                     "selection": clock["selection"] - clock["prepare"]}
     if "screen" in clock:
@@ -251,6 +256,38 @@ def _mujoco_problem(log_: DriveLog, robot: Robot, *, test_log, horizon_s, n_fold
                                if any(b["kind"] == kind for b in model.left_out)))
         log.warning("diagnose %s: %s", src, notes[-1])
     return model, problem, notes
+
+
+def _simulator_warnings(model: Baseline, problem: Problem, steps: list[Step], base_err: np.ndarray,
+                        min_gain: float) -> dict | None:
+    """diagnosis.json's record of the simulator's warnings (docs/reference/formats/diagnosis-json.md):
+    which windows, which simulations and warnings, which windows were left out (those whose
+    baseline simulation warned: no prediction to score), and the first step's answer with and
+    without every window that warned; None when the baseline simulates nothing."""
+    if model.name != "mujoco":
+        return None
+    records = model.simulator_warnings()
+    by_window: dict = {}
+    for r in records:
+        by_window.setdefault(r["window"], []).append(r)
+    t0 = problem.data.t[problem.starts]
+    left_out = ~problem.valid_mask
+    windows = [{"window": int(w), "t0": float(t0[w]), "simulations": sorted({x["simulation"] for x in rs_}),
+                "warnings": sorted({x["warning"] for x in rs_}), "left_out": bool(left_out[w])}
+               for w, rs_ in sorted((k, v) for k, v in by_window.items() if k is not None)]
+    out = {"simulations_warned": len({(r["window"], r["simulation"]) for r in records}), "windows": windows,
+           "outside_windows": sorted({f"{r['simulation']}: {r['warning']}" for r in by_window.get(None, [])}),
+           "left_out": sum(w["left_out"] for w in windows)}
+    warned = np.zeros(problem.starts.size, bool)
+    warned[[w["window"] for w in windows]] = True
+    warned = warned[problem.scored]
+    if steps and warned.any():
+        both = [first_cause(steps[0], problem, base_err, keep, min_gain) for keep in (np.ones_like(warned), ~warned)]
+        out["answer"] = {"with_warned_windows": {"cause": both[0][0], "gain": both[0][1], "windows": int(warned.size)},
+                         "without_warned_windows": {"cause": both[1][0], "gain": both[1][1],
+                                                    "windows": int((~warned).sum())},
+                         "changes": both[0][0] != both[1][0]}
+    return out
 
 
 def _not_identifiable(model: Baseline, names: list[str], problem: Problem) -> dict[str, str]:

@@ -444,6 +444,26 @@ def forward_select(bl: Baseline, problem: Problem, effects: list[Effect], *, n_f
     return steps, chosen
 
 
+def first_cause(step: Step, problem: Problem, base_err: np.ndarray, keep: np.ndarray,
+                min_gain: float) -> tuple[str, float | None]:
+    """The effect a step names when only the scored windows ``keep`` ((S,) bool over the scored
+    windows) are scored, by the gain rule alone (one-sided 95 % bound above zero, gain at least
+    ``min_gain``; a candidate diverged on one of them is out), and its held-out gain; ("none",
+    None) when none passes. ``base_err``: (S, 3) the step's baseline errors on the scored windows.
+    Used to say whether leaving windows out changes the answer, with the same rule on both sides."""
+    block = problem.window_block[problem.scored][keep]
+    sq_b = np.sum(base_err[keep][:, :2] ** 2, 1)
+    best = ("none", None, np.inf)
+    for r in step.results:
+        sq_a = np.sum(r.held_out_errors[keep][:, :2] ** 2, 1)
+        if not (np.all(np.isfinite(sq_a)) and np.all(np.isfinite(sq_b))):
+            continue
+        gt = st.gain_test(sq_b, sq_a, block)
+        if gt.lower > 0.0 and gt.relative >= min_gain and sq_a.sum() < best[2]:
+            best = (r.effect.name, gt.relative, float(sq_a.sum()))
+    return best[0], best[1]
+
+
 def all_findings(steps: list[Step], chosen: list[CandidateResult]) -> list[CandidateResult]:
     """The effects found (``chosen``, in the order found), each followed by the findings of its
     step tied with it."""
@@ -456,4 +476,5 @@ def all_findings(steps: list[Step], chosen: list[CandidateResult]) -> list[Candi
     return out
 
 
-__all__ = ["CandidateResult", "Step", "score", "evaluate", "pose_floor", "forward_select", "all_findings", "speed_order"]
+__all__ = ["CandidateResult", "Step", "score", "evaluate", "pose_floor", "forward_select", "all_findings", "speed_order",
+           "first_cause"]
