@@ -108,5 +108,5 @@ def test_mujoco_test_split_and_combined_effects(mujoco_problem):
     with_base = dataclasses.replace(p, base=((EFFECTS["friction_scale"], np.array([0.5])),))
     w = np.arange(2)
     one = bl.errors(with_base, w, EFFECTS["cg_x"], [[0.03]])[0]
-    joint = bl._run(w, [_spec(r, [(EFFECTS["friction_scale"], [0.5]), (EFFECTS["cg_x"], [0.03])])])[0]
+    joint = bl._run(w, [_spec(r, [(EFFECTS["friction_scale"], [0.5]), (EFFECTS["cg_x"], [0.03])])], ["joint"])[0]
     np.testing.assert_allclose(one, joint, atol=1e-12)

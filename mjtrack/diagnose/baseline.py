@@ -74,6 +74,7 @@ class Baseline(abc.ABC):
         model_form: its own error on an effect's size (:class:`ModelForm`).
         max_effects: forward-selection steps it affords by default (each costs a pass over every
             remaining candidate).
+        transient: whether it models the friction-limited transient after speed changes.
     """
 
     name: str
@@ -83,6 +84,7 @@ class Baseline(abc.ABC):
     untestable: Mapping[str, str]
     model_form: ModelForm
     max_effects: int
+    transient: bool = False
 
     @abc.abstractmethod
     def describe(self) -> str:

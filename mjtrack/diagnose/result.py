@@ -65,7 +65,7 @@ class Diagnosis:
     @property
     def transient(self) -> bool:
         """Whether the baseline models the friction-limited transient (the Coulomb surrogate)."""
-        return bool(getattr(self.baseline, "transient", False))
+        return bool(self.baseline.transient)
 
     @property
     def baseline_title(self) -> str:

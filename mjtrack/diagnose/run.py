@@ -1,11 +1,13 @@
 """``diagnose(log, robot)``: symptom -> cause(s) -> gain, and its outputs (docs/reference/formats/diagnosis-json.md).
 
 Stages (timed in ``Diagnosis.timings``):
-1. prepare: drive data, the horizon (:func:`choose_horizon`), folds, blocks, windows, the
-   baseline (:func:`make_baseline`, the one place where it is chosen) and what can be identified;
+1. prepare: the baseline and its problem -- the surrogate's
+   (:func:`mjtrack.diagnose.surrogate.baseline.surrogate_problem`: the horizon, folds, blocks,
+   windows at every sample) or the MuJoCo robot's (imported only then) -- and what can be identified;
 2. selection: forward selection over all effects, scored on held-out folds (or on a test log)
    (:func:`mjtrack.diagnose.select.forward_select`);
-3. outputs: diagnosis.json (:class:`mjtrack.diagnose.result.Diagnosis`) and report.html;
+3. outputs: diagnosis.json (:class:`mjtrack.diagnose.result.Diagnosis`, with the simulator's
+   warnings and the answer without the windows that warned) and report.html;
 4. optional MuJoCo confirmation (:mod:`.confirm`, ``confirm=True``).
 """
 
