@@ -380,3 +380,15 @@ def test_an_effect_on_top_is_named_only_if_it_beats_every_rival_alone(rng, rival
     assert ("drive_delay" in lag.tied_with) is (not named)
     if not named:
         assert "drive_lag alone explains the log as well" in first.tie_notes[0]
+
+
+def test_a_further_step_only_when_the_error_left_can_hold_a_finding():
+    """After a finding with 0.05 m left, pose noise 0.02 m and a floor of 3 % of a 0.5 m nominal
+    error (0.015 m), another effect could still remove 0.03 m: a further step; with 0.03 m left it
+    could remove at most 0.01 m, below the floor: none."""
+    from mjtrack.diagnose.select import residual_left
+
+    left = _candidate("drive_delay", np.full(10, 0.05 ** 2))
+    assert left.after == pytest.approx(0.05)
+    assert residual_left(left, 0.5, 0.02, 0.03)
+    assert not residual_left(_candidate("drive_delay", np.full(10, 0.03 ** 2)), 0.5, 0.02, 0.03)

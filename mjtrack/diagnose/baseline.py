@@ -75,6 +75,9 @@ class Baseline(abc.ABC):
         max_effects: forward-selection steps it affords by default (each costs a pass over every
             remaining candidate).
         transient: whether it models the friction-limited transient after speed changes.
+        free_steps: forward-selection steps taken whatever the error left; the others (up to
+            ``max_effects``) only when it can still hold a finding beyond the pose noise (None: all
+            steps are free).
     """
 
     name: str
@@ -85,6 +88,7 @@ class Baseline(abc.ABC):
     model_form: ModelForm
     max_effects: int
     transient: bool = False
+    free_steps: int | None = None
 
     @abc.abstractmethod
     def describe(self) -> str:

@@ -104,8 +104,9 @@ def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n
             DeprecationWarning.
         max_fit_windows: windows used per surrogate fit (a stride of them); scoring uses all windows.
         max_effects: forward selection stops after this many effects (default: the baseline's
-            ``max_effects``: 3 for the surrogates, 1 for MuJoCo, whose every step costs ~8 window
-            passes per remaining candidate).
+            ``max_effects``: 3 for the surrogates, 2 for MuJoCo, whose every step costs ~8 window
+            passes per remaining candidate, the second taken only when the first leaves an error
+            beyond the pose noise that another effect could remove).
         confirm: re-simulate with the MuJoCo robot, nominal and extended by the cause (:mod:`.confirm`).
         transient: model the friction-limited transient after speed changes (coulomb baseline;
             :func:`mjtrack.diagnose.surrogate.friction_limited`): True, False, or "auto" = whichever
@@ -190,7 +191,9 @@ def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, bas
     clock["prepare"] = time.perf_counter()
     tested = [EFFECTS[n] for n in names if n not in skipped]
     steps, chosen = forward_select(model, problem, tested, n_folds=n_folds_used, min_gain=min_gain,
-                                   max_effects=model.max_effects if max_effects is None else max_effects, quiet=quiet)
+                                   max_effects=model.max_effects if max_effects is None else max_effects, quiet=quiet,
+                                   free_steps=model.free_steps if max_effects is None else None,
+                                   noise=noise_floor(data))
     clock["selection"] = time.perf_counter()
     scored = problem.scored
     base_err = model.errors(problem, np.arange(problem.starts.size))[0][scored]

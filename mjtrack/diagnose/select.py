@@ -391,10 +391,15 @@ def _tie_substitutes(top: CandidateResult, results: list[CandidateResult], rival
 
 
 def forward_select(bl: Baseline, problem: Problem, effects: list[Effect], *, n_folds: int, min_gain: float,
-                   max_effects: int = 3, quiet: bool = True) -> tuple[list[Step], list[CandidateResult]]:
+                   max_effects: int = 3, quiet: bool = True, free_steps: int | None = None,
+                   noise: float = 0.0) -> tuple[list[Step], list[CandidateResult]]:
     """Forward selection over all effects (module docstring). Returns the steps and the final
     findings (the chosen effects refitted each with the others fixed, in the order found, each
-    followed by the findings tied with it)."""
+    followed by the findings tied with it).
+
+    ``free_steps``: after this many findings a further step is taken only when the residual can
+    still hold a finding (:func:`residual_left`, with ``noise`` [m] the pose noise's share of a
+    window's error); None: always (up to ``max_effects``)."""
     steps: list[Step] = []
     chosen: list[CandidateResult] = []
     remaining = list(effects)
@@ -413,6 +418,11 @@ def forward_select(bl: Baseline, problem: Problem, effects: list[Effect], *, n_f
             break
         rivals = [r for r in results if r.passed and r is not best]
         chosen.append(best)
+        if free_steps is not None and len(chosen) >= free_steps and not residual_left(best, nominal_rmse, noise,
+                                                                                        min_gain):
+            log.debug("forward selection: %s leaves %.3g m, no more than the pose noise and the gain floor: "
+                      "no further step", best.effect.name, best.after)
+            break
         drop = {best.effect.name} | {r.effect.name for r in results if r.tie_notes and best.effect.name in r.tied_with}
         remaining = [e for e in remaining if e.name not in drop]
         current = dataclasses.replace(current, base=current.base + ((best.effect, best.estimate),))
@@ -464,6 +474,13 @@ def first_cause(step: Step, problem: Problem, base_err: np.ndarray, keep: np.nda
     return best[0], best[1]
 
 
+def residual_left(best: CandidateResult, nominal_rmse: float, noise: float, min_gain: float) -> bool:
+    """Whether the error a finding leaves can hold another: a further effect must remove at least
+    the gain floor, ``min_gain`` of the nominal RMSE (:func:`pose_floor`), and no model removes
+    the pose noise, so the held-out RMSE left [m] must exceed the noise's ``noise`` [m] by more."""
+    return best.after - noise > min_gain * nominal_rmse
+
+
 def all_findings(steps: list[Step], chosen: list[CandidateResult]) -> list[CandidateResult]:
     """The effects found (``chosen``, in the order found), each followed by the findings of its
     step tied with it."""
@@ -477,4 +494,4 @@ def all_findings(steps: list[Step], chosen: list[CandidateResult]) -> list[Candi
 
 
 __all__ = ["CandidateResult", "Step", "score", "evaluate", "pose_floor", "forward_select", "all_findings", "speed_order",
-           "first_cause"]
+           "first_cause", "residual_left"]
