@@ -35,6 +35,7 @@ from mjtrack.diagnose import diagnose
 from mjtrack.diagnose import mujoco_baseline as mb
 from mjtrack.diagnose.stats import t_quantile
 from mjtrack.io.robot import Robot
+from mjtrack.testing.effect_names import VOCABULARY_NAME, vocabulary_params
 from mjtrack.testing.mujoco_effects import HIDDEN, ROBOT, make_log
 from _results import RESULTS
 
@@ -47,10 +48,9 @@ def nominal_robot() -> Robot:
     return Robot.from_dict({**ROBOT.to_dict(), "drive_force_limit": DRIVE_FORCE_LIMIT})
 
 
-def truth_of(effect: str) -> tuple[str, float]:
-    """(estimate key, true value) of a hidden effect's first parameter."""
-    key = next(iter(HIDDEN[effect].params))
-    return ("lateral_ratio" if effect == "ground_anisotropy" else key), float(HIDDEN[effect].params[key])
+def truth_of(effect: str) -> dict[str, float]:
+    """A hidden effect's true parameters in the diagnosis's names (a slope as its components)."""
+    return vocabulary_params(HIDDEN[effect].params)
 
 
 def run_one(effect: str | None, *, duration: float, seed: int, n_folds: int, screen: int | None) -> dict:
@@ -65,23 +65,23 @@ def run_one(effect: str | None, *, duration: float, seed: int, n_folds: int, scr
            "findings": [c.effect.name for c in d.findings], "timings_s": d.timings}
     if effect is None:
         return row
-    key, truth = truth_of(effect)
-    row["truth"] = {k: float(v) for k, v in HIDDEN[effect].params.items()}
-    c = next((c for c in d.results if c.effect.name == effect), None)
-    row["named"] = bool(c is not None and c.passed and (d.cause == effect or d.cause in c.tied_with))
+    name = VOCABULARY_NAME.get(effect, effect)  # the generator's name -> the diagnosis's
+    row["truth"] = truth_of(effect)
+    c = next((c for c in d.results if c.effect.name == name), None)
+    row["named"] = bool(c is not None and c.passed and (d.cause == name or d.cause in c.tied_with))
     if c is None:
         return row
-    nominal = float(c.nominal[0])
-    est = float(c.estimate[0])
+    # sizes as vectors (one component for every effect but the slope, whose size is the length of
+    # its in-plane gravity (slope_x, slope_y), as its model-form term is)
+    truth = np.array([row["truth"][n] for n in c.effect.params])
+    nominal, est = np.asarray(c.nominal, float), np.asarray(c.estimate, float)
     row.update(finding=bool(c.passed), decision=c.why, estimate={n: float(v) for n, v in zip(c.effect.params, c.estimate)},
                interval={n: [float(a), float(b)] for n, (a, b) in zip(c.effect.params, c.interval)}, after=c.after,
                relative=c.relative, gain_lower=c.gain.lower, tied_with=c.tied_with, tie_notes=c.tie_notes,
-               se_stat=float(c.se_stat[0]), nominal=nominal, size=abs(est - nominal), n_blocks=blocks,
-               covered=bool(c.interval[0][0] <= truth <= c.interval[0][1]),
-               rel_error=abs(est - truth) / abs(truth), size_error=abs(est - truth) / abs(truth - nominal))
-    if effect == "slope":
-        row["direction_error"] = abs(math.remainder(float(c.estimate[1]) - HIDDEN[effect].params["slope_direction"],
-                                                    2 * math.pi))
+               se_stat=float(c.se_stat[0]), nominal=float(nominal[0]), size=float(np.linalg.norm(est - nominal)),
+               n_blocks=blocks, covered=bool(np.all((c.interval[:, 0] <= truth) & (truth <= c.interval[:, 1]))),
+               rel_error=float(np.linalg.norm(est - truth) / np.linalg.norm(truth)),
+               size_error=float(np.linalg.norm(est - truth) / np.linalg.norm(truth - nominal)))
     return row
 
 

@@ -75,7 +75,7 @@ def step_responses() -> list[dict]:
     mode-wise mu g ramp the baseline used before (dead time D / (2 mu g) for a step of D m/s)."""
     from mjtrack.testing.mujoco_effects import DRIVES, ROBOT
 
-    from mjtrack.diagnose.effects import Surrogate
+    from mjtrack.diagnose.surrogate import Surrogate
     from mjtrack.diagnose.residuals import DriveData
     from mjtrack.io.robot import G
     from mjtrack.models import coulomb

@@ -293,7 +293,7 @@ def diagnose_log(log: "DriveLog", robot: "Robot", *, baseline: str = "auto", tes
         >>> slow_tracks = mt.Robot(track_speed_scale=0.85)  # the truth: tracks at 85 % of the command
         >>> log = mt.simulate_log(slow_tracks, scenario="random_steps", duration=60.0, log_rate=20.0)
         >>> d = mt.diagnose_log(log, mt.Robot(), baseline="surrogate",
-        ...                     effects=["track_speed_scale", "cg_offset_x", "friction_scale"])
+        ...                     effects=["track_speed_scale", "cg_x", "friction_scale"])
         >>> d.cause
         'track_speed_scale'
     """

@@ -64,12 +64,12 @@ def _fake(*findings):
 
 
 @pytest.mark.parametrize("findings,verdict", [
-    ([("actuator_lag", ())], "right"),
-    ([("command_delay", ("actuator_lag",)), ("actuator_lag", ("command_delay",))], "tie"),
-    ([("command_delay", ())], "wrong"),  # a lag named a delay without a tie
-    ([("actuator_lag", ()), ("friction_scale", ())], "spurious"),
-    ([("command_delay", ()), ("friction_scale", ())], "wrong"),
-    ([("cg_offset_x", ())], "wrong"),
+    ([("drive_lag", ())], "right"),
+    ([("drive_delay", ("drive_lag",)), ("drive_lag", ("drive_delay",))], "tie"),
+    ([("drive_delay", ())], "wrong"),  # a lag named a delay without a tie
+    ([("drive_lag", ()), ("friction_scale", ())], "spurious"),
+    ([("drive_delay", ()), ("friction_scale", ())], "wrong"),
+    ([("cg_x", ())], "wrong"),
     ([], "missed"),
 ])
 def test_scoring_of_a_lag(findings, verdict):

@@ -6,9 +6,11 @@ import numpy as np
 import pytest
 
 from mjtrack.diagnose import residuals as rs
-from mjtrack.diagnose import surrogate as sg
-from mjtrack.diagnose.effects import EFFECTS, Surrogate
-from mjtrack.diagnose.select import paired_t
+from mjtrack.diagnose.stats import paired_t
+from mjtrack.diagnose.surrogate import Surrogate
+from mjtrack.diagnose.surrogate import response as sg
+from mjtrack.diagnose.surrogate.fit import SETTINGS
+from mjtrack.diagnose.vocabulary import EFFECTS
 from mjtrack.io.robot import G, Robot
 from mjtrack.metrics import horizon_errors
 from mjtrack.models import MICR, Nominal, integrate, steady_state
@@ -54,10 +56,10 @@ def test_effects_at_their_nominal_values_reduce_to_the_baseline(rng):
     data = _data(v, poses=poses)
     s = Surrogate(ROBOT, "coulomb")
     base = s.twist(data, v)
-    for e in EFFECTS.values():
-        nominal = e.nominal(ROBOT)
+    for name, settings in SETTINGS.items():  # every effect the surrogate simulates
+        e, nominal = EFFECTS[name], settings.nominal(ROBOT)
         if e.kind == "input":
-            if e.name == "actuator_lag":
+            if e.name == "drive_lag":
                 nominal = (1e-12,)  # tau -> 0; the step mean deviates by O(tau/dt)
             tw = s.twist(data, s.inputs(data, e, nominal))
         else:
@@ -71,21 +73,21 @@ def test_input_transforms_exact(rng):
     data = _data(v)
     s = Surrogate(ROBOT, "kinematic")
     np.testing.assert_allclose(s.inputs(data, EFFECTS["track_speed_scale"], [0.8]), 0.8 * v)
-    np.testing.assert_allclose(s.inputs(data, EFFECTS["speed_limit"], [0.3]), np.clip(v, -0.3, 0.3))
+    np.testing.assert_allclose(s.inputs(data, EFFECTS["drive_speed_limit"], [0.3]), np.clip(v, -0.3, 0.3))
     delayed = np.vstack([np.repeat(v[:1], 5, axis=0), v[:-5]])  # held at the initial speed before the start
-    np.testing.assert_allclose(s.inputs(data, EFFECTS["command_delay"], [0.25]), delayed, atol=1e-12)
+    np.testing.assert_allclose(s.inputs(data, EFFECTS["drive_delay"], [0.25]), delayed, atol=1e-12)
     tau = 0.3
-    lag = s.inputs(data, EFFECTS["actuator_lag"], [tau], instant=True)
+    lag = s.inputs(data, EFFECTS["drive_lag"], [tau], instant=True)
     t = data.t[10:] - data.t[10]
     np.testing.assert_allclose(lag[10:, 0], 0.5 * (1 - np.exp(-t / tau)), atol=1e-12)
-    mean = s.inputs(data, EFFECTS["actuator_lag"], [tau])  # mean over each held step
+    mean = s.inputs(data, EFFECTS["drive_lag"], [tau])  # mean over each held step
     h = 0.05
     np.testing.assert_allclose(mean[10:, 0], 0.5 - 0.5 * np.exp(-t / tau) * tau / h * (1 - np.exp(-h / tau)), atol=1e-12)
 
 
 def test_lag_filter_paths_agree(rng):
     """The lfilter path (long segments) equals the exact recursion (short segments)."""
-    import mjtrack.diagnose.effects as eff
+    import mjtrack.diagnose.surrogate.model as eff
 
     v = _steps(rng, n=1000)
     data = _data(v)
@@ -262,8 +264,8 @@ def test_gain_test_sees_an_effect_in_part_of_the_log_and_not_noise():
     assert noise.lower < 0 < noise.upper
 
 
-def test_sandwich_reduces_to_the_iid_formula():
-    from mjtrack.diagnose.stats import sandwich
+def test_cluster_sandwich_reduces_to_the_iid_formula():
+    from mjtrack.diagnose.stats import cluster_sandwich as sandwich
 
     rng = np.random.default_rng(1)
     jac = rng.normal(size=(4000, 2))
@@ -289,11 +291,11 @@ def test_gain_in_one_block_does_not_pass_on_round_off():
 
 
 def test_traction_ratio_equivalents_round_trip():
-    from mjtrack.diagnose.select import equivalent, traction_ratio
+    from mjtrack.diagnose.ties import equivalent, traction_ratio
 
-    a = equivalent(ROBOT, "cg_offset_y", 0.06)  # the friction asymmetry that sets the same ratio
-    assert traction_ratio(ROBOT, "friction_asymmetry", a) == pytest.approx(traction_ratio(ROBOT, "cg_offset_y", 0.06))
-    assert equivalent(ROBOT, "friction_asymmetry", a) == pytest.approx(0.06)
+    a = equivalent(ROBOT, "cg_y", 0.06)  # the friction asymmetry that sets the same ratio
+    assert traction_ratio(ROBOT, "mu_ratio", a) == pytest.approx(traction_ratio(ROBOT, "cg_y", 0.06))
+    assert equivalent(ROBOT, "mu_ratio", a) == pytest.approx(0.06)
     assert a == pytest.approx((0.2 + 0.06) / (0.2 - 0.06))  # lever rule with T = 0.4 m
 
 
@@ -324,7 +326,7 @@ def test_transient_carries_on_across_a_chained_window_start():
 def test_min_active_blocks_is_where_the_blocked_bootstrap_bound_leaves_zero():
     """An effect that acts in k of B blocks (exactly no change elsewhere): the one-sided 95 %
     bound of the gain test exceeds zero from k = min_active_blocks(B) on, not below."""
-    from mjtrack.diagnose.select import min_active_blocks
+    from mjtrack.diagnose.stats import min_active_blocks
     from mjtrack.diagnose.stats import gain_test
 
     rng = np.random.default_rng(1)
@@ -351,7 +353,6 @@ def test_pose_floor_is_a_share_of_the_nominal_error():
 
 
 def _candidate(name, sq_err, base=()):
-    from mjtrack.diagnose.effects import EFFECTS
     from mjtrack.diagnose.select import CandidateResult
     err = np.zeros((sq_err.size, 3))
     err[:, 0] = np.sqrt(sq_err)
@@ -362,20 +363,32 @@ def _candidate(name, sq_err, base=()):
 
 @pytest.mark.parametrize("rival_sq,named", [(0.0100, False), (0.0200, True)])
 def test_an_effect_on_top_is_named_only_if_it_beats_every_rival_alone(rng, rival_sq, named):
-    """command_delay + friction_scale against actuator_lag alone: not named when the lag alone does
+    """drive_delay + friction_scale against drive_lag alone: not named when the lag alone does
     as well (the first is then reported tied with it), named when the pair beats it by the floor."""
     from mjtrack.diagnose.select import _no_substitute, _tie_substitutes
     n = 400
     block = np.arange(n) // 20
     nominal_sq = np.full(n, 0.04) * rng.uniform(0.9, 1.1, n)  # a nominal RMSE of 0.2 m
-    pair = _candidate("friction_scale", 0.0100 * rng.uniform(0.9, 1.1, n), base=("command_delay",))
-    lag = _candidate("actuator_lag", rival_sq * rng.uniform(0.9, 1.1, n))
-    first = _candidate("command_delay", 0.0150 * rng.uniform(0.9, 1.1, n))
+    pair = _candidate("friction_scale", 0.0100 * rng.uniform(0.9, 1.1, n), base=("drive_delay",))
+    lag = _candidate("drive_lag", rival_sq * rng.uniform(0.9, 1.1, n))
+    first = _candidate("drive_delay", 0.0150 * rng.uniform(0.9, 1.1, n))
     _no_substitute(pair, [lag], nominal_sq, block, 0.03)
     assert pair.passed is named
-    assert pair.substitute == (None if named else "actuator_lag")
+    assert pair.substitute == (None if named else "drive_lag")
     _tie_substitutes(first, [pair], [lag])
-    assert ("actuator_lag" in first.tied_with) is (not named)
-    assert ("command_delay" in lag.tied_with) is (not named)
+    assert ("drive_lag" in first.tied_with) is (not named)
+    assert ("drive_delay" in lag.tied_with) is (not named)
     if not named:
-        assert "actuator_lag alone explains the log as well" in first.tie_notes[0]
+        assert "drive_lag alone explains the log as well" in first.tie_notes[0]
+
+
+def test_a_further_step_only_when_the_error_left_can_hold_a_finding():
+    """After a finding with 0.05 m left, pose noise 0.02 m and a floor of 3 % of a 0.5 m nominal
+    error (0.015 m), another effect could still remove 0.03 m: a further step; with 0.03 m left it
+    could remove at most 0.01 m, below the floor: none."""
+    from mjtrack.diagnose.select import residual_left
+
+    left = _candidate("drive_delay", np.full(10, 0.05 ** 2))
+    assert left.after == pytest.approx(0.05)
+    assert residual_left(left, 0.5, 0.02, 0.03)
+    assert not residual_left(_candidate("drive_delay", np.full(10, 0.03 ** 2)), 0.5, 0.02, 0.03)

@@ -93,7 +93,7 @@ def test_drive_log_page_lists_every_column_and_its_bound():
 
 
 def test_diagnosis_page_names_every_effect():
-    from mjtrack.diagnose.effects import EFFECTS
+    from mjtrack.diagnose.vocabulary import EFFECTS
 
     text = (DOCS / "reference" / "formats" / "diagnosis-json.md").read_text()
     for name, effect in EFFECTS.items():

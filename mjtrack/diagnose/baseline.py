@@ -3,12 +3,12 @@
 A baseline is the nominal model of a robot on one log: it predicts the log's windows (a window
 starts at a measured state and runs open loop under the logged commands for the horizon), and
 it can be *extended* by a candidate effect of the public vocabulary
-(:data:`mjtrack.diagnose.effects.EFFECTS`) at parameter values, many values in one call (a
+(:data:`mjtrack.diagnose.vocabulary.EFFECTS`) at parameter values, many values in one call (a
 simulator batches them). Everything else -- the folds, the fits' held-out scores, the finding
 test, ties and order, the intervals, the result and its outputs -- is the same for every baseline
 (:mod:`mjtrack.diagnose.select`, :mod:`mjtrack.diagnose.result`, :mod:`mjtrack.diagnose.report`).
 
-Implemented by :class:`mjtrack.diagnose.surrogate_baseline.SurrogateBaseline` (the rigid-track
+Implemented by :class:`mjtrack.diagnose.surrogate.SurrogateBaseline` (the rigid-track
 Coulomb surrogate and the kinematic model: cheap, windows at every sample, least-squares fits)
 and :class:`mjtrack.diagnose.mujoco_baseline.MujocoBaseline` (the MuJoCo robot: a pass over the
 windows per parameter value, non-overlapping windows, fits on a fixed grid of values).
@@ -17,8 +17,8 @@ Model-form error (:class:`ModelForm`). No resampling of one log shows a baseline
 systematic error on an effect's size: it is the same in every block. Each baseline therefore
 carries it, measured on logs whose truth is known, as two 1-sigma terms added in quadrature to
 an estimate's statistical standard error: a relative one, ``rel`` x |estimate - nominal| (the
-RMS of |estimate - truth| / |truth - nominal| over the effects of a battery; for ``slope``,
-whose size is its angle, and ``slope_direction``, ``rel`` x 1 rad), and an absolute one per
+RMS of |estimate - truth| / |truth - nominal| over the effects of a battery; for ``slope``, a
+vector, ``rel`` x its length on each component), and an absolute one per
 effect in the effect's units (how far two independent physics of one robot description lie
 apart on a clean log, which does not shrink with the effect's size). ``measured_by`` names the
 script that measured them and the result file it wrote.
@@ -28,16 +28,13 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Mapping
+from typing import Mapping
 
 import numpy as np
 
-from mjtrack.diagnose.effects import EFFECTS
+from mjtrack.diagnose.problem import Problem
+from mjtrack.diagnose.vocabulary import EFFECTS, Effect
 from mjtrack.io.robot import Robot
-
-if TYPE_CHECKING:  # the problem and the effect are only passed through here
-    from mjtrack.diagnose.effects import Effect
-    from mjtrack.diagnose.fit import Problem
 
 
 @dataclass(frozen=True)
@@ -59,8 +56,8 @@ class ModelForm:
         whose no-effect values are ``nominal`` (P,): the relative and absolute terms in quadrature."""
         theta = np.asarray(theta, float)
         size = np.abs(theta - np.asarray(nominal, float))
-        if effect == "slope":
-            size = np.array([abs(float(theta[0])), 1.0])  # the direction: rel x 1 rad
+        if effect == "slope":  # a vector: its size and its direction each off by rel, on both components
+            size = np.full(size.shape, float(np.hypot(*size)))
         rel = self.rel * np.where(np.isfinite(size), size, 0.0)
         return np.hypot(rel, self.absolute.get(effect, 0.0))
 
@@ -77,6 +74,10 @@ class Baseline(abc.ABC):
         model_form: its own error on an effect's size (:class:`ModelForm`).
         max_effects: forward-selection steps it affords by default (each costs a pass over every
             remaining candidate).
+        transient: whether it models the friction-limited transient after speed changes.
+        free_steps: forward-selection steps taken whatever the error left; the others (up to
+            ``max_effects``) only when it can still hold a finding beyond the pose noise (None: all
+            steps are free).
     """
 
     name: str
@@ -86,18 +87,20 @@ class Baseline(abc.ABC):
     untestable: Mapping[str, str]
     model_form: ModelForm
     max_effects: int
+    transient: bool = False
+    free_steps: int | None = None
 
     @abc.abstractmethod
     def describe(self) -> str:
         """One sentence: what is simulated and how (diagnosis.json ``baseline.model``)."""
 
     @abc.abstractmethod
-    def nominal(self, effect: "Effect", problem: "Problem") -> np.ndarray:
+    def nominal(self, effect: Effect, problem: Problem) -> np.ndarray:
         """The effect's no-effect parameter values (P,) in this baseline (e.g. the robot's own
         drive lag, or the log's largest command for a speed limit)."""
 
     @abc.abstractmethod
-    def errors(self, problem: "Problem", windows: np.ndarray, effect: "Effect | None" = None,
+    def errors(self, problem: Problem, windows: np.ndarray, effect: Effect | None = None,
                values=None) -> np.ndarray:
         """Window errors (V, W, 3) (along, across [m], yaw [rad], in each window's measured start
         frame) of the windows ``windows`` (W,) (indices into ``problem.starts``) under the
@@ -105,7 +108,7 @@ class Baseline(abc.ABC):
         parameter vectors ``values`` (V, P); effect None: (1, W, 3). NaN: a diverged window."""
 
     @abc.abstractmethod
-    def fit(self, problem: "Problem", effect: "Effect", train_folds: np.ndarray, *, covariance: bool = False,
+    def fit(self, problem: Problem, effect: Effect, train_folds: np.ndarray, *, covariance: bool = False,
             start: np.ndarray | None = None):
         """The effect's estimate (P,) fitted on the folds ``train_folds``; with ``covariance`` also
         its statistical covariance (P, P) (NaN where it cannot be had). ``start``: where to start
@@ -116,16 +119,36 @@ class Baseline(abc.ABC):
         or says why it cannot, in the vocabulary's order."""
         return [n for n in EFFECTS if n in self.vocabulary or n in self.untestable]
 
-    def resolution(self, effect: "Effect", theta) -> np.ndarray:
+    def resolution(self, effect: Effect, theta) -> np.ndarray:
         """Standard error (P,) of locating the optimum by the fit itself (default none)."""
         return np.zeros(len(effect.params))
 
-    def speeds(self, problem: "Problem", parts) -> np.ndarray | None:
+    def speeds(self, problem: Problem, parts) -> np.ndarray | None:
         """Track speeds (N, 2) [m/s] the model predicts at the sample times under the input effects
         among ``parts`` ((Effect, theta) pairs), or None when it does not model them apart."""
         return None
 
-    def lateral_acceleration(self, problem: "Problem") -> float | None:
+    def speed_residuals(self, problem: Problem, effect: Effect, theta, samples: np.ndarray) -> np.ndarray:
+        """Predicted minus measured track speed [m/s] on ``samples`` (boolean (N,)), flattened, under
+        the input effects of ``problem.base`` and ``effect`` at ``theta`` (a model of the speeds
+        needed: :meth:`speeds`)."""
+        parts = [(e, p) for e, p in problem.base if e.kind == "input"] + [(effect, theta)]
+        v = self.speeds(problem, parts)
+        return (v[samples] - problem.data.meas[samples]).ravel()
+
+    def refit_inputs(self, problem: Problem, parts, train_folds: np.ndarray) -> list[np.ndarray]:
+        """Estimates of several input effects ((Effect, theta) start pairs) fitted together on the
+        folds ``train_folds`` (coupled effects, a lag and a delay, are not separable one at a
+        time); by default their estimates as they are."""
+        return [np.asarray(theta, float) for _, theta in parts]
+
+    def simulator_warnings(self) -> list[dict]:
+        """The simulator's warnings so far, each ``{"window": index into the problem's windows, or
+        None when raised outside a window, "simulation": what was simulated, "warning": its text}``;
+        a simulation that warned counts as diverged (empty for a model that simulates nothing)."""
+        return []
+
+    def lateral_acceleration(self, problem: Problem) -> float | None:
         """The largest lateral acceleration |vx wz| [m/s^2] of its nominal prediction of the log (a
         friction level shows only where it is high enough), or None when it does not say."""
         return None

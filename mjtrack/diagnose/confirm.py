@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 from mjtrack.diagnose import residuals as rs
-from mjtrack.diagnose.effects import Surrogate
+from mjtrack.diagnose.surrogate.model import Surrogate
 from mjtrack.diagnose.result import extended_robot
 
 log = logging.getLogger(__name__)

@@ -23,21 +23,24 @@ Derivation and measurements: docs/theory/diagnosis.md, "The MuJoCo baseline".
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 from typing import Callable, Sequence
 
+import mujoco
 import numpy as np
 
 from mjtrack.diagnose import stats as st
 from mjtrack.diagnose.baseline import Baseline, ModelForm
-from mjtrack.diagnose.effects import Effect
-from mjtrack.diagnose.fit import Problem
+from mjtrack.diagnose.problem import Problem
+from mjtrack.diagnose.vocabulary import Effect
 from mjtrack.diagnose.residuals import DriveData
 from mjtrack.errors import InputError
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.sim.config import SimConfig, sim_config
+from mjtrack.sim.rollout import collected_mujoco_warnings
 from mjtrack.sim.windows import WindowSim, simulate_windows
 from mjtrack.windows import WARMUP_S, drive_params, make_windows, without_contradicting
 
@@ -67,18 +70,19 @@ def _own(r: Robot, key: str, default: float) -> float:
 
 # what each effect changes in the MuJoCo robot
 CHANGES = {
-    "cg_offset_x": "centre of mass x in the MuJoCo chassis (model field)",
-    "cg_offset_y": "centre of mass y in the MuJoCo chassis (model field)",
+    "cg_x": "centre of mass x in the MuJoCo chassis (model field)",
+    "cg_y": "centre of mass y in the MuJoCo chassis (model field)",
     "friction_scale": "both tracks' contact-pair friction times the scale",
-    "friction_asymmetry": "left-track friction = ratio x right-track friction",
+    "mu_ratio": "left-track friction = ratio x right-track friction",
     "track_speed_scale": "the drives' set-points = scale x command",
-    "actuator_lag": "first-order filter on the drives' set-points (actuator dynamics; time constant)",
-    "command_delay": "dead time on the drives' set-points (total)",
-    "speed_limit": "commands clipped at +-limit",
-    "slope": "gravity of a plane inclined by slope, uphill towards slope_direction (world frame)",
+    "drive_lag": "first-order filter on the drives' set-points (actuator dynamics; time constant)",
+    "drive_delay": "dead time on the drives' set-points (total)",
+    "drive_speed_limit": "commands clipped at +-limit",
+    "slope": "gravity of an inclined plane whose in-plane part is g (slope_x, slope_y) (world frame)",
     "ground_anisotropy": "anisotropic ground: lateral friction = ratio x longitudinal (capsule rollers)",
     "road_wheels": "95 % of the load on 4 road wheels spread over span x the contact length",
-    "contact_length": "a track's contact length (a wheeled robot's wheelbase): the robot rebuilt",
+    "track_length": "a track's contact length: the robot rebuilt",
+    "wheelbase": "a wheeled robot's wheelbase: the robot rebuilt",
     "rolling_resistance": "a force holding each side back by this share of its weight (model actuators)",
 }
 UNTESTABLE = {"icr_spread": "not a physical parameter of the MuJoCo robot",
@@ -87,32 +91,34 @@ UNTESTABLE = {"icr_spread": "not a physical parameter of the MuJoCo robot",
 # The "no effect" value of each one-parameter effect for a robot and log: around the robot's own
 # value, so that a calibrated robot is extended, not reset (lag and dead time add to its own).
 NOMINAL: dict[str, Callable[[Robot, DriveLog], float]] = {
-    "cg_offset_x": lambda r, lg: r.cg_x,
-    "cg_offset_y": lambda r, lg: r.cg_y,
+    "cg_x": lambda r, lg: r.cg_x,
+    "cg_y": lambda r, lg: r.cg_y,
     "friction_scale": lambda r, lg: 1.0,
-    "friction_asymmetry": lambda r, lg: r.friction_left / r.friction_right,
+    "mu_ratio": lambda r, lg: r.friction_left / r.friction_right,
     "track_speed_scale": lambda r, lg: _own(r, "track_speed_scale", 1.0),
-    "actuator_lag": lambda r, lg: _own(r, "drive_lag", 0.0),
-    "command_delay": lambda r, lg: _own(r, "drive_delay", 0.0),
-    "speed_limit": lambda r, lg: _vmax(lg),
+    "drive_lag": lambda r, lg: _own(r, "drive_lag", 0.0),
+    "drive_delay": lambda r, lg: _own(r, "drive_delay", 0.0),
+    "drive_speed_limit": lambda r, lg: _vmax(lg),
     "ground_anisotropy": lambda r, lg: 1.0,
     "road_wheels": lambda r, lg: 1.0,
-    "contact_length": lambda r, lg: r.contact_length,
+    "track_length": lambda r, lg: r.contact_length,
+    "wheelbase": lambda r, lg: r.contact_length,
     "rolling_resistance": lambda r, lg: r.rolling_resistance,
 }
 # the fit's grid of each one-parameter effect (module docstring)
 GRIDS: dict[str, Callable[[Robot, DriveLog], np.ndarray]] = {
-    "cg_offset_x": lambda r, lg: r.cg_x + r.contact_length * np.linspace(-0.15, 0.15, 7),
-    "cg_offset_y": lambda r, lg: r.cg_y + r.track_gauge * np.linspace(-0.15, 0.15, 7),
+    "cg_x": lambda r, lg: r.cg_x + r.contact_length * np.linspace(-0.15, 0.15, 7),
+    "cg_y": lambda r, lg: r.cg_y + r.track_gauge * np.linspace(-0.15, 0.15, 7),
     "friction_scale": lambda r, lg: np.geomspace(0.35, 1.6, 7),
-    "friction_asymmetry": lambda r, lg: r.friction_left / r.friction_right * np.geomspace(0.4, 2.5, 7),
+    "mu_ratio": lambda r, lg: r.friction_left / r.friction_right * np.geomspace(0.4, 2.5, 7),
     "track_speed_scale": lambda r, lg: _own(r, "track_speed_scale", 1.0) * np.linspace(0.7, 1.15, 7),
-    "actuator_lag": lambda r, lg: _own(r, "drive_lag", 0.0) + np.array([0.0, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6]),
-    "command_delay": lambda r, lg: _own(r, "drive_delay", 0.0) + np.array([0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4]),
-    "speed_limit": lambda r, lg: _vmax(lg) * np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
+    "drive_lag": lambda r, lg: _own(r, "drive_lag", 0.0) + np.array([0.0, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6]),
+    "drive_delay": lambda r, lg: _own(r, "drive_delay", 0.0) + np.array([0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4]),
+    "drive_speed_limit": lambda r, lg: _vmax(lg) * np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
     "ground_anisotropy": lambda r, lg: np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
     "road_wheels": lambda r, lg: np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
-    "contact_length": lambda r, lg: r.contact_length * np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4]),
+    "track_length": lambda r, lg: r.contact_length * np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4]),
+    "wheelbase": lambda r, lg: r.contact_length * np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4]),
     "rolling_resistance": lambda r, lg: r.rolling_resistance + np.array([0.0, 0.02, 0.05, 0.08, 0.12, 0.18, 0.25]),
 }
 _SIM_OF = {"ground_anisotropy": "aniso", "road_wheels": "wheels"}
@@ -148,17 +154,6 @@ def _clip_log(lg: DriveLog, limit: float) -> DriveLog:
                                v_right_cmd=np.clip(lg.v_right_cmd, -limit, limit))
 
 
-def slope_vector(theta) -> tuple[float, float]:
-    """a = sin(s) (cos psi, sin psi) of slope parameters (s, psi) [rad]."""
-    s, psi = float(theta[0]), float(theta[1])
-    return math.sin(s) * math.cos(psi), math.sin(s) * math.sin(psi)
-
-
-def _slope_params(a) -> np.ndarray:
-    """(s, psi) of a = sin(s) (cos psi, sin psi)."""
-    return np.array([math.asin(min(1.0, math.hypot(*a))), math.atan2(a[1], a[0])])
-
-
 def _spec(robot: Robot, parts) -> tuple[str, dict, float | None]:
     """What the effects ``parts`` ((Effect, theta) pairs) do to a simulation: (simulator kind,
     window parameters, command clip limit or None)."""
@@ -171,19 +166,19 @@ def _spec(robot: Robot, parts) -> tuple[str, dict, float | None]:
                 raise InputError("diagnose: the anisotropic ground and road wheels cannot be combined in one MuJoCo robot")
             kind = _SIM_OF[name]
             variant["lateral_ratio" if name == "ground_anisotropy" else "span"] = v
-        elif name == "speed_limit":
+        elif name == "drive_speed_limit":
             clip = v if clip is None else min(clip, v)
         elif name == "slope":
-            variant["slope_x"], variant["slope_y"] = slope_vector(theta)
+            variant["slope_x"], variant["slope_y"] = float(theta[0]), float(theta[1])
         elif name == "friction_scale":
             scale = v
-        elif name == "friction_asymmetry":
+        elif name == "mu_ratio":
             ratio = v
-        elif name == "contact_length":
-            variant["wheelbase" if robot.traction == "wheels" else "track_length"] = v
+        elif name in ("track_length", "wheelbase"):
+            variant[name] = v
         else:
-            variant[{"cg_offset_x": "cg_x", "cg_offset_y": "cg_y", "track_speed_scale": "track_speed_scale",
-                     "actuator_lag": "drive_lag", "command_delay": "drive_delay",
+            variant[{"cg_x": "cg_x", "cg_y": "cg_y", "track_speed_scale": "track_speed_scale",
+                     "drive_lag": "drive_lag", "drive_delay": "drive_delay",
                      "rolling_resistance": "rolling_resistance"}[name]] = v
     if scale is not None or ratio is not None:
         s = 1.0 if scale is None else scale
@@ -235,17 +230,22 @@ class MujocoBaseline(Baseline):
     name = "mujoco"
     noun = "MuJoCo robot"
     model_form = MODEL_FORM
-    max_effects = 1  # a forward-selection step costs ~8 window passes per remaining candidate
-    vocabulary = CHANGES
+    # a forward-selection step costs ~8 window passes per remaining candidate: the second (a lag
+    # beside a dead time, say) only when the first leaves more than the pose noise can explain
+    max_effects = 2
+    free_steps = 1
     untestable = UNTESTABLE
     transient = False
 
     def __init__(self, robot: Robot, log: DriveLog, *, horizon_s: float = 2.0, config: SimConfig | None = None,
                  nthread: int = 2, seed: int = 0) -> None:
         self.robot, self.log = robot, log
+        # the contact length under the robot file's key of its traction (the other one is not its own)
+        other = "track_length" if robot.traction == "wheels" else "wheelbase"
+        self.vocabulary = {n: c for n, c in CHANGES.items() if n != other}
         if robot.traction == "wheels":  # the road-wheel ground spreads a track's load; a wheel's is at its axle
             self.untestable = {**UNTESTABLE, "road_wheels": "a wheeled robot carries its load at its axles"}
-            self.vocabulary = {n: c for n, c in CHANGES.items() if n != "road_wheels"}
+            del self.vocabulary["road_wheels"]
         self.config = config or sim_config(None, robot=robot)
         self.nthread, self.seed = nthread, seed
         # windows the ground cannot explain (poses against the tracks, a robot held still by something the
@@ -253,6 +253,7 @@ class MujocoBaseline(Baseline):
         self.ws, self.left_out = without_contradicting(log, make_windows(log, horizon_s), robot.track_gauge)
         self.horizon_s = float(horizon_s)
         self._sims: dict[str, WindowSim] = {}
+        self.warnings: list[dict] = []  # MuJoCo warnings: {"window", "simulation", "warning"} (:meth:`_run`)
         self._cache: dict[tuple, object] = {}
 
     # -- the problem --------------------------------------------------------------------------------
@@ -279,7 +280,8 @@ class MujocoBaseline(Baseline):
                                  + ("test log" if fold.all() else "log fitted on"))
             sample_fold = (np.arange(data.n) < n_train).astype(np.int64)
             k, score_folds = 2, (0,)
-        problem = Problem(data=data, baseline=self, horizon_s=ws.horizon_s, dt=data.step_dt(), starts=ws.starts,
+        problem = Problem(data=data, horizon_s=ws.horizon_s, dt=data.step_dt(), yaw_scale=self.robot.track_gauge / 2,
+                          starts=ws.starts,
                           ends=ws.ends, fold=fold, sample_fold=sample_fold,
                           fit_windows=np.flatnonzero(~np.isin(fold, score_folds or ())), measured=None,
                           speed_ok=None, sample_block=st.sample_blocks(data.t, data.seg * k + sample_fold, ws.horizon_s),
@@ -302,6 +304,9 @@ class MujocoBaseline(Baseline):
             return np.zeros(2)
         return np.array([NOMINAL[effect.name](self.robot, self.log)])
 
+    def simulator_warnings(self) -> list[dict]:
+        return list(self.warnings)
+
     def interval_method(self) -> str:
         return f"a blocked bootstrap over windows ({N_BOOT} resamples of the MuJoCo fit)"
 
@@ -321,9 +326,13 @@ class MujocoBaseline(Baseline):
                 self._sims[kind] = WindowSim(r, self.config, resisted=True)
         return self._sims[kind]
 
-    def _run(self, windows: np.ndarray, specs: Sequence[tuple]) -> np.ndarray:
-        """Errors (V, W, 3) of the windows under each simulation spec (:func:`_spec`); consecutive
-        specs that differ only in window parameters are one batch."""
+    def _run(self, windows: np.ndarray, specs: Sequence[tuple], labels: Sequence[str]) -> np.ndarray:
+        """Errors (V, W, 3) of the windows under each simulation spec (:func:`_spec`, named by
+        ``labels`` in the warnings' record); consecutive specs that differ only in window
+        parameters are one batch. A window whose simulation diverged, or made MuJoCo warn (an
+        unstable step: MuJoCo resets the state and carries on, so the prediction is not the
+        robot's), is NaN; each warning is recorded with its window (:attr:`warnings`)."""
+        windows = np.asarray(windows)
         ws = self.ws.subset(windows)
         out, i = [], 0
         while i < len(specs):
@@ -332,13 +341,44 @@ class MujocoBaseline(Baseline):
             while j < len(specs) and (specs[j][0], specs[j][2]) == (kind, clip):
                 j += 1
             lg = self.log if clip is None else _clip_log(self.log, clip)
-            res = simulate_windows(self._sim(kind), lg, ws, [s[1] for s in specs[i:j]], nthread=self.nthread,
-                                   warmup_s=WARMUP_S)
+            variants = [s[1] for s in specs[i:j]]
+            with collected_mujoco_warnings() as messages:
+                res = simulate_windows(self._sim(kind), lg, ws, variants, nthread=self.nthread, warmup_s=WARMUP_S)
             err = res.errors.copy()
             err[res.diverged] = np.nan
+            if messages:
+                located = self._locate(kind, lg, windows, variants)
+                for w, v, message in located:
+                    err[v, int(np.flatnonzero(windows == w)[0])] = np.nan
+                    self.warnings.append({"window": int(w), "simulation": labels[i + v], "warning": message.strip()})
+                if not located:  # raised while preparing the simulation (e.g. settling the robot), not in a window
+                    self.warnings.append({"window": None, "simulation": ", ".join(labels[i:j]),
+                                          "warning": messages[0].strip()})
             out.append(err)
             i = j
         return np.concatenate(out)
+
+    def _locate(self, kind: str, lg: DriveLog, windows: np.ndarray, variants: list) -> list[tuple[int, int, str]]:
+        """(window, variant index, first warning) of every simulation among ``windows`` x
+        ``variants`` that makes MuJoCo warn, found by simulating halves of the windows again
+        (windows are independent and the physics deterministic), each leaf window variant by
+        variant. A pass over the windows per halving: only ever run when a batch warned."""
+        def warns(w, vs):
+            with _quiet_warnings() as m:
+                simulate_windows(self._sim(kind), lg, self.ws.subset(w), vs, nthread=self.nthread, warmup_s=WARMUP_S)
+            return m
+
+        if windows.size == 1:
+            if len(variants) == 1:
+                m = warns(windows, variants)
+                return [(int(windows[0]), 0, m[0])] if m else []
+            return [(int(windows[0]), v, m[0]) for v in range(len(variants)) for m in [warns(windows, [variants[v]])]
+                    if m]
+        out = []
+        for half in np.array_split(windows, 2):
+            if warns(half, variants):
+                out += self._locate(kind, lg, half, variants)
+        return out
 
     def errors(self, problem: Problem, windows: np.ndarray, effect: Effect | None = None, values=None) -> np.ndarray:
         windows = np.asarray(windows)
@@ -347,11 +387,14 @@ class MujocoBaseline(Baseline):
         if whole and key in self._cache:
             return self._cache[key]
         base = list(problem.base)
+        on = "".join(f" + {e.name}" for e, _ in base)
         if effect is None:
-            specs = [_spec(self.robot, base)]
+            specs, labels = [_spec(self.robot, base)], ["baseline" + on]
         else:
-            specs = [_spec(self.robot, base + [(effect, np.atleast_1d(np.asarray(v, float)))]) for v in values]
-        out = self._run(windows, specs)
+            values = [np.atleast_1d(np.asarray(v, float)) for v in values]
+            specs = [_spec(self.robot, base + [(effect, v)]) for v in values]
+            labels = [f"baseline{on} + {effect.name} = {', '.join(f'{x:.4g}' for x in v)}" for v in values]
+        out = self._run(windows, specs, labels)
         if whole:
             self._cache[key] = out
         return out
@@ -377,7 +420,7 @@ class MujocoBaseline(Baseline):
             E0, J = self._slope_jacobian(problem)
 
             def solve(idx):
-                return _slope_params(_slope_a(E0, J, idx))
+                return _slope_a(E0, J, idx)
         else:
             grid, sq = self._curves(problem, effect)
 
@@ -388,8 +431,6 @@ class MujocoBaseline(Baseline):
             return est
         boots = np.array([solve(idx) for idx in self._draws(problem, train)])
         dev = boots - est
-        angular = np.array([n == "slope_direction" for n in effect.params])
-        dev[:, angular] = np.angle(np.exp(1j * dev[:, angular]))
         return est, np.diag(np.mean(dev ** 2, axis=0))  # bootstrap variance around the estimate
 
     def _curves(self, problem: Problem, effect: Effect) -> tuple[np.ndarray, np.ndarray]:
@@ -417,10 +458,24 @@ class MujocoBaseline(Baseline):
                      for a in ((h, 0.0), (-h, 0.0), (0.0, h), (0.0, -h))]
             w = problem.fit_windows
             e = np.full((4, m, 2), np.nan)
-            e[:, w] = self._run(w, specs)[..., :2]
+            e[:, w] = self._run(w, specs, [f"slope_x, slope_y = {a[0]:.3g}, {a[1]:.3g} (slope fit)"
+                                           for a in ((h, 0.0), (-h, 0.0), (0.0, h), (0.0, -h))])[..., :2]
             J = np.stack([(e[0] - e[1]) / (2 * h), (e[2] - e[3]) / (2 * h)], axis=-1)
             self._cache[key] = (self.errors(problem, np.arange(m))[0][:, :2], J)
         return self._cache[key]
+
+
+@contextlib.contextmanager
+def _quiet_warnings():
+    """MuJoCo's warnings collected (yielded) and not passed on: a re-simulation that locates a
+    warning (:meth:`MujocoBaseline._locate`) must not count it twice in an outer summary."""
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(None)  # the outer collectors hidden while these are collected
+    try:
+        with collected_mujoco_warnings() as messages:
+            yield messages
+    finally:
+        mujoco.set_mju_user_warning(previous)
 
 
 def _base_key(problem: Problem) -> tuple:

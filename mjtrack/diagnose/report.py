@@ -47,7 +47,7 @@ def _direction_rows(d: Diagnosis, err: np.ndarray, turn: np.ndarray) -> list[lis
 def _symptom_figure(d: Diagnosis, turn, speed, best):
     plt = _plt()
     fig, ax = plt.subplots(2, 2, figsize=(10, 7))
-    series = [("nominal", d.base_errors, "C3")]
+    series = [(d.baseline_title, d.base_errors, "C3")]
     if best is not None:
         series.append((f"+ {best.effect.name} (held out)", best.held_out_errors, "C2"))
     for label, err, color in series:
@@ -90,7 +90,7 @@ def _icr_figure(d: Diagnosis, icr: dict):
         lo, hi = np.nanpercentile(icr[name], [2, 98]) if icr[name].size else (0, 1)
         pad = 0.2 * (hi - lo) + 0.02
         if qn is not None:
-            ax[i].axhline(qn[i], color="C3", label="nominal model")
+            ax[i].axhline(qn[i], color="C3", label=d.baseline_title)
             lo, hi = min(lo, qn[i]), max(hi, qn[i])
         ax[i].set(xlabel="turn ratio", ylabel=f"{name} [m]", title=f"{name}")
         ax[i].set_ylim(lo - pad, hi + pad)
@@ -114,7 +114,7 @@ def _gain_figure(d: Diagnosis):
         ax.plot([lower[i]], [i], "|", color="C3", ms=10)
     ax.axvline(0, color="k", lw=0.8)
     ax.set(xlabel="held-out reduction of the position RMSE [%] (bars: pooled, dots: per fold, red tick: 95 % lower bound)",
-           title="candidates (green: beats the nominal model beyond noise)")
+           title=f"candidates (green: beats the baseline, {d.baseline_title}, beyond noise)")
     ax.grid(alpha=0.3, axis="x")
     fig.tight_layout()
     return fig
@@ -144,14 +144,15 @@ CANDIDATE_HEADER = ["effect", "estimate", "95 % interval", "before [m]", "after 
 def build_report(d: Diagnosis) -> Report:
     """The report of a diagnosis (not written)."""
     rep = Report(f"Diagnosis of {d.log_path or 'a drive log'}",
-                 intro="What the nominal model gets wrong on this measured log, which effect explains it, and how much of "
-                       "the prediction error the extended model removes on data it was not fitted to.")
+                 intro=f"What the baseline ({d.baseline_title}) gets wrong on this measured log, which effect explains "
+                       "it, and how much of the prediction error the extended model removes on data it was not fitted "
+                       "to.")
     best = d.findings[0] if d.findings else None
     v = rep.section("Verdict")
     where = "on the test log" if d.test_log else "on held-out data"
     if best is None:
-        v.verdict(f"cause: none. No candidate beats the nominal model beyond noise {where} (baseline "
-                  f"{d.horizon_s:g} s position RMSE {d.before:.3g} m).")
+        v.verdict(f"cause: none. No candidate beats the baseline ({d.baseline_title}) beyond noise "
+                  f"{where} ({d.horizon_s:g} s position RMSE {d.before:.3g} m).")
     else:
         tied = [r for r in d.findings if r is not best and best.effect.name in r.tied_with]
         head = f"cause: {best.effect.name} ({best.effect.meaning})"
@@ -167,7 +168,7 @@ def build_report(d: Diagnosis) -> Report:
             v.paragraph("estimates of the effects found together are refitted each with the others in the model: "
                         + "; ".join(f"{r.effect.name}: {_fmt_est(r)} {_fmt_int(r)}" for r in d.chosen)
                         + f". Held-out {d.horizon_s:g} s position RMSE with all of them: {d.final_after:.3g} m "
-                        f"(nominal {d.before:.3g} m).")
+                        f"({d.baseline_title}: {d.before:.3g} m).")
     for w in d.warnings():
         v.verdict(w, warn=True)
     for note in d.notes:
@@ -183,19 +184,19 @@ def build_report(d: Diagnosis) -> Report:
         "test log": d.test_log or "none (held-out cross-validation on the log itself)",
         "metric": f"RMS position error after {d.horizon_s:g} s of open-loop prediction from every measured pose",
         "windows": f"{d.starts.size} (cross-validation: {d.n_folds} contiguous folds)"
-                   + (f"; {d.diverged} more whose nominal simulation diverged (not scored)" if d.diverged else ""),
+                   + (f"; {d.diverged} more whose baseline simulation diverged (not scored)" if d.diverged else ""),
     })
 
     turn, speed = _window_commands(d)
-    sy = rep.section("Symptom: where the nominal prediction departs")
+    sy = rep.section(f"Symptom: where the baseline's prediction departs ({d.baseline_title})")
     sy.paragraph("Each window starts the model at a measured pose and drives it with the logged commands for the "
                  "horizon; its error is given in the frame of the start pose (along: + the model went too far; across: "
                  "+ it ended too far left; yaw: + it turned too far left).")
     header = ["windows", "count", "RMS pos err [m]", "mean along [m]", "mean across [m]", "mean yaw err [deg]"]
-    sy.table(header, _direction_rows(d, d.base_errors, turn), caption="nominal model, by turn direction")
+    sy.table(header, _direction_rows(d, d.base_errors, turn), caption=f"{d.baseline_title}, by turn direction")
     tb = rs.bin_errors("turn ratio", turn, d.base_errors, TURN_EDGES)
-    sy.table(["turn ratio"] + header[1:], tb.rows(), caption="nominal model, by commanded turn ratio")
-    sy.figure(_symptom_figure(d, turn, speed, best), "window errors of the nominal model (red) and, when there is a "
+    sy.table(["turn ratio"] + header[1:], tb.rows(), caption=f"{d.baseline_title}, by commanded turn ratio")
+    sy.figure(_symptom_figure(d, turn, speed, best), f"window errors of the baseline, {d.baseline_title} (red), and, when there is a "
               "finding, of the extended model on held-out folds (green)")
     speeds = d.data.meas if d.data.meas is not None else d.data.cmd
     h_icr = min(d.horizon_s, 1.0)  # shorter windows: more of them hold one command
@@ -208,12 +209,12 @@ def build_report(d: Diagnosis) -> Report:
                 rows.append([name, int(m.sum())] + [float(np.median(icr[k][m])) for k in ("y_l", "y_r", "x_c")])
         qn = d.baseline.nominal_icrs()
         if qn is not None:
-            rows.append(["nominal model", "–", float(qn[0]), float(qn[1]), float(qn[2])])
+            rows.append([d.baseline_title, "–", float(qn[0]), float(qn[1]), float(qn[2])])
         sy.table(["ICRs (2.13), median", "windows", "y_l [m]", "y_r [m]", "x_c [m]"], rows,
                  caption=f"measured ICRs from {h_icr:g} s windows holding one command, |turn ratio| >= 0.3 "
                          f"({'measured' if d.data.meas is not None else 'commanded'} track speeds)")
         sy.figure(_icr_figure(d, icr), "measured ICRs of the turning windows"
-                  + (" against the nominal model's" if qn is not None else ""))
+                  + (f" against those of the baseline, {d.baseline_title}" if qn is not None else ""))
 
     c = rep.section("Candidates" + (" (fitted on the log, scored on the test log)" if d.test_log else
                                       " (held-out cross-validation)"))
@@ -236,6 +237,17 @@ def build_report(d: Diagnosis) -> Report:
         sec.table(CANDIDATE_HEADER, _candidate_rows(step.results))
         sec.table(["effect", "decision"], [[r.effect.name, r.why] for r in step.results])
 
+    sw = d.simulator_warnings
+    if sw and (sw["windows"] or sw["outside_windows"]):
+        n = rep.section("Simulator warnings")
+        n.paragraph(d.simulator_warning_sentence() + ".")
+        if sw["windows"]:
+            n.table(["window", "start [s]", "simulations that warned", "warning", "left out"],
+                    [[w["window"], w["t0"], "; ".join(w["simulations"]), "; ".join(w["warnings"]),
+                      "yes" if w["left_out"] else "no"] for w in sw["windows"]])
+        if sw["outside_windows"]:
+            n.table(["outside any window"], [[x] for x in sw["outside_windows"]])
+
     if d.skipped:
         n = rep.section("Not identifiable on this log")
         n.table(["effect", "why it was not tested"], [[k, v] for k, v in d.skipped.items()])
@@ -245,7 +257,7 @@ def build_report(d: Diagnosis) -> Report:
     if d.baseline.name == "mujoco":
         nx.paragraph("The baseline is the MuJoCo robot itself: every number above is MuJoCo's.")
     elif best is None:
-        nx.paragraph("Nothing to confirm: the nominal model is as good as any extension on this log.")
+        nx.paragraph(f"Nothing to confirm: the baseline ({d.baseline_title}) is as good as any extension on this log.")
     elif conf is not None and conf.get("run"):
         nx.paragraph("The log's commands re-simulated with the MuJoCo robot, as described and extended by the cause "
                      "(each segment from rest, same windows). Not held out: the estimate was fitted on this log.")

@@ -15,8 +15,12 @@ import numpy as np
 from mjtrack.diagnose import residuals as rs
 from mjtrack.diagnose.baseline import Baseline
 from mjtrack.diagnose.select import CandidateResult, Step, all_findings
+from mjtrack.diagnose.vocabulary import slope_angle
 from mjtrack.io.robot import Robot
 
+# what each baseline is, for the report's headings
+TITLES = {"mujoco": "the MuJoCo robot as described", "coulomb": "the Coulomb surrogate of the robot as described",
+          "kinematic": "the kinematic model of the robot as described"}
 UNEXPLAINED = 0.5  # a warning when the final model keeps more than this share of the baseline RMSE
 
 
@@ -29,7 +33,9 @@ class Diagnosis:
     how it was chosen ({"requested", "chosen", "why"}; MuJoCo: also "screened_by_surrogate", the
     candidates the surrogate diagnosis ranked best, or None);
     ``starts``, ``ends``, ``base_errors``: the scored windows and the baseline's errors on them;
-    ``diverged``: windows whose baseline simulation diverged (neither fitted nor scored).
+    ``diverged``: windows whose baseline simulation diverged (neither fitted nor scored);
+    ``simulator_warnings``: the simulator's warnings, by window, and the answer with and without
+    the windows that warned (:func:`mjtrack.diagnose.run.diagnose`), None when nothing is simulated.
     """
 
     log_path: str
@@ -54,11 +60,17 @@ class Diagnosis:
     test_log: str | None = None
     choice: dict = field(default_factory=dict)
     diverged: int = 0
+    simulator_warnings: dict | None = None
 
     @property
     def transient(self) -> bool:
         """Whether the baseline models the friction-limited transient (the Coulomb surrogate)."""
-        return bool(getattr(self.baseline, "transient", False))
+        return bool(self.baseline.transient)
+
+    @property
+    def baseline_title(self) -> str:
+        """What the baseline is, in words for headings ("the MuJoCo robot as described", ...)."""
+        return TITLES.get(self.baseline.name, self.baseline.noun)
 
     @property
     def results(self) -> list[CandidateResult]:
@@ -89,22 +101,46 @@ class Diagnosis:
         speeds (input effects) or the pose (ground effects, or input effects without measured
         speeds) suggest in too few blocks of the log to establish them."""
         out = []
+        sw = self.simulator_warnings
+        if sw and (sw["windows"] or sw["outside_windows"]):
+            out.append(self.simulator_warning_sentence())
         last = self.steps[-1].results if self.steps else []
         out += [r.below_floor for r in last if r.below_floor and not r.passed]
         if self.unexplained > UNEXPLAINED and self.final_after > 2.0 * self.noise_floor:
             what = " with " + " + ".join(r.effect.name for r in self.chosen) if self.chosen else ""
             out.append(f"most of the error remains unexplained: the model{what} keeps {100 * self.unexplained:.0f} % "
-                       f"of the nominal {self.horizon_s:g} s position RMSE ({self.final_after:.3g} of {self.before:.3g} m; "
+                       f"of the baseline's {self.horizon_s:g} s position RMSE ({self.final_after:.3g} of {self.before:.3g} m; "
                        f"the pose noise alone accounts for about {self.noise_floor:.2g} m). Something the effect "
                        "vocabulary does not name is at work: read the symptom tables before trusting the estimates")
         return out
+
+    def simulator_warning_sentence(self) -> str:
+        """The verdict's sentence on the simulator's warnings (:attr:`simulator_warnings`)."""
+        sw = self.simulator_warnings
+        ws = sw["windows"]
+        text = (f"MuJoCo warned in {sw['simulations_warned']} simulation(s)"
+                + (f" of {len(ws)} window(s) (starting at " + ", ".join(f"t = {w['t0']:.2f} s" for w in ws[:8])
+                   + (", ..." if len(ws) > 8 else "") + ")" if ws else "")
+                + (f" and {len(sw['outside_windows'])} time(s) outside any window" if sw["outside_windows"] else "")
+                + f" ({(ws[0]['warnings'] if ws else sw['outside_windows'])[0]}): a simulation that warned is unstable "
+                  "and counts as diverged")
+        if sw["left_out"]:
+            text += f"; {sw['left_out']} window(s) whose baseline simulation warned are left out (not scored)"
+        ans = sw.get("answer")
+        if ans:
+            w, wo = ans["with_warned_windows"], ans["without_warned_windows"]
+            text += (f"; scored without the {w['windows'] - wo['windows']} window(s) that warned, the first step names "
+                     f"{wo['cause']}, with them {w['cause']}: "
+                     + ("the answer changes with them, read it with care" if ans["changes"] else
+                        "the answer does not change"))
+        return text
 
     def summary(self) -> str:
         """The lines a terminal shows: cause(s), estimates, gain, warnings."""
         where = "test-log" if self.test_log else "held-out"
         lines = [f"baseline: {self.baseline.noun}" + (f" ({self.choice['why']})" if self.choice.get("why") else "")]
         if not self.chosen:
-            lines.append(f"cause: none; nominal {self.horizon_s:g} s position RMSE {self.before:.3g} m")
+            lines.append(f"cause: none; baseline {self.horizon_s:g} s position RMSE {self.before:.3g} m")
         else:
             for i, r in enumerate(self.chosen):
                 est = ", ".join(f"{n} = {num(v)}" for n, v in zip(r.effect.params, r.estimate))
@@ -121,6 +157,8 @@ class Diagnosis:
         on_top = f" on top of {' + '.join(r.on_top_of)}" if r.on_top_of else ""
         where = "on the test log" if self.test_log else "on held-out folds"
         g = r.gain
+        if e.name == "slope" and np.all(np.isfinite(r.estimate)):
+            est += " ({})".format(describe(slope_angle(*(float(v) for v in r.estimate))) + " rad")
         text = (f"{est} removes{on_top} {100 * r.relative:.0f} % of the {self.horizon_s:g} s position error {where} "
                 f"({r.before:.3g} -> {r.after:.3g} m"
                 + (f"; one-sided 95 % bound {100 * g.lower:.0f} % by blocked bootstrap over {g.blocks} blocks" if g else "")
@@ -144,6 +182,7 @@ class Diagnosis:
                      "relative": float(r.relative), "held_out": True},
             "evidence": self.evidence(r),
         }
+        out.update(_derived(r))
         if r.on_top_of:
             out["on_top_of"] = list(r.on_top_of)
         if r.tied_with:
@@ -157,7 +196,7 @@ class Diagnosis:
             "interval": {n: [clean(a), clean(b)] for n, (a, b) in zip(r.effect.params, r.interval)},
             "before": float(r.before), "after": float(r.after), "relative": float(r.relative),
             "gain_lower_95": clean(r.gain.lower) if r.gain else None, "t_folds": clean(r.t_stat),
-            "decision": r.why,
+            "decision": r.why, **_derived(r),
         }
 
     def to_json(self) -> dict:
@@ -197,6 +236,7 @@ class Diagnosis:
                            "mujoco": self._confirmation_json()},
             "timings_s": {k: round(v, 3) for k, v in self.timings.items()},
             "diverged_windows": self.diverged,
+            "simulator_warnings": self.simulator_warnings,
         }
         if self.test_log:
             out["test_log"] = self.test_log
@@ -210,6 +250,13 @@ class Diagnosis:
         if self.confirmation is not None:
             return self.confirmation
         return {"stage": "mujoco", "run": False, "why": "not requested (mjtrack diagnose --confirm)"}
+
+
+def _derived(r: CandidateResult) -> dict:
+    """Quantities read off an estimate in other units: a slope's angle and uphill direction."""
+    if r.effect.name != "slope" or not np.all(np.isfinite(r.estimate)):
+        return {}
+    return {"derived": slope_angle(*(float(v) for v in r.estimate))}
 
 
 def clean(v) -> float | None:
@@ -241,14 +288,14 @@ def extended_robot(robot: Robot, effect: str, estimate: dict[str, float]) -> tup
     """The robot description a finding asks for, and the remaining non-robot changes (input
     transform or scene) as a dict of plain floats."""
     e = {k: float(v) for k, v in estimate.items()}
-    if effect == "cg_offset_x":
-        return robot.replace(cg_x=e["cg_offset_x"]), {}
-    if effect == "cg_offset_y":
-        return robot.replace(cg_y=e["cg_offset_y"]), {}
+    if effect == "cg_x":
+        return robot.replace(cg_x=e["cg_x"]), {}
+    if effect == "cg_y":
+        return robot.replace(cg_y=e["cg_y"]), {}
     if effect == "friction_scale":
         s = e["friction_scale"]
         return robot.replace(mu=robot.mu * s, mu_left=None if robot.mu_left is None else robot.mu_left * s,
                              mu_right=None if robot.mu_right is None else robot.mu_right * s), {}
-    if effect == "friction_asymmetry":
-        return robot.replace(mu_left=robot.friction_right * e["friction_asymmetry"], mu_right=robot.friction_right), {}
+    if effect == "mu_ratio":
+        return robot.replace(mu_left=robot.friction_right * e["mu_ratio"], mu_right=robot.friction_right), {}
     return robot, e

@@ -26,14 +26,16 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from mjtrack.diagnose import fit as fitmod
 from mjtrack.diagnose import stats as st
-from mjtrack.diagnose.effects import Effect
+from mjtrack.diagnose.baseline import Baseline
+from mjtrack.diagnose.problem import Problem
+from mjtrack.diagnose.stats import interval, paired_t, pos_rmse, too_few_blocks
+from mjtrack.diagnose.ties import physical_tie
+from mjtrack.diagnose.vocabulary import Effect
 from mjtrack.progress import Progress
 
 log = logging.getLogger(__name__)
@@ -92,59 +94,22 @@ class CandidateResult:
         return 1.0 - self.after / self.before if self.before > 0 else 0.0
 
 
-def paired_t(a: np.ndarray, b: np.ndarray) -> float:
-    """t statistic of mean(a - b) over folds (inf when all differences are equal and positive)."""
-    d = np.asarray(a, float) - np.asarray(b, float)
-    sd = float(np.std(d, ddof=1)) if d.size > 1 else 0.0
-    m = float(np.mean(d))
-    scale = max(float(np.max(np.abs(a))), float(np.max(np.abs(b))), 1e-300)
-    if abs(m) <= 1e-12 * scale:  # no difference at all (e.g. the fit stayed at the nominal value)
-        return 0.0
-    if sd <= 1e-15 * abs(m):
-        return float(np.sign(m) * np.inf)
-    return m / (sd / np.sqrt(d.size))
-
-
-def _jackknife_se(folds: np.ndarray, angular: np.ndarray) -> np.ndarray:
-    k = folds.shape[0]
-    dev = folds - folds.mean(0)
-    if angular.any():
-        mean_ang = np.angle(np.exp(1j * folds[:, angular]).mean(0))
-        dev[:, angular] = np.angle(np.exp(1j * (folds[:, angular] - mean_ang)))
-    return np.sqrt((k - 1) / k * np.sum(dev**2, 0))
-
-
-def model_se(eff: Effect, theta: np.ndarray, problem: fitmod.Problem) -> np.ndarray:
+def model_se(bl: Baseline, eff: Effect, theta: np.ndarray, problem: Problem) -> np.ndarray:
     """Standard error (P,) of the baseline's own approximation (its
     :class:`mjtrack.diagnose.baseline.ModelForm`); zero for an input effect fitted to measured
     track speeds (an exact transform)."""
-    if fitmod.uses_speeds(problem, eff):
+    if problem.uses_speeds(eff):
         return np.zeros(len(eff.params))
-    bl = problem.baseline
     return bl.model_form.se(eff.name, theta, bl.nominal(eff, problem))
 
 
-def interval(full: np.ndarray, fold_estimates: np.ndarray, cov: np.ndarray, angular: np.ndarray,
-             n_blocks: int, se_model: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """95 % interval (P, 2) and its standard error (P,): the larger of the block-robust sandwich
-    and the delete-one-fold jackknife, and the baseline's own error in quadrature (module docstring)."""
-    se_j = _jackknife_se(fold_estimates, angular)
-    se_s = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    se = np.where(np.isfinite(se_s), np.maximum(se_s, se_j), se_j)
-    if se_model is not None:
-        se = np.sqrt(se**2 + se_model**2)
-    q = st.t_quantile(n_blocks)
-    return np.stack([full - q * se, full + q * se], -1), se
-
-
-def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float, base_err: np.ndarray,
+def score(bl: Baseline, problem: Problem, eff: Effect, *, n_folds: int, min_gain: float, base_err: np.ndarray,
           speed_base: np.ndarray | None = None, bar=None, floor: float | None = None) -> CandidateResult:
     """Fit ``eff`` on every K-1 folds, score it on the fold left out, test the gain (module docstring).
 
     ``min_gain`` is the floor of the track-speed gain; ``floor`` that of the position gain as a
     share of this problem's baseline RMSE (None: ``min_gain``; :func:`pose_floor`)."""
     floor = min_gain if floor is None else floor
-    bl = problem.baseline
     folds = np.arange(n_folds)
     score_folds = folds if problem.score_folds is None else np.array(problem.score_folds)
     allw = np.arange(problem.starts.size)
@@ -167,25 +132,24 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
         after_err[w] = bl.errors(problem, w, eff, [p])[0]
         if speeds:
             sm = (problem.sample_fold == k) & problem.speed_ok
-            r = fitmod.speed_residuals(problem, eff, p, sm).reshape(-1, 2)
+            r = bl.speed_residuals(problem, eff, p, sm).reshape(-1, 2)
             speed_res[sm] = np.sum(r**2, 1)
         if bar is not None:
             bar.update()
     ests = np.array(ests)
-    angular = np.array([n == "slope_direction" for n in eff.params])
     valid = problem.valid_mask
-    fold_before = np.array([fitmod.pos_rmse(base_err[(problem.fold == k) & valid]) for k in score_folds])
-    fold_after = np.array([fitmod.pos_rmse(after_err[(problem.fold == k) & valid]) for k in score_folds])
+    fold_before = np.array([pos_rmse(base_err[(problem.fold == k) & valid]) for k in score_folds])
+    fold_after = np.array([pos_rmse(after_err[(problem.fold == k) & valid]) for k in score_folds])
     base_err, after_err = base_err[scored], after_err[scored]
     sq_b = np.sum(base_err[:, :2] ** 2, 1)
     sq_a = np.sum(after_err[:, :2] ** 2, 1)
-    before, after = fitmod.pos_rmse(base_err), fitmod.pos_rmse(after_err)
+    before, after = pos_rmse(base_err), pos_rmse(after_err)
     gt = st.gain_test(sq_b, sq_a, wblock)
     # the fit resolves the estimate only so far (an optimum at a kink of the cost, e.g. a dead time
     # fitted to sampled speeds, is located no better): in quadrature with the model-form term
-    se_fit = np.hypot(model_se(eff, full, problem), bl.resolution(eff, full))
-    ivl, se = interval(full, ests, cov, angular, gt.blocks, se_fit)
-    se_stat = interval(full, ests, cov, angular, gt.blocks)[1]
+    se_fit = np.hypot(model_se(bl, eff, full, problem), bl.resolution(eff, full))
+    ivl, se = interval(full, ests, cov, gt.blocks, se_fit)
+    se_stat = interval(full, ests, cov, gt.blocks)[1]
     nominal = bl.nominal(eff, problem)
     passed = gt.lower > 0.0 and gt.relative >= floor
     why = (f"held-out position RMSE {before:.3g} -> {after:.3g} m ({100 * gt.relative:.1f} %, one-sided 95 % bound "
@@ -195,7 +159,7 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
         bad = int(np.sum(~np.isfinite(sq_a)))
         why = f"the {bl.noun} diverged on {bad} of {sq_a.size} held-out windows"
     resolution = bl.model_form.absolute.get(eff.name, 0.0)
-    if passed and resolution > 0.0 and not fitmod.uses_speeds(problem, eff):
+    if passed and resolution > 0.0 and not problem.uses_speeds(eff):
         if np.any((ivl[:, 0] <= nominal) & (nominal <= ivl[:, 1])):
             # the gain is real, but a second physics of the same description differs by as much
             passed = False
@@ -206,7 +170,7 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
     sb = sa = stt = sg = below_floor = None
     if speeds:
         ok = problem.speed_ok & np.isfinite(speed_res)
-        sblock = problem.sample_block if problem.sample_block is not None else problem.sample_fold
+        sblock = problem.speed_block
         sg = st.gain_test(speed_base[ok], speed_res[ok], sblock[ok])
         sb = float(np.sqrt(np.mean(speed_base[ok]) / 2))
         sa = float(np.sqrt(np.mean(speed_res[ok]) / 2))
@@ -214,12 +178,12 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
         if not (sg.lower > 0.0 and sg.relative >= min_gain):
             passed = False
             why += ": refuted, the measured track speeds do not show this effect"
-        contra = _contradiction(problem, eff, full)
+        contra = _contradiction(bl, problem, eff, full)
         if contra:
             passed = False
             why += "; refuted: " + contra
         elif not passed and sg.relative >= min_gain and sg.lower <= 0.0:
-            below = _too_few_blocks(speed_base[ok], speed_res[ok], sblock[ok], min_gain)
+            below = too_few_blocks(speed_base[ok], speed_res[ok], sblock[ok], min_gain)
             if below is not None:
                 below_floor = _below_floor_note(
                     eff, full, f"the measured track speeds (held-out track-speed RMSE {sb:.3g} -> {sa:.3g} m/s, "
@@ -227,7 +191,7 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
                     "A log with more of the commands it acts on would settle it")
     if below_floor is None and not passed and not speeds and gt.relative >= floor and gt.lower <= 0.0:
         # no measured speeds to speak for it (or a ground effect): the pose's own blocks
-        below = _too_few_blocks(sq_b, sq_a, wblock, floor)
+        below = too_few_blocks(sq_b, sq_a, wblock, floor)
         if below is not None:
             below_floor = _below_floor_note(
                 eff, full, f"the pose (held-out position RMSE {before:.3g} -> {after:.3g} m, {100 * gt.relative:.0f} %)",
@@ -239,17 +203,6 @@ def score(problem: fitmod.Problem, eff: Effect, *, n_folds: int, min_gain: float
                            nominal=nominal)
 
 
-def min_active_blocks(n_blocks: int, level: float = 0.95) -> int:
-    """The fewest blocks an effect must act in for the one-sided ``level`` bound of the blocked
-    bootstrap gain (:func:`mjtrack.diagnose.stats.gain_test`) to exceed zero: a replicate that
-    draws none of the k blocks shows no gain, which happens with probability (1 - k/B)^B, and
-    that must be below 1 - level (3 of 40 blocks: 4.4 %; 2 of 40: 12.9 %)."""
-    for k in range(1, n_blocks + 1):
-        if (1.0 - k / n_blocks) ** n_blocks < 1.0 - level:
-            return k
-    return n_blocks
-
-
 def _below_floor_note(eff, full, evidence: str, below: tuple[int, int, int], remedy: str) -> str:
     """The verdict's sentence for an effect that ``evidence`` suggests in too few blocks
     (``below`` = (blocks showing it, blocks, blocks needed), :func:`_too_few_blocks`)."""
@@ -259,31 +212,19 @@ def _below_floor_note(eff, full, evidence: str, below: tuple[int, int, int], rem
             f"{need}: not reported as a cause. {remedy}")
 
 
-def _too_few_blocks(before_sq: np.ndarray, after_sq: np.ndarray, block: np.ndarray,
-                    min_gain: float) -> tuple[int, int, int] | None:
-    """(blocks that show the gain, blocks, the fewest that could establish it) when fewer blocks
-    than :func:`min_active_blocks` gain at least ``min_gain`` of their own error, else None."""
-    ids, inv = np.unique(block, return_inverse=True)
-    b = np.bincount(inv, weights=before_sq, minlength=ids.size)
-    a = np.bincount(inv, weights=after_sq, minlength=ids.size)
-    gain = 1.0 - np.sqrt(a / np.where(b > 0, b, 1.0))
-    k, need = int(np.sum(gain >= min_gain)), min_active_blocks(ids.size)
-    return (k, int(ids.size), need) if 0 < k < need else None
-
-
-def _contradiction(problem: fitmod.Problem, eff: Effect, theta) -> str | None:
+def _contradiction(bl: Baseline, problem: Problem, eff: Effect, theta) -> str | None:
     """A limit the measured speeds exceed: most samples commanded beyond it measure beyond it
     by more than 5 % (a saturation cannot be exceeded), or None."""
-    if eff.name not in ("speed_limit", "yaw_rate_limit") or not np.isfinite(theta[0]):
+    if eff.name not in ("drive_speed_limit", "yaw_rate_limit") or not np.isfinite(theta[0]):
         return None
     ok = problem.speed_ok
     cmd, meas = problem.data.cmd[ok], problem.data.meas[ok]
-    if eff.name == "speed_limit":
+    if eff.name == "drive_speed_limit":
         over = np.abs(cmd) > theta[0]
         beyond = over & (np.abs(meas) > 1.05 * theta[0])
         unit = "m/s"
     else:
-        T = problem.baseline.robot.track_gauge
+        T = bl.robot.track_gauge
         over = np.abs(cmd[:, 1] - cmd[:, 0]) / T > theta[0]
         beyond = over & (np.abs(meas[:, 1] - meas[:, 0]) / T > 1.05 * theta[0])
         unit = "rad/s"
@@ -291,47 +232,6 @@ def _contradiction(problem: fitmod.Problem, eff: Effect, theta) -> str | None:
         return (f"{100 * beyond.sum() / over.sum():.0f} % of the samples commanded beyond {theta[0]:.3g} {unit} "
                 f"measure more than 5 % beyond it")
     return None
-
-
-# -- physics of ties -------------------------------------------------------------------------
-TRACTION_PAIR = ("cg_offset_y", "friction_asymmetry")
-
-
-def traction_ratio(robot, name: str, value: float) -> float:
-    """mu_L N_L / (mu_R N_R), the traction ratio of the two tracks (lever rule for the loads),
-    set by cg_offset_y = value or friction_asymmetry = value, the other at its nominal."""
-    half = robot.track_gauge / 2
-    cy = value if name == "cg_offset_y" else robot.cg_y
-    a = value if name == "friction_asymmetry" else robot.friction_left / robot.friction_right
-    return a * (half + cy) / (half - cy)
-
-
-def equivalent(robot, name: str, value: float) -> float:
-    """The value of the other effect of :data:`TRACTION_PAIR` that sets the same traction ratio."""
-    rho = traction_ratio(robot, name, value)
-    half = robot.track_gauge / 2
-    if name == "cg_offset_y":  # -> friction_asymmetry, the nominal cg_y kept
-        return rho * (half - robot.cg_y) / (half + robot.cg_y)
-    r = rho / (robot.friction_left / robot.friction_right)  # -> cg_offset_y, the nominal asymmetry kept
-    return half * (r - 1.0) / (r + 1.0)
-
-
-def physical_tie(robot, a: CandidateResult, b: CandidateResult) -> str | None:
-    """Why two findings cannot be separated by physics, or None (module docstring)."""
-    if {a.effect.name, b.effect.name} != set(TRACTION_PAIR):
-        return None
-    cy, fa = (a, b) if a.effect.name == "cg_offset_y" else (b, a)
-    rho_c = traction_ratio(robot, "cg_offset_y", float(cy.estimate[0]))
-    rho_f = traction_ratio(robot, "friction_asymmetry", float(fa.estimate[0]))
-    if (rho_c - 1.0) * (rho_f - 1.0) <= 0:  # they disagree on which track grips more
-        return None
-    return (f"under Coulomb friction cg_offset_y and friction_asymmetry both set the traction ratio "
-            f"mu_L N_L / (mu_R N_R) of the two tracks: cg_offset_y = {cy.estimate[0]:.4g} m gives {rho_c:.3g}, "
-            f"as friction_asymmetry = {equivalent(robot, 'cg_offset_y', float(cy.estimate[0])):.4g} would; "
-            f"friction_asymmetry = {fa.estimate[0]:.4g} gives {rho_f:.3g}, as cg_offset_y = "
-            f"{equivalent(robot, 'friction_asymmetry', float(fa.estimate[0])):.4g} m would. A drive log cannot separate "
-            f"them; weighing the left and right tracks (or wheels) can: a lateral centre of mass moves the load "
-            f"(left share {0.5 + float(cy.estimate[0]) / robot.track_gauge:.3f} here), a friction asymmetry does not")
 
 
 def _rank(found: list[CandidateResult], robot, problem, base_err, min_gain: float,
@@ -343,7 +243,7 @@ def _rank(found: list[CandidateResult], robot, problem, base_err, min_gain: floa
     found = sorted(found, key=lambda r: r.after)
     if not found:
         return found
-    sblock = problem.sample_block if problem.sample_block is not None else problem.sample_fold
+    sblock = problem.speed_block
     if len(found) > 1 and speed_order(found[0], found[1], sblock, min_gain) == 1:
         sq0 = np.sum(base_err[problem.scored][:, :2] ** 2, 1)
         d, lo, hi = st.difference_test(sq0, np.sum(found[0].held_out_errors[:, :2] ** 2, 1),
@@ -408,11 +308,11 @@ class Step:
         return self.results[0] if self.results and self.results[0].passed else None
 
 
-def _speed_base(problem: fitmod.Problem) -> np.ndarray | None:
+def _speed_base(bl: Baseline, problem: Problem) -> np.ndarray | None:
     """(N,) squared track-speed errors of the problem's baseline (NaN where not measured), or None."""
     if problem.speed_ok is None or not problem.speed_ok.any():
         return None
-    v = problem.baseline.speeds(problem, list(problem.base))
+    v = bl.speeds(problem, list(problem.base))
     return np.where(problem.speed_ok, np.sum((v - problem.data.meas) ** 2, 1), np.nan)
 
 
@@ -443,7 +343,7 @@ def _no_substitute(r: CandidateResult, rivals: list[CandidateResult], nominal_sq
         return
 
 
-def evaluate(problem: fitmod.Problem, effects: list[Effect], *, n_folds: int, min_gain: float,
+def evaluate(bl: Baseline, problem: Problem, effects: list[Effect], *, n_folds: int, min_gain: float,
              quiet: bool = True, nominal: np.ndarray | None = None,
              rivals: list[CandidateResult] = ()) -> tuple[dict, list[CandidateResult]]:
     """Score every effect against the problem's baseline; returns (baseline summary, results
@@ -454,21 +354,21 @@ def evaluate(problem: fitmod.Problem, effects: list[Effect], *, n_folds: int, mi
     it is the nominal model; ``rivals``: the previous step's findings, each of which a finding
     here must beat (docs/theory/diagnosis.md, "Beyond a first effect")."""
     allw = np.arange(problem.starts.size)
-    base_err = problem.baseline.errors(problem, allw)[0]
-    speed_base = _speed_base(problem)
-    before = fitmod.pos_rmse(base_err[problem.scored])
-    floor = pose_floor(min_gain, None if nominal is None else fitmod.pos_rmse(nominal), before)
+    base_err = bl.errors(problem, allw)[0]
+    speed_base = _speed_base(bl, problem)
+    before = pos_rmse(base_err[problem.scored])
+    floor = pose_floor(min_gain, None if nominal is None else pos_rmse(nominal), before)
     results = []
     with Progress(total=len(effects) * (n_folds + 1), label="candidates", quiet=quiet) as bar:
         for eff in effects:
-            results.append(score(problem, eff, n_folds=n_folds, min_gain=min_gain, base_err=base_err,
+            results.append(score(bl, problem, eff, n_folds=n_folds, min_gain=min_gain, base_err=base_err,
                                  speed_base=speed_base, bar=bar, floor=floor))
     if rivals and nominal is not None:
         nominal_sq = np.sum(nominal[:, :2] ** 2, 1)
         for r in results:
             if r.passed:
                 _no_substitute(r, list(rivals), nominal_sq, problem.window_block[problem.scored], min_gain)
-    found = _rank([r for r in results if r.passed], problem.baseline.robot, problem, base_err, min_gain, floor)
+    found = _rank([r for r in results if r.passed], bl.robot, problem, base_err, min_gain, floor)
     rest = sorted([r for r in results if not r.passed], key=lambda r: r.after)
     return {"before": before, "errors": base_err, "floor": floor}, found + rest
 
@@ -490,18 +390,23 @@ def _tie_substitutes(top: CandidateResult, results: list[CandidateResult], rival
         rv.tie_notes.append(note)
 
 
-def forward_select(problem: fitmod.Problem, effects: list[Effect], *, n_folds: int, min_gain: float,
-                   max_effects: int = 3, quiet: bool = True) -> tuple[list[Step], list[CandidateResult]]:
+def forward_select(bl: Baseline, problem: Problem, effects: list[Effect], *, n_folds: int, min_gain: float,
+                   max_effects: int = 3, quiet: bool = True, free_steps: int | None = None,
+                   noise: float = 0.0) -> tuple[list[Step], list[CandidateResult]]:
     """Forward selection over all effects (module docstring). Returns the steps and the final
     findings (the chosen effects refitted each with the others fixed, in the order found, each
-    followed by the findings tied with it)."""
+    followed by the findings tied with it).
+
+    ``free_steps``: after this many findings a further step is taken only when the residual can
+    still hold a finding (:func:`residual_left`, with ``noise`` [m] the pose noise's share of a
+    window's error); None: always (up to ``max_effects``)."""
     steps: list[Step] = []
     chosen: list[CandidateResult] = []
     remaining = list(effects)
     current = problem
     nominal, nominal_rmse, rivals = None, None, []
     while remaining and len(chosen) < max_effects:
-        summary, results = evaluate(current, remaining, n_folds=n_folds, min_gain=min_gain, quiet=quiet,
+        summary, results = evaluate(bl, current, remaining, n_folds=n_folds, min_gain=min_gain, quiet=quiet,
                                     nominal=nominal, rivals=rivals)
         if nominal is None:
             nominal, nominal_rmse = summary["errors"][problem.scored], summary["before"]
@@ -513,13 +418,18 @@ def forward_select(problem: fitmod.Problem, effects: list[Effect], *, n_folds: i
             break
         rivals = [r for r in results if r.passed and r is not best]
         chosen.append(best)
+        if free_steps is not None and len(chosen) >= free_steps and not residual_left(best, nominal_rmse, noise,
+                                                                                        min_gain):
+            log.debug("forward selection: %s leaves %.3g m, no more than the pose noise and the gain floor: "
+                      "no further step", best.effect.name, best.after)
+            break
         drop = {best.effect.name} | {r.effect.name for r in results if r.tie_notes and best.effect.name in r.tied_with}
         remaining = [e for e in remaining if e.name not in drop]
         current = dataclasses.replace(current, base=current.base + ((best.effect, best.estimate),))
     while len(chosen) > 1:  # refits, each with the others fixed; drop one that no longer passes
-        inputs = [c for c in chosen if fitmod.uses_speeds(problem, c.effect)]
+        inputs = [c for c in chosen if problem.uses_speeds(c.effect)]
         if len(inputs) > 1:  # coupled input effects: fitted jointly to the measured speeds first
-            thetas = fitmod.fit_inputs_jointly(problem, [(c.effect, c.estimate) for c in inputs], np.arange(n_folds))
+            thetas = bl.refit_inputs(problem, [(c.effect, c.estimate) for c in inputs], np.arange(n_folds))
             for c, th in zip(inputs, thetas):
                 c.estimate = th
         for _ in range(2):  # two rounds of refits (Gauss-Seidel), the second scores the final estimates
@@ -527,10 +437,10 @@ def forward_select(problem: fitmod.Problem, effects: list[Effect], *, n_folds: i
             for i, r in enumerate(chosen):
                 others = tuple((c.effect, c.estimate) for j, c in enumerate(chosen) if j != i)
                 p = dataclasses.replace(problem, base=others)
-                base_err = p.baseline.errors(p, np.arange(p.starts.size))[0]
-                floor = pose_floor(min_gain, nominal_rmse, fitmod.pos_rmse(base_err[p.scored]))
-                new = score(p, r.effect, n_folds=n_folds, min_gain=min_gain, base_err=base_err,
-                            speed_base=_speed_base(p), floor=floor)
+                base_err = bl.errors(p, np.arange(p.starts.size))[0]
+                floor = pose_floor(min_gain, nominal_rmse, pos_rmse(base_err[p.scored]))
+                new = score(bl, p, r.effect, n_folds=n_folds, min_gain=min_gain, base_err=base_err,
+                            speed_base=_speed_base(bl, p), floor=floor)
                 new.tied_with, new.tie_notes = r.tied_with, r.tie_notes
                 chosen[i] = new
                 rescored.append(new)
@@ -542,6 +452,33 @@ def forward_select(problem: fitmod.Problem, effects: list[Effect], *, n_folds: i
                   chosen[drop].effect.name, rescored[drop].why)
         chosen.pop(drop)
     return steps, chosen
+
+
+def first_cause(step: Step, problem: Problem, base_err: np.ndarray, keep: np.ndarray,
+                min_gain: float) -> tuple[str, float | None]:
+    """The effect a step names when only the scored windows ``keep`` ((S,) bool over the scored
+    windows) are scored, by the gain rule alone (one-sided 95 % bound above zero, gain at least
+    ``min_gain``; a candidate diverged on one of them is out), and its held-out gain; ("none",
+    None) when none passes. ``base_err``: (S, 3) the step's baseline errors on the scored windows.
+    Used to say whether leaving windows out changes the answer, with the same rule on both sides."""
+    block = problem.window_block[problem.scored][keep]
+    sq_b = np.sum(base_err[keep][:, :2] ** 2, 1)
+    best = ("none", None, np.inf)
+    for r in step.results:
+        sq_a = np.sum(r.held_out_errors[keep][:, :2] ** 2, 1)
+        if not (np.all(np.isfinite(sq_a)) and np.all(np.isfinite(sq_b))):
+            continue
+        gt = st.gain_test(sq_b, sq_a, block)
+        if gt.lower > 0.0 and gt.relative >= min_gain and sq_a.sum() < best[2]:
+            best = (r.effect.name, gt.relative, float(sq_a.sum()))
+    return best[0], best[1]
+
+
+def residual_left(best: CandidateResult, nominal_rmse: float, noise: float, min_gain: float) -> bool:
+    """Whether the error a finding leaves can hold another: a further effect must remove at least
+    the gain floor, ``min_gain`` of the nominal RMSE (:func:`pose_floor`), and no model removes
+    the pose noise, so the held-out RMSE left [m] must exceed the noise's ``noise`` [m] by more."""
+    return best.after - noise > min_gain * nominal_rmse
 
 
 def all_findings(steps: list[Step], chosen: list[CandidateResult]) -> list[CandidateResult]:
@@ -556,5 +493,5 @@ def all_findings(steps: list[Step], chosen: list[CandidateResult]) -> list[Candi
     return out
 
 
-__all__ = ["CandidateResult", "Step", "paired_t", "score", "evaluate", "pose_floor", "forward_select", "all_findings",
-           "physical_tie", "traction_ratio", "equivalent", "interval", "min_active_blocks"]
+__all__ = ["CandidateResult", "Step", "score", "evaluate", "pose_floor", "forward_select", "all_findings", "speed_order",
+           "first_cause", "residual_left"]

@@ -61,11 +61,11 @@ from mjtrack.io.robot import Robot
 from mjtrack.testing import bristle_physics, diagnose_physics
 
 FAMILY = {
-    "actuator_lag": "drive_response", "command_delay": "drive_response",
-    "speed_limit": "drive_saturation", "yaw_rate_limit": "drive_saturation",
+    "drive_lag": "drive_response", "drive_delay": "drive_response",
+    "drive_speed_limit": "drive_saturation", "yaw_rate_limit": "drive_saturation",
     "track_speed_scale": "drive_gain",
-    "cg_offset_x": "mass", "cg_offset_y": "mass",
-    "friction_scale": "ground", "friction_asymmetry": "ground", "icr_spread": "ground",
+    "cg_x": "mass", "cg_y": "mass",
+    "friction_scale": "ground", "mu_ratio": "ground", "icr_spread": "ground",
     "ground_anisotropy": "ground", "road_wheels": "ground",
     "slope": "terrain",
 }
@@ -99,23 +99,23 @@ class Case:
 
 CASES = (
     Case("clean", (), {"A": {}, "B": {}}),
-    Case("lag_speed", ("drive_response",), {"A": {"actuator_lag": 0.35}, "B": {"lag": 0.35}}, "actuator_lag",
-         truth={"actuator_lag": 0.35}),
+    Case("lag_speed", ("drive_response",), {"A": {"actuator_lag": 0.35}, "B": {"lag": 0.35}}, "drive_lag",
+         truth={"drive_lag": 0.35}),
     Case("lag_force", ("drive_response",), {"A": {"force_lag": 0.15}, "B": {"force_lag": 0.15}}),
     Case("dead_time", ("drive_response",), {"A": {"command_delay": 0.25}, "B": {"dead_time": 0.25}},
-         "command_delay", truth={"command_delay": 0.25}),
+         "drive_delay", truth={"drive_delay": 0.25}),
     Case("rate_limit", ("drive_response",), {"A": {"rate_limit": 1.5}, "B": {"rate_limit": 1.5}}),
     Case("force_limit", ("drive_saturation|drive_response",), {"A": {"force_limit": 55.0},
                                                                 "B": {"force_limit": 250.0}}),
     Case("ground_coulomb", ("ground",), {"A": {"friction_asymmetry": 0.6}, "B": {"friction_asymmetry": 0.6}},
-         truth={"friction_asymmetry": 0.6}),
+         truth={"mu_ratio": 0.6}),
     Case("ground_aniso", ("ground",), {"A": {"lateral_ratio": 0.5}, "B": {"lateral_ratio": 0.5}}),
-    Case("cg_x", ("mass",), {"A": {"cg_offset_x": 0.06}, "B": {"cg_offset_x": 0.06}}, truth={"cg_offset_x": 0.06}),
+    Case("cg_x", ("mass",), {"A": {"cg_offset_x": 0.06}, "B": {"cg_offset_x": 0.06}}, truth={"cg_x": 0.06}),
     Case("lag_cg", ("drive_response", "mass"), {"A": {"actuator_lag": 0.25, "cg_offset_x": -0.04},
-                                                "B": {"lag": 0.25, "cg_offset_x": -0.04}}, "actuator_lag",
-         truth={"actuator_lag": 0.25, "cg_offset_x": -0.04}),
-    Case("lag_light", ("drive_response",), {"A": {"actuator_lag": 0.2}, "B": {"lag": 0.2}}, "actuator_lag",
-         mass=8.0, truth={"actuator_lag": 0.2}),
+                                                "B": {"lag": 0.25, "cg_offset_x": -0.04}}, "drive_lag",
+         truth={"drive_lag": 0.25, "cg_x": -0.04}),
+    Case("lag_light", ("drive_response",), {"A": {"actuator_lag": 0.2}, "B": {"lag": 0.2}}, "drive_lag",
+         mass=8.0, truth={"drive_lag": 0.2}),
 )
 BY_NAME = {c.name: c for c in CASES}
 

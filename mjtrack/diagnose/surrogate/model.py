@@ -1,141 +1,46 @@
-"""The effect vocabulary (docs/reference/formats/diagnosis-json.md) and the surrogate model it extends.
+"""The surrogate model: the baseline's body twist under the logged commands, extended by effects.
 
-:data:`EFFECTS` is the one vocabulary of every baseline (:class:`Effect`: name, parameters,
-kind, meaning, signature, and the surrogate fit's bounds and start grid); what an effect changes
-is each baseline's own (``Baseline.vocabulary``): below, the surrogate's;
-``ground_anisotropy``, ``road_wheels``, ``contact_length`` and ``rolling_resistance`` (contact
-models and forces the surrogate cannot express) only the MuJoCo robot simulates
-(:mod:`mjtrack.diagnose.mujoco_baseline`).
-
-A candidate model = the baseline + one effect with its parameters. Two kinds:
+A candidate model = the baseline + one effect of the vocabulary (:mod:`mjtrack.diagnose.vocabulary`)
+with its parameters. Two kinds:
 
 * input effects transform the track-speed sequence before the ground model (exact, cheap):
-  ``track_speed_scale`` k: V = k V_cmd;  ``actuator_lag`` tau: V' = (V_cmd - V)/tau, discretised
+  ``track_speed_scale`` k: V = k V_cmd;  ``drive_lag`` tau: V' = (V_cmd - V)/tau, discretised
   exactly for a command held over each step, V_{k+1} = V_k + (1 - exp(-dt/tau))(V_cmd,k - V_k),
-  started at the first command of each segment;  ``command_delay`` d: V(t) = V_cmd(t - d), the
+  started at the first command of each segment;  ``drive_delay`` d: V(t) = V_cmd(t - d), the
   held command sequence interpolated linearly (the mean over a step of a delayed held signal),
-  held at its first value before the segment start;  ``speed_limit`` v: V = clip(V_cmd, -v, v).
-* ground effects change the skid-steer response (see :mod:`mjtrack.diagnose.surrogate`):
-  ``cg_offset_x``, ``cg_offset_y``, ``friction_asymmetry`` move the quasi-static ICRs q0
-  (tabulated exact Coulomb solves); ``friction_scale`` scales the inertial response by 1/fs;
-  ``slope`` + ``slope_direction`` add g sin(slope) u_up(yaw) to the effective acceleration, so
-  its signature changes along the path with the yaw; the extra effect ``icr_spread`` scales the
-  track ICRs (y_l, y_r) -> k (y_l, y_r): more (k > 1) or less skid in turns than modelled, the
-  generic symptom of a ground that is not Coulomb-like.
+  held at its first value before the segment start;  ``drive_speed_limit`` v: V = clip(V_cmd, -v, v).
+* ground effects change the skid-steer response (:mod:`mjtrack.diagnose.surrogate.response`):
+  ``cg_x``, ``cg_y``, ``mu_ratio`` move the quasi-static ICRs q0 (tabulated exact Coulomb
+  solves); ``friction_scale`` scales the inertial response by 1/fs; ``slope`` (``slope_x``,
+  ``slope_y``: sin(angle) x the uphill unit vector in the world frame, calibration's parameters)
+  adds g (slope_x, slope_y) turned into the body frame to the effective acceleration, so its
+  signature changes along the path with the yaw; the extra effect ``icr_spread`` scales the track
+  ICRs (y_l, y_r) -> k (y_l, y_r): more (k > 1) or less skid in turns than modelled, the generic
+  symptom of a ground that is not Coulomb-like.
+
+``ground_anisotropy``, ``road_wheels``, ``track_length`` / ``wheelbase`` and ``rolling_resistance``
+(contact models and forces the surrogate cannot express) only the MuJoCo robot simulates
+(:mod:`mjtrack.diagnose.mujoco_baseline`).
 
 Derivation and measurements: docs/theory/diagnosis.md, "Baselines".
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable
-
 import numpy as np
 from scipy import signal
 
-from mjtrack.diagnose import surrogate as sg
 from mjtrack.diagnose.residuals import DriveData
+from mjtrack.diagnose.surrogate import response as sg
+from mjtrack.diagnose.vocabulary import Effect
 from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
 
 
-@dataclass(frozen=True)
-class Effect:
-    """One effect: name, parameter names, kind ("input" or "ground"), meaning, and per-robot
-    ``nominal(robot)`` values, ``bounds(robot)`` ((P,), (P,)) and ``starts(robot, data)`` (S, P)."""
-
-    name: str
-    params: tuple[str, ...]
-    kind: str
-    meaning: str
-    signature: str
-    nominal: Callable[[Robot], tuple]
-    bounds: Callable[[Robot], tuple]
-    starts: Callable[[Robot, DriveData], np.ndarray]
-
-
-def _grid(*values) -> Callable:
-    return lambda robot, data: np.array(values, float).reshape(len(values), -1)
-
-
-def _max_speed(data: DriveData) -> float:
-    return float(max(np.max(np.abs(data.cmd)), 1e-3))
-
-
-def _cg_lim(robot: Robot, axis: str) -> float:
+def cg_limit(robot: Robot, axis: str) -> float:
+    """[m] the largest centre-of-mass offset along ``axis`` ("x" or "y") the surrogate tabulates
+    and fits: 0.3 L, 0.25 T."""
     return 0.3 * robot.track_length if axis == "x" else 0.25 * robot.track_gauge
-
-
-EFFECTS: dict[str, Effect] = {e.name: e for e in (
-    Effect("track_speed_scale", ("track_speed_scale",), "input", "actual / commanded track speed, both tracks",
-           "speed and yaw rate both scaled: along-track error grows with speed, turn shape unchanged",
-           lambda r: (1.0,), lambda r: ((0.3,), (3.0,)), _grid(0.8, 0.95, 1.05, 1.25)),
-    Effect("actuator_lag", ("actuator_lag",), "input", "first-order time constant from command to track speed [s]",
-           "errors right after command changes, the model leads the measurement",
-           lambda r: (0.0,), lambda r: ((1e-3,), (3.0,)), _grid(0.02, 0.05, 0.1, 0.2, 0.4, 0.8, 1.6)),
-    Effect("command_delay", ("command_delay",), "input", "dead time from command to track speed [s]",
-           "errors right after command changes, the measurement follows the model shifted in time",
-           lambda r: (0.0,), lambda r: ((0.0,), (2.0,)),
-           # the fit to sampled speeds is V-shaped one sample wide: start on a grid of one sample
-           lambda r, d: np.arange(0.0, 1.0, max(float(np.median(np.diff(d.t))), 0.01)).reshape(-1, 1)),
-    Effect("speed_limit", ("speed_limit",), "input", "track speeds saturate at this magnitude [m/s]",
-           "errors only at high commanded speeds, the model too fast",
-           lambda r: (np.inf,), lambda r: ((0.02,), (np.inf,)),
-           lambda r, d: np.quantile(np.abs(d.cmd), [0.5, 0.7, 0.85, 0.95]).reshape(-1, 1)),
-    Effect("yaw_rate_limit", ("yaw_rate_limit",), "input",
-           "the commanded body yaw rate (V_R - V_L)/T saturates at this magnitude [rad/s], the mean track speed kept "
-           "(a velocity controller's twist limit, common on wheeled skid-steer robots)",
-           "errors only in sharp turns and spins, the model turns too fast; straight driving exact",
-           lambda r: (np.inf,), lambda r: ((0.05,), (np.inf,)),
-           lambda r, d: np.quantile(np.abs(d.cmd[:, 1] - d.cmd[:, 0]) / r.track_gauge, [0.5, 0.7, 0.85, 0.95]
-                                    ).reshape(-1, 1) + 1e-3),
-    Effect("cg_offset_x", ("cg_offset_x",), "ground", "centre of mass ahead (+) / behind (-) the geometric centre [m]",
-           "the no-slip line x_c moves with the centre of mass: the robot slides to the outside (cg ahead) "
-           "of its turns, the same x_c for both turn directions",
-           lambda r: (r.cg_x,), lambda r: ((-_cg_lim(r, "x"),), (_cg_lim(r, "x"),)),
-           lambda r, d: np.array([[-0.1], [-0.03], [0.03], [0.1]]) * r.track_length),
-    Effect("cg_offset_y", ("cg_offset_y",), "ground", "centre of mass left (+) / right (-) [m]",
-           "the loaded track slips less: turning asymmetric (y_l, y_r shift together)",
-           lambda r: (r.cg_y,), lambda r: ((-_cg_lim(r, "y"),), (_cg_lim(r, "y"),)),
-           lambda r, d: np.array([[-0.15], [-0.05], [0.05], [0.15]]) * r.track_gauge),
-    Effect("friction_scale", ("friction_scale",), "ground", "ground friction / nominal",
-           "changes the skid only through the centripetal (inertial) response: visible in fast turns only",
-           lambda r: (1.0,), lambda r: ((0.05,), (20.0,)), _grid(0.3, 0.7, 1.5, 3.0)),
-    Effect("friction_asymmetry", ("friction_asymmetry",), "ground",
-           "left-track friction / right-track friction, the right track keeping the nominal mu",
-           "the grippier track slips less: turning asymmetric (y_l, y_r shift together)",
-           lambda r: (r.friction_left / r.friction_right,), lambda r: ((1 / 3,), (3.0,)), _grid(0.5, 0.8, 1.25, 2.0)),
-    Effect("slope", ("slope", "slope_direction"), "ground", "inclined ground: angle [rad], uphill direction (world) [rad]",
-           "a drift whose direction in the robot frame turns with the yaw: errors depend on the heading",
-           lambda r: (0.0, 0.0), lambda r: ((0.0, -np.inf), (0.5, np.inf)),
-           lambda r, d: np.array([[s, a] for s in (0.05, 0.15) for a in np.arange(8) * np.pi / 4])),
-    Effect("icr_spread", ("icr_spread",), "ground",
-           "track ICR spread / modelled (effective gauge factor): more (>1) or less (<1) skid in turns",
-           "yaw rate off by the same factor in all turns, straight driving exact",
-           lambda r: (1.0,), lambda r: ((0.3,), (4.0,)), _grid(0.7, 0.9, 1.1, 1.4)),
-    # the MuJoCo robot's own ground extensions (:mod:`mjtrack.diagnose.mujoco_baseline`): contact
-    # models the surrogate cannot express
-    Effect("ground_anisotropy", ("lateral_ratio",), "ground",
-           "anisotropic ground: lateral / longitudinal friction of the track contact",
-           "turns skid less than the isotropic contact predicts (less lateral resistance), straight driving exact",
-           lambda r: (1.0,), lambda r: ((0.05,), (1.5,)), _grid(0.3, 0.5, 0.75, 1.0)),
-    Effect("road_wheels", ("road_wheel_span",), "ground",
-           "95 % of the load on 4 road wheels spread over this share of the contact length",
-           "the load concentrates under the wheels: turning resistance as of a shorter contact",
-           lambda r: (1.0,), lambda r: ((0.05,), (1.0,)), _grid(0.3, 0.5, 0.75, 1.0)),
-    Effect("contact_length", ("contact_length",), "ground",
-           "length of the ground contact: a track's, a wheeled robot's wheelbase [m]",
-           "turns skid more (longer contact) or less (shorter) than modelled: the yaw ratio off in every turn, "
-           "straight driving exact",
-           lambda r: (r.contact_length,), lambda r: ((0.3 * r.contact_length,), (3.0 * r.contact_length,)),
-           lambda r, d: np.array([[0.7], [0.85], [1.2], [1.5]]) * r.contact_length),
-    Effect("rolling_resistance", ("rolling_resistance",), "ground",
-           "motion resistance: each side held back by this share of its weight [-]",
-           "the body lags its tracks in every motion, more on the loaded side: speed ratio below one even "
-           "straight, turns slowed",
-           lambda r: (r.rolling_resistance,), lambda r: ((0.0,), (0.5,)), _grid(0.02, 0.05, 0.1, 0.2)),
-)}
 
 
 class Surrogate:
@@ -160,18 +65,18 @@ class Surrogate:
         self.resp = sg.ground_response(robot)
         T = robot.track_gauge
         self.q_nominal = self.resp.q0 if baseline == "coulomb" else np.array([T / 2, -T / 2, 0.0])
-        lim_x, lim_y = _cg_lim(robot, "x"), _cg_lim(robot, "y")
+        lim_x, lim_y = cg_limit(robot, "x"), cg_limit(robot, "y")
         self._tables = {
-            "cg_offset_x": ("cg_x", np.linspace(-lim_x, lim_x, 25)),
-            "cg_offset_y": ("cg_y", np.linspace(-lim_y, lim_y, 25)),
-            "friction_asymmetry": ("friction_ratio", np.exp(np.linspace(-np.log(3.0), np.log(3.0), 25))),
+            "cg_x": ("cg_x", np.linspace(-lim_x, lim_x, 25)),
+            "cg_y": ("cg_y", np.linspace(-lim_y, lim_y, 25)),
+            "mu_ratio": ("friction_ratio", np.exp(np.linspace(-np.log(3.0), np.log(3.0), 25))),
         }
 
     def _static_q(self, name: str, value: float) -> np.ndarray:
         field, grid = self._tables[name]
         grid, table = sg.static_table(self.robot, field, grid)
-        x = np.log(grid) if name == "friction_asymmetry" else grid
-        v = np.log(value) if name == "friction_asymmetry" else value
+        x = np.log(grid) if name == "mu_ratio" else grid
+        v = np.log(value) if name == "mu_ratio" else value
         q = np.array([np.interp(v, x, table[:, i]) for i in range(3)])
         return self.q_nominal + (q - self.resp.q0)
 
@@ -182,13 +87,13 @@ class Surrogate:
         b_s = fs mu_s g N_s/(m g), the yaw gain kappa = m T (y_l - y_r)/(4 I) with the box inertia
         I = m (L^2 + T^2)/12 and the ICRs q of the model (default the nominal ones), and the
         turning resistance resist_ratio (b_L + b_R). ``params``: ground-effect parameters by name;
-        the friction effects change b (and the resistance with it), cg_offset_y the load split."""
+        the friction effects change b (and the resistance with it), cg_y the load split."""
         r = self.robot
         params = params or {}
         mu_l, mu_r = r.friction_left, r.friction_right
-        cy = float(params.get("cg_offset_y", r.cg_y))
-        if "friction_asymmetry" in params:
-            mu_l = mu_r * float(params["friction_asymmetry"])
+        cy = float(params.get("cg_y", r.cg_y))
+        if "mu_ratio" in params:
+            mu_l = mu_r * float(params["mu_ratio"])
         fs = float(params.get("friction_scale", 1.0))
         mu_l, mu_r = mu_l * fs, mu_r * fs
         T, L = r.track_gauge, r.track_length
@@ -241,22 +146,22 @@ class Surrogate:
         inp = sorted(((e, theta) for e, theta in parts if e is not None and e.kind == "input"),
                      key=lambda et: INPUT_ORDER.index(et[0].name))
         instant_causal = instant and self.causal_speeds
-        dynamic = [e.name for e, _ in inp if e.name in ("command_delay", "actuator_lag")]
+        dynamic = [e.name for e, _ in inp if e.name in ("drive_delay", "drive_lag")]
         init = _initial(data, v)
         for e, theta in inp:
             p = float(theta[0])
             if e.name == "track_speed_scale":
                 v = p * v
-            elif e.name == "speed_limit":
+            elif e.name == "drive_speed_limit":
                 v = np.clip(v, -p, p)
             elif e.name == "yaw_rate_limit":
                 half = 0.5 * np.clip(v[:, 1] - v[:, 0], -p * self.robot.track_gauge, p * self.robot.track_gauge)
                 mean = 0.5 * (v[:, 0] + v[:, 1])
                 v = np.stack([mean - half, mean + half], -1)
-            elif e.name == "command_delay":
+            elif e.name == "drive_delay":
                 last = e.name == dynamic[-1]
                 v = _delay(data, v, p, _initial(data, v), instant=instant_causal and last)
-            elif e.name == "actuator_lag":
+            elif e.name == "drive_lag":
                 v = _lag(data, v, p, _initial(data, v), instant=instant)
             else:  # pragma: no cover
                 raise InputError(f"diagnose: unknown input effect {e.name!r}")
@@ -285,17 +190,17 @@ class Surrogate:
             params[name] = float(theta[0])
             if name in self._tables:
                 q_s = q_s + (self._static_q(name, float(theta[0])) - self.q_nominal)
-                if name == "cg_offset_x":
+                if name == "cg_x":
                     cg[0] = theta[0]
-                elif name == "cg_offset_y":
+                elif name == "cg_y":
                     cg[1] = theta[0]
             elif name == "icr_spread":
                 q_s = q_s * np.array([theta[0], theta[0], 1.0])
             elif name == "friction_scale":
                 fs = float(theta[0])
-            elif name == "slope":
-                ang = theta[1] - data.poses[:, 2]
-                slope = G * np.sin(theta[0]) * np.stack([np.cos(ang), np.sin(ang)], -1)
+            elif name == "slope":  # the world-frame in-plane gravity turned into the body frame
+                c, s = np.cos(data.poses[:, 2]), np.sin(data.poses[:, 2])
+                slope = G * np.stack([c * theta[0] + s * theta[1], c * theta[1] - s * theta[0]], -1)
         if self.transient:
             # the yaw gain of the transient uses the nominal ICR spread unless the effect is the
             # spread itself (a table effect moves it by < 2 %): the transient is then shared
@@ -322,7 +227,7 @@ class Surrogate:
 # the controller's limits, the scale (linear: it commutes with the dead time and the lag), then the
 # dynamics, whose speed before a segment start is the measured one when the log has it (already
 # limited and scaled: nothing after it may transform it again)
-INPUT_ORDER = ("yaw_rate_limit", "speed_limit", "track_speed_scale", "command_delay", "actuator_lag")
+INPUT_ORDER = ("yaw_rate_limit", "drive_speed_limit", "track_speed_scale", "drive_delay", "drive_lag")
 
 
 _LOOP_MAX = 400  # segments up to this many samples use the exact recursion, longer ones lfilter
