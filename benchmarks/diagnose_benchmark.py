@@ -210,7 +210,7 @@ def model_error_on_mujoco() -> tuple[float, int]:
     """RMS relative error of the surrogate's estimates on the stored MuJoCo matrix
     (benchmarks/diagnose_mujoco_effects.py), as a share of
     the effect size |truth - nominal| (the interval's model term MODEL_REL in
-    mjtrack/diagnose/surrogate_baseline.py comes from it): (rms, count)."""
+    mjtrack/diagnose/surrogate/baseline.py comes from it): (rms, count)."""
     path = RESULTS / "diagnose_mujoco_effects.json"
     nominal = {"cg_offset_x": 0.0, "cg_offset_y": 0.0, "friction_scale": 1.0, "friction_asymmetry": 1.0,
                "track_speed_scale": 1.0, "slope": 0.0, "actuator_lag": 0.0, "command_delay": 0.0}

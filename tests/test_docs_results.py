@@ -214,7 +214,7 @@ def test_the_citation_checks_can_fail(tmp_path):
 def test_the_surrogates_model_form_constants_are_their_measured_values():
     """Two constants of the diagnosis surrogate are measured by benchmark scripts; the code holds the
     values their stored results print."""
-    from mjtrack.diagnose.surrogate_baseline import MODEL_ABS
+    from mjtrack.diagnose.surrogate.baseline import MODEL_ABS
 
     spread = re.search(r"icr_spread gaps .* RMS (\d\.\d+)", (RESULTS / "generator_spread.txt").read_text())
     assert spread and MODEL_ABS["icr_spread"] == float(spread.group(1))
