@@ -8,8 +8,8 @@ against the steady state of each candidate ground's reference model.
 
 Measured: the log's windows of 2 s, each window's yaw ratio (chord yaw rate over the nominal
 (v_R - v_L)/T of its mean measured track speeds) where calibrate measures one
-(:func:`mjtrack.calibrate.run.turn_measures`: steady commands, nominal yaw rate >= 0.3 rad/s), the
-median per |turn ratio| class (:data:`mjtrack.calibrate.run.TURN_CLASSES`). Predicted: the same
+(:func:`mjtrack.calibrate.measures.turn_measures`: steady commands, nominal yaw rate >= 0.3 rad/s), the
+median per |turn ratio| class (:data:`mjtrack.calibrate.measures.TURN_CLASSES`). Predicted: the same
 median of the reference's yaw ratio at each window's mean measured track speeds, for the robot as
 the log describes it plus the public specification of what it does not give (the starting robot
 of ``benchmarks/real_robots.py``), with inertia and load transfer. Candidates, each fitted by
@@ -57,7 +57,7 @@ from pathlib import Path
 import numpy as np
 from scipy import optimize
 
-from mjtrack.calibrate.run import TURN_CLASSES, measured_speeds, turn_measures
+from mjtrack.calibrate.measures import TURN_CLASSES, measured_speeds, turn_measures
 from mjtrack.errors import MjtrackError
 from mjtrack.io import read_log_with_robot
 from mjtrack.io.robot import Robot

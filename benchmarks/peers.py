@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mjtrack.calibrate.run import TURN_CLASSES, turn_measures
+from mjtrack.calibrate.measures import TURN_CLASSES, turn_measures
 from mjtrack.windows import turn_ratio
 from mjtrack.io import read_log_with_robot
 from mjtrack.metrics import fit_end_regions, window_prediction_errors

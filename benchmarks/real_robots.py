@@ -36,7 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mjtrack.calibrate.run import calibrate, write_outputs
+from mjtrack.calibrate.result import write_outputs
+from mjtrack.calibrate.run import calibrate
 from mjtrack.io import read_log_with_robot
 from mjtrack.io.robot import Robot, read_robot
 from mjtrack.windows import left_out_counts

@@ -17,7 +17,7 @@ from mjtrack.errors import InputError
 if TYPE_CHECKING:  # pragma: no cover - types for the signatures only
     import numpy as np
 
-    from mjtrack.calibrate.run import Calibration
+    from mjtrack.calibrate.result import Calibration
     from mjtrack.diagnose.result import Diagnosis
     from mjtrack.icr import ICR
     from mjtrack.io.logs import DriveLog
@@ -348,7 +348,8 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
         >>> round(cal.calibrated.cg_x, 2), bool(cal.after.rms < cal.before.rms)
         (0.06, True)
     """
-    from mjtrack.calibrate.run import calibrate, write_outputs
+    from mjtrack.calibrate.result import write_outputs
+    from mjtrack.calibrate.run import calibrate
 
     cal = calibrate(log, robot, test=test_log, names=None if params is None else ",".join(params), horizon_s=horizon_s,
                     max_iter=max_iter, quiet=quiet, train_path=log.source or "train log", drive_input=drive_input,

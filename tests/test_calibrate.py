@@ -224,7 +224,7 @@ def test_a_fit_that_blows_up_on_an_unused_window_is_fitted_again_with_it(monkeyp
     window it blows up on that the fit did not use (its values leave the simulator's stable range
     there, as a whole-log Marmotte fit did: cg_x 0.043 m on a 0.31 m contact) is added to the fit
     and the fit runs again; a blow-up that stays is said in the summary and the findings."""
-    import mjtrack.calibrate.run as run
+    import mjtrack.calibrate.rounds as rounds
 
     import mjtrack.calibrate.fit as fit_module  # calibrate imports the fit when it runs (it loads MuJoCo)
 
@@ -251,7 +251,7 @@ def test_a_fit_that_blows_up_on_an_unused_window_is_fitted_again_with_it(monkeyp
     assert first_fits[0][1:3] == (True, 6) and first_fits[1][1:3] == (False, 3)
     assert sorted(first_fits[0][0]) == ["cg_x", "track_speed_scale"] and list(first_fits[1][0]) == ["cg_x"]
     assert first_fits[0][0]["cg_x"] == 0.0 and first_fits[1][0]["cg_x"] == pytest.approx(0.04, abs=0.005)
-    assert fits_per_attempt[1] <= 1 + run.GUARD_ROUNDS  # the second attempt decides again once
+    assert fits_per_attempt[1] <= 1 + rounds.GUARD_ROUNDS  # the second attempt decides again once
     fitted = set(zip(cal.fitted_windows.starts.tolist(), cal.fitted_windows.ends.tolist()))
     assert len(cal.train_windows) == 8 and len(cal.fitted_windows) == 4
     assert (int(cal.train_windows.starts[1]), int(cal.train_windows.ends[1])) in fitted

@@ -595,7 +595,7 @@ def _calibration() -> Page:
                    "whether the log determines it and whether calibration changed it.",
                    ["robot", "parameter", "described", "calibrated", "interval low", "interval high", "determined",
                     "changed"])
-    from mjtrack.calibrate.run import TURN_CLASSES
+    from mjtrack.calibrate.measures import TURN_CLASSES
 
     class_names = dict(zip((f"(|turn ratio| {lo:g} to {hi:g})" for lo, hi in TURN_CLASSES),
                            ("straight", "turning", "sharp turns")))
@@ -655,7 +655,7 @@ PEER_MODELS = {"drive": "DRIVE (the authors' dead time)", "drive_dead_time_fitte
 
 
 def _peers() -> Page:
-    from mjtrack.calibrate.run import TURN_CLASSES
+    from mjtrack.calibrate.measures import TURN_CLASSES
 
     src = Source(RESULTS / "peers.json")
     class_names = dict(zip((f"{lo:g}-{hi:g}" for lo, hi in TURN_CLASSES), ("straight", "turning", "sharp turns")))

@@ -22,248 +22,43 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import json
 import logging
 import math
-import os
 import time
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from mjtrack.calibrate.causes import Cause, find_causes, summary
 from mjtrack.calibrate.drivetrain import chain_robot, fit_chain, has_measured_speeds, predicted_drive_log
-from mjtrack.calibrate.identify import Linearised, ModelFormSource, Verdict, final_verdicts, fmt_value, select
+from mjtrack.calibrate.identify import fmt_value
 from mjtrack.calibrate.params import described_values, parse_names, specs_for, start_values, window_params
 from mjtrack.errors import InputError
-from mjtrack.geometry import relative_pose, sinc_terms
-from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.jsonfile import json_value
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
 from mjtrack.progress import clock_text
 from mjtrack.sim.config import SimConfig, sim_config
-from mjtrack.windows import (AGAINST_WHY, DRIVE_DEFAULTS, STUCK_WHY, WARMUP_S, WindowSet, commanded_log, geometry_robot,
-                             left_out_counts, make_windows, measured_drive_log, measured_window_poses, turn_ratio,
-                             without_contradicting)
+from mjtrack.windows import (DRIVE_DEFAULTS, WARMUP_S, WindowSet, geometry_robot,
+                             left_out_counts, make_windows, measured_drive_log, measured_window_poses, without_contradicting)
 
 if TYPE_CHECKING:  # MuJoCo is loaded by the functions that simulate, not by importing calibrate
-    from mjtrack.calibrate.fit import FitResult
-    from mjtrack.sim.windows import WindowResult, WindowSim
+    from mjtrack.sim.windows import WindowSim
+
+from mjtrack.calibrate.measures import (measured_speeds,
+                                       turn_measures)
+from mjtrack.calibrate.result import Calibration, Scored, write_outputs
+
+from mjtrack.calibrate.rounds import Fitted, Fitter, Meter, expected_passes, fit_attempt
 
 log = logging.getLogger(__name__)
 
 #: robot keys whose defaults a description may silently rely on (named under ``assumed``)
 DESCRIBED = ("track_length", "track_width", "mass", "cg_x", "cg_y", "cg_z", "mu", "sprocket_radius", "rolling_resistance")
-MAX_ROUNDS = 3  # refits after the first fit, each after what the log determines was decided again
-#: refits of the guard's second attempt (after a blow-up on a window the fit did not use): it starts
-#: from the first attempt's settled decision, which the added windows move only a little
-GUARD_ROUNDS = 1
-STEP_TOL = 0.25  # the fit has converged when the remaining Gauss-Newton step is below this share of every half-width
 #: windows a fit uses by default, spread evenly over the log: a fit's time grows with them (about
 #: 250 evaluations of every fit window), its intervals narrow only with their square root
 FIT_WINDOWS = 60
-STEADY_MIN_WZ = 0.3  # [rad/s] nominal yaw rate below which a window's yaw ratio is not used
-ICR_MIN_TURN = 0.3  # |turn ratio| below which a window's ICRs are not used (they diverge)
-SPEED_MIN = 0.1  # [m/s] |mean track speed| below which a window's forward speed ratio is not used
-#: |turn ratio| classes of the forward speed ratio: straight, turning, sharp turns
-TURN_CLASSES = ((0.0, 0.15), (0.15, 0.5), (0.5, 1.0))
-
-
-@dataclass
-class Scored:
-    """A robot scored on a log's windows: per-window errors (M, 3), RMS position error [m], the
-    windows' simulated poses and track speeds (for yaw ratios and ICRs)."""
-
-    errors: np.ndarray
-    rms: float
-    poses: np.ndarray
-    speeds: np.ndarray
-    diverged: int
-    diverged_mask: np.ndarray  # (M,) windows whose simulation blew up
-
-    @classmethod
-    def of(cls, res: WindowResult, p: int = 0) -> "Scored":
-        e = res.errors[p]
-        return cls(errors=e, rms=float(np.sqrt(np.mean(e[:, 0] ** 2 + e[:, 1] ** 2))), poses=res.poses[p],
-                   speeds=res.speeds[p], diverged=int(res.diverged[p].sum()), diverged_mask=res.diverged[p].copy())
-
-
-@dataclass
-class Calibration:
-    """Everything calibrate found; :meth:`to_json` is calibration.json.
-
-    ``names``: every parameter the fit was allowed to move; ``values``: their calibrated values
-    (the described value for those the log does not determine or does not need changed);
-    ``verdicts``: what the log says of each (:class:`mjtrack.calibrate.identify.Verdict`);
-    ``fit``: the first fit (all of ``names``; after a blow-up on an unused window, the second
-    attempt's fit of the parameters the first one changed), ``refit``: the final fit of the kept parameters
-    (None when nothing was kept or all were); ``causes``: the measured causes of the improvement."""
-
-    train_path: str
-    test_path: str | None
-    robot: Robot
-    calibrated: Robot
-    track_model: str
-    horizon_s: float
-    names: list[str]
-    values: dict[str, float]
-    described: dict[str, float]
-    verdicts: dict[str, Verdict]
-    fixed: dict[str, float]
-    assumed: dict[str, str]
-    fit: FitResult
-    refit: FitResult | None
-    model_form: dict[str, dict[str, float]]
-    causes: list[Cause]
-    train_windows: WindowSet
-    test_windows: WindowSet | None
-    train_log: DriveLog
-    test_log: DriveLog | None
-    before: Scored
-    after: Scored
-    test_before: Scored | None
-    test_after: Scored | None
-    findings: list[dict]
-    sentence: str
-    config: dict
-    timings: dict[str, float] = field(default_factory=dict)
-    drive_input: str = "commanded"
-    fit_windows: WindowSet | None = None  # the windows the fit used (None: every training window)
-    #: windows left out because their poses move against the tracks (see
-    #: :func:`mjtrack.sim.windows.contradicting_windows`), by part ("train", "test")
-    left_out: dict[str, list[dict]] = field(default_factory=dict)
-    #: the drivetrain fitted first to the log's measured track speeds (commanded drive, a log
-    #: with measured speeds: :mod:`mjtrack.calibrate.drivetrain`), else None
-    drivetrain: object = None
-
-    @property
-    def fitted_windows(self) -> WindowSet:
-        return self.train_windows if self.fit_windows is None else self.fit_windows
-
-    @property
-    def changed(self) -> list[str]:
-        return [n for n in self.names if self.verdicts[n].changed]
-
-    def to_json(self) -> dict:
-        fits = [self.fit] + ([self.refit] if self.refit is not None else [])
-        out = {
-            "simulator": "mujoco", "track_model": self.track_model, "drive_input": self.drive_input,
-            "parameters": {n: self.values[n] for n in self.names},
-            "intervals": {n: list(v.interval) for n, v in self.verdicts.items() if v.interval is not None},
-            "determined": {n: self.verdicts[n].to_json() for n in self.names},
-            "described": self.described,
-            "changed": self.changed,
-            "fixed": self.fixed, "assumed": self.assumed,
-            "train": {"log": self.train_path, "metric": "pos_err_m", "horizon_s": self.horizon_s,
-                      "before": self.before.rms, "after": self.after.rms, "windows": len(self.train_windows),
-                      "fit_windows": len(self.fitted_windows)},
-            "findings": self.findings,
-            "causes": [c.to_json() for c in self.causes],
-            "summary": self.sentence,
-            "model_form": self.model_form,
-            "start": self.fit.start, "starts_tried": [{"parameters": p, "cost": c} for p, c in self.fit.starts_tried],
-            "method": {"optimizer": self.fit.method,
-                       "fits": [{"parameters": f.names, "iterations": f.iterations, "cost_start": f.cost_start,
-                                 "cost_final": f.cost_final} for f in fits],
-                       "simulated_windows": sum(f.evaluations for f in fits) * len(self.fitted_windows),
-                       "intervals": "95 %: cluster-robust sandwich over clusters of consecutive windows (Student t), "
-                                    "plus the model-form shift of each parameter (a finer simulator, a longer "
-                                    "warm-up of the hidden states), linearised at the optimum",
-                       "determined": "half-width at most the parameter's resolution; a parameter that is not "
-                                     "determined, or whose described value lies in its interval, keeps the "
-                                     "described value",
-                       "windows": "each window simulated from the measured state at its start (pose, twist, "
-                                  f"track speeds), hidden states warmed up over up to {WARMUP_S:g} s of the log "
-                                  "before it; errors at the window's end in its start frame"},
-            "sim_config": self.config,
-            "timings_s": self.timings,
-            "left_out": {part: {"why": LEFT_OUT_WHY, "windows": rows} for part, rows in self.left_out.items() if rows},
-        }
-        if self.drivetrain is not None:
-            out["drivetrain"] = {**self.drivetrain.to_dict(), "metric": "wheel_speed_rms_m_s (measured - the "
-                                 "chain's prediction from the commands, rows of every window after its start)"}
-        if self.test_before is not None and self.test_after is not None:
-            b, a = self.test_before.rms, self.test_after.rms
-            out["test"] = {"log": self.test_path, "metric": "pos_err_m", "horizon_s": self.horizon_s,
-                           "before": b, "after": a, "relative": 1.0 - a / b if b > 0 else 0.0,
-                           "windows": len(self.test_windows)}
-        return out
-
-
-# -- measurements on windows ---------------------------------------------------------------------
-def _chord_twist(p0: np.ndarray, p1: np.ndarray, dur: np.ndarray) -> np.ndarray:
-    """Mean body twist (M, 3) of the constant-twist arc from poses p0 to p1 (M, 3) in dur (M,) s."""
-    rel = relative_pose(p0, p1)
-    rel[:, 2] = p1[:, 2] - p0[:, 2]
-    s, c = sinc_terms(rel[:, 2])
-    den = (s * s + c * c) * dur
-    return np.stack([(s * rel[:, 0] + c * rel[:, 1]) / den, (-c * rel[:, 0] + s * rel[:, 1]) / den,
-                     rel[:, 2] / dur], -1)
-
-
-def steady_mask(lg: DriveLog, ws: WindowSet) -> np.ndarray:
-    """Windows whose commands do not change (and, when the log has a ``steady`` column, marked 1)."""
-    ok = np.array([np.ptp(lg.v_left_cmd[s:e + 1]) < 1e-6 and np.ptp(lg.v_right_cmd[s:e + 1]) < 1e-6
-                   for s, e in zip(ws.starts, ws.ends)])
-    if "steady" in lg.extra:
-        ok &= np.asarray(lg.extra["steady"])[ws.starts] == 1
-    return ok
-
-
-def turn_measures(lg: DriveLog, ws: WindowSet, robot: Robot, poses: np.ndarray, speeds: np.ndarray) -> dict:
-    """Yaw ratio and ICRs of steady windows from window poses (M, K, 3) and track speeds (M, K, 2).
-
-    yaw ratio: median over steady windows with |nominal yaw rate| >= STEADY_MIN_WZ of the
-    window's yaw rate / ((v_R - v_L) / T) (mean track speeds of the window); ICRs (2.13) from the
-    window's chord twist where |turn ratio| >= ICR_MIN_TURN, medians per turn direction; forward
-    speed ratio: median of the chord's forward speed / the mean track speed per |turn ratio| class
-    (:data:`TURN_CLASSES`), where |mean track speed| >= SPEED_MIN -- 1 without longitudinal slip; a
-    real robot falls behind its tracks in turns when the ground resists its motion.
-    """
-    n = ws.ends - ws.starts
-    M = len(ws)
-    p0, p1 = poses[:, 0], poses[np.arange(M), n]
-    dur = lg.t[ws.ends] - lg.t[ws.starts]
-    tw = _chord_twist(p0, p1, dur)
-    v = np.array([np.nanmean(speeds[j, :n[j] + 1], axis=0) for j in range(M)])
-    wnom = (v[:, 1] - v[:, 0]) / robot.track_gauge
-    steady = steady_mask(commanded_log(lg), ws)
-    use = steady & (np.abs(wnom) >= STEADY_MIN_WZ)
-    ratio = float(np.median(tw[use, 2] / wnom[use])) if use.any() else float("nan")
-    turn = turn_ratio(v)
-    keep = steady & (np.abs(turn) >= ICR_MIN_TURN) & (np.abs(tw[:, 2]) > 1e-3)
-    icr = {}
-    for sign, name in ((1, "left"), (-1, "right")):
-        m = keep & (np.sign(tw[:, 2]) == sign)
-        if m.sum() >= 3:
-            wz = tw[m, 2]
-            icr[name] = {"y_l": float(np.median((tw[m, 0] - v[m, 0]) / wz)),
-                         "y_r": float(np.median((tw[m, 0] - v[m, 1]) / wz)),
-                         "x_c": float(np.median(-tw[m, 1] / wz)), "windows": int(m.sum())}
-    vm = v.mean(axis=1)
-    fwd = {}
-    for lo, hi in TURN_CLASSES:
-        m = steady & (np.abs(vm) >= SPEED_MIN) & (np.abs(turn) >= lo) & ((np.abs(turn) < hi) | (hi >= 1.0))
-        if m.sum() >= 3:
-            fwd[(lo, hi)] = (float(np.median(tw[m, 0] / vm[m])), int(m.sum()))
-    return {"yaw_ratio": ratio, "yaw_windows": int(use.sum()), "icr": icr, "speed_ratio": fwd}
-
-
-def measured_speeds(lg: DriveLog, ws: WindowSet) -> np.ndarray:
-    """(M, K, 2) measured (else commanded) track speeds of each window, NaN beyond its end."""
-    K = int((ws.ends - ws.starts).max()) + 1
-    out = np.full((len(ws), K, 2), np.nan)
-    for j, (s, e) in enumerate(zip(ws.starts, ws.ends)):
-        sl = slice(s, e + 1)
-        v = np.stack([lg.v_left_cmd[sl], lg.v_right_cmd[sl]], -1)
-        if lg.has_track_speeds:
-            meas = np.stack([lg.v_left[sl], lg.v_right[sl]], -1)
-            v = np.where(np.isfinite(meas), meas, v)
-        out[j, :e - s + 1] = v
-    return out
 
 
 # -- the calibration -----------------------------------------------------------------------------
@@ -323,33 +118,6 @@ def _score(sim: WindowSim, lg: DriveLog, ws: WindowSet, variants: list[dict], *,
 
     res = simulate_windows(sim, lg, ws, variants, nthread=nthread, warmup_s=warmup_s, progress=windows_done(progress))
     return [Scored.of(res, p) for p in range(len(variants))]
-
-
-def model_form_sources(obj, values: dict[str, float], resid: np.ndarray, jac: np.ndarray, config: SimConfig, *,
-                       refine: bool = True) -> tuple[list[ModelFormSource], dict[str, float]]:
-    """The model-form sources at ``values`` (the fit's residuals ``resid``, Jacobian ``jac``):
-
-    * ``simulator``: the residuals of a finer simulator (time step halved, at least the default
-      roller count) minus the fit's -- what the discretisation of the fit's robot costs;
-    * ``warm_up``: the residuals with twice the warm-up of the hidden states minus the fit's -- what
-      is left of the start state that the log does not hold.
-
-    Returns the sources (g = J^T (r_other - r)) and each one's RMS residual change [m]."""
-    from mjtrack.sim.windows import WindowSim
-
-    robot = obj.sim.robot
-    wp = window_params(values, robot)
-    out, size = [], {}
-    if refine:
-        finer = config.replace(timestep=config.timestep / 2, n_rollers=max(config.n_rollers, SimConfig().n_rollers))
-        r_fine = obj.residuals_of([wp], one=True, sim=WindowSim(robot, finer, resisted=obj.sim.resisted))
-        out.append(ModelFormSource("simulator", jac.T @ (r_fine - resid)))
-        size["simulator"] = float(np.sqrt(np.sum((r_fine - resid) ** 2)))
-    if obj.warmup_s > 0:
-        r_warm = obj.residuals_of([wp], one=True, warmup_s=2 * obj.warmup_s)
-        out.append(ModelFormSource("warm_up", jac.T @ (r_warm - resid)))
-        size["warm_up"] = float(np.sqrt(np.sum((r_warm - resid) ** 2)))
-    return out, size
 
 
 def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
@@ -494,71 +262,6 @@ class _Problem:
     assumed: dict[str, str]
 
 
-@dataclass
-class _Fitter:
-    """The fit's settings and simulator (the fit and its rounds of decisions)."""
-
-    sim: WindowSim
-    train: DriveLog
-    names: list[str]
-    described: dict[str, float]
-    config: SimConfig
-    max_iter: int
-    nthread: int
-    warmup_s: float
-    meter: _Meter
-    specs: dict = field(init=False)
-    floors: dict[str, float] = field(init=False)
-
-    def __post_init__(self) -> None:
-        self.specs = specs_for(self.sim.robot)
-        self.floors = {n: self.sim.dt for n in ("drive_lag", "drive_delay")}  # timing is resolved to one step at best
-
-    @property
-    def refit_iter(self) -> int:
-        return max(3, self.max_iter // 2)
-
-    def objective(self, fws: WindowSet, names: list[str]):
-        from mjtrack.calibrate.fit import objective
-
-        return objective(self.sim, self.train, fws, names, nthread=self.nthread, warmup_s=self.warmup_s,
-                         progress=self.meter.windows)
-
-    def scaled(self, point: dict[str, float]) -> np.ndarray:
-        return np.array([point[n] / self.specs[n].scale for n in self.names])
-
-    def linearised(self, obj, theta, jac, resid, sources, names=None) -> Linearised:
-        return Linearised(names=list(self.names if names is None else names), theta=theta, jac=jac, resid=resid,
-                          rows_per_window=obj.rows_per_window, specs=self.specs, model_form=sources,
-                          floors=self.floors)
-
-
-@dataclass
-class _Fitted:
-    """One attempt of the fit: the first fit, the verdicts of every candidate, the values, the
-    final linearisation of the kept parameters and their uncertainty."""
-
-    result: FitResult
-    refit: FitResult | None
-    verdicts: dict[str, Verdict]
-    values: dict[str, float]
-    model_form: dict
-    u: object
-    lin: Linearised | None
-    ties: dict[str, list[str]]
-    fws: WindowSet
-
-
-@dataclass
-class _Linearisation:
-    """The objective of every candidate linearised at the current point."""
-
-    point: dict[str, float]
-    resid: np.ndarray
-    jac: np.ndarray
-    free: list[str]
-
-
 class _Clock:
     """Wall clock of each stage (``Calibration.timings``, seconds)."""
 
@@ -578,56 +281,6 @@ class _Clock:
     def total(self) -> dict[str, float]:
         self.timings["total"] = time.perf_counter() - self.t0
         return self.timings
-
-
-#: passes over the fit windows that the model-form sources cost, in windows simulated (a finer
-#: simulator and a longer warm-up; each counted once, though the finer one takes about twice as long)
-MODEL_FORM_PASSES = 2
-
-
-class _Meter:
-    """calibrate's progress on stderr (a TTY, unless quiet): windows simulated out of those
-    expected, the stage and round as the bar's note, and once the robot as described is scored
-    (its rate measured), a line saying how long the whole is expected to take."""
-
-    def __init__(self, quiet: bool) -> None:
-        from mjtrack.progress import Progress
-
-        self.bar = Progress(total=None, label="calibrate", quiet=quiet)
-        self.tail = 0  # windows expected after the fit (every training window, the test's, the causes')
-
-    def windows(self, n: int) -> None:
-        self.bar.update(n)
-
-    def stage(self, note: str, remaining: float | None = None) -> None:
-        """Now in ``note``; ``remaining``: windows still expected from here on, all stages."""
-        if remaining is not None:
-            self.bar.total = self.bar.count + max(1, int(round(remaining)))
-        self.bar.label = f"calibrate: {note}"  # first on the line: a narrow terminal cuts the end
-        self.bar.update(0)
-
-    def say(self, text: str) -> None:
-        log.info(text)
-        self.bar.say(text)
-
-    def close(self) -> None:
-        self.bar.close()
-
-
-def expected_passes(n: int, starts: int, max_iter: int, refit_iter: int, rounds: int = 1) -> int:
-    """Passes over the fit windows that the fit of ``n`` candidates is expected to take: the
-    ``starts``, the first fit (a forward difference, then about one pass per iteration and one
-    rejected step in two, :class:`mjtrack.calibrate.fit.SecantJacobian`), the central differences at
-    its end, the model-form sources, and ``rounds`` refits (:func:`round_passes`)."""
-    first = starts + 2 + (n + 1) + int(1.5 * max_iter) + (2 * n + 1) + MODEL_FORM_PASSES
-    return first + rounds * round_passes(n, refit_iter)
-
-
-def round_passes(n: int, refit_iter: int) -> int:
-    """Passes of one refit of a few (two) of ``n`` candidates: its start and forward difference,
-    its iterations, the central differences of the refitted ones (one-sided for the others) and the
-    model-form sources at its end."""
-    return 2 + 2 + int(1.5 * refit_iter) + (n + 3) + MODEL_FORM_PASSES
 
 
 def _prepare(train: DriveLog, robot: Robot, test: DriveLog | None, names, *, horizon_s: float, n_rollers,
@@ -666,105 +319,8 @@ def _prepare(train: DriveLog, robot: Robot, test: DriveLog | None, names, *, hor
                     fixed=fixed, assumed=assumed_values(robot, names))
 
 
-def _first_fit(fx: _Fitter, obj, fws: WindowSet, start_at: dict[str, float], only: list[str] | None,
-               on_iter) -> tuple[FitResult, _Linearisation]:
-    """Every candidate fitted from ``start_at`` (several starts); or, for the guard's second
-    attempt, only the parameters ``only`` a first attempt changed, then every candidate linearised
-    at that point (the others at their described value)."""
-    from mjtrack.calibrate.fit import central_jacobian, fit
-
-    if only is None:
-        result = fit(obj, start_at, max_iter=fx.max_iter, multistart=True, on_iter=on_iter)
-        return result, _Linearisation(dict(result.values), result.resid, result.jac, list(fx.names))
-    result = fit(fx.objective(fws, only), {n: start_at[n] for n in only}, max_iter=fx.refit_iter,
-                 multistart=False, on_iter=on_iter, final_jacobian=False)
-    point = {**fx.described, **result.values}
-    resid, jac = central_jacobian(obj, fx.scaled(point), central=np.array([n in only for n in fx.names]))
-    return result, _Linearisation(point, resid, jac, list(only))
-
-
-def _decision_rounds(fx: _Fitter, obj, fws: WindowSet, cur: _Linearisation, rounds: int, on_iter):
-    """Until it settles (at most ``rounds`` refits): every candidate linearised at the current
-    point, what the log determines and needs changed decided again for all of them, the kept ones
-    fitted again. Returns the last decision, the linearisation it was made at, the model-form
-    sources there (and their sizes), and the refits."""
-    from mjtrack.calibrate.fit import central_jacobian, fit
-
-    fits: list[FitResult] = []
-    for round_ in range(rounds + 1):
-        fx.meter.stage(f"round {round_ + 1}")
-        sources, size = model_form_sources(obj, cur.point, cur.resid, cur.jac, fx.config)
-        theta = fx.scaled(cur.point)
-        lin = fx.linearised(obj, theta, cur.jac, cur.resid, sources)
-        fidx = [fx.names.index(n) for n in cur.free]
-        rest = np.abs(lin.step(fidx)[fidx]) * lin.scales[fidx]
-        converged = bool(np.all(rest <= STEP_TOL * lin.uncertainty(fidx).half))
-        ahead = fx.linearised(obj, theta, cur.jac, cur.resid, sources)
-        ahead.advance()
-        sel = select(ahead, fx.described)
-        if (sel.free == cur.free and converged) or not sel.free or round_ == rounds:
-            return sel, cur, theta, sources, size, fits
-        free = sel.free
-        fx.meter.stage(f"round {round_ + 1} refit",
-                       round_passes(len(fx.names), fx.refit_iter) * len(fws) + fx.meter.tail)
-        begin = {n: float(np.clip(sel.values[n], fx.specs[n].lo, fx.specs[n].hi)) for n in free}
-        fr = fit(fx.objective(fws, free), begin, max_iter=fx.refit_iter, multistart=False, on_iter=on_iter,
-                 final_jacobian=False)  # linearised below with every candidate
-        fits.append(fr)
-        point = {**fx.described, **fr.values}
-        resid, jac = central_jacobian(obj, fx.scaled(point), central=np.array([n in free for n in fx.names]))
-        cur = _Linearisation(point, resid, jac, list(free))
-    raise AssertionError("unreachable: the last round returns")
-
-
-def _final_verdicts(fx: _Fitter, obj, sel, cur: _Linearisation, theta: np.ndarray, sources, size, rounds: int):
-    """The verdicts: those the last decision sent back to their description, and, unless it sent
-    back every one, the fitted ones at the current point (when the rounds ran out first, the last
-    fit stands as fitted). Returns verdicts, values, model_form, uncertainty, linearisation, ties."""
-    names, specs, described = fx.names, fx.specs, fx.described
-    kept = [] if not sel.free else cur.free
-    verdicts: dict[str, Verdict] = {n: v for n, v in sel.verdicts.items() if n not in kept}
-    # the rounds ran out while the last decision freed a parameter the last fit had not moved:
-    # it is determined, but no fit reached its value, so it stays at its description and says so
-    for n in sel.free:
-        if n not in kept:
-            s = specs[n]
-            verdicts[n] = Verdict(n, True, False, described[n], described[n], None,
-                                  f"the log points at {fmt_value(sel.values[n], s.unit)} (linearised), but the "
-                                  f"fit did not settle within {rounds} rounds; it stays at its described "
-                                  f"value {fmt_value(described[n], s.unit)}, which the log does not confirm",
-                                  points_at=float(sel.values[n]))
-    ties = {k: v for k, v in sel.ties.items() if k in kept}
-    values = {**described}
-    if not kept:
-        return verdicts, values, {}, None, None, ties
-    kidx = [names.index(n) for n in kept]
-    klin = fx.linearised(obj, theta[kidx], cur.jac[:, kidx], cur.resid,
-                         [ModelFormSource(m.name, m.g[kidx]) for m in sources], names=kept)
-    final, u, rest = final_verdicts(klin, described, ties)
-    verdicts.update(final)
-    values.update({n: cur.point[n] for n in kept})
-    model_form = {"residual_change_m": size,
-                  "shift": {src_: {n: float(v) for n, v in zip(kept, sh)} for src_, sh in u.shifts.items()},
-                  "optimiser": {n: float(v) for n, v in zip(kept, rest)}}
-    return verdicts, values, model_form, u, klin, ties
-
-
-def _fit_attempt(fx: _Fitter, fws: WindowSet, start_at: dict[str, float], only: list[str] | None = None) -> _Fitted:
-    """One attempt: the first fit, the rounds of decisions, the verdicts (``only``: the guard's
-    second attempt, see :func:`_guarded_fit`)."""
-    obj = fx.objective(fws, fx.names)
-    rounds = MAX_ROUNDS if only is None else GUARD_ROUNDS
-    fx.meter.stage("fit" if only is None else "guard refit")
-    result, cur = _first_fit(fx, obj, fws, start_at, only, None)
-    sel, cur, theta, sources, size, fits = _decision_rounds(fx, obj, fws, cur, rounds, None)
-    verdicts, values, model_form, u, lin, ties = _final_verdicts(fx, obj, sel, cur, theta, sources, size, rounds)
-    return _Fitted(result=result, refit=fits[-1] if fits else None, verdicts=verdicts, values=values,
-                   model_form=model_form, u=u, lin=lin, ties=ties, fws=fws)
-
-
-def _guarded_fit(fx: _Fitter, pb: _Problem, fit_windows: int | None, before: Scored, clock: _Clock, kw: dict
-                 ) -> tuple[_Fitted, list[str], dict, Scored]:
+def _guarded_fit(fx: Fitter, pb: _Problem, fit_windows: int | None, before: Scored, clock: _Clock, kw: dict
+                 ) -> tuple[Fitted, list[str], dict, Scored]:
     """The fit, held on every training window, not only on those it used: a calibrated robot whose
     simulation blows up on a window the fit did not see (its values left the simulator's stable
     range there) is fitted again with those windows added (they then count as diverged), from where
@@ -778,7 +334,7 @@ def _guarded_fit(fx: _Fitter, pb: _Problem, fit_windows: int | None, before: Sco
     start_at, only = pb.start, None
     for attempt in range(2):
         with clock.stage("fit" if attempt == 0 else "guard_refit"):
-            att = _fit_attempt(fx, ws.subset(fit_index), start_at, only)
+            att = fit_attempt(fx, ws.subset(fit_index), start_at, only)
         changed = [n for n in pb.names if att.verdicts[n].changed]
         wp = window_params({n: att.values[n] for n in changed}, pb.robot)
         with clock.stage("guard"):
@@ -822,7 +378,7 @@ def _turn_findings(pb: _Problem, scope) -> tuple[list[dict], dict]:
     return findings, meas_by
 
 
-def _explain(pb: _Problem, att: _Fitted, changed: list[str], causes: list[Cause], scope) -> tuple[list[dict], str]:
+def _explain(pb: _Problem, att: Fitted, changed: list[str], causes: list[Cause], scope) -> tuple[list[dict], str]:
     """The findings (turn measures, diverged windows) and the summary sentence."""
     findings, meas_by = _turn_findings(pb, scope)
     test = pb.test is not None
@@ -855,7 +411,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
     and its rounds of decisions), guard (every training window scored after; guard_refit when the
     second attempt runs), after (the test log scored after, the causes), explain."""
     clock = _Clock()
-    meter = _Meter(quiet)
+    meter = Meter(quiet)
     try:
         return _stages(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
                        max_iter=max_iter, nthread=nthread, train_path=train_path, test_path=test_path,
@@ -867,7 +423,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
 
 def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, train_path,
             test_path, warmup_s, drive_input, fit_windows, keep_contradicting, clock: _Clock,
-            meter: _Meter) -> Calibration:
+            meter: Meter) -> Calibration:
     from mjtrack.calibrate.fit import start_points, windows_done
     from mjtrack.sim.windows import WindowSim, simulate_windows
 
@@ -877,7 +433,7 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
         pb = _prepare(train, robot, test, names, horizon_s=horizon_s, n_rollers=n_rollers,
                       keep_contradicting=keep_contradicting, src=src, test_src=test_src)
         sim = WindowSim(robot, pb.config, resisted="rolling_resistance" in pb.names)
-    fx = _Fitter(sim=sim, train=train, names=pb.names, described=pb.described, config=pb.config, max_iter=max_iter,
+    fx = Fitter(sim=sim, train=train, names=pb.names, described=pb.described, config=pb.config, max_iter=max_iter,
                  nthread=nthread, warmup_s=warmup_s, meter=meter)
     n_fit = len(fit_index_of(pb.ws, fit_windows))
     n_test = 0 if pb.tws is None else len(pb.tws)
@@ -928,12 +484,8 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
         verdicts=att.verdicts, fixed=pb.fixed, assumed=pb.assumed, fit=att.result, refit=att.refit,
         model_form=att.model_form, causes=causes, train_windows=pb.ws, test_windows=pb.tws, train_log=train,
         test_log=test, before=before, after=after, test_before=test_before, test_after=test_after,
-        findings=_clean(findings), sentence=sentence, config=pb.config.to_dict(), timings=clock.total(),
+        findings=json_value(findings), sentence=sentence, config=pb.config.to_dict(), timings=clock.total(),
         drive_input=drive_input, fit_windows=att.fws, left_out=pb.left_out)
-
-
-LEFT_OUT_WHY = (f'kind "against": {AGAINST_WHY}; kind "stuck": {STUCK_WHY} '
-                "(keep them with --keep-contradicting)")
 
 
 def _without_contradicting(lg: DriveLog, ws: WindowSet, src: str, gauge: float) -> tuple[WindowSet, list[dict]]:
@@ -957,23 +509,6 @@ def _without_contradicting(lg: DriveLog, ws: WindowSet, src: str, gauge: float) 
     log.warning("calibrate: %s: %d of %d windows left out: %s (e.g. %s)", src, len(bad), len(ws),
                 left_out_counts(bad), example)
     return kept, bad
-
-
-def _clean(obj):
-    """JSON-safe copy (:func:`mjtrack.io.jsonfile.json_value`)."""
-    return json_value(obj)
-
-
-def write_outputs(cal: Calibration, out: str | os.PathLike) -> None:
-    """DIR/robot.json, DIR/calibration.json, DIR/report.html (each written atomically)."""
-    from mjtrack.calibrate.report import build_report
-
-    out = Path(out)
-    report = build_report(cal)  # built first: a failure here leaves nothing half-written
-    make_output_dir(out)
-    atomic_write_text(out / "robot.json", json.dumps(_clean(cal.calibrated.to_dict()), indent=2, sort_keys=True) + "\n")
-    atomic_write_text(out / "calibration.json", json.dumps(_clean(cal.to_json()), indent=2) + "\n")
-    report.write(out / "report.html")
 
 
 __all__ = ["Calibration", "calibrate", "calibrated_robot", "write_outputs"]

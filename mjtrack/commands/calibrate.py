@@ -77,7 +77,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mjtrack.calibrate.run import calibrate, write_outputs
+    from mjtrack.calibrate.result import write_outputs
+    from mjtrack.calibrate.run import calibrate
     from mjtrack.io.robot import check_same_robot
 
     train, robot = log_and_robot(args)
