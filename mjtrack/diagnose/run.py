@@ -33,8 +33,9 @@ from mjtrack.diagnose.surrogate.baseline import DEFAULT_HORIZON, surrogate_probl
 from mjtrack.diagnose.vocabulary import EFFECTS, canonical_effects
 from mjtrack.errors import InputError
 from mjtrack.io.atomic import atomic_write_text, make_output_dir
+from mjtrack.io.jsonfile import json_value
 from mjtrack.io.logs import DriveLog
-from mjtrack.io.robot import G, Robot
+from mjtrack.io.robot import G, Robot, check_same_robot
 
 log = logging.getLogger(__name__)
 
@@ -46,7 +47,6 @@ BASELINES = ("auto", "mujoco", "surrogate", "kinematic")
 # tracks ran at 0.92 of the command it ranked lag, delay and friction first, and the diagnosis named
 # nothing; fitting every candidate named the speed scale, 0.92, at about 1.7 times the time)
 MUJOCO_SCREEN: int | None = None
-ROBOT_KEYS = ("track_gauge", "track_length", "track_width", "mass", "cg_x", "cg_y", "cg_z", "mu", "mu_left", "mu_right")
 
 __all__ = ["Diagnosis", "diagnose", "extended_robot", "write_outputs", "noise_floor", "BASELINES"]
 
@@ -64,17 +64,6 @@ def noise_floor(data: rs.DriveData) -> float:
         return 0.0
     sigma = 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / np.sqrt(6.0)
     return 2.0 * sigma
-
-
-def same_robot(a: Robot, b: Robot) -> list[str]:
-    """Keys on which two descriptions of a robot disagree (both given), empty when they agree."""
-    out = []
-    for k in ROBOT_KEYS:
-        given = (a.provided is None or k in a.provided) and (b.provided is None or k in b.provided)
-        va, vb = getattr(a, k), getattr(b, k)
-        if given and va != vb and not (va is not None and vb is not None and abs(float(va) - float(vb)) <= 1e-9 * (1 + abs(float(va)))):
-            out.append(f"{k} {va} vs {vb}")
-    return out
 
 
 def diagnose(log_: DriveLog, robot: Robot, *, horizon_s: float | str = "auto", n_folds: int = 5,
@@ -149,10 +138,7 @@ def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, bas
     if effects is not None:
         effects = canonical_effects(effects, EFFECTS, traction=robot.traction)
     if test_log is not None and test_robot is not None:
-        differ = same_robot(robot, test_robot)
-        if differ:
-            raise InputError(f"{test_log.source or 'test log'}: another robot than {src}'s ({'; '.join(differ)}): "
-                             "a test log must come from the same robot")
+        check_same_robot(robot, test_robot, test_log.source or "test log")
     if drive_input not in (None, "commanded", "measured"):
         raise InputError(f"diagnose: drive input {drive_input!r} is neither 'commanded' nor 'measured'")
     requested, mujoco_note = baseline, None
@@ -323,7 +309,7 @@ def write_outputs(diagnosis: Diagnosis, out_dir: str | os.PathLike) -> None:
     out = Path(out_dir)
     report = build_report(diagnosis)  # everything is built before anything is written
     diagnosis.timings["report"] = time.perf_counter() - t0
-    text = json.dumps(diagnosis.to_json(), indent=2, allow_nan=False) + "\n"
+    text = json.dumps(json_value(diagnosis.to_json()), indent=2, allow_nan=False) + "\n"
     html = report.to_html()
     make_output_dir(out)
     atomic_write_text(out / "report.html", html)

@@ -18,7 +18,7 @@ t-test over K folds it does not depend on K (every window counts once whatever t
 it is fair to an effect that acts in part of the log: a fold in which the effect never shows
 is one fold of K for a t-test over folds, but only its share of the windows here.
 
-Intervals (:func:`cluster_sandwich`, :func:`interval`). The least-squares estimate's covariance under resampling of
+Intervals (:func:`mjtrack.stats.cluster_sandwich`, :func:`interval`). The least-squares estimate's covariance under resampling of
 blocks, linearised (the cluster-robust "sandwich" (J'J)^-1 (sum_b g_b g_b') (J'J)^-1 with
 g_b = J_b' r_b, the gradient contribution of block b): the residuals include whatever the
 model does not explain (the surrogate's own approximation error included), so the interval
@@ -30,7 +30,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
+
+from mjtrack.stats import cluster_sandwich, t_quantile  # noqa: F401 (the one sandwich, used through this module)
 
 N_BOOT = 2000
 
@@ -139,25 +140,6 @@ def difference_test(before_sq: np.ndarray, a_sq: np.ndarray, b_sq: np.ndarray, b
     q = (1.0 - level) / 2
     lo, hi = np.quantile(reps, [q, 1.0 - q])
     return float(d), float(lo), float(hi)
-
-
-def cluster_sandwich(jac: np.ndarray, resid: np.ndarray, row_block: np.ndarray) -> np.ndarray:
-    """Cluster-robust covariance (P, P) of a least-squares estimate: (J'J)^+ (sum_b g_b g_b')
-    (J'J)^+ x B/(B-1), g_b = J_b' r_b over the rows of block b (module docstring)."""
-    jac = np.asarray(jac, float)
-    resid = np.asarray(resid, float)
-    ids, inv = np.unique(row_block, return_inverse=True)
-    nb = ids.size
-    g = np.zeros((nb, jac.shape[1]))
-    np.add.at(g, inv, jac * resid[:, None])
-    bread = np.linalg.pinv(jac.T @ jac)
-    meat = g.T @ g * (nb / max(nb - 1, 1))
-    return bread @ meat @ bread
-
-
-def t_quantile(n_blocks: int, level: float = 0.975) -> float:
-    """Student quantile with n_blocks - 1 degrees of freedom (at least 1)."""
-    return float(stats.t.ppf(level, max(n_blocks - 1, 1)))
 
 
 def paired_t(a: np.ndarray, b: np.ndarray) -> float:
