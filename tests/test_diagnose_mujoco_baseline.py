@@ -320,7 +320,8 @@ def _warning_windows(model, windows, value):
     """The windows among ``windows`` whose simulation alone, at cg_x = value, makes MuJoCo warn
     (the truth, one by one)."""
     from mjtrack.sim.rollout import collected_mujoco_warnings
-    from mjtrack.sim.windows import WARMUP_S, simulate_windows
+    from mjtrack.sim.windows import simulate_windows
+    from mjtrack.windows import WARMUP_S
 
     from mjtrack.diagnose.mujoco_baseline import _spec
 

@@ -306,7 +306,8 @@ def test_help_texts_are_self_contained():
         for pattern in _NOT_IN_HELP:
             assert not pattern.search(text), (name, pattern.pattern)
         for m in _BARE_EQUATION.finditer(text):  # an equation number comes with its source
-            assert "thesis" in text[max(0, m.start() - 80):m.end() + 80], (name, m.group())
+            near = text[max(0, m.start() - 80):m.end() + 80]
+            assert "thesis" in near or re.search(r"\[[A-Z][A-Za-z-]+\]", near), (name, m.group())
 
 
 # -- terrain specs (mjtrack/sim/terrain.py, --terrain) ------------------------------------

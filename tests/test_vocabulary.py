@@ -64,6 +64,12 @@ QUANTITY = {
     "drive_delay_left": "left side's dead time from command to track speed",
     "drive_delay_right": "right side's dead time from command to track speed",
     "drive_accel_limit": "largest track acceleration of a drive",
+    # what a speed controller that commands the body twist does (robot file, from 0.3)
+    "drive_turn_scale": "actual over commanded half difference of the track speeds",
+    "drive_mean_speed_limit": "speed at which the controller saturates the mean of the track speeds",
+    "drive_turn_limit": "half difference of the track speeds at which the controller saturates it",
+    # the shear-displacement ground
+    "shear_modulus": "shear displacement over which the ground's shear stress builds up (Janosi-Hanamoto K)",
     # simulation and logs
     "timestep": "simulation time step",
     "n_rollers": "rollers per track of the simulated chain",
@@ -84,6 +90,8 @@ NOT_A_QUANTITY = {
     "max_iter", "fit_windows", "n_folds", "speeds", "inertial", "load_transfer",
     # effects whose quantity is their parameter's: a ground model switched on, an incline
     "ground_anisotropy", "road_wheels", "slope",
+    # a ground model's name (its parameter is the quantity) and the measurement noise record of a log
+    "shear", "noise",
 }
 #: a second name the robot file reads on purpose, with why (listed so that no other one slips in)
 ALIASES = {"wheel_radius": ("sprocket_radius", "the robot file reads sprocket_radius under a wheeled robot's "
