@@ -225,3 +225,24 @@ def test_window_simulator_drives_through_the_robots_controller():
     assert speeds[-1] == pytest.approx([0.5, 0.5], abs=0.01)
     free = simulate_windows(WindowSim(Robot()), log, ws).speeds[0, 0]
     assert free[-1] == pytest.approx([0.9, 0.9], abs=0.01)
+
+
+def test_window_simulator_applies_each_sides_dead_time():
+    """A robot file's drive_delay_left / drive_delay_right reach the window simulator: from rest
+    under a 0.6 m/s step, the left track (0.3 s dead time) is still near rest at 0.25 s while the
+    right (none) is well under way; a variant that moves drive_delay moves both sides to it."""
+    from mjtrack.io.logs import DriveLog
+    from mjtrack.sim.windows import WindowSim, simulate_windows
+    from mjtrack.windows import make_windows
+
+    t = np.arange(0.0, 2.0001, 0.05)
+    z = np.zeros_like(t)
+    log = DriveLog(t=t, v_left_cmd=z + 0.6, v_right_cmd=z + 0.6, x=z, y=z, yaw=z, v_left=z, v_right=z)
+    ws = make_windows(log, 2.0)
+    robot = Robot(drive_delay_left=0.3, drive_delay_right=0.0)
+    sim = WindowSim(robot)
+    own, moved = simulate_windows(sim, log, ws, [{}, {"drive_delay": 0.3}]).speeds[:, 0]
+    left, right = np.interp(0.25, t, own[:, 0]), np.interp(0.25, t, own[:, 1])
+    assert left < 0.05 < 0.3 < right
+    assert own[-1] == pytest.approx([0.6, 0.6], abs=0.02)  # both arrive; only the left later
+    assert np.interp(0.25, t, moved[:, 1]) < 0.05  # one fitted dead time for both sides

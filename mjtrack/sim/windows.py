@@ -342,6 +342,19 @@ def window_commands(log: DriveLog, ws: WindowSet, dt: float, nstep: int, *, dela
     return out * scale
 
 
+def side_delayed_commands(robot: Robot, params: Mapping[str, float | None], log: DriveLog, ws: WindowSet, dt: float,
+                          nstep: int, *, delay: float, scale: float, before: np.ndarray) -> np.ndarray:
+    """:func:`window_commands` with each side's own dead time: the robot's ``drive_delay_left`` /
+    ``drive_delay_right`` while the variant keeps the robot's ``drive_delay``; a variant that moves
+    ``drive_delay`` moves both sides to it (the fitted candidate is one dead time)."""
+    own = params.get("drive_delay") is None or float(params["drive_delay"]) == float(robot.drive_delay)
+    left, right = robot.delay_per_side if own else (delay, delay)
+    if left == right:
+        return window_commands(log, ws, dt, nstep, delay=left, scale=scale, before=before)
+    return np.stack([window_commands(log, ws, dt, nstep, delay=d, scale=scale, before=before)[..., i]
+                     for i, d in enumerate((left, right))], -1)
+
+
 def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
                      variants: Sequence[Mapping[str, float | None]] | None = None, *,
                      nthread: int = 1, twists: np.ndarray | None = None, progress=None,
@@ -406,7 +419,8 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
             if warmup_s > 0:
                 state0 = warm_states(vsim, model, log, ws, rest, state0, twists, warmup_s, delay=delay, scale=scale,
                                      datas=datas)
-            cmds = window_commands(log, ws, sim.dt, nstep, delay=delay, scale=scale, before=speeds0)
+            cmds = side_delayed_commands(vsim.robot, params, log, ws, sim.dt, nstep, delay=delay, scale=scale,
+                                         before=speeds0)
             cmds = controller_stages(vsim.robot, cmds, sim.dt, speeds0)  # the robot's own speed controller
             control = cmds @ sim.B.T
             for lo in range(0, M, CHUNK):
