@@ -11,11 +11,12 @@ fitted: Marmotte trains on the first 50 % of its windows and tests on the next 2
 Warthog train on the first 70 % and test on the remaining 30 % of what the shared folder holds.
 Each fit uses 150 windows spread over the training part (``FIT_WINDOWS``; calibrate's default is
 fewer, to bound a user's time; these are the reference results, and precision is their point).
-Husky and Warthog are calibrated with ``drive_input="measured"``: their own speed controllers cap
-the DRIVE protocol's commands (``command_following`` in the result: once settled, the measured
-track speeds differ from the commands by a large share of them), which no drive key describes, so
-their simulated drives follow the measured track speeds, and the contact and the effective rolling
-radius (the speed scale) are calibrated.
+Husky and Warthog are calibrated with ``drive_input="fitted"``: their own speed controllers cap
+and reshape the DRIVE protocol's commands (``command_following`` in the result: once settled, the
+measured track speeds differ from the commands by a large share of them), so the drivetrain
+(lag, dead time, speed and acceleration limits, the controller's turn and mean-speed stages) is
+first fitted to the measured track speeds, then the contact and the effective rolling radius to
+the poses under the speeds the drivetrain predicts; the calibrated robot predicts from commands.
 Writes benchmarks/results/real_robots.json: per robot the held-out 2 s position error before and
 after, the steady-turn yaw ratio measured and simulated (before, after) on the test part, every
 candidate's value, interval and whether the log determines it, the causes and the summary; the
@@ -62,7 +63,7 @@ ROBOTS = {
             "mu": (0.5, "no public value: start value"),
         }},
     "husky": {
-        "log": DATA / "husky" / "husky_drive.csv", "split": (0.7, 0.3), "drive_input": "measured",
+        "log": DATA / "husky" / "husky_drive.csv", "split": (0.7, 0.3), "drive_input": "fitted",
         "public": {
             "mass": (50.0, "public specification of the Clearpath Husky A200, 50 kg"),
             "wheelbase": (0.512, f"public model: wheelbase 0.512 m ({HUSKY})"),
@@ -70,7 +71,7 @@ ROBOTS = {
             "mu": (0.5, "no public value: start value"),
         }},
     "warthog": {
-        "log": DATA / "warthog" / "warthog_drive.csv", "split": (0.7, 0.3), "drive_input": "measured",
+        "log": DATA / "warthog" / "warthog_drive.csv", "split": (0.7, 0.3), "drive_input": "fitted",
         "public": {
             "mass": (260.0, f"public model: chassis 100 kg + two rocker units 50 kg + four wheels 15 kg ({WARTHOG})"),
             "wheelbase": (0.92, f"public model: axles at +-0.46 m ({WARTHOG})"),
