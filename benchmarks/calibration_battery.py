@@ -12,6 +12,11 @@ calibrated robot (which must name nothing calibration fitted).
 
     python benchmarks/calibration_battery.py                       # 3 geometries x 10 changes
     python benchmarks/calibration_battery.py --geometries default --changes cg_x,clean
+    python benchmarks/calibration_battery.py --noise realistic     # the same on noisy logs
+
+``--noise PRESET`` adds white measurement noise to both logs of every case (``mjtrack simulate
+--noise``'s presets; ``realistic``: the levels measured on the shared real logs), each log's from its
+own seed; those cases go to benchmarks/results/calibration_battery_noisy.json.
 
 Writes benchmarks/results/calibration_battery.json (merged with earlier cases of another
 selection) and prints the coverage table, the worst row and the machine's load.
@@ -32,11 +37,12 @@ from mjtrack.calibrate.run import calibrate
 from mjtrack.testing.battery import CHANGES, GEOMETRIES, case, described_robot, make_log
 
 RESULT = Path(__file__).resolve().parent / "results" / "calibration_battery.json"
+NOISY_RESULT = RESULT.with_name("calibration_battery_noisy.json")
 
 
-def run_case(c, *, duration: float, diagnose: bool) -> dict:
-    train = make_log(c, duration=duration, seed=11)
-    test = make_log(c, duration=duration, seed=12)
+def run_case(c, *, duration: float, diagnose: bool, noise: str | None = None) -> dict:
+    train = make_log(c, duration=duration, seed=11, noise=noise)
+    test = make_log(c, duration=duration, seed=12, noise=noise)
     robot = described_robot(c)
     t0 = time.perf_counter()
     cal = calibrate(train, robot, test=test, nthread=2)
@@ -59,7 +65,7 @@ def run_case(c, *, duration: float, diagnose: bool) -> dict:
            "expected_cause": list(c.cause), "cause_ok": cause_ok,
            "coverage_ok": all(r["covered"] is not False for r in rows if r["determined"]),
            "train": [cal.before.rms, cal.after.rms], "test": [cal.test_before.rms, cal.test_after.rms],
-           "diverged": [cal.before.diverged, cal.after.diverged], "seconds": seconds}
+           "diverged": [cal.before.diverged, cal.after.diverged], "seconds": seconds, "noise": noise or "none"}
     if diagnose:
         out.update(diagnose_case(train, test, robot, cal.calibrated))
     return out
@@ -116,8 +122,16 @@ def main(argv=None) -> int:
     ap.add_argument("--diagnose-only", action="store_true",
                     help="only diagnose stored cases: against the description and against the calibrated robot "
                          "rebuilt from the stored estimates")
-    ap.add_argument("--out", type=Path, default=RESULT)
+    ap.add_argument("--noise", default=None, metavar="PRESET",
+                    help="measurement noise on both logs of every case (a preset of `mjtrack simulate --noise`, e.g. "
+                         "realistic); default: none. Writes to calibration_battery_noisy.json unless --out says otherwise")
+    ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
+    if args.out is None:
+        args.out = NOISY_RESULT if args.noise and args.noise != "none" else RESULT
+    noise = None if args.noise in (None, "none") else args.noise
+    if noise and args.diagnose_only:
+        ap.error("--diagnose-only rebuilds stored noise-free cases; run --diagnose with --noise instead")
     load0 = os.getloadavg()
     old = json.loads(args.out.read_text()) if args.out.exists() else {"cases": {}}
     results = old.get("cases", {})
@@ -139,7 +153,7 @@ def main(argv=None) -> int:
                       f"{r['diagnose_calibrated']['cause']} {r['diagnose_calibrated']['findings']}", flush=True)
                 _write(args.out, results, old, args.duration, load0)
                 continue
-            r = run_case(c, duration=args.duration, diagnose=args.diagnose)
+            r = run_case(c, duration=args.duration, diagnose=args.diagnose, noise=noise)
             before = results.get(c.name, {})
             if not args.diagnose and "diagnose" in before:
                 # diagnose against the description does not depend on calibration: an earlier run's

@@ -115,14 +115,18 @@ def commands(duration: float, seed: int) -> tuple[np.ndarray, np.ndarray, np.nda
     return a[:, 0], a[:, 1], a[:, 2]
 
 
-def make_log(c: Case, *, duration: float, seed: int) -> DriveLog:
-    """The MuJoCo log of the case's truth (module docstring)."""
+def make_log(c: Case, *, duration: float, seed: int, noise: str | None = None) -> DriveLog:
+    """The MuJoCo log of the case's truth (module docstring); with ``noise`` (a preset of
+    :func:`mjtrack.sim.noise.log_noise`, e.g. ``"realistic"``) its measured channels carry that
+    white measurement noise, drawn from the log's own seed."""
     from mjtrack.sim import drive_log
+    from mjtrack.sim.noise import add_noise
     from mjtrack.sim.terrain import parse_terrain
 
     truth = Robot.from_dict({**c.described, **c.true_keys})
     terrain = parse_terrain(c.terrain) if c.terrain else None
-    return drive_log(truth, commands(duration, seed), duration=duration, log_rate=LOG_RATE, terrain=terrain)
+    log = drive_log(truth, commands(duration, seed), duration=duration, log_rate=LOG_RATE, terrain=terrain)
+    return add_noise(log, noise, seed=seed) if noise else log
 
 
 def described_robot(c: Case) -> Robot:
