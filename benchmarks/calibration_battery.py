@@ -105,12 +105,29 @@ def _plain(o):
     raise TypeError(type(o).__name__)
 
 
-def _write(out: Path, results: dict, old: dict, duration: float, load0) -> None:
+def _write(out: Path, results: dict, old: dict, duration: float, load0, noise: str | None = None) -> None:
     out.parent.mkdir(parents=True, exist_ok=True)
+    extra = {}
+    if noise:
+        from mjtrack.sim.noise import CHANNELS, log_noise
+
+        levels = log_noise(noise)
+        extra["noise_levels"] = {"preset": noise, "std": {c: getattr(levels, c) for c in CHANNELS},
+                                 "units": {c: unit for c, (_, unit, _) in CHANNELS.items()}}
     commands = sorted({x.get("command", old.get("command", "")) for x in results.values()}
                       | {x["diagnose_command"] for x in results.values() if "diagnose_command" in x})
-    out.write_text(json.dumps({"command": "; ".join(commands), "cases": results, "duration_s": duration,
-                               "load_before": load0, "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
+    out.write_text(json.dumps({"command": "; ".join(commands), "cases": results, "summary": summary(results),
+                               "duration_s": duration, "load_before": load0, "load_after": os.getloadavg(), **extra},
+                              indent=1, default=_plain) + "\n")
+
+
+def summary(results: dict) -> dict:
+    """Over every case: how many name the right first cause, and the share of determined parameters
+    whose interval covers the truth (the battery's two criteria)."""
+    covered = [x["covered"] for r in results.values() for x in r["rows"] if x["determined"] and x["covered"] is not None]
+    return {"cases": len(results), "causes_right": sum(bool(r["cause_ok"]) for r in results.values()),
+            "determined": len(covered), "covered": sum(covered),
+            "coverage": sum(covered) / len(covered) if covered else None}
 
 
 def main(argv=None) -> int:
@@ -170,7 +187,7 @@ def main(argv=None) -> int:
                   + (f"  diagnose: {r['diagnose']['cause']}" if "diagnose" in r else "")
                   + (f", calibrated: {r['diagnose_calibrated']['cause']}" if "diagnose_calibrated" in r else ""),
                   flush=True)
-            _write(args.out, results, old, args.duration, load0)
+            _write(args.out, results, old, args.duration, load0, noise)
     rows = [(name, x) for name, r in results.items() for x in r["rows"] if x["determined"]]
     cov = [x["covered"] for _, x in rows if x["covered"] is not None]
     print(f"\ncoverage of determined parameters: {sum(cov)}/{len(cov)} = {np.mean(cov):.3f}")

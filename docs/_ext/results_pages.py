@@ -547,19 +547,12 @@ def _controllers() -> Page:
         [src, grid], [*tables, load])
 
 
-def _calibration() -> Page:
-    bat = Source(RESULTS / "calibration_battery.json")
-    real = Source(RESULTS / "real_robots.json")
-    cases = Table("The self-consistency battery: MuJoCo logs with one known change each (a minute of random steps; "
-                  "training and test logs of different seeds), calibrated from the description without the change. "
-                  "Causes: the parameter groups named, largest first; covered: determined parameters whose interval "
-                  "holds the truth; "
-                  "held-out position error [m] at the window's end before and after; the cause `diagnose --baseline mujoco` names "
-                  "against the description and against the calibrated robot.",
-                  ["case", "causes named", "true cause first", "covered", "determined", "test before", "test after",
-                   "diagnose, described", "diagnose, calibrated"])
-    rows = Table("Every candidate of every battery case: truth, calibrated value (the described value where kept), "
-                 "interval, whether the log determines it and whether the interval covers the truth.",
+def _battery_cases(bat: Source, caption: str) -> tuple[Table, Table]:
+    """The battery's per-case table and its every-candidate table."""
+    cases = Table(caption, ["case", "causes named", "true cause first", "covered", "determined", "test before",
+                            "test after", "diagnose, described", "diagnose, calibrated"])
+    rows = Table("Every candidate of every battery case of the table above: truth, calibrated value (the described "
+                 "value where kept), interval, whether the log determines it and whether the interval covers the truth.",
                  ["case", "parameter", "truth", "value", "interval low", "interval high", "determined", "covered"])
     for name, c in bat.data["cases"].items():
         q = f"/cases/{name.replace('~', '~0').replace('/', '~1')}"
@@ -573,6 +566,40 @@ def _calibration() -> Page:
             iv = ([number(bat, r + "/interval/0"), number(bat, r + "/interval/1")] if x.get("interval") else ["–", "–"])
             rows.add(name, x["parameter"], number(bat, r + "/truth"), number(bat, r + "/estimate"), *iv,
                      number(bat, r + "/determined"), number(bat, r + "/covered"))
+    return cases, rows
+
+
+def _calibration() -> Page:
+    bat = Source(RESULTS / "calibration_battery.json")
+    noisy_path = RESULTS / "calibration_battery_noisy.json"
+    noisy = Source(noisy_path) if noisy_path.exists() else None
+    real = Source(RESULTS / "real_robots.json")
+    totals = Table("The battery's two criteria over all its cases: the true cause named first, and the share of "
+                   "determined parameters whose 95 % interval covers the truth; on noise-free logs and on logs with "
+                   "the measurement noise of the shared real robots (`mjtrack simulate --noise realistic`: poses, "
+                   "yaw, track speeds, body velocity and yaw rate).",
+                   ["logs", "cases", "true cause first", "determined parameters", "covered", "coverage"])
+    for label, src in (("noise-free", bat), ("realistic noise", noisy)):
+        if src is not None:
+            totals.add(label, number(src, "/summary/cases"), number(src, "/summary/causes_right"),
+                       number(src, "/summary/determined"), number(src, "/summary/covered"),
+                       number(src, "/summary/coverage"))
+    cases, rows = _battery_cases(
+        bat, "The self-consistency battery: MuJoCo logs with one known change each (a minute of random steps; "
+             "training and test logs of different seeds), calibrated from the description without the change. "
+             "Causes: the parameter groups named, largest first; covered: determined parameters whose interval "
+             "holds the truth; held-out position error [m] at the window's end before and after; the cause "
+             "`diagnose --baseline mujoco` names against the description and against the calibrated robot.")
+    battery = [totals, cases, rows]
+    if noisy is not None:
+        battery += list(_battery_cases(
+            noisy, "The same battery on logs with realistic measurement noise (`--noise realistic`, the levels in "
+                   "the next table; each log's noise from its own seed)."))
+        levels = Table("The measurement noise of the noisy battery's logs: standard deviation of the white noise on "
+                       "each measured channel.", ["channel", "standard deviation"])
+        for channel, unit in noisy.data["noise_levels"]["units"].items():
+            levels.add(f"{channel} [{unit}]", number(noisy, f"/noise_levels/std/{channel}"))
+        battery.append(levels)
     robots = Table("Three real robots, calibrated on the first part of their log and scored on the next part: held-out "
                    "position error [m] at the window's end before and after, its relative drop, the steady-turn yaw ratio "
                    "(yaw rate over the ideal (v_R - v_L)/T) measured and simulated on the test part, and the windows "
@@ -643,7 +670,8 @@ def _calibration() -> Page:
         "and on three real robots: Marmotte (tracked), Husky and Warthog (wheeled skid-steer), from the DRIVE data. "
         "A parameter the log does not determine keeps its described value and is marked so; intervals carry the "
         "correlation of a log's windows and the measured model-form error of simulating a window from a logged "
-        "state.", [bat, real], [cases, rows, robots, context, speed, params, summaries],
+        "state.", [bat, *([noisy] if noisy is not None else []), real],
+        [*battery, robots, context, speed, params, summaries],
         written=[p for p in written if p.exists()])
 
 
