@@ -60,3 +60,18 @@ def test_nothing_is_suggested_for_a_fit_that_does_not_move_the_length(log):
     ws = make_windows(log, 2.0)
     assert suggested_start(log, ws, robot, ["mu"], specs_for(robot), measured_window_poses(log, ws),
                            measured_speeds(log, ws)) == {}
+
+
+def test_calibrate_starts_a_length_the_description_leaves_out_where_the_log_puts_it(log):
+    from mjtrack.calibrate.run import _prepare
+
+    shipped = Robot.from_dict({"track_gauge": 0.4}, source="shipped")  # the length is a default (0.5 m)
+    pb = _prepare(log, shipped, None, ["mu", "track_length"], horizon_s=2.0, n_rollers=None,
+                  keep_contradicting=False, src="log", test_src=None)
+    assert pb.start["track_length"] == pytest.approx(TRUE_LENGTH, abs=0.04)
+    assert pb.described["track_length"] == 0.5  # what the description means stays what it was
+    assert "start value from the log" in pb.assumed["track_length"]
+    given = Robot.from_dict({"track_gauge": 0.4, "track_length": 0.5}, source="given")
+    pb = _prepare(log, given, None, ["mu", "track_length"], horizon_s=2.0, n_rollers=None,
+                  keep_contradicting=False, src="log", test_src=None)
+    assert pb.start["track_length"] == 0.5  # a length the user gave is where the fit starts

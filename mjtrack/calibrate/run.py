@@ -33,7 +33,9 @@ import numpy as np
 from mjtrack.calibrate.causes import Cause, find_causes, summary
 from mjtrack.calibrate.drivetrain import chain_robot, fit_chain, has_measured_speeds, predicted_drive_log
 from mjtrack.calibrate.identify import fmt_value
-from mjtrack.calibrate.params import described_values, parse_names, specs_for, start_values, window_params
+from mjtrack.calibrate.params import (described_values, geometry_name, parse_names, specs_for, start_values,
+                                     window_params)
+from mjtrack.calibrate.start import suggested_length
 from mjtrack.errors import InputError
 from mjtrack.io.jsonfile import json_value
 from mjtrack.io.logs import DriveLog
@@ -313,10 +315,20 @@ def _prepare(train: DriveLog, robot: Robot, test: DriveLog | None, names, *, hor
     for k in ("track_length", "mass", "sprocket_radius", "cg_z", "track_width"):
         if k not in names and (robot.provided is None or k in robot.provided):
             fixed[k] = getattr(robot, k)
+    start, assumed = start_values(robot, names, config), assumed_values(robot, names)
+    key = geometry_name(robot)
+    if key in names and robot.provided is not None and key not in robot.provided:
+        # a length the description does not give starts where the log's steady turns put it, not at
+        # the default (mjtrack.calibrate.start): the answer must not hang on a default
+        s = suggested_length(train, ws, robot, measured_window_poses(train, ws), measured_speeds(train, ws),
+                             specs_for(robot)[key])
+        if s.value is not None:
+            start[key] = s.value
+        assumed[key] = ("not in the robot description: " + (f"start value from the log, {s.why}" if s.value is not None
+                        else f"default {robot.contact_length:g} ({s.why})") + " (fitted)")
     return _Problem(train=train, test=test, robot=robot, src=src, test_src=test_src, config=config,
-                    names=list(names), start=start_values(robot, names, config),
-                    described=described_values(robot, names, config), ws=ws, tws=tws, left_out=left_out,
-                    fixed=fixed, assumed=assumed_values(robot, names))
+                    names=list(names), start=start, described=described_values(robot, names, config), ws=ws, tws=tws,
+                    left_out=left_out, fixed=fixed, assumed=assumed)
 
 
 def _guarded_fit(fx: Fitter, pb: _Problem, fit_windows: int | None, before: Scored, clock: _Clock, kw: dict
