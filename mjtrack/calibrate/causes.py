@@ -66,23 +66,26 @@ def implausibility(name: str, value: float, described: float,
                    interval: tuple[float, float] | None = None, traction: float | None = None) -> str | None:
     """Why a fitted ``value`` is not the robot's, in words, or None (module docstring);
     ``bounds``: (low, high, resolution) of its range; ``interval``: its 95 % interval;
-    ``traction``: the largest force [N] the ground transmits under one side (:func:`traction_limit`)."""
+    ``traction``: the largest force [N] the ground transmits under one side (:func:`traction_limit`);
+    every reason that applies, joined by "; "."""
+    why = []
     if bounds is not None:
         lo, hi, res = bounds
         # (a bound at 0 is physics, not a limit of the search: no lag, no resistance)
         if value >= hi - res or (lo != 0 and value <= lo + res):
-            return f"{name} ended on its bound, {value:.3g} (range {lo:.3g} to {hi:.3g})"
-        if interval is not None and (interval[1] >= hi - res or (lo != 0 and interval[0] <= lo + res)):
+            why.append(f"{name} ended on its bound, {value:.3g} (range {lo:.3g} to {hi:.3g})")
+        elif interval is not None and (interval[1] >= hi - res or (lo != 0 and interval[0] <= lo + res)):
             edge = hi if interval[1] >= hi - res else lo
-            return (f"{name}'s 95 % interval, {interval[0]:.3g} to {interval[1]:.3g}, reaches its bound {edge:.3g}: "
-                    "the log does not keep it off the bound")
+            why.append(f"{name}'s 95 % interval, {interval[0]:.3g} to {interval[1]:.3g}, reaches its bound {edge:.3g}: "
+                       "the log does not keep it off the bound")
     if name in GEOMETRY and described > 0 and not 1 / GEOMETRY_RATIO <= value / described <= GEOMETRY_RATIO:
-        return (f"{name} {value:.3g} m is {value / described:.2f} times the described {described:.3g} m "
-                f"(beyond {1 / GEOMETRY_RATIO:.2f} to {GEOMETRY_RATIO:g})")
+        why.append(f"{name} {value:.3g} m is {value / described:.2f} times the described {described:.3g} m "
+                   f"(beyond {1 / GEOMETRY_RATIO:.2f} to {GEOMETRY_RATIO:g})")
     if name == "drive_force_limit" and traction is not None and value > traction:
-        return (f"drive_force_limit {value:.3g} N is above what the ground can transmit under a side, {traction:.3g} N "
-                "(friction times the side's share of the weight): a limit above it never binds on the robot's motion")
-    return None
+        why.append(f"drive_force_limit {value:.3g} N is above what the ground can transmit under a side, "
+                   f"{traction:.3g} N (friction times the side's share of the weight): a limit above it never binds "
+                   "on the robot's motion")
+    return "; ".join(why) or None
 
 
 def traction_limit(robot: Robot, values: dict[str, float]) -> float:
