@@ -133,3 +133,16 @@ def test_saturated_drives_are_named_with_the_measurement_that_shows_them():
     assert "commands reach 2.3 / 2.25 m/s" in text and "fitted speed limits 1.01 / 1.03 m/s" in text
     assert "fitted" not in saturation_words((2.3, 2.25), (1.14, 1.12))
     assert saturation_words((1.0, 1.1), (0.95, 1.0)) == ""  # commands the drives reach
+    # tracks at 0.8 of every command are not saturated drives, though the commands reach 1.25 times
+    assert saturation_words((2.5, 2.5), (2.0, 2.0), scale=(0.8, 0.8)) == ""
+    assert "lower commands give 0.8 / 0.8 times" in saturation_words((2.5, 2.5), (1.0, 1.0), scale=(0.8, 0.8))
+
+
+def test_the_speed_ratio_of_the_lower_commands_ignores_the_saturated_ones():
+    from mjtrack.calibrate.result import speed_ratio
+
+    command = np.linspace(0.0, 2.5, 251)
+    measured = np.minimum(0.8 * command, 1.0)  # 0.8 of the command up to a cap at 1 m/s
+    assert abs(speed_ratio(command, measured, 2.5) - 0.8) < 1e-12  # rows 0.5 to 1.25 m/s: below the cap
+    assert speed_ratio(np.zeros(5), np.zeros(5), 0.0) == 1.0  # never commanded: nothing to say
+    assert speed_ratio(np.full(5, 2.5), np.full(5, 1.0), 2.5) == 1.0  # every command at the peak: no lower rows

@@ -354,15 +354,20 @@ def speeds_worse(speeds: dict | None) -> str:
 
 
 def saturation_words(command_peak: tuple[float, float], measured_peak: tuple[float, float],
-                     limits: tuple[float | None, float | None] = (None, None)) -> str:
+                     limits: tuple[float | None, float | None] = (None, None),
+                     scale: tuple[float, float] = (1.0, 1.0)) -> str:
     """The drives' saturation in words, from the largest |command| and |measured speed| of each
-    side [m/s] (the measurement that shows it) and the speed limits fitted to the measured speeds,
-    where there are; "" when the commands stay within :data:`SATURATED` times the measured speeds."""
-    if not any(c > SATURATED * m for c, m in zip(command_peak, measured_peak)):
+    side [m/s] (the measurement that shows it), the speed limits fitted to the measured speeds
+    where there are, and the measured over commanded speed the lower commands show (``scale``: a
+    robot whose tracks run at 0.8 of every command does not saturate); "" when the commands, so
+    scaled, stay within :data:`SATURATED` times the largest measured speeds."""
+    if not any(k * c > SATURATED * m for k, c, m in zip(scale, command_peak, measured_peak)):
         return ""
     text = (f"its drives saturate: the measured track speeds never exceed {measured_peak[0]:.3g} / "
             f"{measured_peak[1]:.3g} m/s (left / right) while the commands reach {command_peak[0]:.3g} / "
             f"{command_peak[1]:.3g} m/s")
+    if any(abs(k - 1.0) > 0.05 for k in scale):
+        text += f" (lower commands give {scale[0]:.2g} / {scale[1]:.2g} times their speed)"
     if all(v is not None for v in limits):
         text += f"; fitted speed limits {limits[0]:.3g} / {limits[1]:.3g} m/s"
     return text

@@ -54,6 +54,10 @@ WHEEL_SPEED_METRIC = ("wheel_speed_rms_m_s: the MuJoCo robot's simulated track (
                       "(an effective rolling radius: the log measures turn rate times the nominal radius)")
 
 
+#: the share of the largest |command| between which the commands are "lower" (speed_ratio)
+LOW_COMMANDS = (0.2, 0.5)
+
+
 def wheel_speed_rms(lg: DriveLog, ws: WindowSet, runs: list[tuple[np.ndarray, float]],
                     skip: np.ndarray) -> list[dict[str, float]] | None:
     """Per side RMS [m/s] of simulated / scale - measured track speeds of each run (speeds (M, K, 2)
@@ -78,6 +82,17 @@ def wheel_speed_rms(lg: DriveLog, ws: WindowSet, runs: list[tuple[np.ndarray, fl
             rms[side] = float(np.sqrt(np.mean(d[ok, i] ** 2)))
         out.append(rms)
     return out
+
+
+def speed_ratio(command: np.ndarray, measured: np.ndarray, peak: float) -> float:
+    """Median measured over commanded speed of one side on the rows whose |command| lies between
+    :data:`LOW_COMMANDS` of its ``peak`` (well below any saturation, above the noise of a standstill);
+    1 when there are none."""
+    c, m = np.abs(np.asarray(command, float)), np.abs(np.asarray(measured, float))
+    if not peak > 0:
+        return 1.0
+    rows = (c >= LOW_COMMANDS[0] * peak) & (c <= LOW_COMMANDS[1] * peak) & np.isfinite(m)
+    return float(np.median(m[rows] / c[rows])) if rows.any() else 1.0
 
 
 @dataclass
@@ -166,11 +181,12 @@ class Calibration:
         if not lg.has_track_speeds:
             return ""
         cmd = commanded_log(lg)
-        peak = tuple(float(np.nanmax(np.abs(v))) for v in (cmd.v_left_cmd, cmd.v_right_cmd))
-        meas = tuple(float(np.nanmax(np.abs(v))) for v in (lg.v_left, lg.v_right))
+        commands, measured = (cmd.v_left_cmd, cmd.v_right_cmd), (lg.v_left, lg.v_right)
+        peak = tuple(float(np.nanmax(np.abs(v))) for v in commands)
+        meas = tuple(float(np.nanmax(np.abs(v))) for v in measured)
         values = {} if self.drivetrain is None else self.drivetrain.values
         limits = tuple(values.get(f"drive_speed_limit_{side}") for side in ("left", "right"))
-        return saturation_words(peak, meas, limits)
+        return saturation_words(peak, meas, limits, tuple(speed_ratio(c, m, p) for c, m, p in zip(commands, measured, peak)))
 
     def not_explained(self, speeds: dict | None = None) -> list[dict]:
         """What the log shows that no candidate describes (calibration.json ``not_explained``): the
