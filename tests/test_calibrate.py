@@ -76,13 +76,21 @@ def test_calibration_recovers_friction_cg_and_lag_from_a_wrong_start(logs):
         assert key in js
     assert js["test"]["relative"] > 0.8
     assert "drive_delay" in js["assumed"]  # the ideal-drive defaults it relied on are named
+    # the MuJoCo robot's own track speeds against the generator's: the fitted lag brings them closer
+    assert js["drive_input_mode"] == "commanded" and js["drive_input_why"] == "asked for"
+    for part in ("train", "test"):
+        b, a = js["simulated_wheel_speed"][part]["before"], js["simulated_wheel_speed"][part]["after"]
+        assert a["left"] < 0.5 * b["left"] and a["right"] < 0.5 * b["right"], (part, b, a)
+    assert js["not_explained"] == [] and "further from the measured" not in cal.sentence
 
 
 def test_cli_writes_a_robot_every_command_accepts(logs, tmp_path):
     out = tmp_path / "cal"
+    # auto: the log has measured track speeds, but the parameters name the drive's lag
     res = run_cli(["calibrate", logs / "train.csv", "--test", logs / "test.csv", "--params", "mu,drive_lag",
-                   "--max-iter", "2", "--out", out, "--quiet"])
+                   "--max-iter", "2", "--out", out, "--quiet", "--drive-input", "auto"])
     assert res.rc == 0, res.err
+    assert "drive input: commanded (auto: the parameters name the drive's timing" in res.out
     assert {p.name for p in out.iterdir()} == {"robot.json", "calibration.json", "report.html"}
     robot = read_robot(out / "robot.json")
     cal = json.loads((out / "calibration.json").read_text())
@@ -92,6 +100,7 @@ def test_cli_writes_a_robot_every_command_accepts(logs, tmp_path):
     assert res.rc == 0, res.err
     html = (out / "report.html").read_text()
     assert "<script" not in html and "http" not in html and "What the uncalibrated simulation got wrong" in html
+    assert "Track speeds: simulated against measured" in html and cal["drive_input_mode"] == "commanded"
 
 
 @pytest.mark.parametrize("case", ["other_robot", "too_short", "unknown_param", "out_of_range",
@@ -182,7 +191,11 @@ def test_measured_drive_input_keeps_the_speed_scale_as_a_rolling_radius(monkeypa
     import mjtrack.calibrate.run as run
 
     seen = {}
-    monkeypatch.setattr(run, "_calibrate", lambda train, robot, **kw: seen.update(kw))
+    import types
+
+    # the fit itself is not under test: what it was asked to fit is, and calibrate's last words
+    done = types.SimpleNamespace(sentence="", evidence=lambda: "")
+    monkeypatch.setattr(run, "_calibrate", lambda train, robot, **kw: seen.update(kw) or done)
     t = np.arange(50) * 0.05
     lg = dataclasses.replace(_bare_log(t), v_left=np.full(50, 0.2), v_right=np.full(50, 0.4))
     calibrate(lg, Robot(track_gauge=0.4), drive_input="measured")

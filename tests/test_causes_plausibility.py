@@ -1,14 +1,19 @@
-"""Plausibility in calibrate's causes: a value on its bound or an effective geometry far from the
-described one is reported as something no candidate describes, never named as a cause.
+"""Plausibility in calibrate's causes: a value on its bound, an interval reaching a bound, an
+effective geometry far from the described one or a drive force limit above what the ground can
+transmit is reported as something no candidate describes, never named as a cause; what the
+measured track speeds show (the MuJoCo robot's own wheel-speed error, saturated drives) in words.
 
-The calibration result is constructed (the Husky's commanded fit of the shared log: mu on its upper
-bound, the wheelbase doubled), the scores given by hand."""
+The calibration results are constructed (the Husky's commanded fit of the shared log: mu on its
+upper bound, the wheelbase doubled; the Warthog's drive force limit of 1.12e4 N), the scores and the
+expected forces worked out by hand."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from mjtrack.calibrate.causes import find_causes, implausibility, summary
+from mjtrack.calibrate.causes import (find_causes, implausibility, not_explained, saturation_words, speeds_worse,
+                                     summary, traction_limit)
+from mjtrack.io.robot import Robot
 
 BOUNDS = {"mu": (0.05, 2.0, 0.1), "wheelbase": (0.1, 3.0, 0.05 * 0.51), "cg_x": (-0.06, 0.06, 0.01),
           "drive_lag": (0.0, 1.5, 0.02)}
@@ -52,3 +57,92 @@ def test_only_implausible_changes_say_no_candidate_explains():
     text = summary(causes, (0.461, 0.331), where="training", yaw=None)
     assert text.startswith("No candidate the fit moved plausibly explains the error: the log shows something"), text
     assert "Do not read these values as the robot's" in text
+
+
+def test_an_interval_reaching_a_bound_is_not_the_robots():
+    # the Husky's cg_y: fitted inside the range, but its interval runs to the range's edge
+    bounds = (-0.069375, 0.069375, 0.02 * 0.555)
+    why = implausibility("cg_y", -0.05, 0.0, bounds, interval=(-0.069375, 0.016))
+    assert why is not None and "95 % interval" in why and "reaches its bound -0.0694" in why
+    assert implausibility("cg_y", -0.03, 0.0, bounds, interval=(-0.045, -0.015)) is None
+    # an interval reaching a bound at 0 is physics (no lag, no resistance), not the edge of the search
+    assert implausibility("drive_delay", 0.003, 0.0, (0.0, 0.6, 0.02), interval=(0.0, 0.006)) is None
+    hi = implausibility("drive_force_limit", 9000.0, 1000.0, (45.0, 11200.0, 112.0), interval=(4000.0, 11300.0))
+    assert hi is not None and "reaches its bound 1.12e+04" in hi
+
+
+def test_traction_limit_is_friction_times_the_heavier_sides_weight():
+    g = 9.81  # the expected forces by hand: mu x m g x the side's share of the weight
+    robot = Robot(mass=228.0, mu=0.9, track_gauge=1.08, traction="wheels", wheelbase=1.1)
+    assert abs(traction_limit(robot, {}) - 0.9 * 228.0 * g / 2) < 1e-6 * 1000
+    # the centre of mass 0.108 m left: the left side carries 0.6 of the weight
+    assert abs(traction_limit(robot, {"cg_y": 0.108}) - 0.9 * 228.0 * g * 0.6) < 1e-3
+    # calibrated friction: level 0.5, left grips 4 times the right: mu_left 1.0, mu_right 0.25
+    assert abs(traction_limit(robot, {"mu": 0.5, "mu_ratio": 4.0}) - 1.0 * 228.0 * g / 2) < 1e-3
+    assert abs(traction_limit(robot, {"mu_left": 0.2, "mu_right": 0.6, "cg_y": -0.108})
+               - 0.6 * 228.0 * g * 0.6) < 1e-3
+
+
+def test_a_force_limit_the_ground_cannot_reach_is_not_named_as_saturation():
+    """The Warthog's fitted drive_force_limit, 1.12e4 N, is far above the 1e3 N a side's friction
+    transmits: it never binds on the motion, so it is not named as the drives saturating."""
+    robot = Robot(mass=228.0, mu=0.9, track_gauge=1.08, traction="wheels", wheelbase=1.1)
+    bounds = {"drive_force_limit": (0.02 * 228 * 9.81, 5 * 228 * 9.81, 0.05 * 228 * 9.81),
+              "rolling_resistance": (0.0, 0.6, 0.01)}
+    values = {"drive_force_limit": 1.0e4, "rolling_resistance": 0.2}
+    described = {"drive_force_limit": 1000.0, "rolling_resistance": 0.0}
+
+    def rms_of(v):  # force limit 0.15 of the gain, resistance 0.1, by hand
+        return 1.493 - sum(g for n, g in (("drive_force_limit", 0.15), ("rolling_resistance", 0.1))
+                           if v[n] == values[n])
+
+    causes = find_causes(list(values), values, described, np.eye(2), {}, lambda vs: np.array([rms_of(v) for v in vs]),
+                         1.493, 1.243, wheels=True, bounds=bounds, robot=robot,
+                         intervals={"drive_force_limit": (9000.0, 11183.0), "rolling_resistance": (0.18, 0.22)})
+    by = {c.parameters[0]: c for c in causes}
+    assert not by["drive_force_limit"].plausible and by["rolling_resistance"].plausible
+    why = by["drive_force_limit"].implausible[0]  # every reason that applies: its interval reaches the top too
+    assert "above what the ground can transmit under a side, 1.01e+03 N" in why and "reaches its bound" in why
+    text = summary(causes, (1.493, 1.243), where="held-out", yaw=None)
+    assert text.startswith("The described MuJoCo robot erred mostly because its ground holds each side back"), text
+    assert "Besides, the log shows something no candidate describes" in text
+    # the same limit below what the ground transmits is a cause
+    low = find_causes(["drive_force_limit"], {"drive_force_limit": 800.0}, described, np.eye(1), {},
+                      lambda vs: np.array([1.3 if v["drive_force_limit"] == 800.0 else 1.493 for v in vs]), 1.493, 1.3,
+                      wheels=True, bounds=bounds, robot=robot, intervals={"drive_force_limit": (700.0, 900.0)})
+    assert low[0].plausible
+    rows = not_explained(causes)
+    assert [r["parameters"] for r in rows] == [["drive_force_limit"]] and rows[0]["why"] == by["drive_force_limit"].implausible
+
+
+def test_simulated_speeds_further_from_the_measured_after_calibration_are_said():
+    speeds = {"train": {"before": {"left": 0.30, "right": 0.32}, "after": {"left": 0.20, "right": 0.21}},
+              "test": {"before": {"left": 0.31, "right": 0.30}, "after": {"left": 0.40, "right": 0.35}}}
+    text = speeds_worse(speeds)  # judged on the held-out part when there is one
+    assert "further from the measured ones" in text and "0.31 / 0.3 m/s before, 0.4 / 0.35 m/s after" in text
+    assert speeds_worse({"train": speeds["train"]}) == ""
+    assert speeds_worse(None) == ""
+    rows = not_explained([], speeds)
+    assert len(rows) == 1 and rows[0]["acts_like"] == text
+
+
+def test_saturated_drives_are_named_with_the_measurement_that_shows_them():
+    # the Husky's log: measured wheel speeds never above 1.14 m/s, commands to 2.3 m/s
+    text = saturation_words((2.3, 2.25), (1.14, 1.12), (1.01, 1.03))
+    assert text.startswith("its drives saturate: the measured track speeds never exceed 1.14 / 1.12 m/s")
+    assert "commands reach 2.3 / 2.25 m/s" in text and "fitted speed limits 1.01 / 1.03 m/s" in text
+    assert "fitted" not in saturation_words((2.3, 2.25), (1.14, 1.12))
+    assert saturation_words((1.0, 1.1), (0.95, 1.0)) == ""  # commands the drives reach
+    # tracks at 0.8 of every command are not saturated drives, though the commands reach 1.25 times
+    assert saturation_words((2.5, 2.5), (2.0, 2.0), scale=(0.8, 0.8)) == ""
+    assert "lower commands give 0.8 / 0.8 times" in saturation_words((2.5, 2.5), (1.0, 1.0), scale=(0.8, 0.8))
+
+
+def test_the_speed_ratio_of_the_lower_commands_ignores_the_saturated_ones():
+    from mjtrack.calibrate.result import speed_ratio
+
+    command = np.linspace(0.0, 2.5, 251)
+    measured = np.minimum(0.8 * command, 1.0)  # 0.8 of the command up to a cap at 1 m/s
+    assert abs(speed_ratio(command, measured, 2.5) - 0.8) < 1e-12  # rows 0.5 to 1.25 m/s: below the cap
+    assert speed_ratio(np.zeros(5), np.zeros(5), 0.0) == 1.0  # never commanded: nothing to say
+    assert speed_ratio(np.full(5, 2.5), np.full(5, 1.0), 2.5) == 1.0  # every command at the peak: no lower rows

@@ -116,7 +116,8 @@ def test_calibrate_fits_the_drives_to_the_measured_speeds_first(monkeypatch):
         seen.update(kw, train=train, robot=robot)
         calibrated = robot.replace(track_speed_scale=1.1, mu=0.5, extra={"simulator": {"drive_input": "measured"}})
         return SimpleNamespace(values={"track_speed_scale": 1.1}, changed=["track_speed_scale"], sentence="",
-                               calibrated=calibrated, robot=robot, drive_input=kw["drive_input"])
+                               calibrated=calibrated, robot=robot, drive_input=kw["drive_input"],
+                               evidence=lambda: "")
 
     monkeypatch.setattr(run, "_calibrate", fake)
     lg = _truth_log(40.0, 4, TRUTH)

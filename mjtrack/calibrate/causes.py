@@ -9,12 +9,15 @@ the described robot with only the cause's changes (``gain_alone``: its relative 
 Causes are ordered by ``share``; the summary sentence is built from them, never from a template of
 what usually goes wrong. No change, no cause: ``causes`` is empty and the summary says so.
 
-Plausibility. A fitted value that ends on a bound of its range (within one resolution of it), or an
-effective geometry far from the described one (a contact length or wheelbase more than
-:data:`GEOMETRY_RATIO` times or less than 1 / :data:`GEOMETRY_RATIO` of the described), is not the
-robot's: the fit has pushed a candidate to stand in for something none of them describes. Such a
-cause is reported as "the log shows something no candidate describes, which acts like ...", never
-as a cause, and the summary says so.
+Plausibility. A fitted value that ends on a bound of its range (within one resolution of it), a
+95 % interval that reaches a bound (the log does not keep the value off it), an effective geometry
+far from the described one (a contact length or wheelbase more than :data:`GEOMETRY_RATIO` times
+or less than 1 / :data:`GEOMETRY_RATIO` of the described), or a drive force limit above what the
+ground can transmit (:func:`traction_limit`: a limit above the friction force of the side that
+carries more weight never binds on the robot's motion) is not the robot's: the fit has pushed a
+candidate to stand in for something none of them describes. Such a cause is reported as "the log
+shows something no candidate describes, which acts like ...", never as a cause, the summary says
+so, and :func:`not_explained` lists it.
 """
 
 from __future__ import annotations
@@ -24,6 +27,8 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+
+from mjtrack.io.robot import G, Robot
 
 COUPLED = 0.7  # |correlation| above which changed parameters form one cause
 #: effective / described contact length or wheelbase beyond which (or below 1 / it) the geometry is
@@ -57,17 +62,46 @@ class Cause:
 
 
 def implausibility(name: str, value: float, described: float,
-                   bounds: tuple[float, float, float] | None) -> str | None:
+                   bounds: tuple[float, float, float] | None,
+                   interval: tuple[float, float] | None = None, traction: float | None = None) -> str | None:
     """Why a fitted ``value`` is not the robot's, in words, or None (module docstring);
-    ``bounds``: (low, high, resolution) of its range."""
+    ``bounds``: (low, high, resolution) of its range; ``interval``: its 95 % interval;
+    ``traction``: the largest force [N] the ground transmits under one side (:func:`traction_limit`);
+    every reason that applies, joined by "; "."""
+    why = []
     if bounds is not None:
         lo, hi, res = bounds
-        if value >= hi - res or (lo != 0 and value <= lo + res):  # (a bound at 0 is physics: no lag, no resistance)
-            return f"{name} ended on its bound, {value:.3g} (range {lo:.3g} to {hi:.3g})"
+        # (a bound at 0 is physics, not a limit of the search: no lag, no resistance)
+        if value >= hi - res or (lo != 0 and value <= lo + res):
+            why.append(f"{name} ended on its bound, {value:.3g} (range {lo:.3g} to {hi:.3g})")
+        elif interval is not None and (interval[1] >= hi - res or (lo != 0 and interval[0] <= lo + res)):
+            edge = hi if interval[1] >= hi - res else lo
+            why.append(f"{name}'s 95 % interval, {interval[0]:.3g} to {interval[1]:.3g}, reaches its bound {edge:.3g}: "
+                       "the log does not keep it off the bound")
     if name in GEOMETRY and described > 0 and not 1 / GEOMETRY_RATIO <= value / described <= GEOMETRY_RATIO:
-        return (f"{name} {value:.3g} m is {value / described:.2f} times the described {described:.3g} m "
-                f"(beyond {1 / GEOMETRY_RATIO:.2f} to {GEOMETRY_RATIO:g})")
-    return None
+        why.append(f"{name} {value:.3g} m is {value / described:.2f} times the described {described:.3g} m "
+                   f"(beyond {1 / GEOMETRY_RATIO:.2f} to {GEOMETRY_RATIO:g})")
+    if name == "drive_force_limit" and traction is not None and value > traction:
+        why.append(f"drive_force_limit {value:.3g} N is above what the ground can transmit under a side, "
+                   f"{traction:.3g} N (friction times the side's share of the weight): a limit above it never binds "
+                   "on the robot's motion")
+    return "; ".join(why) or None
+
+
+def traction_limit(robot: Robot, values: dict[str, float]) -> float:
+    """The largest traction force [N] the ground transmits under one side on level ground:
+    max over the sides of mu_side x the side's share of the weight m g (1/2 + cg_y / T for the left,
+    1/2 - cg_y / T for the right), with the friction and the centre of mass of ``values`` where they
+    are there (``mu``/``mu_ratio`` or ``mu_left``/``mu_right``, ``cg_y``), else the robot's."""
+    left, right = robot.friction_left, robot.friction_right
+    if "mu_left" in values or "mu_right" in values:
+        left, right = values.get("mu_left", left), values.get("mu_right", right)
+    elif "mu" in values or "mu_ratio" in values:
+        mu = values.get("mu", math.sqrt(left * right))
+        ratio = values.get("mu_ratio", left / right)
+        left, right = mu * math.sqrt(ratio), mu / math.sqrt(ratio)
+    share = min(1.0, max(0.0, 0.5 + values.get("cg_y", robot.cg_y) / robot.track_gauge))
+    return float(robot.mass * G * max(left * share, right * (1.0 - share)))
 
 
 def groups(names: list[str], corr: np.ndarray) -> list[list[str]]:
@@ -170,7 +204,9 @@ def sentence_of(params: list[str], values: dict[str, float], described: dict[str
 def find_causes(changed: list[str], values: dict[str, float], described: dict[str, float], corr: np.ndarray,
                 ties: dict[str, list[str]], score: Callable[[list[dict[str, float]]], np.ndarray],
                 rms_before: float, rms_after: float, *, wheels: bool = False,
-                measured: bool = False, bounds: dict[str, tuple[float, float, float]] | None = None) -> list[Cause]:
+                measured: bool = False, bounds: dict[str, tuple[float, float, float]] | None = None,
+                intervals: dict[str, tuple[float, float] | None] | None = None,
+                robot: Robot | None = None) -> list[Cause]:
     """The causes of the improvement ``rms_before`` -> ``rms_after`` (module docstring).
 
     Args:
@@ -185,6 +221,9 @@ def find_causes(changed: list[str], values: dict[str, float], described: dict[st
         measured: the simulated drives followed the measured track speeds (a speed scale is then
             an effective rolling radius).
         bounds: parameter -> (low, high, resolution) of its range, for the plausibility check.
+        intervals: parameter -> its 95 % interval, for the same check.
+        robot: the described robot, whose weight and friction say what the ground can transmit
+            (:func:`traction_limit`, with the calibrated friction and centre of mass).
     """
     if not changed:
         return []
@@ -196,11 +235,13 @@ def find_causes(changed: list[str], values: dict[str, float], described: dict[st
         variants.append({**{n: described[n] for n in changed}, **{n: values[n] for n in g}})  # the cause alone
     rms = score(variants)
     gain = rms_before - rms_after
+    traction = None if robot is None else traction_limit(robot, values)
     out = []
     for k, g in enumerate(gs):
         without, alone = float(rms[2 * k]), float(rms[2 * k + 1])
         tied = sorted({t for n in g for t in ties.get(n, [])})
-        why = [w for n in g if (w := implausibility(n, values[n], described[n], (bounds or {}).get(n)))]
+        why = [w for n in g if (w := implausibility(n, values[n], described[n], (bounds or {}).get(n),
+                                                    (intervals or {}).get(n), traction))]
         sentence = sentence_of(g, values, described, tied, wheels, measured)
         if why:
             sentence = f"the log shows something no candidate describes, which acts like this: {sentence} ({'; '.join(why)})"
@@ -275,4 +316,62 @@ def _summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: 
     return text + f". {where.capitalize()} 2 s position error {before:.3g} m before, {after:.3g} m after calibration."
 
 
-__all__ = ["COUPLED", "GEOMETRY_RATIO", "Cause", "find_causes", "groups", "implausibility", "summary"]
+#: a calibrated robot whose simulated track speeds are this much (relative RMS) further from the
+#: measured ones than the described robot's contradicts them (below: the simulator's own rounding)
+SPEED_WORSE = 0.005
+#: commands reaching this many times the largest measured track speed show drives that saturate
+SATURATED = 1.2
+
+
+def not_explained(causes: list[Cause], speeds: dict | None = None) -> list[dict]:
+    """What the log shows that no candidate describes (calibration.json ``not_explained``): each
+    implausible cause (``acts_like``: its sentence; ``why``: why its values are not the robot's;
+    ``share``), and, from ``speeds`` (:meth:`mjtrack.calibrate.result.Calibration.simulated_wheel_speeds`),
+    a calibrated robot whose simulated track speeds are further from the measured than the
+    described robot's."""
+    out = [{"what": "a change no candidate describes", "parameters": c.parameters, "acts_like": c.sentence,
+            "why": c.implausible, "share": c.share} for c in causes if not c.plausible]
+    worse = speeds_worse(speeds)
+    if worse:
+        out.append({"what": "simulated track speeds further from the measured after calibration",
+                    "parameters": [], "acts_like": worse, "why": [], "share": None})
+    return out
+
+
+def speeds_worse(speeds: dict | None) -> str:
+    """The sentence saying the calibrated robot's simulated track speeds are further from the
+    measured than the described robot's (by more than :data:`SPEED_WORSE`), else ""."""
+    if not speeds:
+        return ""
+    part = "test" if "test" in speeds else "train"
+    b, a = speeds[part]["before"], speeds[part]["after"]
+    rb, ra = math.hypot(b["left"], b["right"]), math.hypot(a["left"], a["right"])
+    if not ra > rb * (1.0 + SPEED_WORSE):
+        return ""
+    return (f"the calibrated robot's simulated track speeds are further from the measured ones than the described "
+            f"robot's ({part} windows, RMS left / right {b['left']:.3g} / {b['right']:.3g} m/s before, "
+            f"{a['left']:.3g} / {a['right']:.3g} m/s after): its drivetrain contradicts the measured speeds")
+
+
+def saturation_words(command_peak: tuple[float, float], measured_peak: tuple[float, float],
+                     limits: tuple[float | None, float | None] = (None, None),
+                     scale: tuple[float, float] = (1.0, 1.0)) -> str:
+    """The drives' saturation in words, from the largest |command| and |measured speed| of each
+    side [m/s] (the measurement that shows it), the speed limits fitted to the measured speeds
+    where there are, and the measured over commanded speed the lower commands show (``scale``: a
+    robot whose tracks run at 0.8 of every command does not saturate); "" when the commands, so
+    scaled, stay within :data:`SATURATED` times the largest measured speeds."""
+    if not any(k * c > SATURATED * m for k, c, m in zip(scale, command_peak, measured_peak)):
+        return ""
+    text = (f"its drives saturate: the measured track speeds never exceed {measured_peak[0]:.3g} / "
+            f"{measured_peak[1]:.3g} m/s (left / right) while the commands reach {command_peak[0]:.3g} / "
+            f"{command_peak[1]:.3g} m/s")
+    if any(abs(k - 1.0) > 0.05 for k in scale):
+        text += f" (lower commands give {scale[0]:.2g} / {scale[1]:.2g} times their speed)"
+    if all(v is not None for v in limits):
+        text += f"; fitted speed limits {limits[0]:.3g} / {limits[1]:.3g} m/s"
+    return text
+
+
+__all__ = ["COUPLED", "GEOMETRY_RATIO", "SATURATED", "SPEED_WORSE", "Cause", "find_causes", "groups",
+           "implausibility", "not_explained", "saturation_words", "speeds_worse", "summary", "traction_limit"]

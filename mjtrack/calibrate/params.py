@@ -217,6 +217,10 @@ def start_values(robot: Robot, names: list[str], config: SimConfig) -> dict[str,
         if n == "rolling_resistance" and (not given or v == 0.0):
             v = RESISTANCE_START
         s = specs[n]
+        if n == "drive_force_limit" and (drive_params(robot).get(n) is None or not given) and v > s.hi:
+            # the simulator's default limit (a torque over the sprocket radius) is beyond 5 times a
+            # light robot's weight: start halfway up the range, still above what any ground transmits
+            v = s.hi / 2
         if not s.lo <= v <= s.hi:
             raise InputError(f"robot: {n} = {v!r} is outside the range calibrate fits in [{s.lo:g}, {s.hi:g}] {s.unit}")
         out[n] = float(v)

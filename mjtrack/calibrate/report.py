@@ -112,6 +112,8 @@ def build_report(cal) -> Report:
         rows.append(["test windows (held out)", len(cal.test_windows), cal.test_before.rms, cal.test_after.rms,
                      1 - cal.test_after.rms / cal.test_before.rms if cal.test_before.rms > 0 else 0.0])
     s.table(["data", "windows", f"{cal.horizon_s:g} s position RMSE before [m]", "after [m]", "relative gain"], rows)
+    s.paragraph(f"Drive input: {cal.drive_input_mode} ({cal.drive_input_why}).")
+    _speed_sections(rep, cal)
 
     s = rep.section("Errors of the uncalibrated simulation (training log)")
     s.paragraph("Error at the window's end in the frame of its measured start pose: along (+ = the simulation went "
@@ -191,6 +193,35 @@ def build_report(cal) -> Report:
     else:
         s.verdict("No test log was given (--test): the gain above is on the training data only.", warn=True)
     return rep
+
+
+def _speed_sections(rep, cal) -> None:
+    """The track speeds, simulated and predicted, against the measured ones; what the log shows
+    that no candidate describes."""
+    speeds = cal.simulated_wheel_speeds()
+    rows = []
+    if speeds is not None:
+        who = ("MuJoCo robot (before: the described contact through the fitted drivetrain)"
+               if cal.drive_input_mode == "fitted" else "MuJoCo robot")
+        rows += [[f"{who}, {part}", p["windows"], p["before"]["left"], p["before"]["right"], p["after"]["left"],
+                  p["after"]["right"]] for part, p in speeds.items()]
+    if cal.drivetrain is not None:
+        d = cal.drivetrain
+        rows.append(["drivetrain chain alone (commands -> speeds), train", d.windows, d.rms_before[0], d.rms_before[1],
+                     d.rms_after[0], d.rms_after[1]])
+    if rows:
+        s = rep.section("Track speeds: simulated against measured")
+        s.paragraph("RMS of the simulated (or predicted) minus the measured track speeds over every row of every window "
+                    "after its start, as described and as calibrated. With the drives following measured or fitted "
+                    "speeds the simulated speeds are divided by the speed scale (an effective rolling radius). A "
+                    "calibrated robot further from the measured speeds than the described one contradicts them.")
+        s.table(["robot", "windows", "left before [m/s]", "right before [m/s]", "left after [m/s]",
+                 "right after [m/s]"], rows)
+    missing = cal.not_explained(speeds)
+    if missing:
+        s = rep.section("What the log shows that no candidate describes")
+        s.table(["what", "acts like", "why its values are not the robot's"],
+                [[m["what"], m["acts_like"], "; ".join(m["why"])] for m in missing])
 
 
 def _num(v):

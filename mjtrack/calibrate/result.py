@@ -11,13 +11,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mjtrack.calibrate.causes import Cause
+from mjtrack.calibrate.causes import Cause, not_explained, saturation_words, speeds_worse
 from mjtrack.calibrate.identify import Verdict
 from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.jsonfile import json_value
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
-from mjtrack.windows import AGAINST_WHY, STUCK_WHY, WARMUP_S, WindowSet
+from mjtrack.windows import AGAINST_WHY, STUCK_WHY, WARMUP_S, WindowSet, commanded_log
 
 if TYPE_CHECKING:  # MuJoCo is loaded by the functions that simulate, not by importing calibrate
     from mjtrack.calibrate.fit import FitResult
@@ -45,6 +45,54 @@ class Scored:
         e = res.errors[p]
         return cls(errors=e, rms=float(np.sqrt(np.mean(e[:, 0] ** 2 + e[:, 1] ** 2))), poses=res.poses[p],
                    speeds=res.speeds[p], diverged=int(res.diverged[p].sum()), diverged_mask=res.diverged[p].copy())
+
+
+#: calibration.json "simulated_wheel_speed" "metric"
+WHEEL_SPEED_METRIC = ("wheel_speed_rms_m_s: the MuJoCo robot's simulated track (wheel) speeds minus the measured ones, "
+                      "every row of every window after its start, windows that diverged before or after left out; "
+                      "with the drives following measured or fitted speeds, the simulated speeds over the speed scale "
+                      "(an effective rolling radius: the log measures turn rate times the nominal radius)")
+
+
+#: the share of the largest |command| between which the commands are "lower" (speed_ratio)
+LOW_COMMANDS = (0.2, 0.5)
+
+
+def wheel_speed_rms(lg: DriveLog, ws: WindowSet, runs: list[tuple[np.ndarray, float]],
+                    skip: np.ndarray) -> list[dict[str, float]] | None:
+    """Per side RMS [m/s] of simulated / scale - measured track speeds of each run (speeds (M, K, 2)
+    at the windows' rows, as :class:`Scored` has them; scale) over the rows of the windows not in
+    ``skip`` (M,) after their start; None without measured speeds on those rows."""
+    if not lg.has_track_speeds:
+        return None
+    meas = np.stack([lg.v_left, lg.v_right], -1).astype(float)
+    keep = [j for j in range(len(ws)) if not skip[j]]
+    if not keep:
+        return None
+    m = np.concatenate([meas[ws.starts[j] + 1:ws.ends[j] + 1] for j in keep])
+    out = []
+    for speeds, scale in runs:
+        sim = np.concatenate([speeds[j, 1:ws.ends[j] - ws.starts[j] + 1] for j in keep]) / scale
+        d = sim - m
+        rms = {}
+        for i, side in enumerate(("left", "right")):
+            ok = np.isfinite(d[:, i])
+            if not ok.any():
+                return None
+            rms[side] = float(np.sqrt(np.mean(d[ok, i] ** 2)))
+        out.append(rms)
+    return out
+
+
+def speed_ratio(command: np.ndarray, measured: np.ndarray, peak: float) -> float:
+    """Median measured over commanded speed of one side on the rows whose |command| lies between
+    :data:`LOW_COMMANDS` of its ``peak`` (well below any saturation, above the noise of a standstill);
+    1 when there are none."""
+    c, m = np.abs(np.asarray(command, float)), np.abs(np.asarray(measured, float))
+    if not peak > 0:
+        return 1.0
+    rows = (c >= LOW_COMMANDS[0] * peak) & (c <= LOW_COMMANDS[1] * peak) & np.isfinite(m)
+    return float(np.median(m[rows] / c[rows])) if rows.any() else 1.0
 
 
 @dataclass
@@ -87,6 +135,10 @@ class Calibration:
     config: dict
     timings: dict[str, float] = field(default_factory=dict)
     drive_input: str = "commanded"
+    #: the drive input calibrate used ("commanded", "measured" or "fitted": ``drive_input`` is what the
+    #: calibrated robot's drives follow, commands with "fitted") and why (what "auto" saw in the log)
+    drive_input_mode: str = "commanded"
+    drive_input_why: str = "asked for"
     fit_windows: WindowSet | None = None  # the windows the fit used (None: every training window)
     #: windows left out because their poses move against the tracks (see
     #: :func:`mjtrack.sim.windows.contradicting_windows`), by part ("train", "test")
@@ -103,10 +155,71 @@ class Calibration:
     def changed(self) -> list[str]:
         return [n for n in self.names if self.verdicts[n].changed]
 
+    def simulated_wheel_speeds(self) -> dict | None:
+        """The MuJoCo robot's simulated track speeds against the measured ones, per part ("train",
+        "test"): ``before`` and ``after`` RMS per side [m/s] (:data:`WHEEL_SPEED_METRIC`) and the
+        windows; None when the log has no measured track speeds."""
+        measured_in = self.drive_input_mode in ("measured", "fitted")
+        before = self.described.get("track_speed_scale", 1.0) if measured_in else 1.0
+        after = self.values["track_speed_scale"] if measured_in and "track_speed_scale" in self.changed else before
+        parts = [("train", self.train_log, self.train_windows, self.before, self.after)]
+        if self.test_log is not None and self.test_before is not None and self.test_after is not None:
+            parts.append(("test", self.test_log, self.test_windows, self.test_before, self.test_after))
+        out = {}
+        for label, lg, ws, b, a in parts:
+            skip = b.diverged_mask | a.diverged_mask
+            r = wheel_speed_rms(lg, ws, [(b.speeds, before), (a.speeds, after)], skip)
+            if r is None:
+                return None
+            out[label] = {"before": r[0], "after": r[1], "windows": int((~skip).sum())}
+        return out
+
+    def saturation(self) -> str:
+        """The drives' saturation in words, as the training log's measured track speeds show it
+        (:func:`mjtrack.calibrate.causes.saturation_words`), or ""."""
+        lg = self.train_log
+        if not lg.has_track_speeds:
+            return ""
+        cmd = commanded_log(lg)
+        commands, measured = (cmd.v_left_cmd, cmd.v_right_cmd), (lg.v_left, lg.v_right)
+        peak = tuple(float(np.nanmax(np.abs(v))) for v in commands)
+        meas = tuple(float(np.nanmax(np.abs(v))) for v in measured)
+        values = {} if self.drivetrain is None else self.drivetrain.values
+        limits = tuple(values.get(f"drive_speed_limit_{side}") for side in ("left", "right"))
+        return saturation_words(peak, meas, limits, tuple(speed_ratio(c, m, p) for c, m, p in zip(commands, measured, peak)))
+
+    def not_explained(self, speeds: dict | None = None) -> list[dict]:
+        """What the log shows that no candidate describes (calibration.json ``not_explained``): the
+        implausible causes and contradicting simulated speeds
+        (:func:`mjtrack.calibrate.causes.not_explained`; ``speeds``: :meth:`simulated_wheel_speeds`),
+        and, with the drives following the commands, drives that saturate."""
+        out = not_explained(self.causes, speeds)
+        sat = self.saturation()
+        if sat and self.drive_input_mode == "commanded":
+            out.append({"what": "drives that saturate", "parameters": [], "acts_like": sat, "why": [], "share": None})
+        return out
+
+    def evidence(self) -> str:
+        """What the measured track speeds add to the summary: the drives' saturation (with
+        ``--drive-input commanded``, as what no candidate describes), a calibrated robot whose
+        simulated speeds are further from them than the described robot's; "" when nothing."""
+        text = ""
+        sat = self.saturation()
+        if sat and self.drive_input_mode == "fitted":
+            text += f" The drivetrain fitted to the measured speeds says {sat}."
+        elif sat and self.drive_input_mode == "commanded":
+            text += (f" The log's measured track speeds show what no candidate here describes: {sat} "
+                     "(--drive-input fitted fits the drives to them).")
+        worse = speeds_worse(self.simulated_wheel_speeds())
+        if worse:
+            text += f" Warning: {worse}."
+        return text
+
     def to_json(self) -> dict:
         fits = [self.fit] + ([self.refit] if self.refit is not None else [])
         out = {
             "simulator": "mujoco", "track_model": self.track_model, "drive_input": self.drive_input,
+            "drive_input_mode": self.drive_input_mode, "drive_input_why": self.drive_input_why,
             "parameters": {n: self.values[n] for n in self.names},
             "intervals": {n: list(v.interval) for n, v in self.verdicts.items() if v.interval is not None},
             "determined": {n: self.verdicts[n].to_json() for n in self.names},
@@ -138,6 +251,12 @@ class Calibration:
             "timings_s": self.timings,
             "left_out": {part: {"why": LEFT_OUT_WHY, "windows": rows} for part, rows in self.left_out.items() if rows},
         }
+        speeds = self.simulated_wheel_speeds()
+        out["not_explained"] = self.not_explained(speeds)
+        if speeds is not None:
+            out["simulated_wheel_speed"] = {"metric": WHEEL_SPEED_METRIC, "before_is": (
+                "the described contact driven through the fitted drivetrain" if self.drive_input_mode == "fitted"
+                else "the described robot"), **speeds}
         if self.drivetrain is not None:
             out["drivetrain"] = {**self.drivetrain.to_dict(), "metric": "wheel_speed_rms_m_s (measured - the "
                                  "chain's prediction from the commands, rows of every window after its start)"}

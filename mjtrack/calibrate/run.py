@@ -142,7 +142,7 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
         max_iter: Levenberg-Marquardt iterations of the first fit (the refit gets half).
         nthread: rollout threads (results do not depend on it).
         warmup_s: history [s] over which each window's hidden states are warmed up (0: none).
-        drive_input: ``"commanded"``: the simulated drives follow the logged commands (the drive's
+        drive_input: ``"commanded"`` (default): the simulated drives follow the logged commands (the drive's
             lag, delay and speed scale are candidates); ``"measured"``: they follow the logged
             track speeds, for a robot whose own speed controller caps or shapes its commands in
             ways the drive keys do not describe; the contact, the speed scale (then the effective
@@ -151,7 +151,10 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
             (:mod:`mjtrack.calibrate.drivetrain`) fitted first to the log's measured track speeds
             and fixed, the contact then fitted as with ``"measured"`` on the track speeds the fitted
             drivetrain predicts from the commands; the calibrated robot carries the drivetrain's
-            keys and is driven by its commands.
+            keys and is driven by its commands; ``"auto"``: ``"fitted"`` when the log has measured
+            track speeds that are not copies of its commands and ``names`` does not name the
+            drive's timing, else ``"commanded"`` (:func:`auto_drive_input`). The mode used and why
+            are kept in ``drive_input_mode`` and ``drive_input_why``.
         fit_windows: windows the fit uses, spread evenly over the log (None: every window); the
             errors before and after and the causes use every window.
         keep_contradicting: keep the windows whose poses move against the tracks (by default they
@@ -162,6 +165,8 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
     src = train_path or train.source or "train log"
     if drive_input not in DRIVE_INPUTS:
         raise InputError(f"drive_input must be one of {', '.join(DRIVE_INPUTS)}, got {drive_input!r}")
+    drive_input, why = auto_drive_input(train, robot, names) if drive_input == "auto" else (drive_input, "asked for")
+    mode = drive_input
     if drive_input == "measured":
         train = measured_drive_log(train, train_path or train.source or "train log")
         test = None if test is None else measured_drive_log(test, test_path or test.source or "test log")
@@ -200,6 +205,8 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
         cal.sentence = (f"The drives were fitted first to the log's measured track speeds (wheel-speed RMS "
                         f"{_mean2(chain.rms_before):.3f} m/s as described, {_mean2(chain.rms_after):.3f} m/s fitted) "
                         f"and the contact to the poses with the drives so fixed. " + cal.sentence)
+    cal.drive_input_mode, cal.drive_input_why = mode, why
+    cal.sentence += cal.evidence()  # what the measured track speeds show
     return cal
 
 
@@ -223,7 +230,30 @@ def _on_predicted_speeds(chain, train: DriveLog, test: DriveLog | None, robot: R
     return train, test, robot, names
 
 
-DRIVE_INPUTS = ("commanded", "measured", "fitted")
+DRIVE_INPUTS = ("auto", "commanded", "measured", "fitted")
+#: [m/s] measured track speeds within this of the commands on every row are copies of them
+COPY_TOLERANCE = 1e-6
+
+
+def auto_drive_input(train: DriveLog, robot: Robot, names) -> tuple[str, str]:
+    """What ``drive_input="auto"`` uses on ``train``, and why in words: ``"fitted"`` when the log
+    has measured track speeds (most rows) that are not copies of its commands and the candidates
+    do not name the drive's timing (a user asking for ``drive_lag`` wants it fitted to the poses),
+    else ``"commanded"``."""
+    if not has_measured_speeds(train):
+        return "commanded", "auto: the log has no measured track speeds"
+    meas = np.stack([train.v_left, train.v_right], -1).astype(float)
+    cmd = np.stack([train.v_left_cmd, train.v_right_cmd], -1).astype(float)
+    ok = np.all(np.isfinite(meas), axis=1)
+    gap = float(np.max(np.abs(meas[ok] - cmd[ok])))
+    if gap <= COPY_TOLERANCE:
+        return "commanded", "auto: the log's measured track speeds are copies of its commands"
+    if names is not None and set(parse_names(names, robot, train) if isinstance(names, str) else names) & set(
+            COMMAND_PARAMS):
+        return "commanded", f"auto: the parameters name the drive's timing ({', '.join(COMMAND_PARAMS)})"
+    rms = float(np.sqrt(np.mean((meas[ok] - cmd[ok]) ** 2)))
+    return "fitted", (f"auto: the log has measured track speeds, {rms:.3g} m/s RMS from the commands: the drivetrain "
+                      "is fitted to them first")
 # when the drives follow their commands: not candidates with --drive-input measured. The speed scale
 # stays one: against measured track speeds (wheel or sprocket turn rate times its nominal radius) it
 # is the effective rolling radius over the nominal one (a loaded tyre rolls on less than its radius)
@@ -482,7 +512,8 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
 
         causes = find_causes(changed, att.values, pb.described, corr, att.ties, score, before.rms, after.rms,
                              wheels=robot.traction == "wheels", measured=drive_input == "measured",
-                             bounds={n: (s.lo, s.hi, s.resolution) for n, s in fx.specs.items()})
+                             bounds={n: (s.lo, s.hi, s.resolution) for n, s in fx.specs.items()},
+                             intervals={n: att.verdicts[n].interval for n in changed}, robot=robot)
     with clock.stage("explain"):
         scope = [("train", train, pb.ws, before, after)]
         if test is not None:

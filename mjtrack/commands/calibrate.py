@@ -53,14 +53,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rollers", metavar="N", type=bounded("rollers"), default=None,
                         help="contact rollers per track in the simulation (default: the robot file's simulator "
                              "setting, else 10; 6 is ~2x faster); recorded in robot.json")
-    parser.add_argument("--drive-input", choices=["commanded", "measured", "fitted"], default="commanded",
+    parser.add_argument("--drive-input", choices=["commanded", "measured", "fitted", "auto"], default="commanded",
                         help="what the simulated drives follow: the logged commands (default; the drive's lag, delay "
-                             "and speed scale are fitted too) or the logged track speeds (for a robot whose own speed "
-                             "controller caps its commands; the contact, the speed scale, then the effective "
+                             "and speed scale are fitted too) or the logged track speeds (measured: for a robot whose "
+                             "own speed controller caps its commands; the contact, the speed scale, then the effective "
                              "rolling radius over the nominal one, and the drives' force limit, which bounds how fast "
-                             "they follow the measured speeds, are fitted) or the commands through a drivetrain "
-                             "fitted first to the logged track speeds (fitted: speed controller limits, ramp, per-side "
-                             "lag and dead time; then the contact as with measured)")
+                             "they follow the measured speeds, are fitted) or the commands through a drivetrain fitted "
+                             "first to the logged track speeds (fitted: speed controller limits, ramp, per-side lag and "
+                             "dead time; then the contact as with measured); auto: fitted when the log has measured "
+                             "track speeds that are not copies of the commands and --params names neither drive_lag "
+                             "nor drive_delay, else commanded. The mode used is printed and written to "
+                             "calibration.json (drive_input_mode, drive_input_why)")
     parser.add_argument("--fit-windows", metavar="N", type=bounded("fit_windows", {"all": None}), default=FIT_WINDOWS,
                         help=f"windows the fit uses, spread evenly over the log (default {FIT_WINDOWS}; 'all': every "
                              "window). The errors before and after, and the causes, use every window; a fit's time "
@@ -95,6 +98,7 @@ def run(args: argparse.Namespace) -> int:
     write_outputs(cal, out)
     changed = ", ".join(f"{n} {cal.described[n]:.4g} -> {cal.values[n]:.4g}" for n in cal.changed) or "nothing"
     kept = [n for n in cal.names if not cal.verdicts[n].changed]
+    print(f"drive input: {cal.drive_input_mode} ({cal.drive_input_why})")
     print(f"changed: {changed}")
     if kept:
         undetermined = [n for n in kept if not cal.verdicts[n].determined]

@@ -1,0 +1,66 @@
+"""What calibrate's default drive input chooses from a log, and the MuJoCo robot's own wheel-speed
+error against the measured track speeds (constructed logs and simulated speeds, the expected
+numbers worked out by hand)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from mjtrack.calibrate.result import wheel_speed_rms
+from mjtrack.calibrate.run import auto_drive_input
+from mjtrack.io.logs import DriveLog
+from mjtrack.io.robot import Robot
+from mjtrack.windows import WindowSet
+
+
+def _log(n=40, measured=None):
+    t = np.arange(n) * 0.05
+    z = np.zeros(n)
+    lg = DriveLog(t=t, v_left_cmd=z + 0.5, v_right_cmd=z + 0.8, x=0.6 * t, y=z, yaw=z)
+    if measured is not None:
+        lg = dataclasses.replace(lg, v_left=measured[0], v_right=measured[1])
+    return lg
+
+
+def test_auto_fits_the_drivetrain_only_to_measured_speeds_that_are_not_the_commands():
+    robot = Robot(track_gauge=0.4)
+    assert auto_drive_input(_log(), robot, None)[0] == "commanded"
+    copies = _log(measured=(np.full(40, 0.5), np.full(40, 0.8)))
+    mode, why = auto_drive_input(copies, robot, None)
+    assert mode == "commanded" and "copies" in why
+    real = _log(measured=(np.full(40, 0.45), np.full(40, 0.7)))
+    mode, why = auto_drive_input(real, robot, None)
+    assert mode == "fitted" and "0.0791 m/s RMS" in why  # sqrt((0.05^2 + 0.1^2) / 2) = 0.0791
+    # a user who names the drive's timing wants it fitted to the poses
+    assert auto_drive_input(real, robot, "mu,drive_lag")[0] == "commanded"
+    assert auto_drive_input(real, robot, ["mu", "cg_x"])[0] == "fitted"
+    # measured speeds on a few rows only: none to fit
+    sparse = _log(measured=(np.where(np.arange(40) < 5, 0.45, np.nan), np.full(40, 0.7)))
+    assert auto_drive_input(sparse, robot, None)[0] == "commanded"
+
+
+def test_wheel_speed_rms_compares_the_simulated_rows_after_each_windows_start():
+    n = 40
+    meas = (np.linspace(0.0, 1.0, n), np.linspace(1.0, 0.0, n))
+    lg = _log(n, measured=meas)
+    ws = WindowSet(starts=np.array([0, 20]), ends=np.array([19, 39]), segment=np.zeros(2, int), horizon_s=1.0)
+    sim = np.full((2, 20, 2), np.nan)
+    for j, s in enumerate((0, 20)):
+        sim[j, :, 0] = meas[0][s:s + 20] + 0.1  # left 0.1 m/s fast on every row
+        sim[j, :, 1] = meas[1][s:s + 20] * 1.2  # right: 1.2 times the measured
+        sim[j, 0] = 99.0  # the start row is the measured state: never scored
+    (same,) = wheel_speed_rms(lg, ws, [(sim, 1.0)], np.zeros(2, bool))
+    rows = np.r_[1:20, 21:40]
+    assert abs(same["left"] - 0.1) < 1e-12
+    assert abs(same["right"] - np.sqrt(np.mean((0.2 * meas[1][rows]) ** 2))) < 1e-12
+    # over a speed scale (an effective rolling radius): the right side then matches, the left does not
+    (scaled,) = wheel_speed_rms(lg, ws, [(sim, 1.2)], np.zeros(2, bool))
+    assert scaled["right"] < 1e-12
+    assert abs(scaled["left"] - np.sqrt(np.mean(((meas[0][rows] + 0.1) / 1.2 - meas[0][rows]) ** 2))) < 1e-12
+    # a skipped (diverged) window is left out; no measured speeds: no answer
+    sim[1] = 50.0
+    (kept,) = wheel_speed_rms(lg, ws, [(sim, 1.0)], np.array([False, True]))
+    assert abs(kept["left"] - 0.1) < 1e-12
+    assert wheel_speed_rms(_log(n), ws, [(sim, 1.0)], np.zeros(2, bool)) is None
