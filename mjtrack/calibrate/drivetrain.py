@@ -192,13 +192,18 @@ class ChainFit:
         return out
 
 
-def fit_chain(log: DriveLog, robot: Robot, *, horizon_s: float = 2.0) -> ChainFit:
-    """Fit the drivetrain chain of ``robot`` to the measured speeds of ``log`` (module docstring)."""
+def fit_chain(log: DriveLog, robot: Robot, *, horizon_s: float = 2.0, without: tuple[str, ...] = ()) -> ChainFit:
+    """Fit the drivetrain chain of ``robot`` to the measured speeds of ``log`` (module docstring);
+    the stages ``without`` (limit names of :data:`LIMITS`) are left out of the chain (a chain
+    without them, to measure what they add)."""
+    unknown = [n for n in without if n not in LIMITS]
+    if unknown:
+        raise InputError(f"drivetrain: only limits can be left out of the chain ({', '.join(LIMITS)}), got {unknown}")
     sw = speed_windows(log, horizon_s)
     specs = chain_specs()
-    described = described_chain(robot)
+    described = {k: v for k, v in described_chain(robot).items() if k not in without}
     before = rms(sw, predict(sw, described))
-    start = _start(sw, robot)
+    start = {k: v for k, v in _start(sw, robot).items() if k not in without}
     free = list(start)
     fixed: dict[str, float] = {}
     verdicts: dict[str, str] = {}
