@@ -122,10 +122,9 @@ def chain_specs() -> dict[str, ParamSpec]:
                   "a twist controller's limit on the two sides' half difference"),
         ParamSpec("drive_turn_deadband", 0.0, 2.0, 0.02, 0.01, "m/s", "drive",
                   "a twist controller's shortfall of the two sides' half difference"),
-        ParamSpec("drive_mean_accel_limit", 0.05, 100.0, 0.2, 0.1, "m/s^2", "drive",
-                  "a twist controller's limit on the rate of change of the two sides' mean"),
-        ParamSpec("drive_turn_accel_limit", 0.05, 100.0, 0.2, 0.1, "m/s^2", "drive",
-                  "a twist controller's limit on the rate of change of the two sides' half difference"),
+        *(ParamSpec(f"drive_{k}_accel_limit", 0.05, 100.0, 0.2, 0.1, "m/s^2", "drive",
+                    f"a twist controller's limit on the rate of change of the two sides' {what}")
+          for k, what in (("mean", "mean"), ("turn", "half difference"))),
     )}
 
 
