@@ -158,10 +158,9 @@ def end_errors(a: dict, poses: np.ndarray) -> np.ndarray:
                     -1)
 
 
-#: the twist controller's ramps and turn deadband (mjtrack.models.drivetrain), which the wheel-speed
-#: comparison leaves out of one chain (the chain before them), and the deadband out of another, to
-#: measure what they add
-TWIST_STAGES = ("drive_mean_accel_limit", "drive_turn_accel_limit", "drive_turn_deadband")
+#: the twist controller's ramps (mjtrack.models.drivetrain), which the wheel-speed comparison
+#: leaves out of one chain to measure what they add
+TWIST_RAMPS = ("drive_mean_accel_limit", "drive_turn_accel_limit")
 REGIME_MARGIN = 0.3  # [m/s] a side's command this far from its start speed makes a step window's regime
 HALF_DIFFERENCE_CLASSES = ((0.0, 0.5), (0.5, 1.5), (1.5, float("inf")))  # [m/s] small, medium, large turns
 
@@ -186,8 +185,8 @@ def speed_window_arrays(a: dict):
 def wheel_speeds(train_log, robot, a: dict, drive: peers.Drive) -> dict:
     """What each model of the drives predicts of the measured track speeds on the test windows
     ``a``, from their commands and the measured speeds at each window's start: DRIVE's powertrain,
-    and the drivetrain chain (mjtrack.calibrate.drivetrain.fit_chain) fitted on the training part:
-    whole, without the turn deadband, and without the twist controller's ramps and deadband. RMS of measured minus predicted [m/s] per side,
+    and the drivetrain chain (mjtrack.calibrate.drivetrain.fit_chain) fitted on the training part,
+    with and without the twist controller's ramps. RMS of measured minus predicted [m/s] per side,
     over all rows after each window's first, in the windows that start with a command step
     (``step``: per side, the command ahead of the start speed by more than :data:`REGIME_MARGIN`, ``accelerating``,
     behind it in the same direction, ``braking``, or of the other sign, ``reversing``) and in the
@@ -197,9 +196,8 @@ def wheel_speeds(train_log, robot, a: dict, drive: peers.Drive) -> dict:
     from mjtrack.calibrate.drivetrain import fit_chain, predict
 
     sw = speed_window_arrays(a)
-    fits = {"chain": fit_chain(train_log, robot),
-            "chain_without_turn_deadband": fit_chain(train_log, robot, without=("drive_turn_deadband",)),
-            "chain_without_twist_ramps": fit_chain(train_log, robot, without=TWIST_STAGES)}
+    fits = {"chain": fit_chain(train_log, robot), "chain_without_twist_ramps": fit_chain(train_log, robot,
+                                                                                          without=TWIST_RAMPS)}
     pred = {k: predict(sw, f.values) for k, f in fits.items()}
     pred["drive"] = drive.track_speeds(sw.cmd, sw.v0, a["dt"], a["step"])
     c0, v0 = sw.cmd[:, 0], sw.v0

@@ -34,7 +34,6 @@ from mjtrack.sim.rollout import simulate
         (dict(drive_lag_left=-0.1), r"'drive_lag_left' must be a number in \[0, 10\] s or null, got -0\.1"),
         (dict(drive_delay_right=float("nan")), r"'drive_delay_right' must be a number in \[0, 10\] s or null"),
         (dict(drive_accel_limit=0.0), r"'drive_accel_limit' must be a number in \(0, 1000\] m/s\^2 or null"),
-        (dict(drive_turn_deadband=-0.1), r"'drive_turn_deadband' must be a number in \[0, 100\] m/s, got -0\.1"),
         (dict(drive_turn_accel_limit=0.0), r"'drive_turn_accel_limit' must be a number in \(0, 1000\] m/s\^2"),
         (dict(drive_mean_accel_limit=2e3), r"'drive_mean_accel_limit' must be a number in \(0, 1000\] m/s\^2"),
     ],
@@ -250,18 +249,6 @@ def test_twist_ramps_shape_the_set_points():
     assert np.allclose(out, _twist_ramped((np.arange(200) + 0.5) * h), atol=1e-12)
     assert out[:, 0].max() == pytest.approx(0.45, abs=0.005)
     assert np.array_equal(setpoints(Chain(), cmd, h), cmd)
-
-
-def test_turn_deadband_takes_a_constant_off_the_turn():
-    """The half difference loses the deadband in every turn and vanishes below it; the mean is
-    kept: (-0.3, 0.7) m/s (mean 0.2, half difference 0.5) with 0.2 m/s gives (-0.1, 0.5), and
-    (0.1, 0.3) (half difference 0.1) gives both sides the mean, 0.2 m/s."""
-    from mjtrack.models.drivetrain import Chain, setpoints
-
-    cmd = np.array([[-0.3, 0.7], [0.1, 0.3], [0.7, -0.3]])
-    out = setpoints(Chain(turn_deadband=0.2), cmd, 0.01)
-    assert np.allclose(out, [[-0.1, 0.5], [0.2, 0.2], [0.5, -0.1]], atol=1e-12)
-    assert Robot.from_dict({"track_gauge": 0.5, "drive_turn_deadband": 0.2}).drive_turn_deadband == 0.2
 
 
 @pytest.mark.parametrize("model", ["rollers", "surfacevel"])

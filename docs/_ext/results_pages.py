@@ -655,9 +655,8 @@ PEER_MODELS = {"drive": "DRIVE (the authors' dead time)", "drive_dead_time_fitte
 
 
 #: the models of the drives whose track speeds benchmarks/peers.py compares, in the page's words
-WHEEL_SPEED_MODELS = {"drive": "DRIVE's powertrain",
-                      "chain_without_twist_ramps": "chain without the twist ramps and turn deadband",
-                      "chain_without_turn_deadband": "chain without the turn deadband", "chain": "chain"}
+WHEEL_SPEED_MODELS = {"drive": "DRIVE's powertrain", "chain_without_twist_ramps": "chain without the twist ramps",
+                      "chain": "chain"}
 
 
 def _peers() -> Page:
@@ -694,9 +693,8 @@ def _peers() -> Page:
                     ["robot", "model", "level", "held-out coverage", "training coverage", "mean area"])
     speeds = Table("What each model of the drives predicts of the measured track speeds on the same held-out windows, "
                    "from the commands and the measured speeds at each window's start: DRIVE's powertrain, and the "
-                   "drivetrain chain (`mjtrack.calibrate.drivetrain.fit_chain`, fitted on the training part): whole, "
-                   "without the twist controller's turn deadband, and without its ramps and deadband (the chain "
-                   "before them). RMS of measured minus predicted [m/s] per side over every "
+                   "drivetrain chain (`mjtrack.calibrate.drivetrain.fit_chain`, fitted on the training part) with and "
+                   "without the twist controller's ramps. RMS of measured minus predicted [m/s] per side over every "
                    "window, over those that start with a command step (and among them, per side, those accelerating, "
                    "braking or reversing: the command ahead of, behind or against the start speed by more than "
                    "`regime_margin_m_s`) and over the steady ones; then, in the second half of steady windows, the mean "
@@ -745,8 +743,6 @@ def _peers() -> Page:
         if "wheel_speeds" in r:
             w = f"{q}/wheel_speeds"
             for m, label in WHEEL_SPEED_MODELS.items():
-                if m not in r["wheel_speeds"]["models"]:
-                    continue
                 for regime in ("all", "step", "accelerating", "braking", "reversing", "steady"):
                     p = f"{w}/models/{m}/{regime}"
                     n = r["wheel_speeds"]["windows"].get(regime)

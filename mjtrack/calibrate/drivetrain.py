@@ -5,8 +5,8 @@ A log with measured track (wheel) speeds says how the drives followed their comm
 the contact: the fit of the contact to the poses then need not bend to explain the drives. Over
 windows of the log (:func:`mjtrack.sim.windows.make_windows`), each started from its measured
 speeds, least squares fits per side the dead time, the lag and the speed limit, and for both sides
-the speed scale, the acceleration limit and the twist stage (turn scale, turn deadband, mean and
-turn limits, mean and turn ramps) (:func:`mjtrack.calibrate.params.chain_specs`).
+the speed scale, the acceleration limit and the twist stage (turn scale, mean and turn limits,
+mean and turn ramps) (:func:`mjtrack.calibrate.params.chain_specs`).
 
 What the log determines:
 
@@ -42,7 +42,6 @@ from mjtrack.windows import LOGGED_COMMANDS, make_windows
 SIDED = ("drive_delay", "drive_lag", "drive_speed_limit")
 LIMITS = ("drive_speed_limit_left", "drive_speed_limit_right", "drive_accel_limit", "drive_mean_speed_limit",
           "drive_turn_limit", "drive_mean_accel_limit", "drive_turn_accel_limit")
-OPTIONAL = LIMITS + ("drive_turn_deadband",)  # stages a chain can be fitted without (their null value: none)
 MIN_ACTIVE = 0.02  # share of a side's rows a limit must change for the log to show it
 MIN_WINDOWS = 3  # ... in at least this many windows
 ACTIVE_SPEED = 0.01  # [m/s] a change of the predicted speed that counts as the limit acting
@@ -120,14 +119,12 @@ def predict(sw: SpeedWindows, values: dict[str, float]) -> np.ndarray:
                            mean_limit=values.get("drive_mean_speed_limit", math.inf),
                            turn_limit=values.get("drive_turn_limit", math.inf),
                            mean_accel_limit=values.get("drive_mean_accel_limit", math.inf),
-                           turn_accel_limit=values.get("drive_turn_accel_limit", math.inf),
-                           turn_deadband=values.get("drive_turn_deadband", 0.0))
+                           turn_accel_limit=values.get("drive_turn_accel_limit", math.inf))
 
 
 def described_chain(robot: Robot) -> dict[str, float]:
     """The chain a description gives, as the stage's parameter names (absent limits left out)."""
-    out = {"track_speed_scale": robot.track_speed_scale, "drive_turn_scale": robot.drive_turn_scale,
-           "drive_turn_deadband": robot.drive_turn_deadband}
+    out = {"track_speed_scale": robot.track_speed_scale, "drive_turn_scale": robot.drive_turn_scale}
     for i, s in enumerate(("left", "right")):
         out[f"drive_delay_{s}"] = robot.delay_per_side[i]
         out[f"drive_lag_{s}"] = robot.lag_per_side[i]
@@ -197,11 +194,11 @@ class ChainFit:
 
 def fit_chain(log: DriveLog, robot: Robot, *, horizon_s: float = 2.0, without: tuple[str, ...] = ()) -> ChainFit:
     """Fit the drivetrain chain of ``robot`` to the measured speeds of ``log`` (module docstring);
-    the stages ``without`` (names of :data:`OPTIONAL`) are left out of the chain (a chain without
-    them, to measure what they add)."""
-    unknown = [n for n in without if n not in OPTIONAL]
+    the stages ``without`` (limit names of :data:`LIMITS`) are left out of the chain (a chain
+    without them, to measure what they add)."""
+    unknown = [n for n in without if n not in LIMITS]
     if unknown:
-        raise InputError(f"drivetrain: only {', '.join(OPTIONAL)} can be left out of the chain, got {unknown}")
+        raise InputError(f"drivetrain: only limits can be left out of the chain ({', '.join(LIMITS)}), got {unknown}")
     sw = speed_windows(log, horizon_s)
     specs = chain_specs()
     described = {k: v for k, v in described_chain(robot).items() if k not in without}
@@ -277,7 +274,6 @@ def _start(sw: SpeedWindows, robot: Robot) -> dict[str, float]:
     twist_rate = [np.abs(np.diff(x, axis=1))[both] / np.maximum(dt, 1e-9)[both]
                   for x in (0.5 * sw.meas.sum(-1), 0.5 * np.diff(sw.meas, axis=-1)[..., 0])]
     return {"track_speed_scale": robot.track_speed_scale, "drive_turn_scale": robot.drive_turn_scale,
-            "drive_turn_deadband": max(robot.drive_turn_deadband, 0.05),  # off its bound, 0
             "drive_delay_left": 0.03, "drive_delay_right": 0.03, "drive_lag_left": 0.1, "drive_lag_right": 0.1,
             "drive_speed_limit_left": float(m[..., 0].max()), "drive_speed_limit_right": float(m[..., 1].max()),
             "drive_accel_limit": float(np.quantile(rate, 0.99)) if rate.size else 5.0,
@@ -380,8 +376,7 @@ def chain_robot(robot: Robot, values: dict[str, float], rolling: float = 1.0) ->
     track speed is ``rolling`` times the measured one (the effective rolling radius over the
     nominal one that the contact's fit found): the scale and the speed limits and ramp, in
     measured-speed units in ``values``, are multiplied by it."""
-    speedy = OPTIONAL + ("track_speed_scale",)
-    changes = {k: float(v) * (rolling if k in speedy else 1.0) for k, v in values.items()}
+    changes = {k: float(v) * (rolling if k in LIMITS or k == "track_speed_scale" else 1.0) for k, v in values.items()}
     return robot.replace(**changes)
 
 

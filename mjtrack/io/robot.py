@@ -236,8 +236,6 @@ class Robot:
             rate of change of the mean and of the half difference of the two sides' set-points
             [m/s^2] (its linear acceleration limit, its angular one times half the gauge), applied
             before the split into sides; ``None``: none.
-        drive_turn_deadband: a twist controller's shortfall of the half difference [m/s]: its
-            magnitude, after ``drive_turn_scale``, less this (none below it); 0: none.
         track_speed_scale: actual / commanded track speed, both tracks [-].
         rolling_resistance: motion resistance coefficient f_r [-]: each side is held back by a
             force f_r times the weight it carries, opposing its motion over the ground (rolling,
@@ -281,7 +279,6 @@ class Robot:
     drive_turn_limit: float | None = None
     drive_mean_accel_limit: float | None = None
     drive_turn_accel_limit: float | None = None
-    drive_turn_deadband: float = 0.0
     ground: Ground = field(default_factory=Ground)
     traction: str = "tracks"
     wheelbase: float | None = None
@@ -357,9 +354,6 @@ class Robot:
                    if n.startswith("drive_speed_limit") or n in ("drive_mean_speed_limit", "drive_turn_limit")]
         checks += [(n, 0.0, MAX_DRIVE_ACCEL, "m/s^2", False)
                    for n in ("drive_accel_limit", "drive_mean_accel_limit", "drive_turn_accel_limit")]
-        if not _is_finite_number(self.drive_turn_deadband) or not 0 <= self.drive_turn_deadband <= MAX_DRIVE_SPEED:
-            raise InputError(f"robot: 'drive_turn_deadband' must be a number in [0, {MAX_DRIVE_SPEED:g}] m/s, "
-                             f"got {self.drive_turn_deadband!r}")
         if not _is_finite_number(self.drive_turn_scale) or not 0 < self.drive_turn_scale <= MAX_SPEED_SCALE:
             raise InputError(f"robot: 'drive_turn_scale' must be a number in (0, {MAX_SPEED_SCALE:g}], "
                              f"got {self.drive_turn_scale!r}")
@@ -464,7 +458,6 @@ class Robot:
         skip = ("extra", "provided") + (WHEEL_KEYS if self.traction == "tracks" else ())
         skip += tuple(k for k in DRIVE_SIDE_KEYS if getattr(self, k) is None)  # unset: descriptions keep their keys
         skip += ("drive_turn_scale",) if self.drive_turn_scale == 1.0 else ()
-        skip += ("drive_turn_deadband",) if self.drive_turn_deadband == 0.0 else ()
         d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in skip}
         d["ground"] = self.ground.to_dict()
         if self.traction == "wheels":

@@ -12,16 +12,15 @@ Per side, in the order a real drive applies them:
   changes nothing with equal delays; it is applied per side after the controller's stages (a
   shift of the ramp's input would be lost in its clip, and the twist stage sees both sides'
   commands together, as a controller receives them);
-* the twist stage (``drive_turn_scale`` k, ``drive_mean_speed_limit`` V, ``drive_turn_limit`` W,
-  ``drive_turn_deadband`` W_0; its ramps ``drive_mean_accel_limit``, ``drive_turn_accel_limit``):
+* the twist stage (``drive_turn_scale`` k, ``drive_mean_speed_limit`` V, ``drive_turn_limit`` W;
+  its ramps ``drive_mean_accel_limit`` A_m, ``drive_turn_accel_limit`` A_d):
   many robots' controllers take a body twist (v, omega), not two track speeds, and limit it
   before they split it between the sides (ROS ``diff_drive_controller``, Clearpath firmware:
   linear and angular speed limits; an effective track separation other than the gauge). In
   track speeds: the mean m = (c_l + c_r)/2 is clipped to +-V, the half difference
-  d = (c_r - c_l)/2 is multiplied by k, its magnitude reduced by W_0 (a speed controller whose
-  turn falls short by about the same amount in every turn), clipped to +-W, then the mean and the
-  half difference are ramped, each at most its own acceleration, and the sides are m -+ d. k = 1,
-  W_0 = 0 and no V, W, ramps: the stage does nothing;
+  d = (c_r - c_l)/2 is multiplied by k and clipped to +-W, then m moves towards its target at
+  most A_m per second and d at most A_d (a controller's linear and angular acceleration limits),
+  and the sides are m -+ d. k = 1 and no V, W, A_m, A_d: the stage does nothing;
 * ``v_max`` (``drive_speed_limit[_left/_right]``): the robot's own speed controller clamps the
   set-point to what its motors can reach (a Clearpath or Roboteq firmware limit), so a command
   above it gives a track speed at the limit, reached as the lag reaches any set-point;
@@ -65,7 +64,6 @@ class Chain:
     turn_scale: float = 1.0
     mean_limit: float | None = None
     turn_limit: float | None = None
-    turn_deadband: float = 0.0
     mean_accel_limit: float | None = None
     turn_accel_limit: float | None = None
 
@@ -76,7 +74,6 @@ class Chain:
                    speed_limit=robot.speed_limit_per_side, accel_limit=robot.drive_accel_limit,
                    lag=robot.lag_per_side, turn_scale=robot.drive_turn_scale,
                    mean_limit=robot.drive_mean_speed_limit, turn_limit=robot.drive_turn_limit,
-                   turn_deadband=robot.drive_turn_deadband,
                    mean_accel_limit=robot.drive_mean_accel_limit, turn_accel_limit=robot.drive_turn_accel_limit)
 
 
@@ -86,16 +83,13 @@ def delay_steps(delay: float, timestep: float) -> int:
 
 
 def twist(u: np.ndarray, turn_scale: float = 1.0, mean_limit: float | None = None,
-          turn_limit: float | None = None, turn_deadband: float = 0.0) -> np.ndarray:
+          turn_limit: float | None = None) -> np.ndarray:
     """The twist stage on u (..., 2): the sides' mean clipped to +-``mean_limit``, their half
-    difference times ``turn_scale``, its magnitude less ``turn_deadband`` (none below it), clipped
-    to +-``turn_limit`` (None: no limit)."""
-    if turn_scale == 1.0 and mean_limit is None and turn_limit is None and turn_deadband == 0.0:
+    difference times ``turn_scale`` clipped to +-``turn_limit`` (None: no limit)."""
+    if turn_scale == 1.0 and mean_limit is None and turn_limit is None:
         return u
     m = 0.5 * (u[..., 0] + u[..., 1])
     d = 0.5 * (u[..., 1] - u[..., 0]) * turn_scale
-    if turn_deadband != 0.0:
-        d = np.sign(d) * np.maximum(np.abs(d) - turn_deadband, 0.0)
     if mean_limit is not None:
         m = np.clip(m, -mean_limit, mean_limit)
     if turn_limit is not None:
@@ -165,7 +159,7 @@ def setpoints(chain: Chain, commands: np.ndarray, timestep: float, start: np.nda
     simulator's. Null limits, equal delays, at rest: ``commands * scale`` shifted, exactly."""
     start = np.broadcast_to(np.asarray(start, dtype=float), (2,))
     out = np.asarray(commands, dtype=float) * chain.scale
-    out = twist(out, chain.turn_scale, chain.mean_limit, chain.turn_limit, chain.turn_deadband)
+    out = twist(out, chain.turn_scale, chain.mean_limit, chain.turn_limit)
     out = twist_ramp(out, chain.mean_accel_limit, chain.turn_accel_limit, timestep, start)
     out = ramp(clamp(out, chain.speed_limit), chain.accel_limit, timestep, start)
     ks = [delay_steps(d, timestep) for d in chain.delay]
@@ -191,7 +185,7 @@ def response(chain: Chain, commands: np.ndarray, timestep: float, start: np.ndar
 def window_response(t: np.ndarray, cmd: np.ndarray, v0: np.ndarray, *, scale: float, delay: np.ndarray,
                     speed_limit: np.ndarray, accel_limit: float, tau: np.ndarray, turn_scale: float = 1.0,
                     mean_limit: float = math.inf, turn_limit: float = math.inf, mean_accel_limit: float = math.inf,
-                    turn_accel_limit: float = math.inf, turn_deadband: float = 0.0, substeps: int = 5) -> np.ndarray:
+                    turn_accel_limit: float = math.inf, substeps: int = 5) -> np.ndarray:
     """Track speeds predicted at the rows of M windows of a log, each started from its measured speed.
 
     Args:
@@ -202,8 +196,8 @@ def window_response(t: np.ndarray, cmd: np.ndarray, v0: np.ndarray, *, scale: fl
         v0: (M, 2) measured speeds at each window's first row; the drive's set-point and speed
             start there, and before it the drive was commanded v0 / scale.
         scale, accel_limit: both sides (``accel_limit`` inf: none); delay, speed_limit, tau: (2,)
-            per side (``speed_limit`` inf: none); turn_scale, mean_limit, turn_limit, turn_deadband,
-            mean_accel_limit, turn_accel_limit: the twist stage and its ramps (limits inf: none).
+            per side (``speed_limit`` inf: none); turn_scale, mean_limit, turn_limit: the twist
+            stage (limits inf: none).
         substeps: integration steps per median row period.
 
     The dead time, a time shift of time-invariant stages, is applied to the output by linear
@@ -231,7 +225,7 @@ def window_response(t: np.ndarray, cmd: np.ndarray, v0: np.ndarray, *, scale: fl
         F = F_rows[idx] + c.ravel()[idx] * (e - tf[idx])
         u[:, :, i] = (np.diff(F, axis=1) / h).T  # the mean of the held command over each step
     u = twist(u * scale, turn_scale, None if math.isinf(mean_limit) else mean_limit,
-              None if math.isinf(turn_limit) else turn_limit, turn_deadband)
+              None if math.isinf(turn_limit) else turn_limit)
     u = twist_ramp(u, None if math.isinf(mean_accel_limit) else mean_accel_limit,
                    None if math.isinf(turn_accel_limit) else turn_accel_limit, h, v0)
     u = np.clip(u, -speed_limit, speed_limit)

@@ -69,7 +69,7 @@ def controller_stages(robot: Robot, commands: np.ndarray, timestep: float, start
     (:mod:`mjtrack.models.drivetrain`; the ramps start at ``start`` (M, 2), the measured speeds).
     Unchanged without those keys."""
     chain = Chain.of_robot(robot)
-    out = twist(commands, chain.turn_scale, chain.mean_limit, chain.turn_limit, chain.turn_deadband)
+    out = twist(commands, chain.turn_scale, chain.mean_limit, chain.turn_limit)
     if chain.mean_accel_limit is not None or chain.turn_accel_limit is not None:
         out = twist_ramp(np.swapaxes(out, 0, 1), chain.mean_accel_limit, chain.turn_accel_limit, timestep,
                          start).swapaxes(0, 1)
