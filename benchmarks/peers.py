@@ -158,6 +158,88 @@ def end_errors(a: dict, poses: np.ndarray) -> np.ndarray:
                     -1)
 
 
+#: the twist controller's ramps (mjtrack.models.drivetrain), which the wheel-speed comparison
+#: leaves out of one chain to measure what they add
+TWIST_RAMPS = ("drive_mean_accel_limit", "drive_turn_accel_limit")
+REGIME_MARGIN = 0.3  # [m/s] a side's command this far from its start speed makes a step window's regime
+HALF_DIFFERENCE_CLASSES = ((0.0, 0.5), (0.5, 1.5), (1.5, float("inf")))  # [m/s] small, medium, large turns
+
+
+def speed_window_arrays(a: dict):
+    """The windows ``a`` (:func:`window_arrays`) as the drivetrain's SpeedWindows: no history before
+    a window (the chain starts from the measured speeds at its first sample, as DRIVE does), the
+    rows after the first with measured speeds fitted, NaN padding continued at the window's period
+    and ignored."""
+    from mjtrack.calibrate.drivetrain import SpeedWindows
+
+    M, K = a["t"].shape
+    k = np.arange(K)[None, :]
+    inside = k <= a["last"][:, None]
+    t = np.where(inside, a["t"], (k - a["last"][:, None]) * a["dt"][:, None] + a["t"][np.arange(M), a["last"]][:, None])
+    last_cmd = a["cmd"][np.arange(M), a["last"]]
+    cmd = np.where(inside[..., None], a["cmd"], last_cmd[:, None])
+    valid = inside & (k >= 1) & np.all(np.isfinite(a["meas"]), -1)
+    return SpeedWindows(t=t, cmd=cmd, meas=np.nan_to_num(a["meas"]), valid=valid, v0=_speeds(a)[:, 0])
+
+
+def wheel_speeds(train_log, robot, a: dict, drive: peers.Drive) -> dict:
+    """What each model of the drives predicts of the measured track speeds on the test windows
+    ``a``, from their commands and the measured speeds at each window's start: DRIVE's powertrain,
+    and the drivetrain chain (mjtrack.calibrate.drivetrain.fit_chain) fitted on the training part,
+    with and without the twist controller's ramps. RMS of measured minus predicted [m/s] per side,
+    over all rows after each window's first, in the windows that start with a command step
+    (``step``: per side, the command ahead of the start speed by more than :data:`REGIME_MARGIN`, ``accelerating``,
+    behind it in the same direction, ``braking``, or of the other sign, ``reversing``) and in the
+    windows whose command has held since before them (``steady``); the steady windows' mean
+    residual of the two sides' mean and half difference, by the commanded half difference
+    (:data:`HALF_DIFFERENCE_CLASSES`)."""
+    from mjtrack.calibrate.drivetrain import fit_chain, predict
+
+    sw = speed_window_arrays(a)
+    fits = {"chain": fit_chain(train_log, robot), "chain_without_twist_ramps": fit_chain(train_log, robot,
+                                                                                          without=TWIST_RAMPS)}
+    pred = {k: predict(sw, f.values) for k, f in fits.items()}
+    pred["drive"] = drive.track_speeds(sw.cmd, sw.v0, a["dt"], a["step"])
+    c0, v0 = sw.cmd[:, 0], sw.v0
+    ahead = np.sign(c0) == np.sign(v0)
+    side_regimes = {"accelerating": ahead & (np.abs(c0) > np.abs(v0) + REGIME_MARGIN),
+                    "braking": ahead & (np.abs(c0) < np.abs(v0) - REGIME_MARGIN),
+                    "reversing": ~ahead & (np.abs(c0 - v0) > REGIME_MARGIN)}
+
+    def rms(d, rows):
+        d = d[rows & sw.valid]
+        return float(np.sqrt(np.mean(d ** 2))) if d.size else None
+
+    out = {"half_difference_classes_m_s": [list(b) for b in HALF_DIFFERENCE_CLASSES],
+           "regime_margin_m_s": REGIME_MARGIN,
+           "windows": {"step": int(a["step"].sum()), "steady": int((~a["step"]).sum())},
+           "chains": {k: {"values": f.values, "verdicts": f.verdicts} for k, f in fits.items()}, "models": {}}
+    half_cmd = 0.5 * np.abs(c0[:, 1] - c0[:, 0])
+    classes = dict(zip(("small", "medium", "large"), HALF_DIFFERENCE_CLASSES))
+    for k, p in pred.items():
+        d = sw.meas - p
+        m = {"all": [rms(d[..., i], np.ones_like(sw.valid)) for i in range(2)],
+             "step": [rms(d[..., i], np.repeat(a["step"][:, None], sw.valid.shape[1], 1)) for i in range(2)],
+             "steady": [rms(d[..., i], np.repeat(~a["step"][:, None], sw.valid.shape[1], 1)) for i in range(2)]}
+        for name, sel in side_regimes.items():
+            m[name] = [rms(d[..., i], np.repeat((sel[:, i] & a["step"])[:, None], sw.valid.shape[1], 1))
+                       for i in range(2)]
+            out["windows"][name] = [int((sel[:, i] & a["step"]).sum()) for i in range(2)]
+        late = sw.valid & (sw.t >= 1.0) & ~a["step"][:, None]  # the second half of steady windows
+        sgn = np.sign(c0[:, 1] - c0[:, 0])[:, None]
+        by_turn = {}
+        for cls, (lo, hi) in classes.items():
+            rows = late & ((half_cmd >= lo) & (half_cmd < hi))[:, None]
+            by_turn[cls] = {
+                "windows": int(rows.any(1).sum()),
+                "mean_speed_bias": float(np.mean(0.5 * (d[..., 0] + d[..., 1])[rows])) if rows.any() else None,
+                "half_difference_bias": float(np.mean((0.5 * (d[..., 1] - d[..., 0]) * sgn)[rows])) if rows.any()
+                else None}
+        m["steady_by_commanded_half_difference"] = by_turn
+        out["models"][k] = m
+    return out
+
+
 def region_scale_groups(a: dict) -> tuple[np.ndarray, np.ndarray]:
     """Each window's length scale [m] (the path of its mean commanded track speed: what a planner
     knows) and turn class (index into calibrate's classes of |turn ratio| of its mean commands)."""
@@ -255,6 +337,8 @@ def run_robot(name: str, calibrated: dict[str, Path]) -> dict:
         "models": models, "yaw_ratio": yaw_ratios(parts[1], kept[1], robot, a, poses),
         "authors_held_out": dict(zip(("end_rms_m", "mean_distance_m", "windows"), AUTHORS_HELD_OUT[name])),
     })
+    if np.isfinite(a["meas"]).any():
+        out["wheel_speeds"] = wheel_speeds(parts[0], robot, a, drive)
     return out
 
 

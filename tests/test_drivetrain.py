@@ -34,6 +34,8 @@ from mjtrack.sim.rollout import simulate
         (dict(drive_lag_left=-0.1), r"'drive_lag_left' must be a number in \[0, 10\] s or null, got -0\.1"),
         (dict(drive_delay_right=float("nan")), r"'drive_delay_right' must be a number in \[0, 10\] s or null"),
         (dict(drive_accel_limit=0.0), r"'drive_accel_limit' must be a number in \(0, 1000\] m/s\^2 or null"),
+        (dict(drive_turn_accel_limit=0.0), r"'drive_turn_accel_limit' must be a number in \(0, 1000\] m/s\^2"),
+        (dict(drive_mean_accel_limit=2e3), r"'drive_mean_accel_limit' must be a number in \(0, 1000\] m/s\^2"),
     ],
 )
 def test_drive_keys_refuse_bad_values(fields, pattern):
@@ -225,6 +227,45 @@ def test_window_simulator_drives_through_the_robots_controller():
     assert speeds[-1] == pytest.approx([0.5, 0.5], abs=0.01)
     free = simulate_windows(WindowSim(Robot()), log, ws).speeds[0, 0]
     assert free[-1] == pytest.approx([0.9, 0.9], abs=0.01)
+
+
+def _twist_ramped(t):
+    """Closed form of a step from rest to (left, right) = (0.3, 0.9) m/s through a twist controller
+    whose mean ramps at 1 m/s^2 and half difference at 0.25 m/s^2: the mean reaches 0.6 m/s at
+    0.6 s, the half difference 0.3 m/s at 1.2 s, so the left side overshoots to 0.45 m/s at 0.6 s
+    and comes back down to 0.3 m/s."""
+    m, d = np.minimum(t, 0.6), np.minimum(0.25 * t, 0.3)
+    return np.stack([m - d, m + d], -1)
+
+
+def test_twist_ramps_shape_the_set_points():
+    """The numpy chain's set-points against the closed form (a step's set-point is the ramp's mean
+    over the step: its value at the step's middle); without the ramps the set-point is the command."""
+    from mjtrack.models.drivetrain import Chain, setpoints
+
+    h = 0.01
+    cmd = np.tile([0.3, 0.9], (200, 1))
+    out = setpoints(Chain(mean_accel_limit=1.0, turn_accel_limit=0.25), cmd, h)
+    assert np.allclose(out, _twist_ramped((np.arange(200) + 0.5) * h), atol=1e-12)
+    assert out[:, 0].max() == pytest.approx(0.45, abs=0.005)
+    assert np.array_equal(setpoints(Chain(), cmd, h), cmd)
+
+
+@pytest.mark.parametrize("model", ["rollers", "surfacevel"])
+def test_twist_ramps_drive_the_simulator(model):
+    """The MuJoCo robot's track speeds follow the closed form of the twist controller's ramps (no
+    lag): the left side's overshoot and the final speeds, within the servo's following error."""
+    robot = Robot(drive_mean_accel_limit=1.0, drive_turn_accel_limit=0.25)
+    config = sim_config(model)
+    cmd = np.tile([0.3, 0.9], (int(round(1.6 / config.timestep)), 1))
+    out = simulate(robot, cmd, config=config, log_rate=100)
+    v = np.stack([out["v_left"], out["v_right"]], -1)
+    expected = _twist_ramped(out["t"])
+    # 0.01 m/s: the servo's following error while it accelerates the track's inertia against the
+    # ground (the roller chain's largest, 0.008 m/s, is in its first steps, the robot settling)
+    assert np.max(np.abs(v - expected)) < 0.01
+    assert v[-1] == pytest.approx([0.3, 0.9], abs=0.005)
+    assert v[:, 0].max() == pytest.approx(0.45, abs=0.005)
 
 
 def test_window_simulator_applies_each_sides_dead_time():

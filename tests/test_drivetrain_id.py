@@ -33,6 +33,10 @@ def _truth_log(duration: float, seed: int, truth: dict) -> DriveLog:
     c = cmd[np.minimum((tf * RATE + 1e-9).astype(int), n - 1)] * truth["track_speed_scale"]
     mean, half = (c[:, 0] + c[:, 1]) / 2, (c[:, 1] - c[:, 0]) / 2 * truth.get("drive_turn_scale", 1.0)
     half = np.clip(half, -truth.get("drive_turn_limit", np.inf), truth.get("drive_turn_limit", np.inf))
+    for x, key in ((mean, "drive_mean_accel_limit"), (half, "drive_turn_accel_limit")):  # the twist's ramps
+        step = truth.get(key, np.inf) * FINE
+        for k in range(1, len(x)):
+            x[k] = x[k - 1] + np.clip(x[k] - x[k - 1], -step, step)
     u = np.stack([mean - half, mean + half], -1)
     for i, side in enumerate(("left", "right")):
         lim = truth.get(f"drive_speed_limit_{side}", np.inf)
@@ -73,6 +77,23 @@ def test_recovers_a_known_chain():
     assert min(fit.rms_before) > 5 * NOISE
 
 
+@pytest.mark.slow  # 3 min of log: about 40 s of CPU
+def test_recovers_the_twist_controllers_ramps():
+    """A controller that ramps the sides' mean and half difference (not each side): both ramps come
+    back within their intervals. What the ramps leave is not separable: a per-side ramp at the sum
+    of the two (2.1 m/s^2) acts only where both ramp together, and the fit gives it 2.0, and the
+    dead time trades with the lag (0.05 s of dead time came back as none and 0.03 lag more), so the
+    fitted chain leaves 2.5 x the noise, not the noise."""
+    truth = {"track_speed_scale": 1.0, "drive_delay_left": 0.05, "drive_delay_right": 0.05, "drive_lag_left": 0.15,
+             "drive_lag_right": 0.15, "drive_mean_accel_limit": 1.5, "drive_turn_accel_limit": 0.6}
+    fit = fit_chain(_truth_log(180.0, 4, truth), Robot())
+    for name in ("drive_mean_accel_limit", "drive_turn_accel_limit"):
+        assert fit.verdicts[name] == "determined", (name, fit.verdicts[name])
+        # the interval, plus 0.5 % for the chain's 10 ms steps against the generator's 1 ms
+        assert abs(fit.values[name] - truth[name]) <= fit.half[name] + 0.005 * truth[name], (name, fit.values[name])
+    assert max(fit.rms_after) < 3 * NOISE
+
+
 def test_a_log_that_never_saturates_shows_no_limit():
     """Commands within every limit: the chain's limits are not determined; the lag and the dead
     time still are, and the described robot's limits are kept."""
@@ -80,7 +101,7 @@ def test_a_log_that_never_saturates_shows_no_limit():
              "drive_lag_right": 0.3}
     fit = fit_chain(_truth_log(60.0, 2, truth), Robot(drive_speed_limit=3.0))
     for name in ("drive_speed_limit_left", "drive_speed_limit_right", "drive_accel_limit", "drive_turn_limit",
-                 "drive_mean_speed_limit"):
+                 "drive_mean_speed_limit", "drive_mean_accel_limit", "drive_turn_accel_limit"):
         assert name not in fit.values and fit.verdicts[name].startswith("not determined"), name
     assert fit.values["drive_lag_left"] == pytest.approx(0.3, abs=0.03)
     assert fit.values["drive_delay_right"] == pytest.approx(0.08, abs=0.015)

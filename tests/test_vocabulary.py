@@ -68,6 +68,8 @@ QUANTITY = {
     "drive_turn_scale": "actual over commanded half difference of the track speeds",
     "drive_mean_speed_limit": "speed at which the controller saturates the mean of the track speeds",
     "drive_turn_limit": "half difference of the track speeds at which the controller saturates it",
+    "drive_mean_accel_limit": "largest rate of change the controller gives the mean of the track speeds",
+    "drive_turn_accel_limit": "largest rate of change the controller gives the half difference of the track speeds",
     # the shear-displacement ground
     "shear_modulus": "shear displacement over which the ground's shear stress builds up (Janosi-Hanamoto K)",
     # simulation and logs

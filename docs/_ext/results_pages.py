@@ -682,6 +682,11 @@ PEER_MODELS = {"drive": "DRIVE (the authors' dead time)", "drive_dead_time_fitte
                "calibrated_mujoco": "calibrated MuJoCo robot"}
 
 
+#: the models of the drives whose track speeds benchmarks/peers.py compares, in the page's words
+WHEEL_SPEED_MODELS = {"drive": "DRIVE's powertrain", "chain_without_twist_ramps": "chain without the twist ramps",
+                      "chain": "chain"}
+
+
 def _peers() -> Page:
     from mjtrack.calibrate.measures import TURN_CLASSES
 
@@ -714,6 +719,17 @@ def _peers() -> Page:
                     "path; mjtrack.metrics.fit_end_regions), the share of held-out windows whose measured end they "
                     "hold, the same share on the training windows, and their mean area [m^2].",
                     ["robot", "model", "level", "held-out coverage", "training coverage", "mean area"])
+    speeds = Table("What each model of the drives predicts of the measured track speeds on the same held-out windows, "
+                   "from the commands and the measured speeds at each window's start: DRIVE's powertrain, and the "
+                   "drivetrain chain (`mjtrack.calibrate.drivetrain.fit_chain`, fitted on the training part) with and "
+                   "without the twist controller's ramps. RMS of measured minus predicted [m/s] per side over every "
+                   "window, over those that start with a command step (and among them, per side, those accelerating, "
+                   "braking or reversing: the command ahead of, behind or against the start speed by more than "
+                   "`regime_margin_m_s`) and over the steady ones; then, in the second half of steady windows, the mean "
+                   "residual of the two sides' half difference (positive: the measured turn is larger) per class of "
+                   "the commanded half difference (small, medium, large: `half_difference_classes_m_s` in the result "
+                   "file), in the RMS left column.",
+                   ["robot", "model", "regime", "windows left", "windows right", "RMS left", "RMS right"])
     theirs = Table("The authors' DRIVE on the last part of each run, which the shared folders do not hold (other "
                    "windows than ours): end-of-window RMS [m], mean distance over the window [m], windows.",
                    ["robot", "end RMS", "mean distance", "windows"])
@@ -752,6 +768,19 @@ def _peers() -> Page:
                     c = f"{q}/yaw_ratio/{cls}"
                     turns.add(name, class_names.get(cls, cls), number(src, c + "/windows"), number(src, c + "/measured"),
                               PEER_MODELS[m], number(src, f"{c}/{m}"))
+        if "wheel_speeds" in r:
+            w = f"{q}/wheel_speeds"
+            for m, label in WHEEL_SPEED_MODELS.items():
+                for regime in ("all", "step", "accelerating", "braking", "reversing", "steady"):
+                    p = f"{w}/models/{m}/{regime}"
+                    n = r["wheel_speeds"]["windows"].get(regime)
+                    count = ([number(src, f"{w}/windows/{regime}/{i}") for i in (0, 1)] if isinstance(n, list) else
+                             [number(src, f"{w}/windows/{regime}")] * 2 if n is not None else ["every", "every"])
+                    speeds.add(name, label, regime, *count, number(src, p + "/0"), number(src, p + "/1"))
+                for cls in r["wheel_speeds"]["models"][m]["steady_by_commanded_half_difference"]:
+                    p = f"{w}/models/{m}/steady_by_commanded_half_difference/{cls}"
+                    speeds.add(name, label, f"steady, {cls} turns: half-difference bias", number(src, p + "/windows"),
+                               number(src, p + "/windows"), number(src, p + "/half_difference_bias"), "–")
         theirs.add(name, number(src, q + "/authors_held_out/end_rms_m"), number(src, q + "/authors_held_out/mean_distance_m"),
                    number(src, q + "/authors_held_out/windows"))
     load = Table("The machine's load during the run.", ["what", "value"])
@@ -766,7 +795,7 @@ def _peers() -> Page:
         "training and the last part testing. DRIVE and the models driven by the commands predict what a planner can "
         "know; those driven by the measured speeds see the drives' response and score the contact alone. The "
         "derivation and what the reproduction shows: the theory page on the peers.",
-        [src], [rep, split, models, turns, regions, theirs, load])
+        [src], [rep, split, models, turns, regions, speeds, theirs, load])
 
 
 def _shear_ground() -> Page:

@@ -5,8 +5,8 @@ A log with measured track (wheel) speeds says how the drives followed their comm
 the contact: the fit of the contact to the poses then need not bend to explain the drives. Over
 windows of the log (:func:`mjtrack.sim.windows.make_windows`), each started from its measured
 speeds, least squares fits per side the dead time, the lag and the speed limit, and for both sides
-the speed scale, the acceleration limit and the twist stage (turn scale, mean and turn limits)
-(:func:`mjtrack.calibrate.params.chain_specs`).
+the speed scale, the acceleration limit and the twist stage (turn scale, mean and turn limits,
+mean and turn ramps) (:func:`mjtrack.calibrate.params.chain_specs`).
 
 What the log determines:
 
@@ -41,7 +41,7 @@ from mjtrack.windows import LOGGED_COMMANDS, make_windows
 
 SIDED = ("drive_delay", "drive_lag", "drive_speed_limit")
 LIMITS = ("drive_speed_limit_left", "drive_speed_limit_right", "drive_accel_limit", "drive_mean_speed_limit",
-          "drive_turn_limit")
+          "drive_turn_limit", "drive_mean_accel_limit", "drive_turn_accel_limit")
 MIN_ACTIVE = 0.02  # share of a side's rows a limit must change for the log to show it
 MIN_WINDOWS = 3  # ... in at least this many windows
 ACTIVE_SPEED = 0.01  # [m/s] a change of the predicted speed that counts as the limit acting
@@ -117,7 +117,9 @@ def predict(sw: SpeedWindows, values: dict[str, float]) -> np.ndarray:
                            accel_limit=values.get("drive_accel_limit", math.inf), tau=side["drive_lag"],
                            turn_scale=values.get("drive_turn_scale", 1.0),
                            mean_limit=values.get("drive_mean_speed_limit", math.inf),
-                           turn_limit=values.get("drive_turn_limit", math.inf))
+                           turn_limit=values.get("drive_turn_limit", math.inf),
+                           mean_accel_limit=values.get("drive_mean_accel_limit", math.inf),
+                           turn_accel_limit=values.get("drive_turn_accel_limit", math.inf))
 
 
 def described_chain(robot: Robot) -> dict[str, float]:
@@ -128,7 +130,7 @@ def described_chain(robot: Robot) -> dict[str, float]:
         out[f"drive_lag_{s}"] = robot.lag_per_side[i]
         if robot.speed_limit_per_side[i] is not None:
             out[f"drive_speed_limit_{s}"] = robot.speed_limit_per_side[i]
-    for k in ("drive_accel_limit", "drive_mean_speed_limit", "drive_turn_limit"):
+    for k in LIMITS[2:]:
         if getattr(robot, k) is not None:
             out[k] = getattr(robot, k)
     return out
@@ -190,13 +192,18 @@ class ChainFit:
         return out
 
 
-def fit_chain(log: DriveLog, robot: Robot, *, horizon_s: float = 2.0) -> ChainFit:
-    """Fit the drivetrain chain of ``robot`` to the measured speeds of ``log`` (module docstring)."""
+def fit_chain(log: DriveLog, robot: Robot, *, horizon_s: float = 2.0, without: tuple[str, ...] = ()) -> ChainFit:
+    """Fit the drivetrain chain of ``robot`` to the measured speeds of ``log`` (module docstring);
+    the stages ``without`` (limit names of :data:`LIMITS`) are left out of the chain (a chain
+    without them, to measure what they add)."""
+    unknown = [n for n in without if n not in LIMITS]
+    if unknown:
+        raise InputError(f"drivetrain: only limits can be left out of the chain ({', '.join(LIMITS)}), got {unknown}")
     sw = speed_windows(log, horizon_s)
     specs = chain_specs()
-    described = described_chain(robot)
+    described = {k: v for k, v in described_chain(robot).items() if k not in without}
     before = rms(sw, predict(sw, described))
-    start = _start(sw, robot)
+    start = {k: v for k, v in _start(sw, robot).items() if k not in without}
     free = list(start)
     fixed: dict[str, float] = {}
     verdicts: dict[str, str] = {}
@@ -263,11 +270,16 @@ def _start(sw: SpeedWindows, robot: Robot) -> dict[str, float]:
     rate = rate[sw.valid[:, 1:] & sw.valid[:, :-1]]
     mean = np.where(sw.valid, 0.5 * np.abs(sw.meas.sum(-1)), 0.0)
     half = np.where(sw.valid, 0.5 * np.abs(np.diff(sw.meas, axis=-1)[..., 0]), 0.0)
+    both = sw.valid[:, 1:] & sw.valid[:, :-1]
+    twist_rate = [np.abs(np.diff(x, axis=1))[both] / np.maximum(dt, 1e-9)[both]
+                  for x in (0.5 * sw.meas.sum(-1), 0.5 * np.diff(sw.meas, axis=-1)[..., 0])]
     return {"track_speed_scale": robot.track_speed_scale, "drive_turn_scale": robot.drive_turn_scale,
             "drive_delay_left": 0.03, "drive_delay_right": 0.03, "drive_lag_left": 0.1, "drive_lag_right": 0.1,
             "drive_speed_limit_left": float(m[..., 0].max()), "drive_speed_limit_right": float(m[..., 1].max()),
             "drive_accel_limit": float(np.quantile(rate, 0.99)) if rate.size else 5.0,
-            "drive_mean_speed_limit": float(mean.max()), "drive_turn_limit": float(half.max())}
+            "drive_mean_speed_limit": float(mean.max()), "drive_turn_limit": float(half.max()),
+            **{k: float(np.quantile(r, 0.99)) if r.size else 5.0
+               for k, r in zip(("drive_mean_accel_limit", "drive_turn_accel_limit"), twist_rate)}}
 
 
 def _residuals(sw: SpeedWindows, values: dict[str, float]) -> np.ndarray:
@@ -364,9 +376,7 @@ def chain_robot(robot: Robot, values: dict[str, float], rolling: float = 1.0) ->
     track speed is ``rolling`` times the measured one (the effective rolling radius over the
     nominal one that the contact's fit found): the scale and the speed limits and ramp, in
     measured-speed units in ``values``, are multiplied by it."""
-    speedy = ("drive_speed_limit_left", "drive_speed_limit_right", "drive_accel_limit", "drive_mean_speed_limit",
-              "drive_turn_limit")
-    changes = {k: float(v) * (rolling if k in speedy or k == "track_speed_scale" else 1.0) for k, v in values.items()}
+    changes = {k: float(v) * (rolling if k in LIMITS or k == "track_speed_scale" else 1.0) for k, v in values.items()}
     return robot.replace(**changes)
 
 

@@ -120,6 +120,9 @@ def chain_specs() -> dict[str, ParamSpec]:
                   "a twist controller's limit on the two sides' mean speed"),
         ParamSpec("drive_turn_limit", 0.02, 50.0, 0.05, 0.02, "m/s", "drive",
                   "a twist controller's limit on the two sides' half difference"),
+        *(ParamSpec(f"drive_{k}_accel_limit", 0.05, 100.0, 0.2, 0.1, "m/s^2", "drive",
+                    f"a twist controller's limit on the rate of change of the two sides' {what}")
+          for k, what in (("mean", "mean"), ("turn", "half difference"))),
     )}
 
 

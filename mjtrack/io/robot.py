@@ -74,7 +74,7 @@ NULLABLE = ("mu_left", "mu_right", "drive_force_limit", "wheelbase")  # keys tha
 # drivetrain keys that may be JSON null (none / the both-sides key) and are written only when set
 DRIVE_SIDE_KEYS = ("drive_speed_limit", "drive_speed_limit_left", "drive_speed_limit_right", "drive_lag_left",
                    "drive_lag_right", "drive_delay_left", "drive_delay_right", "drive_accel_limit",
-                   "drive_mean_speed_limit", "drive_turn_limit")
+                   "drive_mean_speed_limit", "drive_turn_limit", "drive_mean_accel_limit", "drive_turn_accel_limit")
 MAX_DRIVE_SPEED = 100.0  # [m/s] largest accepted drive_speed_limit (beyond: a unit error)
 MAX_DRIVE_ACCEL = 1000.0  # [m/s^2] largest accepted drive_accel_limit (100 g: a unit error)
 TRACTIONS = ("tracks", "wheels")
@@ -232,6 +232,10 @@ class Robot:
         drive_mean_speed_limit, drive_turn_limit: a twist controller's limits on the mean and the
             half difference of the two sides' set-points [m/s] (its linear speed limit, its angular
             speed limit times half the gauge); ``None``: none.
+        drive_mean_accel_limit, drive_turn_accel_limit: a twist controller's ramps: the largest
+            rate of change of the mean and of the half difference of the two sides' set-points
+            [m/s^2] (its linear acceleration limit, its angular one times half the gauge), applied
+            before the split into sides; ``None``: none.
         track_speed_scale: actual / commanded track speed, both tracks [-].
         rolling_resistance: motion resistance coefficient f_r [-]: each side is held back by a
             force f_r times the weight it carries, opposing its motion over the ground (rolling,
@@ -273,6 +277,8 @@ class Robot:
     drive_turn_scale: float = 1.0
     drive_mean_speed_limit: float | None = None
     drive_turn_limit: float | None = None
+    drive_mean_accel_limit: float | None = None
+    drive_turn_accel_limit: float | None = None
     ground: Ground = field(default_factory=Ground)
     traction: str = "tracks"
     wheelbase: float | None = None
@@ -346,7 +352,8 @@ class Robot:
         checks = [(n, 0.0, MAX_DRIVE_TIME, "s", True) for n in DRIVE_SIDE_KEYS if n.startswith(("drive_lag", "drive_delay"))]
         checks += [(n, 0.0, MAX_DRIVE_SPEED, "m/s", False) for n in DRIVE_SIDE_KEYS
                    if n.startswith("drive_speed_limit") or n in ("drive_mean_speed_limit", "drive_turn_limit")]
-        checks += [("drive_accel_limit", 0.0, MAX_DRIVE_ACCEL, "m/s^2", False)]
+        checks += [(n, 0.0, MAX_DRIVE_ACCEL, "m/s^2", False)
+                   for n in ("drive_accel_limit", "drive_mean_accel_limit", "drive_turn_accel_limit")]
         if not _is_finite_number(self.drive_turn_scale) or not 0 < self.drive_turn_scale <= MAX_SPEED_SCALE:
             raise InputError(f"robot: 'drive_turn_scale' must be a number in (0, {MAX_SPEED_SCALE:g}], "
                              f"got {self.drive_turn_scale!r}")

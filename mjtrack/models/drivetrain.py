@@ -12,13 +12,15 @@ Per side, in the order a real drive applies them:
   changes nothing with equal delays; it is applied per side after the controller's stages (a
   shift of the ramp's input would be lost in its clip, and the twist stage sees both sides'
   commands together, as a controller receives them);
-* the twist stage (``drive_turn_scale`` k, ``drive_mean_speed_limit`` V, ``drive_turn_limit`` W):
+* the twist stage (``drive_turn_scale`` k, ``drive_mean_speed_limit`` V, ``drive_turn_limit`` W;
+  its ramps ``drive_mean_accel_limit`` A_m, ``drive_turn_accel_limit`` A_d):
   many robots' controllers take a body twist (v, omega), not two track speeds, and limit it
   before they split it between the sides (ROS ``diff_drive_controller``, Clearpath firmware:
   linear and angular speed limits; an effective track separation other than the gauge). In
   track speeds: the mean m = (c_l + c_r)/2 is clipped to +-V, the half difference
-  d = (c_r - c_l)/2 is multiplied by k and clipped to +-W, and the sides are m -+ d. k = 1 and no
-  V, W: the stage does nothing;
+  d = (c_r - c_l)/2 is multiplied by k and clipped to +-W, then m moves towards its target at
+  most A_m per second and d at most A_d (a controller's linear and angular acceleration limits),
+  and the sides are m -+ d. k = 1 and no V, W, A_m, A_d: the stage does nothing;
 * ``v_max`` (``drive_speed_limit[_left/_right]``): the robot's own speed controller clamps the
   set-point to what its motors can reach (a Clearpath or Roboteq firmware limit), so a command
   above it gives a track speed at the limit, reached as the lag reaches any set-point;
@@ -62,6 +64,8 @@ class Chain:
     turn_scale: float = 1.0
     mean_limit: float | None = None
     turn_limit: float | None = None
+    mean_accel_limit: float | None = None
+    turn_accel_limit: float | None = None
 
     @classmethod
     def of_robot(cls, robot: Robot) -> "Chain":
@@ -69,7 +73,8 @@ class Chain:
         return cls(scale=robot.track_speed_scale, delay=robot.delay_per_side,
                    speed_limit=robot.speed_limit_per_side, accel_limit=robot.drive_accel_limit,
                    lag=robot.lag_per_side, turn_scale=robot.drive_turn_scale,
-                   mean_limit=robot.drive_mean_speed_limit, turn_limit=robot.drive_turn_limit)
+                   mean_limit=robot.drive_mean_speed_limit, turn_limit=robot.drive_turn_limit,
+                   mean_accel_limit=robot.drive_mean_accel_limit, turn_accel_limit=robot.drive_turn_accel_limit)
 
 
 def delay_steps(delay: float, timestep: float) -> int:
@@ -89,6 +94,19 @@ def twist(u: np.ndarray, turn_scale: float = 1.0, mean_limit: float | None = Non
         m = np.clip(m, -mean_limit, mean_limit)
     if turn_limit is not None:
         d = np.clip(d, -turn_limit, turn_limit)
+    return np.stack([m - d, m + d], axis=-1)
+
+
+def twist_ramp(u: np.ndarray, mean_accel_limit: float | None, turn_accel_limit: float | None, h: float,
+               start: np.ndarray | float = 0.0) -> np.ndarray:
+    """The twist controller's ramps on u (N, ..., 2): the sides' mean moves towards its target at
+    most ``mean_accel_limit`` per second, their half difference at most ``turn_accel_limit``
+    (:func:`ramp` on each, from the mean and half difference of ``start`` (..., 2)); None: no ramp."""
+    if mean_accel_limit is None and turn_accel_limit is None:
+        return u
+    start = np.broadcast_to(np.asarray(start, dtype=float), u.shape[1:])
+    m = ramp(0.5 * (u[..., 0] + u[..., 1]), mean_accel_limit, h, 0.5 * (start[..., 0] + start[..., 1]))
+    d = ramp(0.5 * (u[..., 1] - u[..., 0]), turn_accel_limit, h, 0.5 * (start[..., 1] - start[..., 0]))
     return np.stack([m - d, m + d], axis=-1)
 
 
@@ -142,6 +160,7 @@ def setpoints(chain: Chain, commands: np.ndarray, timestep: float, start: np.nda
     start = np.broadcast_to(np.asarray(start, dtype=float), (2,))
     out = np.asarray(commands, dtype=float) * chain.scale
     out = twist(out, chain.turn_scale, chain.mean_limit, chain.turn_limit)
+    out = twist_ramp(out, chain.mean_accel_limit, chain.turn_accel_limit, timestep, start)
     out = ramp(clamp(out, chain.speed_limit), chain.accel_limit, timestep, start)
     ks = [delay_steps(d, timestep) for d in chain.delay]
     if ks[0] == ks[1] and start[0] == start[1]:
@@ -165,7 +184,8 @@ def response(chain: Chain, commands: np.ndarray, timestep: float, start: np.ndar
 
 def window_response(t: np.ndarray, cmd: np.ndarray, v0: np.ndarray, *, scale: float, delay: np.ndarray,
                     speed_limit: np.ndarray, accel_limit: float, tau: np.ndarray, turn_scale: float = 1.0,
-                    mean_limit: float = math.inf, turn_limit: float = math.inf, substeps: int = 5) -> np.ndarray:
+                    mean_limit: float = math.inf, turn_limit: float = math.inf, mean_accel_limit: float = math.inf,
+                    turn_accel_limit: float = math.inf, substeps: int = 5) -> np.ndarray:
     """Track speeds predicted at the rows of M windows of a log, each started from its measured speed.
 
     Args:
@@ -206,6 +226,8 @@ def window_response(t: np.ndarray, cmd: np.ndarray, v0: np.ndarray, *, scale: fl
         u[:, :, i] = (np.diff(F, axis=1) / h).T  # the mean of the held command over each step
     u = twist(u * scale, turn_scale, None if math.isinf(mean_limit) else mean_limit,
               None if math.isinf(turn_limit) else turn_limit)
+    u = twist_ramp(u, None if math.isinf(mean_accel_limit) else mean_accel_limit,
+                   None if math.isinf(turn_accel_limit) else turn_accel_limit, h, v0)
     u = np.clip(u, -speed_limit, speed_limit)
     r = ramp(u, None if not math.isfinite(accel_limit) else accel_limit, h, v0)
     v = lag(r, tau, h, v0)

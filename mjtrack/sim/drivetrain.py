@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjtrack.io.robot import Robot
-from mjtrack.models.drivetrain import Chain, clamp, ramp, setpoints, twist
+from mjtrack.models.drivetrain import Chain, clamp, ramp, setpoints, twist, twist_ramp
 from mjtrack.sim.config import SimConfig
 
 
@@ -65,10 +65,15 @@ def drive_commands(robot: Robot, commands: np.ndarray, timestep: float) -> np.nd
 
 def controller_stages(robot: Robot, commands: np.ndarray, timestep: float, start: np.ndarray) -> np.ndarray:
     """Per-step commands (M, nstep, 2) of M windows, already scaled and delayed, through the
-    robot's own controller: twist stage, speed clamp and ramp (:mod:`mjtrack.models.drivetrain`;
-    the ramp starts at ``start`` (M, 2), the measured speeds). Unchanged without those keys."""
+    robot's own controller: twist stage and its ramps, speed clamp and ramp
+    (:mod:`mjtrack.models.drivetrain`; the ramps start at ``start`` (M, 2), the measured speeds).
+    Unchanged without those keys."""
     chain = Chain.of_robot(robot)
-    out = clamp(twist(commands, chain.turn_scale, chain.mean_limit, chain.turn_limit), chain.speed_limit)
+    out = twist(commands, chain.turn_scale, chain.mean_limit, chain.turn_limit)
+    if chain.mean_accel_limit is not None or chain.turn_accel_limit is not None:
+        out = twist_ramp(np.swapaxes(out, 0, 1), chain.mean_accel_limit, chain.turn_accel_limit, timestep,
+                         start).swapaxes(0, 1)
+    out = clamp(out, chain.speed_limit)
     if chain.accel_limit is not None:
         out = ramp(np.swapaxes(out, 0, 1), chain.accel_limit, timestep, start).swapaxes(0, 1)
     return out
