@@ -39,7 +39,7 @@ from mjtrack.calibrate.start import suggested_length
 from mjtrack.errors import InputError
 from mjtrack.io.jsonfile import json_value
 from mjtrack.io.logs import DriveLog
-from mjtrack.io.robot import Robot
+from mjtrack.io.robot import DRIVE_SIDE_KEYS, Robot
 from mjtrack.progress import clock_text
 from mjtrack.sim.config import SimConfig, sim_config
 from mjtrack.windows import (DRIVE_DEFAULTS, WARMUP_S, WindowSet, geometry_robot,
@@ -221,9 +221,7 @@ def _on_predicted_speeds(chain, train: DriveLog, test: DriveLog | None, robot: R
     ``--drive-input measured`` (the speed scale is then the effective rolling radius)."""
     train = predicted_drive_log(train, chain.values)
     test = None if test is None else predicted_drive_log(test, chain.values)
-    plain = {k: None for k in ("drive_lag_left", "drive_lag_right", "drive_delay_left", "drive_delay_right",
-                               "drive_speed_limit", "drive_speed_limit_left", "drive_speed_limit_right",
-                               "drive_accel_limit", "drive_mean_speed_limit", "drive_turn_limit")}
+    plain = dict.fromkeys(DRIVE_SIDE_KEYS)  # every stage of the chain off: its prediction already has them
     robot = robot.replace(drive_lag=0.0, drive_delay=0.0, track_speed_scale=1.0, drive_turn_scale=1.0, **plain)
     if names is None:
         names = [n for n in parse_names(None, robot, train) if n not in COMMAND_PARAMS] + list(MEASURED_PARAMS)
