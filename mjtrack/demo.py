@@ -175,6 +175,7 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
     video_path, skipped, frames = out / "video.mp4", None, None
     video_args = (log_path, video_path, video_size[0], video_size[1], fps, speed)
     pool = pending = None
+    video_tic = time.perf_counter()
     if video and workers > 1:
         pool = _worker_pool()
         pending = pool.apply_async(_video_job, video_args + (True,))  # quiet: the validation's bar has the terminal
@@ -197,11 +198,12 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
                     if tx is not None:  # the worker wrote into its own copy of the command's transaction
                         tx.record(video_path)
                 else:
+                    video_tic = time.perf_counter()
                     frames, stage_s["video"] = _video_job(*video_args, quiet)
             except RenderUnavailableError as exc:
                 video_path, skipped = None, str(exc)
                 log.warning("video skipped: %s", exc)
-                stage_s["video"] = time.perf_counter() - tic
+                stage_s["video"] = time.perf_counter() - video_tic
         else:
             video_path = None
     finally:
@@ -217,4 +219,5 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
         ran.append(f"video: {frames} frames of {video_size[0]}x{video_size[1]} at {fps:g} frames/s "
                    f"({speed:g}x playback), rendered {where}")
     return DemoResult(out, val.report_path, val.metrics_path, log_path, video_path, val.metrics["headline"],
-                      stage_s, time.perf_counter() - start, skipped, pending is not None, tuple(ran))
+                      stage_s, time.perf_counter() - start, skipped, pending is not None and frames is not None,
+                      tuple(ran))
