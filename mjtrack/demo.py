@@ -19,7 +19,9 @@ Python (the filters), the video mostly OpenGL and the encoder, so the two share 
 rollout and the wall time is about the longer of them instead of their sum
 (``benchmarks/bench_demo.py`` measures both ways). The video plays at twice the simulated speed and
 :data:`DEMO_FPS` frames per second, which shows the manoeuvres smoothly at a fifth fewer frames
-than 25 per second would.
+than 25 per second would, and is rendered without multisampling (``antialias=False`` of
+:func:`~mjtrack.render.render_video`: about half the OpenGL time of a frame; the encoder's
+chroma subsampling softens the edges anyway).
 
 ``robot`` (default :data:`DEMO_ROBOT`) runs the demo on another robot, tracked or wheeled.
 ``terrain`` (a :class:`~mjtrack.sim.terrain.Terrain`, default flat) runs the same manoeuvres on
@@ -108,15 +110,16 @@ def _video_job(log_path: Path, path: Path, width: int, height: int, fps: float, 
 
     tic = time.perf_counter()
     drive, robot = read_log_with_robot(log_path)
-    stats = render_log(drive, robot, path, width=width, height=height, fps=fps, speed=speed, quiet=quiet)
+    stats = render_log(drive, robot, path, width=width, height=height, fps=fps, speed=speed, quiet=quiet,
+                       antialias=False)  # one sample per pixel: half the OpenGL time, the look nearly unchanged
     return stats.frames, time.perf_counter() - tic
 
 
 def _worker_init() -> None:
     """The video worker answers to this process alone: Ctrl-C (which reaches the whole process group)
     is left to this process, which then ends the worker; SIGTERM unwinds it (its temporary video
-    folder removed); and a forked worker stops writing into this process's signal wake-up pipe,
-    which would tell this process's interrupt watchdog that this process was signalled."""
+    folder removed); and it writes into no signal wake-up pipe (an inherited one would tell this
+    process's interrupt watchdog that this process was signalled)."""
     import signal
     import sys
 
@@ -126,12 +129,12 @@ def _worker_init() -> None:
 
 
 def _worker_pool():
-    """A one-process pool for the video: forked where the platform can (no second import of mujoco
-    and mjtrack), else spawned."""
+    """A one-process pool for the video, spawned (a fresh interpreter), never forked: a process that
+    has rendered before holds Mesa's software rasteriser, whose threads a fork leaves behind, and
+    a forked worker then waits for them for ever in its first ``mjr_readPixels``."""
     import multiprocessing
 
-    methods = multiprocessing.get_all_start_methods()
-    return multiprocessing.get_context("fork" if "fork" in methods else "spawn").Pool(1, initializer=_worker_init)
+    return multiprocessing.get_context("spawn").Pool(1, initializer=_worker_init)
 
 
 def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, seed: int = 0, video: bool = True,

@@ -139,7 +139,7 @@ def test_demo_on_terrain_records_it_and_logs_height(tmp_path):
     assert drive.z is not None and np.ptp(drive.z) > 0.01  # it drove up or down the slope
 
 
-@pytest.mark.slow  # two more demos; the default demo fixture already runs the video beside the validation
+@pytest.mark.slow  # two more demos; the first renders in this process, which a forked worker would hang on
 def test_video_beside_the_validation_changes_no_output(tmp_path):
     runs = {w: run_demo(tmp_path / f"w{w}", duration=4.0, video_size=SIZE, fps=FPS, speed=SPEED, quiet=True,
                         workers=w) for w in (1, 2)}
