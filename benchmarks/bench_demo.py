@@ -8,9 +8,9 @@ Each demo runs as ``mjtrack demo --out DIR --quiet`` does (:func:`mjtrack.demo.r
 defaults) in a fresh Python process with that code on its path; ``--old-tree DIR``: a checkout of
 the code to compare against (e.g. ``git archive REV | tar -x -C DIR``), run alternately with the
 code now (old, new, old, new, ...) so that both see the same load. Each run reports its wall time,
-its CPU time (the process and every process it waited for: the video worker, the encoder), its
-stage times (rollout, validate, video; the video may run beside the validation) and the load
-average before and after.
+its CPU time (the process and every process it waited for: the video worker, the encoder; also
+each apart), its stage times (rollout, validate, video; the video may run beside the validation)
+and the load average before and after.
 
 The profile (unless ``--no-profile``): one more run of each code under cProfile, everything in one
 process (the video after the validation), its time summed into named parts: compiling MuJoCo
@@ -82,9 +82,10 @@ res = run_demo(out, **kw)
 wall = time.perf_counter() - tic
 if prof is not None:
     prof.disable()
-cpu = sum(getattr(resource.getrusage(w), f) for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)
-          for f in ("ru_utime", "ru_stime"))
-doc = {"wall_s": wall, "cpu_s": cpu, "stage_s": res.stage_s, "headline": res.headline,
+own, waited = (sum(getattr(resource.getrusage(w), f) for f in ("ru_utime", "ru_stime"))
+               for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
+doc = {"wall_s": wall, "cpu_s": own + waited, "cpu_main_s": own, "cpu_workers_s": waited,
+       "stage_s": res.stage_s, "headline": res.headline,
        "video_concurrent": getattr(res, "video_concurrent", False), "ran": list(getattr(res, "ran", ())),
        "load_before": load0, "load_after": os.getloadavg()}
 if prof is not None:
@@ -159,8 +160,9 @@ def main(argv: list[str] | None = None) -> int:
                 last = args.out if args.out and key == "new" else Path(tmp) / f"{key}{i}"
                 res = run_child(tree, last, profile=False)
                 runs[key].append(res)
-                print(f"{key} run {i + 1}: {res['wall_s']:.1f} s wall, {res['cpu_s']:.1f} s CPU, "
-                      f"load {res['load_before'][0]:.2f} -> {res['load_after'][0]:.2f}", flush=True)
+                print(f"{key} run {i + 1}: {res['wall_s']:.1f} s wall, {res['cpu_s']:.1f} s CPU "
+                      f"({res['cpu_main_s']:.1f} s this process, {res['cpu_workers_s']:.1f} s the processes it "
+                      f"waited for), load {res['load_before'][0]:.2f} -> {res['load_after'][0]:.2f}", flush=True)
         if args.readme_frame:
             print(f"wrote {readme_frame(last)}")
         if not args.no_profile:
@@ -169,7 +171,8 @@ def main(argv: list[str] | None = None) -> int:
                 profile[key] = {"wall_s": res["wall_s"], "stage_s": res["stage_s"],
                                 "load_before": res["load_before"], "load_after": res["load_after"],
                                 **profile_parts(res["functions"])}
-    medians = {k: {q: statistics.median(r[q] for r in v) for q in ("wall_s", "cpu_s")} for k, v in runs.items()}
+    medians = {k: {q: statistics.median(r[q] for r in v) for q in ("wall_s", "cpu_s", "cpu_main_s", "cpu_workers_s")}
+               for k, v in runs.items()}
     new = sorted(runs["new"], key=lambda r: r["wall_s"])[(len(runs["new"]) - 1) // 2]  # the median run
 
     print(f"machine: {platform.machine()}, {os.cpu_count()} cpus, python {platform.python_version()}")
@@ -203,7 +206,8 @@ def main(argv: list[str] | None = None) -> int:
            "stage_s": new["stage_s"], "video_concurrent": new["video_concurrent"], "ran": new["ran"],
            "headline": head, "cpus": os.cpu_count(), "load_average_before": load0,
            "load_average_after": os.getloadavg(), "medians": medians,
-           "runs": {k: [{q: r[q] for q in ("wall_s", "cpu_s", "stage_s", "load_before", "load_after")} for r in v]
+           "runs": {k: [{q: r[q] for q in ("wall_s", "cpu_s", "cpu_main_s", "cpu_workers_s", "stage_s", "load_before",
+                                          "load_after")} for r in v]
                     for k, v in runs.items()},
            "profile": profile}
     args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -333,6 +333,9 @@ def _demo_tables(demo: Source) -> list[Table]:
                  "beside the validation, so its stages overlap), and the load.", ["quantity"] + labels)
     for name, pointer in (("wall time, median [s]", "/medians/{k}/wall_s"),
                           ("CPU time, median [s]", "/medians/{k}/cpu_s"),
+                          ("of which the demo's own process [s]", "/medians/{k}/cpu_main_s"),
+                          ("of which the processes it waited for (video worker, encoder) [s]",
+                           "/medians/{k}/cpu_workers_s"),
                           *((f"stage {st} [s]", f"/runs/{{k}}/0/stage_s/{st}") for st in ("rollout", "validate", "video")),
                           ("load average before (one minute)", "/runs/{k}/0/load_before/0"),
                           ("load average after (one minute)", "/runs/{k}/0/load_after/0")):
