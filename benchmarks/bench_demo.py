@@ -13,7 +13,7 @@ each apart), its stage times (rollout, validate, video; the video may run beside
 and the load average before and after.
 
 The profile (unless ``--no-profile``): one more run of each code under cProfile, everything in one
-process (the video after the validation), its time summed into named parts: compiling MuJoCo
+process (the video after the validation), its wall time summed into named parts: compiling MuJoCo
 models, the rollout, each filter, the scoring of the predictors, the HTML report, rendering and
 reading back the frames, drawing the decorations, encoding the video; with the frame count, so that
 a frame's cost can be read off. cProfile slows Python-heavy parts more than the rest: its numbers
@@ -201,7 +201,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if args.old_tree:  # the old checkout is a scratch folder: the command names it by its role
         argv = [a for a in argv if a.split("=")[0] != "--old-tree" and Path(a).resolve() != trees["old"]]
-        argv = ["--old-tree", "OLD_TREE", *argv]
+        argv = ["--old-tree", "DIR", *argv]
     doc = {"command": benchmark_command(__file__, argv), "wall_s": new["wall_s"], "cpu_s": new["cpu_s"],
            "stage_s": new["stage_s"], "video_concurrent": new["video_concurrent"], "ran": new["ran"],
            "headline": head, "cpus": os.cpu_count(), "load_average_before": load0,

@@ -344,8 +344,9 @@ def _demo_tables(demo: Source) -> list[Table]:
     prof = [k for k in labels if k in demo.data.get("profile", {})]
     if prof:
         where = Table("Where the demo's seconds go: one run of each code under cProfile, everything in one process "
-                      "(the video after the validation), cumulative seconds of each part; cProfile slows the Python "
-                      "parts (the filters, the decorations) more than the rest.", ["part"] + prof)
+                      "(the video after the validation), cumulative wall seconds of each part on the loaded machine; "
+                      "cProfile slows the Python parts (the filters, the decorations) more than the rest.",
+                      ["part"] + prof)
         for part in demo.data["profile"][prof[-1]]["parts_s"]:
             where.add(part, *(number(demo, f"/profile/{k}/parts_s/{part}") for k in prof))
         for name, key in (("frames", "frames"), ("rendering per frame [ms]", "render_ms_per_frame"),
