@@ -115,26 +115,65 @@ def _video_job(log_path: Path, path: Path, width: int, height: int, fps: float, 
     return stats.frames, time.perf_counter() - tic
 
 
-def _worker_init() -> None:
-    """The video worker answers to this process alone: Ctrl-C (which reaches the whole process group)
-    is left to this process, which then ends the worker; SIGTERM unwinds it (its temporary video
-    folder removed); and it writes into no signal wake-up pipe (an inherited one would tell this
-    process's interrupt watchdog that this process was signalled)."""
+def _video_main(argv: list[str]) -> int:
+    """The video worker's program (``python -c``; argv: rollout.csv, video.mp4, width, height, fps,
+    speed): prints one JSON line, ``{"frames", "seconds"}`` or ``{"unavailable": why}``; any other
+    error is a traceback on stderr and exit status 1. SIGTERM (the demo ending it) unwinds it, so
+    that its temporary video folder is removed."""
+    import json
     import signal
     import sys
 
-    signal.set_wakeup_fd(-1)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    from mjtrack.render import RenderUnavailableError
+
     signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
+    log_path, path, width, height, fps, speed = argv
+    try:
+        frames, seconds = _video_job(Path(log_path), Path(path), int(width), int(height), float(fps), float(speed),
+                                     True)
+    except RenderUnavailableError as exc:
+        print(json.dumps({"unavailable": str(exc)}))
+        return 0
+    print(json.dumps({"frames": frames, "seconds": seconds}))
+    return 0
 
 
-def _worker_pool():
-    """A one-process pool for the video, spawned (a fresh interpreter), never forked: a process that
-    has rendered before holds Mesa's software rasteriser, whose threads a fork leaves behind, and
-    a forked worker then waits for them for ever in its first ``mjr_readPixels``."""
-    import multiprocessing
+def _start_video_worker(log_path: Path, path: Path, width: int, height: int, fps: float, speed: float):
+    """The video worker: a fresh interpreter (never a fork: a process that has rendered before holds
+    Mesa's software rasteriser, whose threads a fork leaves behind, and a forked worker waits for them
+    for ever in its first ``mjr_readPixels``), in its own session, so that Ctrl-C reaches this process
+    alone, which then ends the worker; the watchdog of :mod:`mjtrack.interrupts` kills it too when it
+    has to end this process."""
+    import subprocess
+    import sys
 
-    return multiprocessing.get_context("spawn").Pool(1, initializer=_worker_init)
+    from mjtrack import interrupts
+
+    here = str(Path(__file__).resolve().parents[1])  # this mjtrack first on the worker's path
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [here, os.environ.get("PYTHONPATH")]))}
+    code = "import sys; from mjtrack.demo import _video_main; sys.exit(_video_main(sys.argv[1:]))"
+    proc = subprocess.Popen([sys.executable, "-c", code, str(log_path), str(path), str(width), str(height),
+                             repr(float(fps)), repr(float(speed))], stdout=subprocess.PIPE, text=True, env=env,
+                            start_new_session=True)
+    interrupts.add_emergency_cleanup(proc.kill)
+    return proc
+
+
+def _video_result(proc) -> tuple[int, float]:
+    """Wait for the worker: (frames, seconds); RenderUnavailableError or MjtrackError as it ended."""
+    import json
+
+    from mjtrack.errors import MjtrackError
+    from mjtrack.render import RenderUnavailableError
+
+    out, _ = proc.communicate()
+    lines = out.strip().splitlines()
+    if proc.returncode != 0 or not lines:
+        raise MjtrackError(f"the video worker failed (exit status {proc.returncode}; its error is printed above)")
+    doc = json.loads(lines[-1])
+    if "unavailable" in doc:
+        raise RenderUnavailableError(doc["unavailable"])
+    return int(doc["frames"]), float(doc["seconds"])
 
 
 def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, seed: int = 0, video: bool = True,
@@ -177,11 +216,10 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
 
     video_path, skipped, frames = out / "video.mp4", None, None
     video_args = (log_path, video_path, video_size[0], video_size[1], fps, speed)
-    pool = pending = None
+    pending = None
     video_tic = time.perf_counter()
     if video and workers > 1:
-        pool = _worker_pool()
-        pending = pool.apply_async(_video_job, video_args + (True,))  # quiet: the validation's bar has the terminal
+        pending = _start_video_worker(*video_args)  # quiet: the validation's bar has the terminal
     try:
         tic = time.perf_counter()
         ground = "" if terrain.is_flat else f" on terrain {terrain.spec}"
@@ -194,9 +232,7 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
         if video:
             try:
                 if pending is not None:
-                    frames, stage_s["video"] = pending.get()
-                    pool.close()  # the worker ends without a signal
-                    pool.join()
+                    frames, stage_s["video"] = _video_result(pending)
                     tx = current_transaction()
                     if tx is not None:  # the worker wrote into its own copy of the command's transaction
                         tx.record(video_path)
@@ -210,9 +246,9 @@ def run_demo(out_dir: str | os.PathLike, *, duration: float = DEMO_DURATION, see
         else:
             video_path = None
     finally:
-        if pool is not None:
-            pool.terminate()  # (on an error or an interrupt: stops the video; after close(): nothing to stop)
-            pool.join()
+        if pending is not None and pending.poll() is None:  # an error or an interrupt: stop the video
+            pending.terminate()
+            pending.wait()
     ran = [f"rollout: {duration:g} s of {len(commands[0])} seeded manoeuvres simulated in MuJoCo "
            f"({drive.n_samples} samples)",
            f"validate: {N_PREDICTORS} predictors (nominal, MPP, MICR, MVIR models; slip EKF, ICR EKF, VIR filter; "
