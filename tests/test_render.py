@@ -275,6 +275,26 @@ def test_frames_wider_than_the_model_buffer_leave_the_model_alone(model, backend
     assert model.vis.global_.offwidth == 640
 
 
+def test_frames_without_antialiasing_look_alike_and_leave_the_model_alone(model, backend, tmp_path):
+    t, poses = turn(duration=0.5, n=26)
+    samples = model.vis.quality.offsamples
+    assert samples > 0  # MuJoCo's default multisampling, which antialias=False turns off
+    frames = {}
+    for aa in (True, False):
+        out = tmp_path / f"aa{aa:d}.mp4"
+        render_video(model, qpos_from_poses(model, poses), t, out, width=320, height=240, fps=10, antialias=aa,
+                     progress=False)
+        frames[aa] = np.stack(imageio.mimread(out)).astype(int)
+    assert model.vis.quality.offsamples == samples
+    assert frames[True].shape == frames[False].shape
+    diff = np.abs(frames[True] - frames[False]).max(axis=-1)
+    assert diff.max() > 30  # the setting is applied: edges change
+    assert np.median(diff) <= 2  # [grey levels] the rest only by the encoder's rounding
+    assert (diff > 30).mean() < 0.1  # edges are a small share of the picture (4 % on the demo's 640 x 480 frames)
+    for f in (frames[False][0], frames[False][-1]):  # the same picture: the robot at the image centre
+        assert np.linalg.norm(centroid(colour_mask(f, BOX_RGBA)) - [160, 120]) < 0.1 * 320
+
+
 def test_failure_while_rendering_leaves_no_file(model, backend, tmp_path, monkeypatch):
     from mjtrack.render import offscreen
 

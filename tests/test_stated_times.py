@@ -15,7 +15,8 @@ import pytest
 from support.repo import RESULTS, ROOT
 
 WORDS = {"one": 1, "two": 2, "three": 3, "four": 4, "five": 5, "ten": 10}
-RANGE = re.compile(r"\b(one|two|three|four|five|ten) to (one|two|three|four|five|ten) minutes on a? ?2[- ]core")
+_COUNT = r"(one|two|three|four|five|ten|\d+)"
+RANGE = re.compile(rf"\b{_COUNT} to {_COUNT} (minutes|seconds) on a? ?2[- ]core")
 
 
 def demo_help() -> str:
@@ -27,11 +28,19 @@ def demo_help() -> str:
 
 
 def stated_minutes(text: str) -> tuple[float, float]:
+    """The stated range in minutes ('one to three minutes', '30 to 60 seconds' on 2 cores)."""
     found = RANGE.findall(" ".join(text.split()))
-    assert found, "no stated duration ('N to M minutes on 2 cores') found"
+    assert found, "no stated duration ('N to M minutes|seconds on 2 cores') found"
     assert len(set(found)) == 1, f"differing durations stated: {found}"
-    lo, hi = found[0]
-    return WORDS[lo], WORDS[hi]
+    lo, hi, unit = found[0]
+    per_minute = 60.0 if unit == "seconds" else 1.0
+    return tuple((WORDS[n] if n in WORDS else int(n)) / per_minute for n in (lo, hi))
+
+
+@pytest.mark.parametrize("text, minutes", [("one to three minutes on a 2-core machine", (1, 3)),
+                                           ("30 to 45 seconds on 2 cores", (0.5, 0.75))])
+def test_the_stated_range_is_read_in_minutes_or_seconds(text, minutes):
+    assert stated_minutes(text) == pytest.approx(minutes)
 
 
 @pytest.mark.parametrize("where", ["README.md", "demo --help"])

@@ -301,11 +301,7 @@ def _speed() -> Page:
     tables.append(_calibration_ab(marmotte, "Calibration of the whole shared Marmotte log, 6 rollers per track.")
                   if "runs" in marmotte.data else _calibration_whole(marmotte))
     demo = Source(RESULTS / "bench_demo.json")
-    dem = Table("`mjtrack demo` end to end on its defaults: wall time, per stage.", ["quantity", "value"])
-    add_rows(dem, demo, [("wall time [s]", "/wall_s"),
-                         *((f"stage {stage} [s]", f"/stage_s/{stage}") for stage in demo.data["stage_s"]),
-                         ("CPUs", "/cpus")])
-    add_load(dem, demo, "/load_average_before/0", "/load_average_after/0")
+    dem_tables = _demo_tables(demo)
     sweep = Source(RESULTS / "bench_sweep.json")
     sw = Table("`mjtrack sweep` of a small grid on a local cluster of one and of two worker processes (median of "
                "the repeats): the sweep's own time, the whole call, and whether both wrote the same sweep.csv.",
@@ -317,7 +313,49 @@ def _speed() -> Page:
     return Page(
         "speed", "Speed",
         "Timings depend on the machine and its load; each table gives the load averages of its run.",
-        sources + [demo, sweep], tables + [dem, sw])
+        sources + [demo, sweep], tables + dem_tables + [sw])
+
+
+def _demo_tables(demo: Source) -> list[Table]:
+    """`mjtrack demo` (benchmarks/bench_demo.py): wall and CPU time per stage, the code before the speed
+    work (old) and now (new) in one run, and the profile of each: where the seconds go."""
+    labels = [k for k in ("old", "new") if k in demo.data.get("runs", {})]
+    if not labels:  # a result stored before the old/new runs
+        dem = Table("`mjtrack demo` end to end on its defaults: wall time, per stage.", ["quantity", "value"])
+        add_rows(dem, demo, [("wall time [s]", "/wall_s"),
+                             *((f"stage {stage} [s]", f"/stage_s/{stage}") for stage in demo.data["stage_s"]),
+                             ("CPUs", "/cpus")])
+        add_load(dem, demo, "/load_average_before/0", "/load_average_after/0")
+        return [dem]
+    runs = Table("`mjtrack demo` end to end on its defaults, the code before the speed work (old) and now (new) "
+                 "alternating in one run: median wall and CPU time (the CPU time of every process, the video worker "
+                 "and the encoder included), the stages of the first run of each (the code now makes the video "
+                 "beside the validation, so its stages overlap), and the load.", ["quantity"] + labels)
+    for name, pointer in (("wall time, median [s]", "/medians/{k}/wall_s"),
+                          ("CPU time, median [s]", "/medians/{k}/cpu_s"),
+                          ("of which the demo's own process [s]", "/medians/{k}/cpu_main_s"),
+                          ("of which the processes it waited for (video worker, encoder) [s]",
+                           "/medians/{k}/cpu_workers_s"),
+                          *((f"stage {st} [s]", f"/runs/{{k}}/0/stage_s/{st}") for st in ("rollout", "validate", "video")),
+                          ("load average before (one minute)", "/runs/{k}/0/load_before/0"),
+                          ("load average after (one minute)", "/runs/{k}/0/load_after/0")):
+        runs.add(name, *(number(demo, pointer.format(k=k)) for k in labels))
+    tables = [runs]
+    prof = [k for k in labels if k in demo.data.get("profile", {})]
+    if prof:
+        where = Table("Where the demo's seconds go: one run of each code under cProfile, everything in one process "
+                      "(the video after the validation), cumulative wall seconds of each part on the loaded machine; "
+                      "cProfile slows the Python parts (the filters, the decorations) more than the rest.",
+                      ["part"] + prof)
+        for part in demo.data["profile"][prof[-1]]["parts_s"]:
+            where.add(part, *(number(demo, f"/profile/{k}/parts_s/{part}") for k in prof))
+        for name, key in (("frames", "frames"), ("rendering per frame [ms]", "render_ms_per_frame"),
+                          ("decorations per frame [ms]", "decorations_ms_per_frame"),
+                          ("encoding per frame [ms]", "encode_ms_per_frame"), ("profiled wall time [s]", "wall_s")):
+            where.add(name, *(number(demo, f"/profile/{k}/{key}") for k in prof))
+        where.add("load average before (one minute)", *(number(demo, f"/profile/{k}/load_before/0") for k in prof))
+        tables.append(where)
+    return tables
 
 
 #: calibrate's stages (Calibration.timings), in their order; an older run may lack some

@@ -43,6 +43,8 @@ def run(args: argparse.Namespace) -> int:
     res = run_demo(out, video=not args.no_video, quiet=args.quiet, terrain=terrain_from_args(args), robot=robot)
     head = res.headline
     if not args.quiet:
+        for line in res.ran:
+            print(f"ran {line}")
         for truth, table in head["pos_rmse_m"].items():
             row = ", ".join(f"{k} {v:.3g}" if v is not None else f"{k} failed" for k, v in table.items())
             print(f"{head['horizon_s']:g}-s position RMSE [m] on the {'MPP truth' if truth == 'mpp' else 'simulated log'}: {row}")

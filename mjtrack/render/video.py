@@ -217,6 +217,7 @@ def render_video(
     clock: bool = True,
     segment_starts=None,
     shadows: bool = False,
+    antialias: bool = True,
     progress: bool | Progress = True,
 ) -> VideoStats:
     """Render ``qpos_traj`` (N, nq) sampled at ``times`` (N,) [s] to the MP4 ``out_path``.
@@ -241,6 +242,9 @@ def render_video(
         segment_starts: sample indices where a new segment begins: the segments are shown one
             after the other, each with its own trail.
         shadows: render shadows (about 3-5x slower with Mesa's software rasteriser).
+        antialias: multisample the frames as the model asks (``vis.quality.offsamples``); ``False``
+            renders one sample per pixel, which with Mesa's software rasteriser halves the OpenGL
+            time of a 640 x 480 frame (benchmarks/bench_demo.py) and only roughens thin lines a little.
         progress: show a progress line on a terminal (or update the given :class:`Progress`).
 
     Returns:
@@ -259,10 +263,12 @@ def render_video(
         belt_list = decor.belt_geometry(model, body_id) if belts else []
     else:
         belt_list = list(belts)
-    if belt_list:  # the belts replace the rollers on screen (a copy: the caller's model is not changed)
+    if belt_list or (not antialias and model.vis.quality.offsamples):  # a copy: the caller's model is not changed
         model = copy.copy(model)
-        for g in decor.roller_geoms(model, body_id):
+        for g in decor.roller_geoms(model, body_id) if belt_list else ():  # the belts replace the rollers on screen
             model.geom_rgba[g, 3] = 0.0
+        if not antialias:
+            model.vis.quality.offsamples = 0
     check_frames([times[a:b] for a, b in zip(bounds[:-1], bounds[1:])], fps=fps, speed=speed)
     segments = []
     for a, b in zip(bounds[:-1], bounds[1:]):

@@ -41,10 +41,12 @@ def first_segment(drive: DriveLog) -> DriveLog:
 
 
 def render_log(drive: DriveLog, robot: Robot, out_path: str | os.PathLike, *, width: int = 640, height: int = 480,
-               fps: float = 30.0, speed: float = 1.0, wz_min: float = WZ_MIN, quiet: bool = False):
+               fps: float = 30.0, speed: float = 1.0, wz_min: float = WZ_MIN, quiet: bool = False,
+               antialias: bool = True):
     """Render ``drive`` (every segment, one after the other) to the MP4 ``out_path``; returns
     :class:`~mjtrack.render.VideoStats`. The belts move with the log's track speeds (measured
-    where the log has them, else the commands), integrated per segment.
+    where the log has them, else the commands), integrated per segment. ``antialias``: as
+    :func:`~mjtrack.render.render_video`'s.
 
     Raises :class:`~mjtrack.render.RenderUnavailableError` when no offscreen OpenGL works here.
     """
@@ -71,7 +73,7 @@ def render_log(drive: DriveLog, robot: Robot, out_path: str | os.PathLike, *, wi
         qpos = turn_wheels(model, qpos, travel, robot.wheel_radius)
     return render_video(model, qpos, case.t, out_path, width=width, height=height, fps=fps, speed=speed,
                         icr=icr_markers(case.pose, icr), icr_labels=icr_labels(robot.traction), track_travel=travel, belts=belts,
-                        segment_starts=starts, progress=not quiet)
+                        segment_starts=starts, antialias=antialias, progress=not quiet)
 
 
 def log_terrain(robot: Robot):
