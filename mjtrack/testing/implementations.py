@@ -11,7 +11,7 @@ Families (what a user acts on): the diagnosis's effect names grouped by the phys
 stand for (:data:`FAMILY`):
 
 * ``drive_response``: the drive reaches the commanded speed late (actuator_lag, command_delay);
-* ``drive_saturation``: the drive cannot reach it at all (speed_limit, yaw_rate_limit);
+* ``drive_saturation``: the drive cannot reach it at all (speed_limit, drive_turn_limit);
 * ``drive_gain``: it reaches another speed (track_speed_scale);
 * ``mass``: where the weight sits (cg_offset_x, cg_offset_y);
 * ``ground``: the contact (friction_scale, friction_asymmetry, icr_spread, ground_anisotropy,
@@ -62,7 +62,8 @@ from mjtrack.testing import bristle_physics, diagnose_physics
 
 FAMILY = {
     "drive_lag": "drive_response", "drive_delay": "drive_response",
-    "drive_speed_limit": "drive_saturation", "yaw_rate_limit": "drive_saturation",
+    "drive_speed_limit": "drive_saturation", "drive_turn_limit": "drive_saturation",
+    "drive_accel_limit": "drive_response", "drive_force_limit": "drive_response",
     "track_speed_scale": "drive_gain",
     "cg_x": "mass", "cg_y": "mass",
     "friction_scale": "ground", "mu_ratio": "ground", "icr_spread": "ground",

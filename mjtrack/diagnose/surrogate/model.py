@@ -8,7 +8,9 @@ with its parameters. Two kinds:
   exactly for a command held over each step, V_{k+1} = V_k + (1 - exp(-dt/tau))(V_cmd,k - V_k),
   started at the first command of each segment;  ``drive_delay`` d: V(t) = V_cmd(t - d), the
   held command sequence interpolated linearly (the mean over a step of a delayed held signal),
-  held at its first value before the segment start;  ``drive_speed_limit`` v: V = clip(V_cmd, -v, v).
+  held at its first value before the segment start;  ``drive_speed_limit`` v: V = clip(V_cmd, -v, v);
+  ``drive_turn_limit`` w: the half difference (V_R - V_L)/2 clipped to +-w, the mean kept (the
+  twist stage of :mod:`mjtrack.models.drivetrain`).
 * ground effects change the skid-steer response (:mod:`mjtrack.diagnose.surrogate.response`):
   ``cg_x``, ``cg_y``, ``mu_ratio`` move the quasi-static ICRs q0 (tabulated exact Coulomb
   solves); ``friction_scale`` scales the inertial response by 1/fs; ``slope`` (``slope_x``,
@@ -35,6 +37,7 @@ from mjtrack.diagnose.surrogate import response as sg
 from mjtrack.diagnose.vocabulary import Effect
 from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
+from mjtrack.models.drivetrain import twist
 
 
 def cg_limit(robot: Robot, axis: str) -> float:
@@ -154,10 +157,8 @@ class Surrogate:
                 v = p * v
             elif e.name == "drive_speed_limit":
                 v = np.clip(v, -p, p)
-            elif e.name == "yaw_rate_limit":
-                half = 0.5 * np.clip(v[:, 1] - v[:, 0], -p * self.robot.track_gauge, p * self.robot.track_gauge)
-                mean = 0.5 * (v[:, 0] + v[:, 1])
-                v = np.stack([mean - half, mean + half], -1)
+            elif e.name == "drive_turn_limit":
+                v = twist(v, turn_limit=p)
             elif e.name == "drive_delay":
                 last = e.name == dynamic[-1]
                 v = _delay(data, v, p, _initial(data, v), instant=instant_causal and last)
@@ -227,7 +228,7 @@ class Surrogate:
 # the controller's limits, the scale (linear: it commutes with the dead time and the lag), then the
 # dynamics, whose speed before a segment start is the measured one when the log has it (already
 # limited and scaled: nothing after it may transform it again)
-INPUT_ORDER = ("yaw_rate_limit", "drive_speed_limit", "track_speed_scale", "drive_delay", "drive_lag")
+INPUT_ORDER = ("drive_turn_limit", "drive_speed_limit", "track_speed_scale", "drive_delay", "drive_lag")
 
 
 _LOOP_MAX = 400  # segments up to this many samples use the exact recursion, longer ones lfilter
