@@ -117,6 +117,11 @@ CASES = (
          truth={"drive_lag": 0.25, "cg_x": -0.04}),
     Case("lag_light", ("drive_response",), {"A": {"actuator_lag": 0.2}, "B": {"lag": 0.2}}, "drive_lag",
          mass=8.0, truth={"drive_lag": 0.2}),
+    # a compound of one family: its verdict asks for the family; whether both were named, or tied,
+    # is :func:`truth_named`'s
+    Case("lag_delay", ("drive_response",), {"A": {"actuator_lag": 0.2, "command_delay": 0.15},
+                                            "B": {"lag": 0.2, "dead_time": 0.15}},
+         truth={"drive_lag": 0.2, "drive_delay": 0.15}),
 )
 BY_NAME = {c.name: c for c in CASES}
 
@@ -174,4 +179,14 @@ def score(diagnosis, case: Case) -> dict:
             "named": [f.effect.name for f in findings]}
 
 
-__all__ = ["CASES", "BY_NAME", "Case", "FAMILY", "GENERATORS", "make_case_log", "score"]
+def truth_named(diagnosis, case: Case) -> dict[str, str]:
+    """How the diagnosis named each true effect of the case: "chosen" (a cause or found on top),
+    "tied" (tied with a chosen effect), "finding" (a finding not chosen), or "missing"."""
+    chosen = {f.effect.name for f in diagnosis.chosen}
+    tied = {n for f in diagnosis.chosen for n in f.tied_with}
+    found = {f.effect.name for f in diagnosis.findings}
+    return {n: "chosen" if n in chosen else "tied" if n in tied else "finding" if n in found else "missing"
+            for n in case.truth}
+
+
+__all__ = ["CASES", "BY_NAME", "Case", "FAMILY", "GENERATORS", "make_case_log", "score", "truth_named"]

@@ -63,6 +63,7 @@ CHANGES = {
     "drive_lag": "first-order lag on the track speeds (exact for held commands)",
     "drive_delay": "dead time on the track speeds (the held commands interpolated)",
     "drive_speed_limit": "track speeds clipped at +-limit",
+    "drive_accel_limit": "each track speed's ramp towards its command limited to this rate",
     "drive_turn_limit": "the half difference of the track speeds (V_R - V_L)/2 clipped, the mean track speed kept",
     "cg_x": "the quasi-static ICRs (exact Coulomb solves, tabulated) and the centripetal load transfer",
     "cg_y": "the quasi-static ICRs (exact Coulomb solves, tabulated) and the load split of the transient",
@@ -76,8 +77,6 @@ UNTESTABLE = {
     "drive_force_limit": "the surrogate imposes the track speeds it is given; a drive that cannot deliver the "
                          "force the ground asks for needs the tracks' own force balance, which only the MuJoCo "
                          "robot has",
-    "drive_accel_limit": "the surrogate's input chain carries no controller state besides the lag and the dead "
-                         "time; the MuJoCo robot runs the robot's own ramp",
 }
 KINEMATIC_UNTESTABLE = {"friction_scale": "acts only through the inertial response, which the kinematic baseline "
                                           "does not model"}

@@ -70,6 +70,9 @@ SETTINGS: dict[str, FitSettings] = {
     "drive_turn_limit": FitSettings(lambda r: (np.inf,), lambda r: ((0.01,), (np.inf,)),
                                     lambda r, d: np.quantile(np.abs(d.cmd[:, 1] - d.cmd[:, 0]) / 2,
                                                              [0.5, 0.7, 0.85, 0.95]).reshape(-1, 1) + 1e-3),
+    # a ramp of 1/8 s to 4 s for the log's largest command
+    "drive_accel_limit": FitSettings(lambda r: (np.inf,), lambda r: ((0.01,), (np.inf,)),
+                                     lambda r, d: np.max(np.abs(d.cmd)) * np.array([[0.25], [1.0], [2.0], [8.0]])),
     "cg_x": FitSettings(lambda r: (r.cg_x,), lambda r: ((-cg_limit(r, "x"),), (cg_limit(r, "x"),)),
                         lambda r, d: np.array([[-0.1], [-0.03], [0.03], [0.1]]) * r.track_length),
     "cg_y": FitSettings(lambda r: (r.cg_y,), lambda r: ((-cg_limit(r, "y"),), (cg_limit(r, "y"),)),

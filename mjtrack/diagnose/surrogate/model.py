@@ -10,7 +10,9 @@ with its parameters. Two kinds:
   held command sequence interpolated linearly (the mean over a step of a delayed held signal),
   held at its first value before the segment start;  ``drive_speed_limit`` v: V = clip(V_cmd, -v, v);
   ``drive_turn_limit`` w: the half difference (V_R - V_L)/2 clipped to +-w, the mean kept (the
-  twist stage of :mod:`mjtrack.models.drivetrain`).
+  twist stage of :mod:`mjtrack.models.drivetrain`);  ``drive_accel_limit`` a: each track's speed
+  moves towards its command at most a per second (the ramp of :mod:`mjtrack.models.drivetrain`,
+  from the segment's initial speed), before the scale, with the limits.
 * ground effects change the skid-steer response (:mod:`mjtrack.diagnose.surrogate.response`):
   ``cg_x``, ``cg_y``, ``mu_ratio`` move the quasi-static ICRs q0 (tabulated exact Coulomb
   solves); ``friction_scale`` scales the inertial response by 1/fs; ``slope`` (``slope_x``,
@@ -37,7 +39,7 @@ from mjtrack.diagnose.surrogate import response as sg
 from mjtrack.diagnose.vocabulary import Effect
 from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
-from mjtrack.models.drivetrain import twist
+from mjtrack.models.drivetrain import ramp, twist
 
 
 def cg_limit(robot: Robot, axis: str) -> float:
@@ -149,7 +151,7 @@ class Surrogate:
         inp = sorted(((e, theta) for e, theta in parts if e is not None and e.kind == "input"),
                      key=lambda et: INPUT_ORDER.index(et[0].name))
         instant_causal = instant and self.causal_speeds
-        dynamic = [e.name for e, _ in inp if e.name in ("drive_delay", "drive_lag")]
+        dynamic = [e.name for e, _ in inp if e.name in ("drive_accel_limit", "drive_delay", "drive_lag")]
         init = _initial(data, v)
         for e, theta in inp:
             p = float(theta[0])
@@ -159,6 +161,9 @@ class Surrogate:
                 v = np.clip(v, -p, p)
             elif e.name == "drive_turn_limit":
                 v = twist(v, turn_limit=p)
+            elif e.name == "drive_accel_limit":
+                last = e.name == dynamic[-1]
+                v = _ramp(data, v, p, _initial(data, v), instant=instant and last, causal=self.causal_speeds)
             elif e.name == "drive_delay":
                 last = e.name == dynamic[-1]
                 v = _delay(data, v, p, _initial(data, v), instant=instant_causal and last)
@@ -228,7 +233,8 @@ class Surrogate:
 # the controller's limits, the scale (linear: it commutes with the dead time and the lag), then the
 # dynamics, whose speed before a segment start is the measured one when the log has it (already
 # limited and scaled: nothing after it may transform it again)
-INPUT_ORDER = ("drive_turn_limit", "drive_speed_limit", "track_speed_scale", "drive_delay", "drive_lag")
+INPUT_ORDER = ("drive_turn_limit", "drive_speed_limit", "drive_accel_limit", "track_speed_scale", "drive_delay",
+               "drive_lag")
 
 
 _LOOP_MAX = 400  # segments up to this many samples use the exact recursion, longer ones lfilter
@@ -300,6 +306,27 @@ def _delay(data: DriveData, v: np.ndarray, d: float, init: np.ndarray, *, instan
         grid = np.r_[ts[0] - h0, ts]
         for j in range(2):
             out[lo:hi, j] = np.interp(at, grid, np.r_[init[lo, j], v[lo:hi, j]], left=init[lo, j])
+    return out
+
+
+def _ramp(data: DriveData, v: np.ndarray, a: float, init: np.ndarray, *, instant: bool = False,
+          causal: bool = True) -> np.ndarray:
+    """The controller's ramp (:func:`mjtrack.models.drivetrain.ramp`, each segment at its median
+    step) from ``init`` at each segment start: by default the mean over each held step; ``instant``:
+    the set-point a sensor samples at t_k, the one before step k's command acts (``causal``), else
+    the one after it. The ramp's step means m_k = (r_k + r_k+1)/2 give r_k+1 = 2 m_k - r_k."""
+    out = np.empty_like(v)
+    for lo, hi in _segments(data):
+        h = float(np.median(np.diff(data.t[lo:hi]))) if hi - lo > 1 else 1.0
+        means = ramp(v[lo:hi], a, h, init[lo])
+        if not instant:
+            out[lo:hi] = means
+            continue
+        r = np.empty((hi - lo + 1, 2))
+        r[0] = init[lo]
+        for k in range(hi - lo):
+            r[k + 1] = 2.0 * means[k] - r[k]
+        out[lo:hi] = r[:-1] if causal else r[1:]
     return out
 
 
