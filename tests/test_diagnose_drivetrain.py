@@ -113,8 +113,10 @@ def test_force_limited_drives_are_named_or_tied_never_a_friction_alone():
         assert "cannot be told apart" in top["evidence"] and len(js["findings"]) == 2
     else:
         assert d.cause == "drive_force_limit"
-        # the estimate is biased high by the start states of a pose-only log (tracks started at
-        # their commands): measured 1753 N [1397, 2109] for 1000 N; the order of magnitude is the claim
+        # the estimate is biased high, its interval misses the truth: measured 1753 N [1397, 2109]
+        # for 1000 N, the same with logged track speeds (so not the start states); the error curve
+        # is flat above the limit that binds and the grid steps by a factor 2.95. The order of
+        # magnitude is the claim
         assert 700.0 < top["estimate"]["drive_force_limit"] < 3000.0
 
 
