@@ -141,6 +141,11 @@ def test_surrogate_ramp_moves_each_track_at_most_the_limit_per_second():
     assert np.allclose(at, want)
     means = s.inputs_of(data0, eff)[:, 0]  # what drives the model: the mean over each held step
     assert np.allclose(means[1:], 0.5 * (want[1:] + np.r_[want[2:], 0.8]))
+    # a ramp that arrives inside a step: 0.8 m/s at 32 m/s^2 takes 0.025 s of the 0.05 s step,
+    # mean 0.8 - 0.8 x 0.025 / (2 x 0.05) = 0.6; a = inf: no ramp at all
+    fast = s.inputs_of(data0, [(EFFECTS["drive_accel_limit"], [32.0])])[:, 0]
+    assert fast[1] == pytest.approx(0.6) and np.allclose(fast[2:], 0.8)
+    assert np.array_equal(s.inputs_of(data0, [(EFFECTS["drive_accel_limit"], [np.inf])]), data0.cmd)
 
 
 @pytest.mark.slow  # two surrogate diagnoses of 60 s logs: about 50 s on a loaded 2-core machine

@@ -311,22 +311,28 @@ def _delay(data: DriveData, v: np.ndarray, d: float, init: np.ndarray, *, instan
 
 def _ramp(data: DriveData, v: np.ndarray, a: float, init: np.ndarray, *, instant: bool = False,
           causal: bool = True) -> np.ndarray:
-    """The controller's ramp (:func:`mjtrack.models.drivetrain.ramp`, each segment at its median
-    step) from ``init`` at each segment start: by default the mean over each held step; ``instant``:
-    the set-point a sensor samples at t_k, the one before step k's command acts (``causal``), else
-    the one after it. The ramp's step means m_k = (r_k + r_k+1)/2 give r_k+1 = 2 m_k - r_k."""
+    """The controller's ramp (the set-points r_k of :func:`mjtrack.models.drivetrain.ramp`, each
+    segment at its median step h) from ``init`` at each segment start. By default the exact mean over
+    each held step: u - (u - r_k)|u - r_k| / (2 a h) when the ramp reaches the command u within the
+    step, else (r_k + r_k+1)/2 (a log's step is long: the ramp's own mean assumes it never arrives
+    inside one); a = inf is no ramp. ``instant``: the set-point a sensor samples at t_k, the one
+    before step k's command acts (``causal``), else the one after it."""
+    if not np.isfinite(a):
+        return v
     out = np.empty_like(v)
     for lo, hi in _segments(data):
         h = float(np.median(np.diff(data.t[lo:hi]))) if hi - lo > 1 else 1.0
-        means = ramp(v[lo:hi], a, h, init[lo])
-        if not instant:
-            out[lo:hi] = means
-            continue
-        r = np.empty((hi - lo + 1, 2))
+        u = v[lo:hi]
+        means = ramp(u, a, h, init[lo])
+        r = np.empty((hi - lo + 1, 2))  # the step means (r_k + r_k+1)/2 give r_k+1 = 2 m_k - r_k
         r[0] = init[lo]
         for k in range(hi - lo):
             r[k + 1] = 2.0 * means[k] - r[k]
-        out[lo:hi] = r[:-1] if causal else r[1:]
+        if instant:
+            out[lo:hi] = r[:-1] if causal else r[1:]
+            continue
+        gap = u - r[:-1]
+        out[lo:hi] = np.where(np.abs(gap) <= a * h, u - gap * np.abs(gap) / (2.0 * a * h), means)
     return out
 
 
