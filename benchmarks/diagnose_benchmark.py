@@ -139,7 +139,7 @@ def run_case(c: dict, seed_offset: int = 0) -> dict:
     t2 = time.perf_counter()
     hidden = effects_of(c["truth"])  # the generator's names; the diagnosis speaks the vocabulary's
     truth = {VOCABULARY_NAME.get(e, e) for e in hidden}
-    truth_params = vocabulary_params(c["truth"])
+    truth_params = vocabulary_params(c["truth"], track_gauge=robot.track_gauge)
     floor = None
     if hidden & set(INPUT):
         k, n_blocks = active_blocks(log, v_true, v_nominal, d.horizon_s)

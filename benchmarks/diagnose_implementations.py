@@ -11,6 +11,10 @@ time. Prints one line per log and the counts per baseline, the load before and a
 
     python benchmarks/diagnose_implementations.py                        # both baselines, every case
     python benchmarks/diagnose_implementations.py --baselines surrogate --cases lag_speed,dead_time
+    python benchmarks/diagnose_implementations.py --compound    # lag + dead time, generator B, auto only
+
+Each row also says how each true effect was named (``truth_named``: chosen, tied, a finding not
+chosen, missing): for the lag + dead time compound, named as both or as a tie.
 
 Writes benchmarks/results/diagnose_implementations.json (rows of another selection are kept; a
 row of the same case, generator and baseline is replaced).
@@ -25,7 +29,7 @@ import time
 from pathlib import Path
 
 from mjtrack.diagnose import diagnose
-from mjtrack.testing.implementations import BY_NAME, CASES, GENERATORS, make_case_log, score
+from mjtrack.testing.implementations import BY_NAME, CASES, GENERATORS, make_case_log, score, truth_named
 
 RESULT = Path(__file__).resolve().parent / "results" / "diagnose_implementations.json"
 VERDICTS = ("right", "tie", "wrong", "spurious", "missed")
@@ -47,7 +51,7 @@ def run(case_name: str, generator: str, baseline: str, *, seed: int, log=None) -
     s = score(d, case)
     return {"case": case.name, "generator": generator, "baseline": baseline, "chosen_baseline": d.baseline.name,
             "seed": seed, "families": list(case.families), "params": case.params[generator], "truth": case.truth,
-            **s, "cause": d.cause, "findings": [finding_json(f) for f in d.findings],
+            **s, "truth_named": truth_named(d, case), "cause": d.cause, "findings": [finding_json(f) for f in d.findings],
             "chosen": [f.effect.name for f in d.chosen], "seconds": round(seconds, 1)}
 
 
@@ -59,7 +63,8 @@ def line(r: dict) -> str:
                                  ("ties:" + "+".join(r["ties"])) if r["ties"] else "",
                                  "confused" if r["confused"] else "") if x)
     return (f"{r['case']:<15}{r['generator']:<3}{r['baseline']:<10}{'/'.join(r['families']) or 'none':<34}"
-            f"{r['verdict']:<9}{est}  {flags}  {r['seconds']:.0f}s")
+            f"{r['verdict']:<9}{est}  {flags}  "
+            + " ".join(f"{k}:{v}" for k, v in r.get("truth_named", {}).items()) + f"  {r['seconds']:.0f}s")
 
 
 def counts(rows: list[dict]) -> dict:
@@ -74,7 +79,11 @@ def main(argv=None) -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--out", default=str(RESULT))
     ap.add_argument("--label", default="", help="a label stored with the rows (e.g. the code's state)")
+    ap.add_argument("--compound", action="store_true",
+                    help="only the lag + dead time compound on generator B with the default baseline (auto)")
     args = ap.parse_args(argv)
+    if args.compound:
+        args.cases, args.generators, args.baselines = "lag_delay", "B", "auto"
     load0 = os.getloadavg()
     rows = []
     for name in args.cases.split(","):

@@ -26,14 +26,16 @@ from mjtrack.testing.diagnose_logs import HIDDEN, make_log
 from mjtrack.testing.effect_names import generator_name, vocabulary_params
 
 DURATION = 120.0  # [s] at 20 Hz; long enough for 5 folds of 2 s windows, short enough for the default run
-INPUT = ("track_speed_scale", "drive_lag", "drive_delay", "drive_speed_limit", "yaw_rate_limit")
+INPUT = ("track_speed_scale", "drive_lag", "drive_delay", "drive_speed_limit", "drive_turn_limit")
 GROUND = ("cg_x", "cg_y", "friction_scale", "mu_ratio", "slope")
 FAST = {("drive_lag", True)}  # cg_x from the pose alone: test_cli_writes_contract_json_and_report
 
 
-def truth(effect: str) -> dict:
-    """The generator's hidden parameters of ``effect`` in the vocabulary's names."""
-    return vocabulary_params(HIDDEN[generator_name(effect)])
+def truth(effect: str, robot=None) -> dict:
+    """The generator's hidden parameters of ``effect`` in the vocabulary's names (``robot``: the
+    generator's, for a limit whose units change with its name)."""
+    return vocabulary_params(HIDDEN[generator_name(effect)],
+                             track_gauge=None if robot is None else robot.track_gauge)
 
 
 def make(effect, **kw):
@@ -53,7 +55,7 @@ def _check_named(effect: str, speeds: bool, seed: int = 7, duration: float = DUR
     top = d.findings[0]
     assert d.cause == effect or effect in top.tied_with, f"cause {d.cause}, hidden {effect}"
     r = found[effect]
-    for name, value in truth(effect).items():
+    for name, value in truth(effect, robot).items():
         est = dict(zip(r.effect.params, r.estimate))[name]
         if effect == "slope":  # a component: within 25 % of the slope's size
             assert abs(est - value) < 0.25 * np.hypot(*truth("slope").values()), name

@@ -60,3 +60,21 @@ def test_an_older_diagnosis_json_is_read_in_todays_names():
     assert old["cause"] == "friction_asymmetry"  # a copy
     current = {"cause": "mu_ratio", "findings": [{"effect": "mu_ratio", "estimate": {"mu_ratio": 0.6}}]}
     assert upgrade_diagnosis(current) is current
+
+
+def test_the_yaw_rate_limit_is_read_as_the_robot_files_turn_limit_in_its_units():
+    # yaw_rate_limit limited (V_R - V_L) / T [rad/s]; drive_turn_limit limits (V_R - V_L) / 2 [m/s]
+    with pytest.warns(DeprecationWarning, match="yaw_rate_limit is now drive_turn_limit"):
+        assert canonical_effects(["yaw_rate_limit"], EFFECTS) == ["drive_turn_limit"]
+    old = {"cause": "yaw_rate_limit",
+           "findings": [{"effect": "yaw_rate_limit", "estimate": {"yaw_rate_limit": 1.5},
+                         "interval": {"yaw_rate_limit": [1.2, None]}}]}
+    with pytest.raises(InputError, match="track_gauge"):
+        upgrade_diagnosis(old)
+    robot = make_log("cg_offset_x", seed=2, duration=10.0)[1]
+    with pytest.warns(DeprecationWarning, match="older effect names"):
+        new = upgrade_diagnosis(old, robot=robot)
+    half = robot.track_gauge / 2
+    assert new["cause"] == "drive_turn_limit"
+    assert new["findings"][0]["estimate"] == pytest.approx({"drive_turn_limit": 1.5 * half})
+    assert new["findings"][0]["interval"]["drive_turn_limit"] == [pytest.approx(1.2 * half), None]

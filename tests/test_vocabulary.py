@@ -55,7 +55,6 @@ QUANTITY = {
     "drive_force_limit": "largest traction force of one drive",
     "drive_speed_limit": "speed at which a side's speed controller saturates",
     "track_speed_scale": "actual over commanded track speed",
-    "yaw_rate_limit": "largest commanded yaw rate",
     # the per-side drivetrain keys and the acceleration limit (robot file, from 0.3)
     "drive_speed_limit_left": "speed at which the left side's speed controller saturates",
     "drive_speed_limit_right": "speed at which the right side's speed controller saturates",

@@ -228,7 +228,7 @@ def _implementations() -> Page:
         "diagnosis-implementations", "Diagnosis across implementations of an effect",
         "Each effect family in physically different implementations (`mjtrack.testing.implementations`: a lag on "
         "the track speed and on the drive force, a dead time, rate and force limits, Coulomb and anisotropic ground, "
-        "a centre-of-mass offset, a lag beside one, a lag on a light robot, a clean log), each from two generators "
+        "a centre-of-mass offset, a lag beside one, a lag on a light robot, a lag with a dead time, a clean log), each from two generators "
         "that share no code with the diagnosis (A: `mjtrack.testing.diagnose_physics`; B: "
         "`mjtrack.testing.bristle_physics`, bristle friction and driven belts with inertia). Pose-only logs with "
         "pose noise, diagnosed at default options with the named baseline (auto: the MuJoCo robot, screened by the "

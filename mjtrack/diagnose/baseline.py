@@ -37,6 +37,12 @@ from mjtrack.diagnose.vocabulary import EFFECTS, Effect
 from mjtrack.io.robot import Robot
 
 
+#: limits whose "no effect" is no limit at all (nominal +inf or far above what binds): what they change
+#: in a motion goes as 1/limit (a ramp's delay dv / a, the time a force limit adds to a change of
+#: momentum), so their size is measured in 1/limit
+RECIPROCAL = ("drive_accel_limit", "drive_force_limit")
+
+
 @dataclass(frozen=True)
 class ModelForm:
     """A baseline's own error on an effect's size (module docstring).
@@ -55,7 +61,11 @@ class ModelForm:
         """Standard error (P,) of the baseline's own approximation at ``theta`` (P,) for an effect
         whose no-effect values are ``nominal`` (P,): the relative and absolute terms in quadrature."""
         theta = np.asarray(theta, float)
-        size = np.abs(theta - np.asarray(nominal, float))
+        nominal = np.asarray(nominal, float)
+        if effect in RECIPROCAL:  # the size in 1/theta, back in theta's units: theta |1 - theta / nominal|
+            size = np.abs(theta * (1.0 - theta / nominal))
+        else:
+            size = np.abs(theta - nominal)
         if effect == "slope":  # a vector: its size and its direction each off by rel, on both components
             size = np.full(size.shape, float(np.hypot(*size)))
         rel = self.rel * np.where(np.isfinite(size), size, 0.0)

@@ -38,8 +38,9 @@ from mjtrack.diagnose.vocabulary import Effect
 from mjtrack.diagnose.residuals import DriveData
 from mjtrack.errors import InputError
 from mjtrack.io.logs import DriveLog
-from mjtrack.io.robot import Robot
+from mjtrack.io.robot import G, Robot
 from mjtrack.sim.config import SimConfig, sim_config
+from mjtrack.sim.drivetrain import drive_of
 from mjtrack.sim.rollout import collected_mujoco_warnings
 from mjtrack.sim.windows import WindowSim, simulate_windows
 from mjtrack.windows import WARMUP_S, drive_params, make_windows, without_contradicting
@@ -62,6 +63,17 @@ def _vmax(lg: DriveLog) -> float:
     return float(max(np.abs(lg.v_left_cmd).max(), np.abs(lg.v_right_cmd).max()))
 
 
+def _turn_max(r: Robot, lg: DriveLog) -> float:
+    """The largest half difference of the log's commands (no turn limit binds), or the robot's own limit."""
+    v = float(np.abs(lg.v_right_cmd - lg.v_left_cmd).max()) / 2
+    return v if r.drive_turn_limit is None else min(v, r.drive_turn_limit)
+
+
+def _force_limit(r: Robot) -> float:
+    """The robot's drive force limit per side [N] (its key, else the simulator's torque limit / R_s)."""
+    return drive_of(r, sim_config(None, robot=r)).force_limit
+
+
 def _own(r: Robot, key: str, default: float) -> float:
     """The robot's own drivetrain value (``drive_lag``, ``drive_delay``, ``track_speed_scale``)."""
     v = drive_params(r)[key]
@@ -78,6 +90,11 @@ CHANGES = {
     "drive_lag": "first-order filter on the drives' set-points (actuator dynamics; time constant)",
     "drive_delay": "dead time on the drives' set-points (total)",
     "drive_speed_limit": "commands clipped at +-limit",
+    "drive_turn_limit": "the robot's own twist stage: the half difference of the set-points clipped at +-limit "
+                        "(robot key drive_turn_limit)",
+    "drive_accel_limit": "the robot's own ramp on each side's set-point (robot key drive_accel_limit)",
+    "drive_force_limit": "each side's drive force clipped at +-limit (the actuators' force range, robot key "
+                         "drive_force_limit)",
     "slope": "gravity of an inclined plane whose in-plane part is g (slope_x, slope_y) (world frame)",
     "ground_anisotropy": "anisotropic ground: lateral friction = ratio x longitudinal (capsule rollers)",
     "road_wheels": "95 % of the load on 4 road wheels spread over span x the contact length",
@@ -85,8 +102,10 @@ CHANGES = {
     "wheelbase": "a wheeled robot's wheelbase: the robot rebuilt",
     "rolling_resistance": "a force holding each side back by this share of its weight (model actuators)",
 }
-UNTESTABLE = {"icr_spread": "not a physical parameter of the MuJoCo robot",
-              "yaw_rate_limit": "the MuJoCo drives have no yaw-rate limit"}
+UNTESTABLE = {"icr_spread": "not a physical parameter of the MuJoCo robot"}
+# effects that are the robot's own speed controller (:func:`mjtrack.models.drivetrain.twist`, ``ramp``):
+# simulated by a robot with the key set (:meth:`MujocoBaseline._sim`; a compile, no rebuild of the windows)
+CONTROLLER = ("drive_turn_limit", "drive_accel_limit")
 
 # The "no effect" value of each one-parameter effect for a robot and log: around the robot's own
 # value, so that a calibrated robot is extended, not reset (lag and dead time add to its own).
@@ -99,6 +118,9 @@ NOMINAL: dict[str, Callable[[Robot, DriveLog], float]] = {
     "drive_lag": lambda r, lg: _own(r, "drive_lag", 0.0),
     "drive_delay": lambda r, lg: _own(r, "drive_delay", 0.0),
     "drive_speed_limit": lambda r, lg: _vmax(lg),
+    "drive_turn_limit": lambda r, lg: _turn_max(r, lg),
+    "drive_accel_limit": lambda r, lg: math.inf if r.drive_accel_limit is None else r.drive_accel_limit,
+    "drive_force_limit": lambda r, lg: _force_limit(r),
     "ground_anisotropy": lambda r, lg: 1.0,
     "road_wheels": lambda r, lg: 1.0,
     "track_length": lambda r, lg: r.contact_length,
@@ -115,6 +137,16 @@ GRIDS: dict[str, Callable[[Robot, DriveLog], np.ndarray]] = {
     "drive_lag": lambda r, lg: _own(r, "drive_lag", 0.0) + np.array([0.0, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6]),
     "drive_delay": lambda r, lg: _own(r, "drive_delay", 0.0) + np.array([0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4]),
     "drive_speed_limit": lambda r, lg: _vmax(lg) * np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
+    "drive_turn_limit": lambda r, lg: _turn_max(r, lg) * np.array([0.2, 0.3, 0.4, 0.5, 0.65, 0.8, 1.0]),
+    # a ramp delays a command change dv by about dv / a: from 16 x the fastest command (a 1/16 s delay,
+    # below the window's resolution) down to a third of it, geometric (or below the robot's own)
+    "drive_accel_limit": lambda r, lg: min(16 * _vmax(lg), r.drive_accel_limit or math.inf)
+                                       * np.geomspace(1 / 48, 1, 7),
+    # from the robot's own limit down to a fifth of what a side's friction can take (mu m g / 2):
+    # above that cap the limit acts through the drivetrain's inertia (a ramp of F / reflected mass),
+    # below it also in every skid turn; geometric, the span is decades
+    "drive_force_limit": lambda r, lg: np.geomspace(min(0.2 * r.mu * r.mass * G / 2, _force_limit(r)),
+                                                    _force_limit(r), 7),
     "ground_anisotropy": lambda r, lg: np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
     "road_wheels": lambda r, lg: np.array([0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0]),
     "track_length": lambda r, lg: r.contact_length * np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4]),
@@ -122,6 +154,7 @@ GRIDS: dict[str, Callable[[Robot, DriveLog], np.ndarray]] = {
     "rolling_resistance": lambda r, lg: r.rolling_resistance + np.array([0.0, 0.02, 0.05, 0.08, 0.12, 0.18, 0.25]),
 }
 _SIM_OF = {"ground_anisotropy": "aniso", "road_wheels": "wheels"}
+GEOMETRIC = ("drive_accel_limit", "drive_force_limit")  # grids over decades, fitted in log values
 
 
 def can_build(robot: Robot) -> tuple[bool, str]:
@@ -156,8 +189,11 @@ def _clip_log(lg: DriveLog, limit: float) -> DriveLog:
 
 def _spec(robot: Robot, parts) -> tuple[str, dict, float | None]:
     """What the effects ``parts`` ((Effect, theta) pairs) do to a simulation: (simulator kind,
-    window parameters, command clip limit or None)."""
+    window parameters, command clip limit or None). The kind is the ground's ("base", "aniso",
+    "wheels"), with the robot-file keys of the controller effects as a tuple ``(ground, ((key,
+    value), ...))`` when there are any (:data:`CONTROLLER`)."""
     kind, variant, clip = "base", {}, None
+    controller: dict[str, float] = {}
     scale, ratio = None, None
     for eff, theta in parts:
         name, v = eff.name, float(theta[0])
@@ -168,6 +204,8 @@ def _spec(robot: Robot, parts) -> tuple[str, dict, float | None]:
             variant["lateral_ratio" if name == "ground_anisotropy" else "span"] = v
         elif name == "drive_speed_limit":
             clip = v if clip is None else min(clip, v)
+        elif name in CONTROLLER:
+            controller[name] = v
         elif name == "slope":
             variant["slope_x"], variant["slope_y"] = float(theta[0]), float(theta[1])
         elif name == "friction_scale":
@@ -178,12 +216,14 @@ def _spec(robot: Robot, parts) -> tuple[str, dict, float | None]:
             variant[name] = v
         else:
             variant[{"cg_x": "cg_x", "cg_y": "cg_y", "track_speed_scale": "track_speed_scale",
-                     "drive_lag": "drive_lag", "drive_delay": "drive_delay",
+                     "drive_lag": "drive_lag", "drive_delay": "drive_delay", "drive_force_limit": "drive_force_limit",
                      "rolling_resistance": "rolling_resistance"}[name]] = v
     if scale is not None or ratio is not None:
         s = 1.0 if scale is None else scale
         left = robot.friction_left if ratio is None else robot.friction_right * ratio
         variant["mu_left"], variant["mu_right"] = left * s, robot.friction_right * s
+    if controller:
+        return (kind, tuple(sorted(controller.items()))), variant, clip
     return kind, variant, clip
 
 
@@ -310,15 +350,21 @@ class MujocoBaseline(Baseline):
     def interval_method(self) -> str:
         return f"a blocked bootstrap over windows ({N_BOOT} resamples of the MuJoCo fit)"
 
-    def _sim(self, kind: str) -> WindowSim:
+    def _sim(self, kind) -> WindowSim:
         # every simulator carries the motion resistance's actuators (as calibration's), so that the
-        # rolling_resistance effect is a window parameter; at the robot's own 0 they apply no force
+        # rolling_resistance effect is a window parameter; at the robot's own 0 they apply no force.
+        # A controller effect is the robot with its key set (kind (ground, keys), :func:`_spec`): the
+        # windows' commands pass through the robot's own controller stages
+        # (mjtrack.sim.drivetrain.controller_stages), as a calibrated robot's would
         if kind not in self._sims:
-            r = self.robot
-            if kind == "aniso":
-                ground = r.ground if r.ground.model == "anisotropic" else {"model": "anisotropic", "lateral_ratio": 1.0}
-                self._sims[kind] = WindowSim(r.replace(ground=ground), self.config, resisted=True)
-            elif kind == "wheels":
+            ground, keys = kind if isinstance(kind, tuple) else (kind, ())
+            r = self.robot.replace(**dict(keys)) if keys else self.robot
+            if len(self._sims) > 24:  # one per controller value of a fit: the oldest of those dropped
+                self._sims.pop(next(k for k in self._sims if isinstance(k, tuple)))
+            if ground == "aniso":
+                g = r.ground if r.ground.model == "anisotropic" else {"model": "anisotropic", "lateral_ratio": 1.0}
+                self._sims[kind] = WindowSim(r.replace(ground=g), self.config, resisted=True)
+            elif ground == "wheels":
                 self._sims[kind] = WindowSim(r.replace(ground={"model": "road_wheels", "wheels": 4,
                                                                "concentration": 0.95, "span": 1.0}), self.config,
                                              resisted=True)
@@ -423,9 +469,12 @@ class MujocoBaseline(Baseline):
                 return _slope_a(E0, J, idx)
         else:
             grid, sq = self._curves(problem, effect)
-
-            def solve(idx):
-                return np.array([_vertex(grid, np.mean(sq[:, idx], axis=1))])
+            if effect.name in GEOMETRIC:  # a grid over decades: the parabola through log values
+                def solve(idx):
+                    return np.array([math.exp(_vertex(np.log(grid), np.mean(sq[:, idx], axis=1)))])
+            else:
+                def solve(idx):
+                    return np.array([_vertex(grid, np.mean(sq[:, idx], axis=1))])
         est = solve(np.flatnonzero(train))
         if not covariance:
             return est

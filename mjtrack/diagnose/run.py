@@ -298,8 +298,8 @@ def _not_identifiable(model: Baseline, names: list[str], problem: Problem) -> di
         elif n == "friction_scale" and lat is not None and lat / (model.robot.mu * G) < MIN_LATERAL:
             skipped[n] = (f"lateral acceleration at most {lat / (model.robot.mu * G):.3f} mu g: the friction level does "
                           "not change the motion at these speeds, not identifiable")
-        elif n == "yaw_rate_limit" and turning < MIN_TURNING:
-            skipped[n] = "the log has no turning: a yaw-rate limit cannot show"
+        elif n == "drive_turn_limit" and turning < MIN_TURNING:
+            skipped[n] = "the log has no turning: a turn limit cannot show"
     return skipped
 
 

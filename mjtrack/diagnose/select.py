@@ -34,7 +34,7 @@ from mjtrack.diagnose import stats as st
 from mjtrack.diagnose.baseline import Baseline
 from mjtrack.diagnose.problem import Problem
 from mjtrack.diagnose.stats import interval, paired_t, pos_rmse, too_few_blocks
-from mjtrack.diagnose.ties import physical_tie
+from mjtrack.diagnose.ties import equivalence_note, physical_tie
 from mjtrack.diagnose.vocabulary import Effect
 from mjtrack.progress import Progress
 
@@ -215,7 +215,7 @@ def _below_floor_note(eff, full, evidence: str, below: tuple[int, int, int], rem
 def _contradiction(bl: Baseline, problem: Problem, eff: Effect, theta) -> str | None:
     """A limit the measured speeds exceed: most samples commanded beyond it measure beyond it
     by more than 5 % (a saturation cannot be exceeded), or None."""
-    if eff.name not in ("drive_speed_limit", "yaw_rate_limit") or not np.isfinite(theta[0]):
+    if eff.name not in ("drive_speed_limit", "drive_turn_limit") or not np.isfinite(theta[0]):
         return None
     ok = problem.speed_ok
     cmd, meas = problem.data.cmd[ok], problem.data.meas[ok]
@@ -224,10 +224,9 @@ def _contradiction(bl: Baseline, problem: Problem, eff: Effect, theta) -> str | 
         beyond = over & (np.abs(meas) > 1.05 * theta[0])
         unit = "m/s"
     else:
-        T = bl.robot.track_gauge
-        over = np.abs(cmd[:, 1] - cmd[:, 0]) / T > theta[0]
-        beyond = over & (np.abs(meas[:, 1] - meas[:, 0]) / T > 1.05 * theta[0])
-        unit = "rad/s"
+        over = np.abs(cmd[:, 1] - cmd[:, 0]) / 2 > theta[0]
+        beyond = over & (np.abs(meas[:, 1] - meas[:, 0]) / 2 > 1.05 * theta[0])
+        unit = "m/s (half difference)"
     if over.sum() >= 10 and beyond.sum() > 0.5 * over.sum():
         return (f"{100 * beyond.sum() / over.sum():.0f} % of the samples commanded beyond {theta[0]:.3g} {unit} "
                 f"measure more than 5 % beyond it")
@@ -268,6 +267,10 @@ def _rank(found: list[CandidateResult], robot, problem, base_err, min_gain: floa
             top.tie_notes.append(f"ties with {r.effect.name} on the pose error, but the measured track speeds "
                                  f"favour {top.effect.name} ({top.speed_after:.3g} vs {r.speed_after:.3g} m/s)")
         if why is not None:
+            note = equivalence_note(robot, top, r) if not r.tie_notes else None
+            if note is not None:  # tied by the data, and the physics says why
+                top.tie_notes.append(note)
+                r.tie_notes.append(note)
             r.tied_with.append(top.effect.name)
             top.tied_with.append(r.effect.name)
     tied = [r for r in found if r is top or top.effect.name in r.tied_with]

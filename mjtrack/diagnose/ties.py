@@ -5,12 +5,25 @@ Under Coulomb friction a lateral centre of mass (``cg_y``) and a friction asymme
 (:data:`TRACTION_PAIR`): a diagnosis that finds both names one, lists the other tied with it and
 gives each estimate in the other's terms (:func:`physical_tie`), with what would separate them.
 
+A drive force limit (``drive_force_limit`` F per side) and a lower friction (``friction_scale``
+s) both cap the traction a side can exert, F against s mu N with N the side's load
+(:data:`FORCE_PAIR`): in a skid turn, where every side's traction is at its cap, the two act
+alike at s = 2 F / (mu m g). They differ where the ground asks for less than the friction can
+give: a straight acceleration above 2 F / m binds the force limit only, and a force-limited
+track falls behind its command where a slipping one keeps its speed. When the held-out gains of
+the two are equal within noise, the tie says so with each estimate in the other's terms
+(:func:`equivalence_note`); when they are not, the log has told them apart and the better one is
+named.
+
 Derivation: docs/theory/diagnosis.md, "Selection rules".
 """
 
 from __future__ import annotations
 
+from mjtrack.io.robot import G
+
 TRACTION_PAIR = ("cg_y", "mu_ratio")
+FORCE_PAIR = ("drive_force_limit", "friction_scale")
 
 
 def traction_ratio(robot, name: str, value: float) -> float:
@@ -51,4 +64,32 @@ def physical_tie(robot, a, b) -> str | None:
             f"(left share {0.5 + float(cy.estimate[0]) / robot.track_gauge:.3f} here), a friction asymmetry does not")
 
 
-__all__ = ["TRACTION_PAIR", "equivalent", "physical_tie", "traction_ratio"]
+def force_friction_scale(robot, force: float) -> float:
+    """The friction scale whose cap on one side's traction, s mu m g / 2 (the load shared equally),
+    equals a drive force limit ``force`` [N per side]; :func:`friction_force` is its inverse."""
+    return 2.0 * force / (robot.mu * robot.mass * G)
+
+
+def friction_force(robot, scale: float) -> float:
+    """The drive force limit [N per side] that caps one side's traction as ``scale`` x the friction does."""
+    return scale * robot.mu * robot.mass * G / 2.0
+
+
+def equivalence_note(robot, a, b) -> str | None:
+    """Why two findings whose held-out gains are equal within noise are two readings of one physics,
+    with each estimate in the other's terms and what would separate them, or None (module docstring)."""
+    if {a.effect.name, b.effect.name} != set(FORCE_PAIR):
+        return None
+    fl, fs = (a, b) if a.effect.name == "drive_force_limit" else (b, a)
+    force, scale = float(fl.estimate[0]), float(fs.estimate[0])
+    return (f"drive_force_limit and friction_scale both cap the traction of each side and cannot be told apart on "
+            f"this log: drive_force_limit = {force:.4g} N caps a side as friction_scale = "
+            f"{force_friction_scale(robot, force):.3g} would; friction_scale = {scale:.3g} caps it as "
+            f"drive_force_limit = {friction_force(robot, scale):.4g} N would. Straight accelerations above "
+            f"{2 * force / robot.mass:.3g} m/s^2 (2 F / m) would separate them (they bind the force limit, not "
+            f"the friction), and so would measured track speeds (a force-limited track falls behind its command, "
+            f"a slipping one keeps it)")
+
+
+__all__ = ["FORCE_PAIR", "TRACTION_PAIR", "equivalence_note", "equivalent", "force_friction_scale", "friction_force",
+           "physical_tie", "traction_ratio"]

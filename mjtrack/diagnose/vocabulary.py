@@ -54,10 +54,19 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
     Effect("drive_speed_limit", ("drive_speed_limit",), "input",
            "track speeds saturate at this magnitude [m/s]",
            "errors only at high commanded speeds, the model too fast"),
-    Effect("yaw_rate_limit", ("yaw_rate_limit",), "input",
-           "the commanded body yaw rate (V_R - V_L)/T saturates at this magnitude [rad/s], the mean track "
-           "speed kept (a velocity controller's twist limit, common on wheeled skid-steer robots)",
+    Effect("drive_turn_limit", ("drive_turn_limit",), "input",
+           "the half difference of the two sides' set-points (V_R - V_L)/2 saturates at this magnitude [m/s], "
+           "the mean kept (a velocity controller's twist limit, common on wheeled skid-steer robots; the "
+           "commanded yaw rate limited to 2 x limit / T)",
            "errors only in sharp turns and spins, the model turns too fast; straight driving exact"),
+    Effect("drive_accel_limit", ("drive_accel_limit",), "input",
+           "each side's set-point moves towards the command at most this fast [m/s^2] (the controller's ramp)",
+           "errors after large command changes, growing with the change (a ramp takes change / limit), "
+           "the model leads the measurement; steady driving exact"),
+    Effect("drive_force_limit", ("drive_force_limit",), "input",
+           "each side's drive delivers at most this traction force [N] (a motor's torque limit)",
+           "the tracks fall behind their commands where the ground asks for more force: fast "
+           "accelerations and skid turns slower than modelled, like a lower friction in turns"),
     Effect("cg_x", ("cg_x",), "ground",
            "centre of mass ahead (+) / behind (-) the geometric centre [m]",
            "the no-slip line x_c moves with the centre of mass: the robot slides to the outside (cg ahead) "
@@ -106,7 +115,12 @@ RENAMED: dict[str, str] = {
     "actuator_lag": "drive_lag",
     "command_delay": "drive_delay",
     "speed_limit": "drive_speed_limit",
+    "yaw_rate_limit": "drive_turn_limit",  # [rad/s] -> [m/s]: times T / 2 (:data:`RESCALED`)
 }
+#: old names whose parameter was in other units: old name -> (new name, the robot key whose value,
+#: halved, multiplies the old value): a yaw-rate limit (V_R - V_L) / T [rad/s] is the half-difference
+#: limit (V_R - V_L) / 2 = yaw_rate_limit x T / 2 [m/s]
+RESCALED: dict[str, tuple[str, str]] = {"yaw_rate_limit": ("drive_turn_limit", "track_gauge")}
 #: old parameter names of effects that kept their name
 RENAMED_PARAMS: dict[str, str] = {"road_wheel_span": "span"}
 
@@ -135,21 +149,38 @@ def slope_angle(slope_x: float, slope_y: float) -> dict[str, float]:
             "slope_direction": math.atan2(slope_y, slope_x)}
 
 
-def _upgrade_params(effect: str, values: dict) -> dict:
+def _upgrade_params(effect: str, values: dict, factors: dict) -> dict:
     if effect == "slope" and "slope_direction" in values and "slope_x" not in values:
         s, d = values["slope"], values["slope_direction"]
         if isinstance(s, (list, tuple)):  # an interval: its components are not known, only the estimate's
             return {}
         return {"slope_x": math.sin(s) * math.cos(d), "slope_y": math.sin(s) * math.sin(d)}
-    return {RENAMED.get(k, RENAMED_PARAMS.get(k, k)): v for k, v in values.items()}
+    return {RENAMED.get(k, RENAMED_PARAMS.get(k, k)): _rescaled(v, factors.get(k)) for k, v in values.items()}
 
 
-def upgrade_diagnosis(data: dict) -> dict:
+def _rescaled(v, factor: float | None):
+    if factor is None or v is None:
+        return v
+    if isinstance(v, (list, tuple)):
+        return [None if x is None else x * factor for x in v]
+    return v * factor
+
+
+def upgrade_diagnosis(data: dict, *, robot=None) -> dict:
     """A diagnosis.json written before the renames, in today's names (a new copy; a current one is
-    returned unchanged). Warns (:class:`DeprecationWarning`) when it renamed anything."""
+    returned unchanged). Warns (:class:`DeprecationWarning`) when it renamed anything. A parameter
+    whose units changed with its name (:data:`RESCALED`) is converted with ``robot``'s value of the
+    key that relates them; without ``robot`` such a file raises :class:`InputError`."""
     old = sorted({n for n in _names_in(data) if n in RENAMED or n in RENAMED_PARAMS or n == "slope_direction"})
     if not old:
         return data
+    factors = {}
+    for name in (n for n in old if n in RESCALED):
+        new, key = RESCALED[name]
+        if robot is None:
+            raise InputError(f"diagnosis.json: {name} is now {new} in other units; give the robot (its {key}) "
+                             "to read it")
+        factors[name] = float(getattr(robot, key)) / 2
     warnings.warn(f"diagnosis.json written with older effect names ({', '.join(old)}): read in today's names",
                   DeprecationWarning, stacklevel=2)
     out = dict(data)
@@ -157,17 +188,17 @@ def upgrade_diagnosis(data: dict) -> dict:
         out["cause"] = RENAMED.get(out["cause"], out["cause"])
     for key in ("findings", "candidates"):
         if key in out:
-            out[key] = [_upgrade_entry(f) for f in out[key]]
+            out[key] = [_upgrade_entry(f, factors) for f in out[key]]
     if "steps" in out:
         out["steps"] = [{**s, "added": RENAMED.get(s.get("added"), s.get("added")),
                          "on_top_of": [RENAMED.get(n, n) for n in s.get("on_top_of", [])],
-                         "candidates": [_upgrade_entry(c) for c in s.get("candidates", [])]} for s in out["steps"]]
+                         "candidates": [_upgrade_entry(c, factors) for c in s.get("candidates", [])]} for s in out["steps"]]
     if "not_tested" in out:
         out["not_tested"] = {RENAMED.get(k, k): v for k, v in out["not_tested"].items()}
     return out
 
 
-def _upgrade_entry(f: dict) -> dict:
+def _upgrade_entry(f: dict, factors: dict) -> dict:
     f = dict(f)
     name = f.get("effect")
     f["effect"] = RENAMED.get(name, name)
@@ -175,7 +206,7 @@ def _upgrade_entry(f: dict) -> dict:
         f["derived"] = dict(f["estimate"])
     for key in ("estimate", "interval"):
         if key in f:
-            f[key] = _upgrade_params(name, f[key])
+            f[key] = _upgrade_params(name, f[key], factors)
     for key in ("tied_with", "on_top_of"):
         if key in f:
             f[key] = [RENAMED.get(n, n) for n in f[key]]
@@ -190,4 +221,4 @@ def _names_in(data: dict) -> set[str]:
     return {n for n in names if isinstance(n, str)}
 
 
-__all__ = ["EFFECTS", "Effect", "RENAMED", "RENAMED_PARAMS", "canonical_effects", "slope_angle", "upgrade_diagnosis"]
+__all__ = ["EFFECTS", "Effect", "RENAMED", "RENAMED_PARAMS", "RESCALED", "canonical_effects", "slope_angle", "upgrade_diagnosis"]

@@ -11,7 +11,7 @@ Families (what a user acts on): the diagnosis's effect names grouped by the phys
 stand for (:data:`FAMILY`):
 
 * ``drive_response``: the drive reaches the commanded speed late (actuator_lag, command_delay);
-* ``drive_saturation``: the drive cannot reach it at all (speed_limit, yaw_rate_limit);
+* ``drive_saturation``: the drive cannot reach it at all (speed_limit, drive_turn_limit);
 * ``drive_gain``: it reaches another speed (track_speed_scale);
 * ``mass``: where the weight sits (cg_offset_x, cg_offset_y);
 * ``ground``: the contact (friction_scale, friction_asymmetry, icr_spread, ground_anisotropy,
@@ -62,7 +62,8 @@ from mjtrack.testing import bristle_physics, diagnose_physics
 
 FAMILY = {
     "drive_lag": "drive_response", "drive_delay": "drive_response",
-    "drive_speed_limit": "drive_saturation", "yaw_rate_limit": "drive_saturation",
+    "drive_speed_limit": "drive_saturation", "drive_turn_limit": "drive_saturation",
+    "drive_accel_limit": "drive_response", "drive_force_limit": "drive_response",
     "track_speed_scale": "drive_gain",
     "cg_x": "mass", "cg_y": "mass",
     "friction_scale": "ground", "mu_ratio": "ground", "icr_spread": "ground",
@@ -116,6 +117,11 @@ CASES = (
          truth={"drive_lag": 0.25, "cg_x": -0.04}),
     Case("lag_light", ("drive_response",), {"A": {"actuator_lag": 0.2}, "B": {"lag": 0.2}}, "drive_lag",
          mass=8.0, truth={"drive_lag": 0.2}),
+    # a compound of one family: its verdict asks for the family; whether both were named, or tied,
+    # is :func:`truth_named`'s
+    Case("lag_delay", ("drive_response",), {"A": {"actuator_lag": 0.2, "command_delay": 0.15},
+                                            "B": {"lag": 0.2, "dead_time": 0.15}},
+         truth={"drive_lag": 0.2, "drive_delay": 0.15}),
 )
 BY_NAME = {c.name: c for c in CASES}
 
@@ -173,4 +179,14 @@ def score(diagnosis, case: Case) -> dict:
             "named": [f.effect.name for f in findings]}
 
 
-__all__ = ["CASES", "BY_NAME", "Case", "FAMILY", "GENERATORS", "make_case_log", "score"]
+def truth_named(diagnosis, case: Case) -> dict[str, str]:
+    """How the diagnosis named each true effect of the case: "chosen" (a cause or found on top),
+    "tied" (tied with a chosen effect), "finding" (a finding not chosen), or "missing"."""
+    chosen = {f.effect.name for f in diagnosis.chosen}
+    tied = {n for f in diagnosis.chosen for n in f.tied_with}
+    found = {f.effect.name for f in diagnosis.findings}
+    return {n: "chosen" if n in chosen else "tied" if n in tied else "finding" if n in found else "missing"
+            for n in case.truth}
+
+
+__all__ = ["CASES", "BY_NAME", "Case", "FAMILY", "GENERATORS", "make_case_log", "score", "truth_named"]

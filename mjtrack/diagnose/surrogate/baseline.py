@@ -63,13 +63,20 @@ CHANGES = {
     "drive_lag": "first-order lag on the track speeds (exact for held commands)",
     "drive_delay": "dead time on the track speeds (the held commands interpolated)",
     "drive_speed_limit": "track speeds clipped at +-limit",
-    "yaw_rate_limit": "the commanded yaw rate (V_R - V_L)/T clipped, the mean track speed kept",
+    "drive_accel_limit": "each track speed's ramp towards its command limited to this rate",
+    "drive_turn_limit": "the half difference of the track speeds (V_R - V_L)/2 clipped, the mean track speed kept",
     "cg_x": "the quasi-static ICRs (exact Coulomb solves, tabulated) and the centripetal load transfer",
     "cg_y": "the quasi-static ICRs (exact Coulomb solves, tabulated) and the load split of the transient",
     "friction_scale": "the inertial response (as 1/scale) and the friction bounds of the transient",
     "mu_ratio": "the quasi-static ICRs (exact Coulomb solves, tabulated) and the transient's force bounds",
     "slope": "g (slope_x, slope_y) in the body frame added to the effective acceleration",
     "icr_spread": "the track ICRs (y_l, y_r) scaled",
+}
+# drive effects whose physics the surrogate lacks (the MuJoCo robot simulates them)
+UNTESTABLE = {
+    "drive_force_limit": "the surrogate imposes the track speeds it is given; a drive that cannot deliver the "
+                         "force the ground asks for needs the tracks' own force balance, which only the MuJoCo "
+                         "robot has",
 }
 KINEMATIC_UNTESTABLE = {"friction_scale": "acts only through the inertial response, which the kinematic baseline "
                                           "does not model"}
@@ -96,7 +103,7 @@ class SurrogateBaseline(Baseline):
         self.surrogate = Surrogate(robot, kind, transient=transient, causal_speeds=causal_speeds)
         self.robot = robot
         self.name = kind
-        self.untestable = dict(KINEMATIC_UNTESTABLE) if kind == "kinematic" else {}
+        self.untestable = {**UNTESTABLE, **(KINEMATIC_UNTESTABLE if kind == "kinematic" else {})}
         self.vocabulary = {n: c for n, c in CHANGES.items() if n not in self.untestable}
 
     @property
@@ -114,8 +121,8 @@ class SurrogateBaseline(Baseline):
         data = problem.data
         if effect.name == "drive_speed_limit":
             return np.array([np.max(np.abs(data.cmd))])
-        if effect.name == "yaw_rate_limit":
-            return np.array([np.max(np.abs(data.cmd[:, 1] - data.cmd[:, 0])) / self.robot.track_gauge])
+        if effect.name == "drive_turn_limit":
+            return np.array([np.max(np.abs(data.cmd[:, 1] - data.cmd[:, 0])) / 2])
         return np.array(fitmod.SETTINGS[effect.name].nominal(self.robot), float)
 
     def errors(self, problem: Problem, windows: np.ndarray, effect: Effect | None = None,

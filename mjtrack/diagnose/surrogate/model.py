@@ -8,7 +8,11 @@ with its parameters. Two kinds:
   exactly for a command held over each step, V_{k+1} = V_k + (1 - exp(-dt/tau))(V_cmd,k - V_k),
   started at the first command of each segment;  ``drive_delay`` d: V(t) = V_cmd(t - d), the
   held command sequence interpolated linearly (the mean over a step of a delayed held signal),
-  held at its first value before the segment start;  ``drive_speed_limit`` v: V = clip(V_cmd, -v, v).
+  held at its first value before the segment start;  ``drive_speed_limit`` v: V = clip(V_cmd, -v, v);
+  ``drive_turn_limit`` w: the half difference (V_R - V_L)/2 clipped to +-w, the mean kept (the
+  twist stage of :mod:`mjtrack.models.drivetrain`);  ``drive_accel_limit`` a: each track's speed
+  moves towards its command at most a per second (the ramp of :mod:`mjtrack.models.drivetrain`,
+  from the segment's initial speed), before the scale, with the limits.
 * ground effects change the skid-steer response (:mod:`mjtrack.diagnose.surrogate.response`):
   ``cg_x``, ``cg_y``, ``mu_ratio`` move the quasi-static ICRs q0 (tabulated exact Coulomb
   solves); ``friction_scale`` scales the inertial response by 1/fs; ``slope`` (``slope_x``,
@@ -35,6 +39,7 @@ from mjtrack.diagnose.surrogate import response as sg
 from mjtrack.diagnose.vocabulary import Effect
 from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
+from mjtrack.models.drivetrain import ramp, twist
 
 
 def cg_limit(robot: Robot, axis: str) -> float:
@@ -146,7 +151,7 @@ class Surrogate:
         inp = sorted(((e, theta) for e, theta in parts if e is not None and e.kind == "input"),
                      key=lambda et: INPUT_ORDER.index(et[0].name))
         instant_causal = instant and self.causal_speeds
-        dynamic = [e.name for e, _ in inp if e.name in ("drive_delay", "drive_lag")]
+        dynamic = [e.name for e, _ in inp if e.name in ("drive_accel_limit", "drive_delay", "drive_lag")]
         init = _initial(data, v)
         for e, theta in inp:
             p = float(theta[0])
@@ -154,10 +159,11 @@ class Surrogate:
                 v = p * v
             elif e.name == "drive_speed_limit":
                 v = np.clip(v, -p, p)
-            elif e.name == "yaw_rate_limit":
-                half = 0.5 * np.clip(v[:, 1] - v[:, 0], -p * self.robot.track_gauge, p * self.robot.track_gauge)
-                mean = 0.5 * (v[:, 0] + v[:, 1])
-                v = np.stack([mean - half, mean + half], -1)
+            elif e.name == "drive_turn_limit":
+                v = twist(v, turn_limit=p)
+            elif e.name == "drive_accel_limit":
+                last = e.name == dynamic[-1]
+                v = _ramp(data, v, p, _initial(data, v), instant=instant and last, causal=self.causal_speeds)
             elif e.name == "drive_delay":
                 last = e.name == dynamic[-1]
                 v = _delay(data, v, p, _initial(data, v), instant=instant_causal and last)
@@ -227,7 +233,8 @@ class Surrogate:
 # the controller's limits, the scale (linear: it commutes with the dead time and the lag), then the
 # dynamics, whose speed before a segment start is the measured one when the log has it (already
 # limited and scaled: nothing after it may transform it again)
-INPUT_ORDER = ("yaw_rate_limit", "drive_speed_limit", "track_speed_scale", "drive_delay", "drive_lag")
+INPUT_ORDER = ("drive_turn_limit", "drive_speed_limit", "drive_accel_limit", "track_speed_scale", "drive_delay",
+               "drive_lag")
 
 
 _LOOP_MAX = 400  # segments up to this many samples use the exact recursion, longer ones lfilter
@@ -299,6 +306,33 @@ def _delay(data: DriveData, v: np.ndarray, d: float, init: np.ndarray, *, instan
         grid = np.r_[ts[0] - h0, ts]
         for j in range(2):
             out[lo:hi, j] = np.interp(at, grid, np.r_[init[lo, j], v[lo:hi, j]], left=init[lo, j])
+    return out
+
+
+def _ramp(data: DriveData, v: np.ndarray, a: float, init: np.ndarray, *, instant: bool = False,
+          causal: bool = True) -> np.ndarray:
+    """The controller's ramp (the set-points r_k of :func:`mjtrack.models.drivetrain.ramp`, each
+    segment at its median step h) from ``init`` at each segment start. By default the exact mean over
+    each held step: u - (u - r_k)|u - r_k| / (2 a h) when the ramp reaches the command u within the
+    step, else (r_k + r_k+1)/2 (a log's step is long: the ramp's own mean assumes it never arrives
+    inside one); a = inf is no ramp. ``instant``: the set-point a sensor samples at t_k, the one
+    before step k's command acts (``causal``), else the one after it."""
+    if not np.isfinite(a):
+        return v
+    out = np.empty_like(v)
+    for lo, hi in _segments(data):
+        h = float(np.median(np.diff(data.t[lo:hi]))) if hi - lo > 1 else 1.0
+        u = v[lo:hi]
+        means = ramp(u, a, h, init[lo])
+        r = np.empty((hi - lo + 1, 2))  # the step means (r_k + r_k+1)/2 give r_k+1 = 2 m_k - r_k
+        r[0] = init[lo]
+        for k in range(hi - lo):
+            r[k + 1] = 2.0 * means[k] - r[k]
+        if instant:
+            out[lo:hi] = r[:-1] if causal else r[1:]
+            continue
+        gap = u - r[:-1]
+        out[lo:hi] = np.where(np.abs(gap) <= a * h, u - gap * np.abs(gap) / (2.0 * a * h), means)
     return out
 
 
