@@ -3,6 +3,7 @@
 
     python benchmarks/real_robots.py [--robots marmotte,husky,warthog] [--rollers 6] [--diagnose]
     python benchmarks/real_robots.py --diagnose-only        # diagnose the stored calibrated robots
+    python benchmarks/real_robots.py --starts --robots marmotte   # two starting descriptions, one answer?
 
 For each robot: its log's description plus the public specification of what the log does not give
 (every such value named, with its source, under ``assumed`` in calibration.json), calibrated with
@@ -24,6 +25,14 @@ calibrated robot.json and calibration.json go to benchmarks/results/real_robots/
 ``--diagnose`` the test part then goes through ``diagnose --baseline mujoco`` against the calibrated
 robot (what the calibrated simulation still gets wrong), recorded under ``diagnose``. Prints the
 same and the machine's load.
+
+``--starts``: does the answer hang on the start? Each robot calibrated, with calibrate's defaults (as
+a user runs it: its default windows and drive input), from two descriptions: the log's own as
+shipped (gauge and sprocket radius; every other key a default) and the starting robot above (the
+public specification), on the same split, with the first 70 % of the log for training and the rest
+for testing. Per parameter both values and intervals, and whether each value lies in the other's
+interval where both are determined; the causes, summaries and held-out errors of both. Writes
+benchmarks/results/start_independence.json.
 """
 
 from __future__ import annotations
@@ -46,6 +55,8 @@ from mjtrack.windows import left_out_counts
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[1] / "shared" / "data"
 RESULT = HERE / "results" / "real_robots.json"
+STARTS_RESULT = HERE / "results" / "start_independence.json"
+STARTS_SPLIT = (0.7, 0.3)  # the held-out split of --starts, the same for every robot
 OUTPUTS = HERE / "results" / "real_robots"
 
 SUBT = "osrf/subt submitted_models/ctu_cras_norlab_marmotte_sensor_config_1"
@@ -247,6 +258,38 @@ def run_robot(name: str, spec: dict, *, rollers: int) -> dict:
             "seconds": wall, **context_of_stored(name, spec, rollers=rollers)}
 
 
+def starts_robot(name: str, spec: dict) -> dict:
+    """The robot calibrated from the shipped description and from the public one (module docstring)."""
+    log, base = read_log_with_robot(spec["log"])
+    train, test = split(log, *STARTS_SPLIT)
+    out = {"split": list(STARTS_SPLIT), "starts": {}}
+    for start, robot in (("shipped", base), ("public", starting_robot(base, spec["public"]))):
+        t0 = time.time()
+        cal = calibrate(train, robot, test=test, quiet=not sys.stderr.isatty())
+        cj = cal.to_json()
+        out["starts"][start] = {"seconds": time.time() - t0, "test": cj["test"], "parameters": cj["parameters"],
+                                "intervals": cj["intervals"], "determined": cj["determined"],
+                                "described": cj["described"], "causes": cj["causes"], "summary": cj["summary"],
+                                "assumed": cj["assumed"], "drive_input": cj.get("drive_input_mode", "commanded")}
+        print(f"  {name} from the {start} description: test {cj['test']['before']:.4f} -> {cj['test']['after']:.4f} m, "
+              f"{time.time() - t0:.0f} s", flush=True)
+    a, b = out["starts"]["shipped"], out["starts"]["public"]
+    agree = {}
+    for n in a["parameters"]:
+        if n not in b["parameters"]:
+            continue
+        da, db = a["determined"].get(n, {}), b["determined"].get(n, {})
+        both = bool(da.get("determined")) and bool(db.get("determined"))
+        ia, ib = a["intervals"].get(n), b["intervals"].get(n)
+        inside = (both and ia is not None and ib is not None and ib[0] <= a["parameters"][n] <= ib[1]
+                  and ia[0] <= b["parameters"][n] <= ia[1])
+        agree[n] = {"shipped": a["parameters"][n], "public": b["parameters"][n], "determined_in_both": both,
+                    "each_in_the_other_interval": inside if both else None}
+    out["agreement"] = agree
+    out["agree"] = all(v["each_in_the_other_interval"] is not False for v in agree.values())
+    return out
+
+
 def diagnose_robot(name: str, spec: dict) -> dict:
     """``diagnose --baseline mujoco`` of the test part against the stored calibrated robot (its drives
     following what they followed in the calibration: the commands, or the measured track speeds)."""
@@ -276,8 +319,13 @@ def main(argv=None) -> int:
     ap.add_argument("--context-only", action="store_true",
                     help="only recompute, for the stored robots, the kinematic model, the start-state sensitivity, "
                          "the error concentration and the errors over every test window (seconds to minutes)")
+    ap.add_argument("--starts", action="store_true",
+                    help="calibrate each robot from its shipped description and from the public one; write "
+                         "start_independence.json (module docstring)")
     args = ap.parse_args(argv)
     load0 = os.getloadavg()
+    if args.starts:
+        return _starts(args, load0)
     old = json.loads(RESULT.read_text()) if RESULT.exists() else {}
     robots = old.get("robots", {})
     for name in args.robots.split(","):
@@ -354,6 +402,28 @@ def _write(robots: dict, args, load0) -> None:
     RESULT.write_text(json.dumps({"command": "; ".join(sorted(commands - {""})),
                                   "robots": merged, "rollers": args.rollers, "load_before": load0,
                                   "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
+
+
+def _starts(args, load0) -> int:
+    stored = json.loads(STARTS_RESULT.read_text()) if STARTS_RESULT.exists() else {}
+    robots = stored.get("robots", {})
+    command = "python benchmarks/real_robots.py " + " ".join(sys.argv[1:])
+    for name in args.robots.split(","):
+        spec = ROBOTS[name]
+        if not spec["log"].exists():
+            print(f"{spec['log']} not found (the shared data); skipped")
+            continue
+        robots[name] = {**starts_robot(name, spec), "command": command}
+        for n, v in robots[name]["agreement"].items():
+            print(f"  {n:20s} shipped {v['shipped']:.4g}  public {v['public']:.4g}  "
+                  + ("not determined in both" if not v["determined_in_both"]
+                     else f"each in the other's interval: {v['each_in_the_other_interval']}"))
+        STARTS_RESULT.parent.mkdir(parents=True, exist_ok=True)
+        commands = sorted({r["command"] for r in robots.values()})
+        STARTS_RESULT.write_text(json.dumps({"command": "; ".join(commands), "robots": robots, "load_before": load0,
+                                             "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
+    print(f"\nload average before {load0}, after {os.getloadavg()} ({os.cpu_count()} cores)")
+    return 0
 
 
 def _plain(o):
