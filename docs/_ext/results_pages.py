@@ -700,6 +700,32 @@ def _calibration() -> Page:
         summaries.add(name, "; ".join("+".join(g["parameters"]) for g in r["causes"]) or "none",
                       f"{r.get('drive_input', 'commanded')} track speeds",
                       r["diagnose"]["cause"] if "diagnose" in r else "not run")
+    starts_path = RESULTS / "start_independence.json"
+    starts_tables = []
+    if starts_path.exists():
+        st = Source(starts_path)
+        agree = Table("Does the answer hang on the start? Each robot calibrated with calibrate's defaults from the "
+                      "description shipped with its log (gauge and sprocket radius; every other key a default) and "
+                      "from the public specification, trained on the first 70 % of the log and tested on the rest: "
+                      "every candidate's two values, whether both calibrations determine it and, if so, whether each "
+                      "value lies in the other's 95 % interval.",
+                      ["robot", "parameter", "from shipped", "from public", "determined in both",
+                       "each in the other's interval"])
+        errs = Table("The two calibrations of the table above: held-out position error [m] at the window's end "
+                     "before and after, and the causes each names.",
+                     ["robot", "start", "test before", "test after", "causes named"])
+        for name, r in st.data["robots"].items():
+            q = f"/robots/{name}"
+            for n in r["agreement"]:
+                a = f"{q}/agreement/{n}"
+                agree.add(name, n, number(st, a + "/shipped"), number(st, a + "/public"),
+                          number(st, a + "/determined_in_both"),
+                          number(st, a + "/each_in_the_other_interval"))
+            for start, x in r["starts"].items():
+                errs.add(name, start, number(st, f"{q}/starts/{start}/test/before"),
+                         number(st, f"{q}/starts/{start}/test/after"),
+                         "; ".join("+".join(g["parameters"]) for g in x["causes"]) or "none")
+        starts_tables = [agree, errs]
     written = [real.path.parent / "real_robots" / name / f for name in real.data["robots"]
                for f in ("robot.json", "calibration.json", "report.html")]
     return Page(
@@ -708,8 +734,9 @@ def _calibration() -> Page:
         "and on three real robots: Marmotte (tracked), Husky and Warthog (wheeled skid-steer), from the DRIVE data. "
         "A parameter the log does not determine keeps its described value and is marked so; intervals carry the "
         "correlation of a log's windows and the measured model-form error of simulating a window from a logged "
-        "state.", [bat, *([noisy] if noisy is not None else []), real],
-        [*battery, robots, context, speed, params, summaries],
+        "state.", [bat, *([noisy] if noisy is not None else []), real,
+                   *([Source(starts_path)] if starts_path.exists() else [])],
+        [*battery, robots, context, speed, params, summaries, *starts_tables],
         written=[p for p in written if p.exists()])
 
 
