@@ -2,6 +2,13 @@
 until it settles, what the log determines and needs changed decided again for every candidate
 (:mod:`mjtrack.calibrate.identify`) and the kept ones fitted again; the model-form sources of the
 fit's simulator measured where it ends (a finer simulator, a longer warm-up).
+
+A decision that moves the point by less than the optimiser's own tolerance (:data:`REUSE_TOL`
+of every kept parameter's half-width and of every parameter's resolution) from where the last
+central-difference Jacobian was taken is not refitted: the residuals there are simulated once, the
+Jacobian and the model-form sources are kept, and the decision stands when the Gauss-Newton step
+left there is itself within the tolerance (:func:`near_decision`). A refit from such a point would
+stop where it starts, and the change of the Jacobian over the move is second order in it.
 """
 
 from __future__ import annotations
