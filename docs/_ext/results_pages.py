@@ -363,9 +363,11 @@ def _diagnose_ab(diag: Source) -> Table:
     """Old and new ``diagnose --baseline mujoco`` of the 60 s held-out log (benchmarks/bench_diagnose.py
     --case mujoco60): times, windows simulated, stage times, the cause named, the load."""
     labels = [k for k in ("old", "new") if k in diag.data["runs"]]
+    runs = ("old and new alternating in one run, medians; stage times and cause of the first run of each"
+            if len(labels) > 1 else "the code now alone (the window simulator and the MuJoCo baseline are those "
+            "the old calibration used), median; stage times and cause of the first run")
     table = Table("`diagnose --baseline mujoco` of the one-minute held-out log of the calibration above against "
-                  "the description without the hidden change, on its defaults: old and new alternating in one "
-                  "run, medians; stage times and cause of the first run of each.", ["quantity"] + labels)
+                  f"the description without the hidden change, on its defaults: {runs}.", ["quantity"] + labels)
     first = {k: diag.data["runs"][k][0] for k in labels}
     table.add("wall time, median [s]", *(number(diag, f"/medians/{k}/wall_s") for k in labels))
     table.add("CPU time (both threads), median [s]", *(number(diag, f"/medians/{k}/cpu_s") for k in labels))
