@@ -2,11 +2,20 @@
 
     python benchmarks/bench_diagnose.py [--effect cg_offset_x] [--minutes 10] [--no-speeds]
                                          [--marmotte PATH.csv] [--horizon S]
+    nice -n 10 python benchmarks/bench_diagnose.py --case mujoco60 [--old-tree DIR] [--repeats N]
 
 The synthetic log comes from the tests' independent generator (mjtrack/testing/diagnose_physics.py: its
 own rigid-body Coulomb simulation, pose noise); the budget is 30 s for the whole diagnosis on
 the surrogate baseline (read, forward selection over every effect, write the report). With
 --marmotte it also runs the real Marmotte log and prints its findings. Prints the machine load.
+
+``--case mujoco60``: ``diagnose TEST --robot DESCRIBED --baseline mujoco`` on the 60 s held-out log
+of ``benchmarks/bench_calibrate.py``'s sim60 case (the default robot with its centre of mass 6 cm
+ahead, described without it), in a fresh Python process per run; with ``--old-tree DIR`` (e.g.
+``git archive REV | tar -x -C DIR``) the code there and the code now alternate (old, new, ...) so
+that both see the same load. Each run reports its wall and CPU time, its stage times, the windows
+it simulated and the cause it named. Writes benchmarks/results/bench_diagnose_mujoco60.json; the
+budget is 60 s.
 """
 
 from __future__ import annotations
@@ -22,7 +31,9 @@ from mjtrack.diagnose import diagnose, write_outputs
 from mjtrack.io.logs import read_log_with_robot, write_log
 from mjtrack.io.robot import write_robot
 from mjtrack.testing.diagnose_logs import HIDDEN, make_log
-from _results import benchmark_command, default_run_result, printed_result
+from _results import RESULTS, benchmark_command, default_run_result, printed_result
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 BUDGET_S = 30.0
@@ -60,6 +71,76 @@ def _table(results) -> None:
               + (f"  tied with {r.tied_with}" if r.tied_with else ""))
 
 
+MUJOCO60_BUDGET_S = 60.0
+
+
+def _mujoco60_child(data: str) -> None:
+    """One ``diagnose --baseline mujoco`` of the held-out log with the ``mjtrack`` on the path; one JSON line."""
+    import json
+
+    import mjtrack.sim.windows as sim_windows
+    from mjtrack.io import read_log_with_robot, read_robot
+
+    import mjtrack.diagnose.mujoco_baseline as baseline_mod
+
+    count = {"windows": 0}
+    original = sim_windows.simulate_windows
+
+    def counted(sim, log, ws, variants=None, **kw):
+        count["windows"] += (1 if variants is None else len(variants)) * len(ws)
+        return original(sim, log, ws, variants, **kw)
+
+    for mod in (sim_windows, baseline_mod):
+        if getattr(mod, "simulate_windows", None) is original:
+            mod.simulate_windows = counted
+    test, _ = read_log_with_robot(Path(data) / "test.csv")
+    robot = read_robot(Path(data) / "described.json")
+    load0 = os.getloadavg()
+    t0, c0 = time.perf_counter(), time.process_time()
+    d = diagnose(test, robot, baseline="mujoco")
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    print(json.dumps({"wall_s": wall, "cpu_s": cpu, "load_before": load0, "load_after": os.getloadavg(),
+                      "windows": count["windows"], "timings_s": {k: float(v) for k, v in d.timings.items()},
+                      "cause": d.cause, "findings": [f["effect"] for f in d.to_json()["findings"]]}))
+
+
+def mujoco60(old_tree: Path | None, repeats: int) -> int:
+    """The mujoco60 case (module docstring): old and new alternating; writes its result file."""
+    import json
+    import statistics
+    import subprocess
+
+    from bench_calibrate import _simulate_logs
+
+    runs: dict[str, list[dict]] = {"new": []} | ({"old": []} if old_tree else {})
+    with tempfile.TemporaryDirectory() as tmp:
+        _simulate_logs(Path(tmp))
+        for _ in range(repeats):
+            for label in reversed(list(runs)):  # old first, then new
+                tree = ROOT if label == "new" else old_tree.resolve()
+                env = {**os.environ, "PYTHONPATH": str(tree), "MUJOCO_GL": "egl"}
+                out = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--mujoco60-child", tmp],
+                                     env=env, capture_output=True, text=True, check=False, cwd=str(tree))
+                if out.returncode != 0:
+                    raise SystemExit(f"{tree}: diagnose failed:\n{out.stderr[-3000:]}")
+                r = json.loads(out.stdout.strip().splitlines()[-1])
+                runs[label].append(r)
+                print(f"{label}: wall {r['wall_s']:.1f} s, CPU {r['cpu_s']:.1f} s, {r['windows']} windows simulated, "
+                      f"load {r['load_before'][0]:.2f} -> {r['load_after'][0]:.2f}; cause {r['cause']}", flush=True)
+    med = {label: {k: statistics.median(r[k] for r in rs) for k in ("wall_s", "cpu_s", "windows")}
+           for label, rs in runs.items()}
+    if "old" in med:
+        med["ratio_old_over_new"] = {k: med["old"][k] / max(med["new"][k], 1e-9) for k in ("wall_s", "cpu_s", "windows")}
+        print("medians old / new: " + ", ".join(f"{k} {v:.2f}" for k, v in med["ratio_old_over_new"].items()))
+    command = " ".join(["python benchmarks/bench_diagnose.py --case mujoco60 --repeats", str(repeats)]
+                       + (["--old-tree DIR"] if old_tree else []))
+    out = RESULTS / "bench_diagnose_mujoco60.json"
+    out.write_text(json.dumps({"command": command, "case": "mujoco60", "cpus": os.cpu_count(),
+                               "target_wall_s": MUJOCO60_BUDGET_S, "medians": med, "runs": runs}, indent=1) + "\n")
+    print(f"wrote {out.relative_to(ROOT)}")
+    return 0 if med["new"]["wall_s"] <= MUJOCO60_BUDGET_S else 1
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--effect", default="cg_offset_x", choices=sorted(HIDDEN) + ["none"])
@@ -67,7 +148,17 @@ def main() -> int:
     ap.add_argument("--no-speeds", action="store_true")
     ap.add_argument("--horizon", default="auto", help="seconds, or auto (default)")
     ap.add_argument("--marmotte", type=Path, default=None, help="also run this real log (CSV with its JSON)")
+    ap.add_argument("--case", choices=("surrogate", "mujoco60"), default="surrogate",
+                    help="mujoco60: diagnose --baseline mujoco on a 60 s simulated log, old against new")
+    ap.add_argument("--old-tree", type=Path, help="mujoco60: a checkout of the code to compare against")
+    ap.add_argument("--repeats", type=int, default=1, help="mujoco60: runs of each (alternating; default 1)")
+    ap.add_argument("--mujoco60-child", help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.mujoco60_child:
+        _mujoco60_child(args.mujoco60_child)
+        return 0
+    if args.case == "mujoco60":
+        return mujoco60(args.old_tree, args.repeats)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         t0 = time.perf_counter()

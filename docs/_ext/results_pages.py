@@ -296,6 +296,11 @@ def _speed() -> Page:
                                            "centre of mass moved ahead, cg_x) and a held-out log of the same length, "
                                            "calibrate's defaults: the code before the speed work (old) and now (new), "
                                            "alternating in one run, medians; stage times of the first run of each."))
+    diag60 = RESULTS / "bench_diagnose_mujoco60.json"
+    if diag60.exists():
+        diag = Source(diag60)
+        sources.append(diag)
+        tables.append(_diagnose_ab(diag))
     marmotte = Source(RESULTS / "bench_calibrate_marmotte.json")
     sources.append(marmotte)
     tables.append(_calibration_ab(marmotte, "Calibration of the whole shared Marmotte log, 6 rollers per track.")
@@ -389,6 +394,28 @@ def _calibration_ab(cal: Source, caption: str) -> Table:
         row(f"calibrated {n}", lambda k, n=n: f"/runs/{k}/0/values/{n}")
     row("load average before (one minute)", lambda k: f"/runs/{k}/0/load_before/0")
     row("load average after (one minute)", lambda k: f"/runs/{k}/0/load_after/0")
+    return table
+
+
+def _diagnose_ab(diag: Source) -> Table:
+    """Old and new ``diagnose --baseline mujoco`` of the 60 s held-out log (benchmarks/bench_diagnose.py
+    --case mujoco60): times, windows simulated, stage times, the cause named, the load."""
+    labels = [k for k in ("old", "new") if k in diag.data["runs"]]
+    runs = ("old and new alternating in one run, medians; stage times and cause of the first run of each"
+            if len(labels) > 1 else "the code now alone (the window simulator and the MuJoCo baseline are those "
+            "the old calibration used), median; stage times and cause of the first run")
+    table = Table("`diagnose --baseline mujoco` of the one-minute held-out log of the calibration above against "
+                  f"the description without the hidden change, on its defaults: {runs}.", ["quantity"] + labels)
+    first = {k: diag.data["runs"][k][0] for k in labels}
+    table.add("wall time, median [s]", *(number(diag, f"/medians/{k}/wall_s") for k in labels))
+    table.add("CPU time (both threads), median [s]", *(number(diag, f"/medians/{k}/cpu_s") for k in labels))
+    table.add("windows simulated, median", *(number(diag, f"/medians/{k}/windows") for k in labels))
+    for stage in first[labels[-1]]["timings_s"]:
+        table.add(f"stage {stage} [s]", *(number(diag, f"/runs/{k}/0/timings_s/{stage}")
+                                           if stage in first[k]["timings_s"] else "–" for k in labels))
+    table.add("cause named", *(first[k]["cause"] or "none" for k in labels))
+    table.add("load average before (one minute)", *(number(diag, f"/runs/{k}/0/load_before/0") for k in labels))
+    table.add("load average after (one minute)", *(number(diag, f"/runs/{k}/0/load_after/0") for k in labels))
     return table
 
 

@@ -28,6 +28,7 @@ evaluated in one batch; the descent starts from the best.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import logging
 import time
@@ -59,6 +60,11 @@ LM_MU_FACTOR = 10.0
 #: share of the predicted reduction of the cost a step must reach for the secant Jacobian to be
 #: kept (:class:`SecantJacobian`); below it the slope has changed more than one update can follow
 SECANT_TRUST = 0.25
+#: the multi-start's screen: every start costed on this many of the windows (evenly spread), the
+#: SCREEN_KEEP cheapest then on all of them (the descent starts from the best of those); a start
+#: that loses on a third of the log does not win on the whole of it (benchmarks/bench_calibrate.py)
+SCREEN_WINDOWS = 10
+SCREEN_KEEP = 3
 KEPT_RESIDUALS = 64  # parameter vectors whose residuals an objective keeps (Objective.residuals; a few kB each)
 
 
@@ -145,6 +151,10 @@ class Objective:
         d = np.nan_to_num(d, nan=DIVERGED_RESIDUAL)
         return (d.reshape(P, -1) / np.sqrt(M)).T
 
+    def on(self, index: np.ndarray) -> "Objective":
+        """The same objective on the windows ``index`` of these (its cost a mean over them)."""
+        return dataclasses.replace(self, windows=self.windows.subset(index), evaluations=0, seconds=0.0)
+
     def cost(self, Z: np.ndarray) -> np.ndarray:
         """Mean squared residual per window of each column of Z (n, k): (k,)."""
         R = self.residuals(Z if np.ndim(Z) == 2 else np.asarray(Z)[:, None])
@@ -175,15 +185,43 @@ class FitResult:
 
 
 def _multistart(obj: Objective, z0: np.ndarray) -> tuple[np.ndarray, list[tuple[dict[str, float], float]]]:
-    """A few starts differing in the turning-resistance and lag parameters, evaluated in one batch."""
-    names = obj.names
-    Z = np.stack(start_points(names, obj.specs, z0), -1)
-    lo = np.array([obj.specs[n].lo for n in names]) / obj.scales
-    hi = np.array([obj.specs[n].hi for n in names]) / obj.scales
-    Z = np.clip(Z, lo[:, None], hi[:, None])
-    costs = obj.cost(Z)
+    """A few starts differing in the turning-resistance and lag parameters, each moved off its
+    bounds as the descent will move it, screened in one batch on :data:`SCREEN_WINDOWS` windows,
+    the cheapest :data:`SCREEN_KEEP` costed on every window (the costs returned: over every window,
+    NaN for a start the screen left out)."""
+    Z = np.stack([_off_bounds(obj, z) for z in start_points(obj.names, obj.specs, z0)], -1)
+    M = len(obj.windows)
+    costs = np.full(Z.shape[1], np.nan)
+    best = np.arange(Z.shape[1])
+    if multistart_passes(Z.shape[1], M) < Z.shape[1]:
+        screen = obj.on(np.unique(np.round(np.linspace(0, M - 1, SCREEN_WINDOWS)).astype(int)))
+        screened = screen.cost(Z)
+        obj.seconds += screen.seconds
+        obj.evaluations += -(-screen.evaluations * len(screen.windows) // M)  # in passes over every window
+        best = np.argsort(screened, kind="stable")[:SCREEN_KEEP]
+    costs[best] = obj.cost(Z[:, best])
     tried = [(obj.params_of(Z[:, j]), float(costs[j])) for j in range(Z.shape[1])]
-    return Z[:, int(np.argmin(costs))], tried
+    return Z[:, int(best[np.argmin(costs[best])])], tried
+
+
+def multistart_passes(starts: int, windows: int) -> float:
+    """Passes over ``windows`` fit windows that :func:`_multistart` of ``starts`` starts costs."""
+    if starts > SCREEN_KEEP and windows >= 3 * SCREEN_WINDOWS:
+        return starts * SCREEN_WINDOWS / windows + SCREEN_KEEP
+    return starts
+
+
+def _off_bounds(obj: Objective, z: np.ndarray) -> np.ndarray:
+    """The scaled point ``z`` inside the bounds and moved off them as :func:`fit` moves its start
+    (``sysid.ParameterDict.move_off_bounds``): the start costed is then the one the descent takes."""
+    import mujoco.sysid as sysid
+
+    pdict = sysid.ParameterDict()
+    for n, v, s in zip(obj.names, z, obj.scales):
+        lo, hi = obj.specs[n].lo / s, obj.specs[n].hi / s
+        pdict.add(sysid.Parameter(n, float(np.clip(v, lo, hi)), lo, hi))
+    pdict.move_off_bounds()
+    return pdict.as_vector().copy()
 
 
 def start_points(names: list[str], specs: dict[str, ParamSpec], z0: np.ndarray) -> list[np.ndarray]:

@@ -2,6 +2,13 @@
 until it settles, what the log determines and needs changed decided again for every candidate
 (:mod:`mjtrack.calibrate.identify`) and the kept ones fitted again; the model-form sources of the
 fit's simulator measured where it ends (a finer simulator, a longer warm-up).
+
+A decision that moves the point by less than the optimiser's own tolerance (:data:`REUSE_TOL`
+of every kept parameter's half-width and of every parameter's resolution) from where the last
+central-difference Jacobian was taken is not refitted: the residuals there are simulated once, the
+Jacobian and the model-form sources are kept, and the decision stands when the Gauss-Newton step
+left there is itself within the tolerance (:func:`near_decision`). A refit from such a point would
+stop where it starts, and the change of the Jacobian over the move is second order in it.
 """
 
 from __future__ import annotations
@@ -29,6 +36,11 @@ MAX_ROUNDS = 3  # refits after the first fit, each after what the log determines
 #: from the first attempt's settled decision, which the added windows move only a little
 GUARD_ROUNDS = 1
 STEP_TOL = 0.25  # the fit has converged when the remaining Gauss-Newton step is below this share of every half-width
+#: a decision whose point lies within this share of every kept parameter's half-width (and of every
+#: parameter's resolution) of the point the last Jacobian was taken at keeps that Jacobian and its
+#: model-form sources: the refit would start where the optimiser's own tolerance (STEP_TOL) already
+#: ends it, and the Jacobian's change over such a step is second order (tests/test_calibrate_speed.py)
+REUSE_TOL = STEP_TOL
 
 
 #: passes over the fit windows that the model-form sources cost, in windows simulated (a finer
@@ -65,12 +77,13 @@ class Meter:
         self.bar.close()
 
 
-def expected_passes(n: int, starts: int, max_iter: int, refit_iter: int, rounds: int = 1) -> int:
+def expected_passes(n: int, starts: float, max_iter: int, refit_iter: int, rounds: int = 1) -> int:
     """Passes over the fit windows that the fit of ``n`` candidates is expected to take: the
-    ``starts``, the first fit (a forward difference, then about one pass per iteration and one
-    rejected step in two, :class:`mjtrack.calibrate.fit.SecantJacobian`), the central differences at
-    its end, the model-form sources, and ``rounds`` refits (:func:`round_passes`)."""
-    first = starts + 2 + (n + 1) + int(1.5 * max_iter) + (2 * n + 1) + MODEL_FORM_PASSES
+    multi-start (``starts`` passes, :func:`mjtrack.calibrate.fit.multistart_passes`), the first fit
+    (a forward difference, then about one pass per iteration and one rejected step in two,
+    :class:`mjtrack.calibrate.fit.SecantJacobian`), the central differences at its end, the
+    model-form sources, and ``rounds`` refits (:func:`round_passes`)."""
+    first = int(round(starts)) + 2 + (n + 1) + int(1.5 * max_iter) + (2 * n + 1) + MODEL_FORM_PASSES
     return first + rounds * round_passes(n, refit_iter)
 
 
@@ -165,12 +178,21 @@ class Fitted:
 
 @dataclass
 class Linearisation:
-    """The objective of every candidate linearised at the current point."""
+    """The objective of every candidate linearised at the current point: the residuals there, the
+    Jacobian (central differences at ``taken_at``: the point itself unless it was kept from a point
+    within :data:`REUSE_TOL` of it, :func:`near_decision`) and the model-form sources measured with
+    it (None until measured)."""
 
     point: dict[str, float]
     resid: np.ndarray
     jac: np.ndarray
     free: list[str]
+    taken_at: dict[str, float] | None = None
+    sources: tuple | None = None
+
+    def __post_init__(self) -> None:
+        if self.taken_at is None:
+            self.taken_at = dict(self.point)
 
 
 def first_fit(fx: Fitter, obj, fws: WindowSet, start_at: dict[str, float], only: list[str] | None,
@@ -200,21 +222,25 @@ def decision_rounds(fx: Fitter, obj, fws: WindowSet, cur: Linearisation, rounds:
     fits: list[FitResult] = []
     for round_ in range(rounds + 1):
         fx.meter.stage(f"round {round_ + 1}")
-        sources, size = model_form_sources(obj, cur.point, cur.resid, cur.jac, fx.config)
+        if cur.sources is None:
+            cur.sources = model_form_sources(obj, cur.point, cur.resid, cur.jac, fx.config)
+        sources, size = cur.sources
         theta = fx.scaled(cur.point)
         lin = fx.linearised(obj, theta, cur.jac, cur.resid, sources)
-        fidx = [fx.names.index(n) for n in cur.free]
-        rest = np.abs(lin.step(fidx)[fidx]) * lin.scales[fidx]
-        converged = bool(np.all(rest <= STEP_TOL * lin.uncertainty(fidx).half))
+        converged = settled(lin, [fx.names.index(n) for n in cur.free])
         ahead = fx.linearised(obj, theta, cur.jac, cur.resid, sources)
         ahead.advance()
         sel = select(ahead, fx.described)
         if (sel.free == cur.free and converged) or not sel.free or round_ == rounds:
             return sel, cur, theta, sources, size, fits
         free = sel.free
+        begin = {n: float(np.clip(sel.values[n], fx.specs[n].lo, fx.specs[n].hi)) for n in free}
+        near = near_decision(fx, obj, lin, cur, {**fx.described, **begin}, free)
+        if near is not None:  # the decision changes nothing the optimiser could resolve: no refit
+            cur = near
+            continue
         fx.meter.stage(f"round {round_ + 1} refit",
                        round_passes(len(fx.names), fx.refit_iter) * len(fws) + fx.meter.tail)
-        begin = {n: float(np.clip(sel.values[n], fx.specs[n].lo, fx.specs[n].hi)) for n in free}
         fr = fit(fx.objective(fws, free), begin, max_iter=fx.refit_iter, multistart=False, on_iter=on_iter,
                  final_jacobian=False)  # linearised below with every candidate
         fits.append(fr)
@@ -222,6 +248,45 @@ def decision_rounds(fx: Fitter, obj, fws: WindowSet, cur: Linearisation, rounds:
         resid, jac = central_jacobian(obj, fx.scaled(point), central=np.array([n in free for n in fx.names]))
         cur = Linearisation(point, resid, jac, list(free))
     raise AssertionError("unreachable: the last round returns")
+
+
+def settled(lin: Linearised, idx: list[int]) -> bool:
+    """Whether the Gauss-Newton step left for the parameters ``idx`` (the others held) is below
+    :data:`STEP_TOL` of each one's half-width."""
+    rest = np.abs(lin.step(idx)[idx]) * lin.scales[idx]
+    return bool(np.all(rest <= STEP_TOL * lin.uncertainty(idx).half))
+
+
+def reuse_tolerance(lin: Linearised, free: list[str]) -> dict[str, float]:
+    """How far a point may lie from where ``lin``'s Jacobian was taken for the Jacobian to be kept:
+    :data:`REUSE_TOL` of each parameter's resolution, and of the half-width the parameters
+    ``free`` get there (the intervals the verdicts would give them)."""
+    tol = {n: REUSE_TOL * lin.specs[n].resolution for n in lin.names}
+    if free:
+        idx = [lin.names.index(n) for n in free]
+        for n, h in zip(free, lin.uncertainty(idx).half):
+            tol[n] = min(tol[n], REUSE_TOL * float(h))
+    return tol
+
+
+def near_decision(fx: Fitter, obj, lin: Linearised, cur: Linearisation, point: dict[str, float],
+                  free: list[str]) -> Linearisation | None:
+    """The linearisation at ``point`` (the next decision: ``free`` at their linearised optimum, the
+    others at their description) with the Jacobian and model-form sources of ``cur`` kept, when
+    ``point`` lies within :func:`reuse_tolerance` of where they were taken and the step left there
+    is within the optimiser's tolerance (:func:`settled`); else None (the decision needs a refit).
+    Costs one pass (the residuals at ``point``) when the point is near, none otherwise."""
+    tol = reuse_tolerance(lin, free)
+    if any(abs(point[n] - cur.taken_at[n]) > tol[n] for n in fx.names):
+        return None
+    resid = obj.residuals(fx.scaled(point))
+    sources, _ = cur.sources
+    there = fx.linearised(obj, fx.scaled(point), cur.jac, resid, sources)
+    if not settled(there, [fx.names.index(n) for n in free]):
+        return None
+    log.info("calibrate: the decision moves the point within the optimiser's tolerance; the Jacobian of %s is kept",
+             ", ".join(f"{n} = {fmt_value(v, fx.specs[n].unit)}" for n, v in cur.taken_at.items() if n in free))
+    return Linearisation(dict(point), resid, cur.jac, list(free), taken_at=cur.taken_at, sources=cur.sources)
 
 
 def settle_verdicts(fx: Fitter, obj, sel, cur: Linearisation, theta: np.ndarray, sources, size, rounds: int):

@@ -464,7 +464,7 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
 def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, train_path,
             test_path, warmup_s, drive_input, fit_windows, keep_contradicting, clock: _Clock,
             meter: Meter) -> Calibration:
-    from mjtrack.calibrate.fit import start_points, windows_done
+    from mjtrack.calibrate.fit import multistart_passes, start_points, windows_done
     from mjtrack.sim.windows import WindowSim, simulate_windows
 
     src = train_path or train.source or "train log"
@@ -477,7 +477,7 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
                  nthread=nthread, warmup_s=warmup_s, meter=meter)
     n_fit = len(fit_index_of(pb.ws, fit_windows))
     n_test = 0 if pb.tws is None else len(pb.tws)
-    starts = len(start_points(pb.names, fx.specs, np.zeros(len(pb.names))))
+    starts = multistart_passes(len(start_points(pb.names, fx.specs, np.zeros(len(pb.names)))), n_fit)
     # the fit, then every training window (the guard), the test windows, and the causes' variants
     passes = expected_passes(len(pb.names), starts, max_iter, fx.refit_iter)
     after_windows = len(pb.ws) + n_test + 2 * len(pb.ws)
