@@ -27,7 +27,8 @@ robot (what the calibrated simulation still gets wrong), recorded under ``diagno
 same and the machine's load.
 
 ``--starts``: does the answer hang on the start? Each robot calibrated, with calibrate's defaults (as
-a user runs it: its default windows and drive input), from two descriptions: the log's own as
+a user runs it: its default windows) and the drive input of the reference run above (``fitted`` for
+Husky and Warthog, the commands for Marmotte), from two descriptions: the log's own as
 shipped (gauge and sprocket radius; every other key a default) and the starting robot above (the
 public specification), on the same split, with the first 70 % of the log for training and the rest
 for testing. Per parameter both values and intervals, and whether each value lies in the other's
@@ -265,7 +266,8 @@ def starts_robot(name: str, spec: dict) -> dict:
     out = {"split": list(STARTS_SPLIT), "starts": {}}
     for start, robot in (("shipped", base), ("public", starting_robot(base, spec["public"]))):
         t0 = time.time()
-        cal = calibrate(train, robot, test=test, quiet=not sys.stderr.isatty())
+        cal = calibrate(train, robot, test=test, quiet=not sys.stderr.isatty(),
+                        drive_input=spec.get("drive_input", "commanded"))
         cj = cal.to_json()
         out["starts"][start] = {"seconds": time.time() - t0, "test": cj["test"], "parameters": cj["parameters"],
                                 "intervals": cj["intervals"], "determined": cj["determined"],

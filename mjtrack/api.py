@@ -330,7 +330,10 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
             drive's lag, delay and speed scale are fitted too), ``"measured"`` (the logged track
             speeds, for a robot whose own speed controller caps its commands) or ``"fitted"`` (the
             drivetrain is first fitted to the log's measured track speeds, command to speed, and the
-            contact then to the poses under the speeds it predicts from the commands).
+            contact then to the poses under the speeds it predicts from the commands) or ``"auto"``
+            (``"fitted"`` when the log has measured track speeds that are not copies of its commands
+            and the drive's timing is not asked for by name, else ``"commanded"``; the mode used and
+            why are in the result's ``drive_input_mode`` and ``drive_input_why``).
         fit_windows: windows the fit uses, spread over the log (``--fit-windows``; None: all;
             default: the command's).
 

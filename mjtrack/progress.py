@@ -95,6 +95,11 @@ class Progress:
         if self.enabled and self._clock() - self._last_draw >= self.min_interval:
             self._draw()
 
+    def redraw(self) -> None:
+        """Draw the line now, unthrottled (a new stage in the label is news; a count is not)."""
+        if self.enabled and not self._closed:
+            self._draw()
+
     def say(self, text: str) -> None:
         """A line of its own (a stage's start, an expected duration) above the bar, which is then
         drawn again below it; on a TTY only, never when quiet, like the bar."""

@@ -154,6 +154,27 @@ def test_what_the_log_points_at_but_the_fit_did_not_reach_is_said():
                                                                           yaw=None, unsettled={})
 
 
+def test_an_unreached_value_that_cannot_be_the_robots_is_not_said_to_be_pointed_at():
+    """A force limit the log moves towards but the fit did not reach, above what a side's friction
+    transmits, is said with the reason it cannot be the robot's, not as what the log points at."""
+    from mjtrack.calibrate.causes import Cause, implausibility, summary, traction_limit
+    from mjtrack.io.robot import Robot
+
+    robot = Robot(mass=50.0, mu=0.5, track_gauge=0.55, traction="wheels", wheelbase=0.512)
+    traction = traction_limit(robot, {})
+    assert abs(traction - 0.5 * 50.0 * 9.81 / 2) < 0.1  # mu x half the weight, written out here
+    why = implausibility("drive_force_limit", 2290.0, 909.0, (25.0, 2500.0, 25.0), traction=traction)
+    assert why is not None and "above what the ground can transmit under a side, 123 N" in why
+    assert implausibility("drive_force_limit", 100.0, 909.0, (25.0, 2500.0, 25.0), traction=traction) is None
+    c = Cause(["wheelbase"], {"wheelbase": (0.512, 0.6)}, [], 0.9, 0.3, "its wheelbase acts as 0.6 m")
+    text = summary([c], (0.3, 0.2), where="held-out", yaw=None,
+                   unsettled_implausible={"drive_force_limit": ("2.29e+03 N", why)})
+    assert "points at" not in text
+    assert text.endswith("The log also moves drive_force_limit towards 2.29e+03 N, which the fit did not reach within "
+                         f"its rounds and which cannot be the robot's ({why}): not a cause; it keeps its described "
+                         "value.")
+
+
 def test_a_large_change_with_a_wide_interval_is_determined_and_changed():
     """A parameter whose interval is wider than its resolution but far from the description (the
     log says it must change, and by about how much) stays fitted, with its interval; one whose

@@ -505,3 +505,36 @@ def test_video_legend_names_the_robots_own_sides(traction, side, tmp_path, monke
     monkeypatch.setattr(mjtrack.render, "render_video", lambda *a, **kw: seen.update(kw))
     render_log(log, robot, tmp_path / "v.mp4")
     assert seen["icr_labels"] == (f"ICR left {side}", f"ICR right {side}", "ICR body")
+
+
+def test_an_interrupt_never_cuts_a_frame_being_written(model, backend, tmp_path, monkeypatch):
+    """A signal that arrives while a frame goes to the encoder takes effect once the frame is
+    written (a frame cut in half makes ffmpeg print errors beside the command's one line)."""
+    import os
+    import signal
+
+    import imageio.v2 as iio
+
+    from mjtrack import interrupts
+
+    class Writer:  # records whether each frame was written whole
+        def __init__(self):
+            self.whole, self.closed = [], False
+
+        def append_data(self, frame):
+            if not self.whole:
+                os.kill(os.getpid(), signal.SIGINT)  # delivered in the middle of the first write
+            self.whole.append(frame.shape)
+
+        def close(self):
+            self.closed = True
+
+    writer = Writer()
+    monkeypatch.setattr(iio, "get_writer", lambda *a, **k: writer)
+    t, poses = turn()
+    with pytest.raises(interrupts.Interrupted):
+        with interrupts.handling():
+            render_video(model, qpos_from_poses(model, poses), t, tmp_path / "cut.mp4", width=64, height=48,
+                         fps=10, progress=False)
+    assert writer.whole == [(48, 64, 3)] and writer.closed  # the first frame whole, then stopped
+    assert not (tmp_path / "cut.mp4").exists()

@@ -14,7 +14,8 @@ Plausibility. A fitted value that ends on a bound of its range (within one resol
 far from the described one (a contact length or wheelbase more than :data:`GEOMETRY_RATIO` times
 or less than 1 / :data:`GEOMETRY_RATIO` of the described), or a drive force limit above what the
 ground can transmit (:func:`traction_limit`: a limit above the friction force of the side that
-carries more weight never binds on the robot's motion) is not the robot's: the fit has pushed a
+carries more weight cannot bound the force on the robot, only how fast a wheel spins against sliding
+ground) is not the robot's: the fit has pushed a
 candidate to stand in for something none of them describes. Such a cause is reported as "the log
 shows something no candidate describes, which acts like ...", never as a cause, the summary says
 so, and :func:`not_explained` lists it.
@@ -83,8 +84,8 @@ def implausibility(name: str, value: float, described: float,
                    f"(beyond {1 / GEOMETRY_RATIO:.2f} to {GEOMETRY_RATIO:g})")
     if name == "drive_force_limit" and traction is not None and value > traction:
         why.append(f"drive_force_limit {value:.3g} N is above what the ground can transmit under a side, "
-                   f"{traction:.3g} N (friction times the side's share of the weight): a limit above it never binds "
-                   "on the robot's motion")
+                   f"{traction:.3g} N (friction times the side's share of the weight): a limit above it cannot bound "
+                   "the force on the robot, only how fast a wheel spins against sliding ground")
     return "; ".join(why) or None
 
 
@@ -262,16 +263,23 @@ def share_words(share: float) -> str:
 
 
 def summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: tuple[float, float] | None,
-            undetermined: list[str] | None = None, unsettled: dict[str, str] | None = None) -> str:
+            undetermined: list[str] | None = None, unsettled: dict[str, str] | None = None,
+            unsettled_implausible: dict[str, tuple[str, str]] | None = None) -> str:
     """The calibration's one-paragraph conclusion, from its measured causes (``undetermined``: the
     candidates the log does not determine; ``unsettled``: name -> the value, in words, the log points
-    at for the candidates the fit's rounds did not reach, which kept their described values)."""
+    at for the candidates the fit's rounds did not reach, which kept their described values;
+    ``unsettled_implausible``: name -> (that value in words, why it cannot be the robot's,
+    :func:`implausibility`) for such candidates whose value would not be plausible: said, never as
+    something the log points at)."""
     text = _summary(causes, rms, where=where, yaw=yaw, undetermined=undetermined)
     if unsettled:
         text += (" The log also points at " + ", ".join(f"{n} {v}" for n, v in unsettled.items())
                  + ", which the fit did not reach within its rounds: "
                  + ("it keeps its described value" if len(unsettled) == 1 else "they keep their described values")
                  + ", which the log does not confirm.")
+    for n, (v, why) in (unsettled_implausible or {}).items():
+        text += (f" The log also moves {n} towards {v}, which the fit did not reach within its rounds and which "
+                 f"cannot be the robot's ({why}): not a cause; it keeps its described value.")
     return text
 
 

@@ -67,7 +67,7 @@ class Meter:
         if remaining is not None:
             self.bar.total = self.bar.count + max(1, int(round(remaining)))
         self.bar.label = f"calibrate: {note}"  # first on the line: a narrow terminal cuts the end
-        self.bar.update(0)
+        self.bar.redraw()  # every stage shown, however soon after the last redraw it starts
 
     def say(self, text: str) -> None:
         log.info(text)

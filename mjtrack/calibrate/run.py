@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
-from mjtrack.calibrate.causes import Cause, find_causes, summary
+from mjtrack.calibrate.causes import Cause, find_causes, implausibility, summary, traction_limit
 from mjtrack.calibrate.drivetrain import chain_robot, fit_chain, has_measured_speeds, predicted_drive_log
 from mjtrack.calibrate.identify import fmt_value
 from mjtrack.calibrate.params import (described_values, geometry_name, parse_names, specs_for, start_values,
@@ -424,11 +424,24 @@ def _explain(pb: _Problem, att: Fitted, changed: list[str], causes: list[Cause],
     test = pb.test is not None
     m, tb, _ = meas_by["test" if test else "train"]
     _, _, _, b, a = scope[-1]
+    # a value the log points at but the fit did not reach is said; one that could not be the robot's
+    # (on a bound, above what traction transmits) is said as such, never as what the log points at
+    specs, traction = specs_for(pb.robot), traction_limit(pb.robot, att.values)
+    unsettled, unsettled_implausible = {}, {}
+    for n in pb.names:
+        v = att.verdicts[n].points_at
+        if v is None:
+            continue
+        why = implausibility(n, v, pb.described[n], (specs[n].lo, specs[n].hi, specs[n].resolution),
+                             traction=traction)
+        if why is None:
+            unsettled[n] = fmt_value(v, specs[n].unit)
+        else:
+            unsettled_implausible[n] = (fmt_value(v, specs[n].unit), why)
     sentence = summary(causes, (b.rms, a.rms), where="held-out" if test else "training",
                        yaw=(m["yaw_ratio"], tb["yaw_ratio"]),
                        undetermined=[n for n in pb.names if not att.verdicts[n].determined],
-                       unsettled={n: fmt_value(att.verdicts[n].points_at, specs_for(pb.robot)[n].unit)
-                                  for n in pb.names if att.verdicts[n].points_at is not None})
+                       unsettled=unsettled, unsettled_implausible=unsettled_implausible)
     for label, _, _, b, a in scope:
         findings.append({"what": "diverged windows", "part": label, "measured": None, "simulated_before": b.diverged,
                          "simulated_after": a.diverged, "windows": int(b.diverged_mask.size),

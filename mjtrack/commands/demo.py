@@ -1,4 +1,4 @@
-"""The main job on built-in defaults, end to end (one to three minutes on 2 cores, depending on
+"""The main job on built-in defaults, end to end (15 to 90 seconds on 2 cores, depending on
 their load: benchmarks/bench_demo.py).
 
 A simulated log of the default robot with its centre of gravity 5 cm ahead of the geometric

@@ -31,6 +31,7 @@ import mujoco
 import numpy as np
 
 from mjtrack.errors import InputError
+from mjtrack.interrupts import deferred
 from mjtrack.io.atomic import atomic_path
 from mjtrack.progress import Progress
 from mjtrack.render import decor
@@ -338,7 +339,8 @@ def render_video(
                     if legend is not None:
                         frame = decor.blend_top_right(frame, legend)
                     render_s += time.perf_counter() - tic
-                    writer.append_data(frame)
+                    with deferred():  # a frame half written to ffmpeg makes it print errors
+                        writer.append_data(frame)
                     bar.update()
         finally:
             writer.close()
