@@ -146,3 +146,16 @@ def test_the_speed_ratio_of_the_lower_commands_ignores_the_saturated_ones():
     assert abs(speed_ratio(command, measured, 2.5) - 0.8) < 1e-12  # rows 0.5 to 1.25 m/s: below the cap
     assert speed_ratio(np.zeros(5), np.zeros(5), 0.0) == 1.0  # never commanded: nothing to say
     assert speed_ratio(np.full(5, 2.5), np.full(5, 1.0), 2.5) == 1.0  # every command at the peak: no lower rows
+
+
+def test_a_cause_that_alone_makes_things_worse_is_said_so():
+    """A first cause whose change alone raises the error (it helps only with the others) is not
+    said to remove a negative share of it."""
+    from mjtrack.calibrate.causes import Cause, summary
+
+    c = Cause(["mu"], {"mu": (0.5, 0.76)}, [], 0.16, -0.04, "its ground's friction is 0.76, not 0.5")
+    text = summary([c], (1.25, 0.65), where="held-out", yaw=None)
+    assert "alone it raises the error by 4 %: it helps only with the other changes" in text
+    assert "removes -" not in text
+    c.gain_alone = 0.3
+    assert "alone it removes 30 % of the error" in summary([c], (1.25, 0.65), where="held-out", yaw=None)

@@ -640,7 +640,8 @@ def _calibration() -> Page:
     noisy = Source(noisy_path) if noisy_path.exists() else None
     real = Source(RESULTS / "real_robots.json")
     totals = Table("The battery's two criteria over all its cases: the true cause named first, and the share of "
-                   "determined parameters whose 95 % interval covers the truth; on noise-free logs and on logs with "
+                   "determined parameters whose interval (calibrate's, at its stated level) covers the truth; on noise-free "
+                   "logs and on logs with "
                    "the measurement noise of the shared real robots (`mjtrack simulate --noise realistic`: poses, "
                    "yaw, track speeds, body velocity and yaw rate).",
                    ["logs", "cases", "true cause first", "determined parameters", "covered", "coverage"])
@@ -731,16 +732,18 @@ def _calibration() -> Page:
     starts_tables = []
     if starts_path.exists():
         st = Source(starts_path)
-        agree = Table("Does the answer hang on the start? Each robot calibrated with calibrate's defaults from the "
-                      "description shipped with its log (gauge and sprocket radius; every other key a default) and "
-                      "from the public specification, trained on the first 70 % of the log and tested on the rest: "
-                      "every candidate's two values, whether both calibrations determine it and, if so, whether each "
-                      "value lies in the other's 95 % interval.",
+        agree = Table("Does the answer hang on the start? Each robot calibrated with calibrate's default windows, "
+                      "and the drive input of the reference run above, from the description shipped with its log "
+                      "(gauge and sprocket radius; every other key a default) and from the public specification, "
+                      "on the held-out split of `python benchmarks/real_robots.py --starts` (its docstring): every "
+                      "candidate's two values, whether both calibrations determine it and, if so, whether each "
+                      "value lies in the other's interval.",
                       ["robot", "parameter", "from shipped", "from public", "determined in both",
                        "each in the other's interval"])
         errs = Table("The two calibrations of the table above: held-out position error [m] at the window's end "
-                     "before and after, and the causes each names.",
-                     ["robot", "start", "test before", "test after", "causes named"])
+                     "before and after, the wall time of the calibration [s] (the load is in the result file) and "
+                     "the causes each names, first the plausible ones.",
+                     ["robot", "start", "drive input", "test before", "test after", "seconds", "causes named"])
         for name, r in st.data["robots"].items():
             q = f"/robots/{name}"
             for n in r["agreement"]:
@@ -749,9 +752,12 @@ def _calibration() -> Page:
                           number(st, a + "/determined_in_both"),
                           number(st, a + "/each_in_the_other_interval"))
             for start, x in r["starts"].items():
-                errs.add(name, start, number(st, f"{q}/starts/{start}/test/before"),
-                         number(st, f"{q}/starts/{start}/test/after"),
-                         "; ".join("+".join(g["parameters"]) for g in x["causes"]) or "none")
+                named = ["+".join(g["parameters"]) + ("" if g.get("plausible", True) else " (not plausible)")
+                         for g in x["causes"]]
+                errs.add(name, start, x.get("drive_input", "commanded"),
+                         number(st, f"{q}/starts/{start}/test/before"),
+                         number(st, f"{q}/starts/{start}/test/after"), number(st, f"{q}/starts/{start}/seconds"),
+                         "; ".join(named) or "none")
         starts_tables = [agree, errs]
     written = [real.path.parent / "real_robots" / name / f for name in real.data["robots"]
                for f in ("robot.json", "calibration.json", "report.html")]

@@ -262,6 +262,14 @@ def share_words(share: float) -> str:
     return f"{100 * share:.0f} % of the improvement"
 
 
+def alone_words(gain_alone: float) -> str:
+    """What a cause does alone, in words: a negative gain (the change helps only together with the
+    others) said as such, not as a negative share removed."""
+    if gain_alone >= 0:
+        return f"alone it removes {100 * gain_alone:.0f} % of the error"
+    return f"alone it raises the error by {-100 * gain_alone:.0f} %: it helps only with the other changes"
+
+
 def summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: tuple[float, float] | None,
             undetermined: list[str] | None = None, unsettled: dict[str, str] | None = None,
             unsettled_implausible: dict[str, tuple[str, str]] | None = None) -> str:
@@ -309,7 +317,7 @@ def _summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: 
     if named and (named[0].share > 0 or named[0].gain_alone > 0):
         first = named[0]
         text = f"The described MuJoCo robot erred mostly because {first.sentence}"
-        text += f" ({share_words(first.share)}; alone it removes {100 * first.gain_alone:.0f} % of the error)"
+        text += f" ({share_words(first.share)}; {alone_words(first.gain_alone)})"
         more = [c for c in named[1:] if c.share >= 0.1]
         if more:
             text += "; also " + "; ".join(f"{c.sentence} ({share_words(c.share)})" for c in more)
