@@ -1,6 +1,7 @@
 """Speed of the MuJoCo track models, old settings against new in one run.
 
     python benchmarks/bench_sim.py [--compare] [--quick] [--out benchmarks/results/bench_sim.json]
+    python benchmarks/bench_sim.py --gpu [...]   # MuJoCo Warp on a GPU against the CPU (benchmarks/_gpu.py)
 
 1. Real-time factor of the default robot: one 20 s ``random_steps`` rollout through
    ``mujoco.rollout`` on one thread (the library path of ``mjtrack simulate``), median of 5.
@@ -176,6 +177,12 @@ def surfacevel_speed(seconds: float = 2.0) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else list(argv)
+    if "--gpu" in args:  # a machine with a CUDA device and mujoco_warp: its own options
+        import _gpu
+
+        args.remove("--gpu")
+        return _gpu.main(args)
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, default=RESULTS / "bench_sim.json")
     p.add_argument("--compare", action="store_true",

@@ -32,8 +32,11 @@ Husky and Warthog, the commands for Marmotte), from two descriptions: the log's 
 shipped (gauge and sprocket radius; every other key a default) and the starting robot above (the
 public specification), on the same split, with the first 70 % of the log for training and the rest
 for testing. Per parameter both values and intervals, and whether each value lies in the other's
-interval where both are determined; the causes, summaries and held-out errors of both. Writes
-benchmarks/results/start_independence.json.
+interval where both are determined (a drive force limit per kilogram of each description's mass,
+which the log does not determine: the log fixes how fast the drives can speed the robot up, not
+the force); the causes, summaries and held-out errors of both. Writes
+benchmarks/results/start_independence.json; ``--starts --agreement-only`` recomputes the
+agreement of the stored file with the rule now.
 """
 
 from __future__ import annotations
@@ -275,21 +278,38 @@ def starts_robot(name: str, spec: dict) -> dict:
                                 "assumed": cj["assumed"], "drive_input": cj.get("drive_input_mode", "commanded")}
         print(f"  {name} from the {start} description: test {cj['test']['before']:.4f} -> {cj['test']['after']:.4f} m, "
               f"{time.time() - t0:.0f} s", flush=True)
-    a, b = out["starts"]["shipped"], out["starts"]["public"]
+    out["starts"]["shipped"]["mass"], out["starts"]["public"]["mass"] = base.mass, starting_robot(base, spec["public"]).mass
+    out.update(agreement(out["starts"]["shipped"], out["starts"]["public"]))
+    return out
+
+
+# parameters that scale with the robot's mass, which the log does not determine and the two starting
+# descriptions give differently: compared per kilogram (the log determines the drive's force per unit
+# mass, how fast it can speed up the robot, not the force)
+PER_KG = ("drive_force_limit",)
+
+
+def agreement(a: dict, b: dict) -> dict:
+    """Whether two calibrations of one log agree: per parameter both values and, where both determine
+    it, whether each lies in the other's interval (a value kept at its description, which the log
+    confirms, has no interval: its own value stands for it); :data:`PER_KG` parameters per kilogram
+    of each description's mass."""
     agree = {}
     for n in a["parameters"]:
         if n not in b["parameters"]:
             continue
         da, db = a["determined"].get(n, {}), b["determined"].get(n, {})
         both = bool(da.get("determined")) and bool(db.get("determined"))
-        ia, ib = a["intervals"].get(n), b["intervals"].get(n)
-        inside = (both and ia is not None and ib is not None and ib[0] <= a["parameters"][n] <= ib[1]
-                  and ia[0] <= b["parameters"][n] <= ia[1])
+        ka, kb = (a["mass"], b["mass"]) if n in PER_KG else (1.0, 1.0)
+        va, vb = a["parameters"][n] / ka, b["parameters"][n] / kb
+        ia = [x / ka for x in a["intervals"][n]] if a["intervals"].get(n) else [va, va]
+        ib = [x / kb for x in b["intervals"][n]] if b["intervals"].get(n) else [vb, vb]
+        tol = 1e-9 * max(abs(va), abs(vb), 1e-12)
+        inside = ib[0] - tol <= va <= ib[1] + tol and ia[0] - tol <= vb <= ia[1] + tol
         agree[n] = {"shipped": a["parameters"][n], "public": b["parameters"][n], "determined_in_both": both,
-                    "each_in_the_other_interval": inside if both else None}
-    out["agreement"] = agree
-    out["agree"] = all(v["each_in_the_other_interval"] is not False for v in agree.values())
-    return out
+                    "each_in_the_other_interval": inside if both else None,
+                    **({"per_kg": {"shipped": va, "public": vb}} if n in PER_KG else {})}
+    return {"agreement": agree, "agree": all(v["each_in_the_other_interval"] is not False for v in agree.values())}
 
 
 def diagnose_robot(name: str, spec: dict) -> dict:
@@ -321,11 +341,15 @@ def main(argv=None) -> int:
     ap.add_argument("--context-only", action="store_true",
                     help="only recompute, for the stored robots, the kinematic model, the start-state sensitivity, "
                          "the error concentration and the errors over every test window (seconds to minutes)")
+    ap.add_argument("--agreement-only", action="store_true",
+                    help="--starts: only recompute the agreement of the stored start_independence.json")
     ap.add_argument("--starts", action="store_true",
                     help="calibrate each robot from its shipped description and from the public one; write "
                          "start_independence.json (module docstring)")
     args = ap.parse_args(argv)
     load0 = os.getloadavg()
+    if args.starts and args.agreement_only:
+        return _agreement_only(args)
     if args.starts:
         return _starts(args, load0)
     old = json.loads(RESULT.read_text()) if RESULT.exists() else {}
@@ -425,6 +449,21 @@ def _starts(args, load0) -> int:
         STARTS_RESULT.write_text(json.dumps({"command": "; ".join(commands), "robots": robots, "load_before": load0,
                                              "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
     print(f"\nload average before {load0}, after {os.getloadavg()} ({os.cpu_count()} cores)")
+    return 0
+
+
+def _agreement_only(args) -> int:
+    stored = json.loads(STARTS_RESULT.read_text())
+    for name, r in stored["robots"].items():
+        for start, robot in (("shipped", None), ("public", None)):
+            if "mass" not in r["starts"][start]:  # the descriptions' masses, as starts_robot records them
+                _, base = read_log_with_robot(ROBOTS[name]["log"])
+                r["starts"][start]["mass"] = (base if start == "shipped"
+                                              else starting_robot(base, ROBOTS[name]["public"])).mass
+        r.update(agreement(r["starts"]["shipped"], r["starts"]["public"]))
+        print(f"{name}: agree {r['agree']}")
+    stored["agreement_command"] = "python benchmarks/real_robots.py --starts --agreement-only"
+    STARTS_RESULT.write_text(json.dumps(stored, indent=1, default=_plain) + "\n")
     return 0
 
 

@@ -305,6 +305,16 @@ def _speed() -> Page:
     sources.append(marmotte)
     tables.append(_calibration_ab(marmotte, "Calibration of the whole shared Marmotte log, 6 rollers per track.")
                   if "runs" in marmotte.data else _calibration_whole(marmotte))
+    gpu_path = RESULTS / "gpu_rollout.json"
+    if gpu_path.exists():
+        gpu = Source(gpu_path)
+        sources.append(gpu)
+        tables += _gpu_tables(gpu)
+    check_path = RESULTS / "gpu_rollout_cpu_device.json"
+    if check_path.exists():
+        check = Source(check_path)
+        sources.append(check)
+        tables.append(_gpu_check(check))
     demo = Source(RESULTS / "bench_demo.json")
     dem_tables = _demo_tables(demo)
     sweep = Source(RESULTS / "bench_sweep.json")
@@ -319,6 +329,56 @@ def _speed() -> Page:
         "speed", "Speed",
         "Timings depend on the machine and its load; each table gives the load averages of its run.",
         sources + [demo, sweep], tables + dem_tables + [sw])
+
+
+def _gpu_tables(gpu: Source) -> list[Table]:
+    """Batched rollouts on a lent GPU against its machine's CPU (benchmarks/gpu_rollout.py)."""
+    refused = Table("What MuJoCo Warp (`mujoco_warp.put_model`) says of each model as mjtrack builds it, and what "
+                    "was changed so that it runs (the adapted model, timed below on both).",
+                    ["model", "as built", "adapted"])
+    seen = set()
+    speed = Table("Batched rollouts of the three MuJoCo robots on a lent GPU (MuJoCo Warp, one CUDA graph per "
+                  "batch of steps; the GPU and the versions are in the result file) against `mujoco.rollout` "
+                  "on every CPU thread of the same machine, each world from the robot settled at rest under its own "
+                  "constant command: steps per second over all worlds; the speed-ups of the GPU over the CPU with "
+                  "the model as built and with the same adapted model; agreement: the largest distance between the "
+                  "chassis positions the GPU and the CPU reach after the same steps of the adapted model; shift: "
+                  "what the adaptation alone moves the chassis on the CPU over the run; path: how far the chassis "
+                  "went (adapted, CPU). This run also took out the noslip pass (`--drop-noslip`), which carries "
+                  "the friction of these models: its shift is the friction lost, and its GPU times leave out "
+                  "the pass's cost; the next table checks the adaptation that keeps it.",
+                  ["model", "worlds", "CPU threads", "CPU as built", "CPU adapted", "GPU", "speed-up over as built",
+                   "speed-up, same model", "agreement [m]", "shift [m]", "path [m]"])
+    for i, r in enumerate(gpu.data["rows"]):
+        q = f"/rows/{i}"
+        if r["model"] not in seen:
+            seen.add(r["model"])
+            refused.add(r["model"], r.get("gpu_as_built", "n/a"), "; ".join(r.get("adapted", [])) or "nothing")
+        if "gpu_steps_per_s" not in r:
+            continue
+        speed.add(r["model"], number(gpu, q + "/worlds"), number(gpu, "/machine/cpu_threads"),
+                  number(gpu, q + "/cpu_steps_per_s"), number(gpu, q + "/cpu_adapted_steps_per_s"),
+                  number(gpu, q + "/gpu_steps_per_s"), number(gpu, q + "/speedup"),
+                  number(gpu, q + "/speedup_same_model"), number(gpu, q + "/agreement_m"),
+                  number(gpu, q + "/adaptation_shift_m"), number(gpu, q + "/cpu_path_m"))
+    return [refused, speed]
+
+
+def _gpu_check(check: Source) -> Table:
+    """MuJoCo Warp on warp's CPU device with the noslip pass kept: accepted, and the same motion?"""
+    t = Table("MuJoCo Warp run on warp's CPU device (no GPU; its times mean nothing) with the noslip pass kept, "
+              "the adaptation the GPU table above could not be rerun with: agreement with `mujoco.rollout` on the "
+              "same adapted model, the adaptation's shift of the motion on the CPU, and the path, after the same "
+              "steps (`python benchmarks/bench_sim.py --gpu --device cpu`, its options in the result file).",
+              ["model", "worlds", "adapted", "agreement [m]", "shift [m]", "path [m]"])
+    for i, r in enumerate(check.data["rows"]):
+        if "agreement_m" not in r:
+            continue
+        q = f"/rows/{i}"
+        t.add(r["model"], number(check, q + "/worlds"), "; ".join(r.get("adapted", [])) or "nothing",
+              number(check, q + "/agreement_m"), number(check, q + "/adaptation_shift_m"),
+              number(check, q + "/cpu_path_m"))
+    return t
 
 
 def _demo_tables(demo: Source) -> list[Table]:
@@ -739,7 +799,7 @@ def _calibration() -> Page:
                       "candidate's two values, whether both calibrations determine it and, if so, whether each "
                       "value lies in the other's interval.",
                       ["robot", "parameter", "from shipped", "from public", "determined in both",
-                       "each in the other's interval"])
+                       "each in the other's interval", "compared"])
         errs = Table("The two calibrations of the table above: held-out position error [m] at the window's end "
                      "before and after, the wall time of the calibration [s] (the load is in the result file) and "
                      "the causes each names, first the plausible ones.",
@@ -750,7 +810,8 @@ def _calibration() -> Page:
                 a = f"{q}/agreement/{n}"
                 agree.add(name, n, number(st, a + "/shipped"), number(st, a + "/public"),
                           number(st, a + "/determined_in_both"),
-                          number(st, a + "/each_in_the_other_interval"))
+                          number(st, a + "/each_in_the_other_interval"),
+                          "per kg of each description's mass" if "per_kg" in r["agreement"][n] else "as fitted")
             for start, x in r["starts"].items():
                 named = ["+".join(g["parameters"]) + ("" if g.get("plausible", True) else " (not plausible)")
                          for g in x["causes"]]
