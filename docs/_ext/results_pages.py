@@ -802,7 +802,8 @@ def _calibration() -> Page:
                        "each in the other's interval", "compared"])
         errs = Table("The two calibrations of the table above: held-out position error [m] at the window's end "
                      "before and after, the wall time of the calibration [s] (the load is in the result file) and "
-                     "the causes each names, first the plausible ones.",
+                     "the causes each names, largest share first (not plausible: said as something no candidate "
+                     "describes, never as a cause).",
                      ["robot", "start", "drive input", "test before", "test after", "seconds", "causes named"])
         for name, r in st.data["robots"].items():
             q = f"/robots/{name}"
