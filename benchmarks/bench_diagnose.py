@@ -3,6 +3,7 @@
     python benchmarks/bench_diagnose.py [--effect cg_offset_x] [--minutes 10] [--no-speeds]
                                          [--marmotte PATH.csv] [--horizon S]
     nice -n 10 python benchmarks/bench_diagnose.py --case mujoco60 [--old-tree DIR] [--repeats N]
+    nice -n 10 python benchmarks/bench_diagnose.py --case mujoco60 --profile-only
 
 The synthetic log comes from the tests' independent generator (mjtrack/testing/diagnose_physics.py: its
 own rigid-body Coulomb simulation, pose noise); the budget is 30 s for the whole diagnosis on
@@ -15,7 +16,9 @@ ahead, described without it), in a fresh Python process per run; with ``--old-tr
 ``git archive REV | tar -x -C DIR``) the code there and the code now alternate (old, new, ...) so
 that both see the same load. Each run reports its wall and CPU time, its stage times, the windows
 it simulated and the cause it named. Writes benchmarks/results/bench_diagnose_mujoco60.json; the
-budget is 60 s.
+budget is 60 s. ``--case mujoco60 --profile-only``: one more run of the code now under cProfile, the
+seconds of its parts (:data:`PROFILE_PARTS`; cProfile slows the Python around the rollouts, not
+the rollouts) added to the stored file under ``profile``.
 """
 
 from __future__ import annotations
@@ -74,8 +77,31 @@ def _table(results) -> None:
 MUJOCO60_BUDGET_S = 60.0
 
 
-def _mujoco60_child(data: str) -> None:
-    """One ``diagnose --baseline mujoco`` of the held-out log with the ``mjtrack`` on the path; one JSON line."""
+# where the seconds of a MuJoCo diagnosis go: (part, function whose cumulative time it is) of the
+# cProfile of one run; "MuJoCo rollouts" is the C call itself, the others include their rollouts
+PROFILE_PARTS = (("every MuJoCo rollout (the C call)", "<built-in method mujoco._rollout.rollout>"),
+                 ("warming up each window's hidden states", "warm_states"),
+                 ("the baseline's errors (the problem)", "problem"),
+                 ("each effect's grid of values (the fit's curves)", "_curves"),
+                 ("the slope's central differences", "_slope_jacobian"),
+                 ("scoring every effect (grids, then each fold's fitted value)", "score"))
+
+
+def _profile_parts(stats) -> dict:
+    """Cumulative seconds of :data:`PROFILE_PARTS` in a pstats.Stats (summed over same-named functions)."""
+    out = {}
+    for label, name in PROFILE_PARTS:
+        total = 0.0
+        for (_, _, fn), row in stats.stats.items():
+            if fn == name:
+                total += row[3]  # cumulative time
+        out[label] = total
+    return out
+
+
+def _mujoco60_child(data: str, profile: bool = False) -> None:
+    """One ``diagnose --baseline mujoco`` of the held-out log with the ``mjtrack`` on the path; one JSON
+    line (with ``profile``: run under cProfile, its parts in the line)."""
     import json
 
     import mjtrack.sim.windows as sim_windows
@@ -96,12 +122,51 @@ def _mujoco60_child(data: str) -> None:
     test, _ = read_log_with_robot(Path(data) / "test.csv")
     robot = read_robot(Path(data) / "described.json")
     load0 = os.getloadavg()
+    prof = None
+    if profile:
+        import cProfile
+
+        prof = cProfile.Profile()
+        prof.enable()
     t0, c0 = time.perf_counter(), time.process_time()
     d = diagnose(test, robot, baseline="mujoco")
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    parts = {}
+    if prof is not None:
+        import pstats
+
+        prof.disable()
+        parts = {"profile_s": _profile_parts(pstats.Stats(prof))}
     print(json.dumps({"wall_s": wall, "cpu_s": cpu, "load_before": load0, "load_after": os.getloadavg(),
                       "windows": count["windows"], "timings_s": {k: float(v) for k, v in d.timings.items()},
-                      "cause": d.cause, "findings": [f["effect"] for f in d.to_json()["findings"]]}))
+                      "cause": d.cause, "findings": [f["effect"] for f in d.to_json()["findings"]], **parts}))
+
+
+def mujoco60_profile() -> int:
+    """One profiled run of the code now added to the stored result file (``--profile-only``)."""
+    import json
+    import subprocess
+
+    from bench_calibrate import _simulate_logs
+
+    out = RESULTS / "bench_diagnose_mujoco60.json"
+    stored = json.loads(out.read_text())
+    with tempfile.TemporaryDirectory() as tmp:
+        _simulate_logs(Path(tmp))
+        env = {**os.environ, "PYTHONPATH": str(ROOT), "MUJOCO_GL": "egl"}
+        res = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--mujoco60-child", tmp, "--profile"],
+                             env=env, capture_output=True, text=True, check=False, cwd=str(ROOT))
+        if res.returncode != 0:
+            raise SystemExit(f"diagnose failed:\n{res.stderr[-3000:]}")
+        r = json.loads(res.stdout.strip().splitlines()[-1])
+    stored["profile"] = {"command": "python benchmarks/bench_diagnose.py --case mujoco60 --profile-only",
+                         "wall_s": r["wall_s"], "load_before": r["load_before"], "load_after": r["load_after"],
+                         "windows": r["windows"], "parts_s": r["profile_s"]}
+    for k, v in r["profile_s"].items():
+        print(f"  {k:62s} {v:7.1f} s")
+    print(f"profiled run: {r['wall_s']:.1f} s under cProfile, load {r['load_before'][0]:.2f} -> {r['load_after'][0]:.2f}")
+    out.write_text(json.dumps(stored, indent=1) + "\n")
+    return 0
 
 
 def mujoco60(old_tree: Path | None, repeats: int) -> int:
@@ -152,11 +217,16 @@ def main() -> int:
                     help="mujoco60: diagnose --baseline mujoco on a 60 s simulated log, old against new")
     ap.add_argument("--old-tree", type=Path, help="mujoco60: a checkout of the code to compare against")
     ap.add_argument("--repeats", type=int, default=1, help="mujoco60: runs of each (alternating; default 1)")
+    ap.add_argument("--profile-only", action="store_true",
+                    help="mujoco60: one run under cProfile, its parts added to the stored result file")
     ap.add_argument("--mujoco60-child", help=argparse.SUPPRESS)
+    ap.add_argument("--profile", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.mujoco60_child:
-        _mujoco60_child(args.mujoco60_child)
+        _mujoco60_child(args.mujoco60_child, args.profile)
         return 0
+    if args.case == "mujoco60" and args.profile_only:
+        return mujoco60_profile()
     if args.case == "mujoco60":
         return mujoco60(args.old_tree, args.repeats)
     with tempfile.TemporaryDirectory() as tmp:

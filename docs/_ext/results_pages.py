@@ -301,6 +301,8 @@ def _speed() -> Page:
         diag = Source(diag60)
         sources.append(diag)
         tables.append(_diagnose_ab(diag))
+        if "profile" in diag.data:
+            tables.append(_diagnose_profile(diag))
     marmotte = Source(RESULTS / "bench_calibrate_marmotte.json")
     sources.append(marmotte)
     tables.append(_calibration_ab(marmotte, "Calibration of the whole shared Marmotte log, 6 rollers per track.")
@@ -477,6 +479,20 @@ def _diagnose_ab(diag: Source) -> Table:
     table.add("load average before (one minute)", *(number(diag, f"/runs/{k}/0/load_before/0") for k in labels))
     table.add("load average after (one minute)", *(number(diag, f"/runs/{k}/0/load_after/0") for k in labels))
     return table
+
+
+def _diagnose_profile(diag: Source) -> Table:
+    """Where the seconds of the MuJoCo diagnosis above go (bench_diagnose.py --profile-only)."""
+    t = Table("Where the seconds of that diagnosis go: one more run of the code now under cProfile (its wall time "
+              "and load below; cProfile slows the Python around the rollouts, not the rollouts). The parts "
+              "overlap: each includes the rollouts it calls, and scoring every effect includes the grids.",
+              ["part", "seconds"])
+    for part in diag.data["profile"]["parts_s"]:
+        t.add(part, number(diag, "/profile/parts_s/" + part.replace("~", "~0").replace("/", "~1")))
+    t.add("the profiled run's wall time", number(diag, "/profile/wall_s"))
+    t.add("windows simulated", number(diag, "/profile/windows"))
+    add_load(t, diag, "/profile/load_before/0", "/profile/load_after/0")
+    return t
 
 
 def _calibration_whole(cal: Source) -> Table:
