@@ -10,6 +10,7 @@ expected forces worked out by hand."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from mjtrack.calibrate.causes import (find_causes, implausibility, not_explained, saturation_words, speeds_worse,
                                      summary, traction_limit)
@@ -159,3 +160,23 @@ def test_a_cause_that_alone_makes_things_worse_is_said_so():
     assert "removes -" not in text
     c.gain_alone = 0.3
     assert "alone it removes 30 % of the error" in summary([c], (1.25, 0.65), where="held-out", yaw=None)
+
+
+def test_each_distinct_parameter_set_of_the_causes_is_simulated_once():
+    """With two groups, one group's "without" is the other's "alone": scored once, same numbers."""
+    from mjtrack.calibrate.causes import find_causes
+
+    values = {"cg_x": 0.05, "mu": 0.7}
+    described = {"cg_x": 0.0, "mu": 0.5}
+    asked = []
+
+    def score(variants):  # by hand: each change removes a fixed part of the error
+        asked.extend(variants)
+        return np.array([0.3 - 0.1 * (v["cg_x"] == 0.05) - 0.05 * (v["mu"] == 0.7) for v in variants])
+
+    causes = find_causes(["cg_x", "mu"], values, described, np.eye(2), {}, score, 0.3, 0.15)
+    assert len(asked) == 2 and {tuple(sorted(v.items())) for v in asked} == {(("cg_x", 0.05), ("mu", 0.5)),
+                                                                             (("cg_x", 0.0), ("mu", 0.7))}
+    by = {c.parameters[0]: c for c in causes}
+    assert by["cg_x"].share == pytest.approx(0.1 / 0.15) and by["mu"].share == pytest.approx(0.05 / 0.15)
+    assert by["cg_x"].gain_alone == pytest.approx(0.1 / 0.3) and by["mu"].gain_alone == pytest.approx(0.05 / 0.3)

@@ -202,6 +202,17 @@ def sentence_of(params: list[str], values: dict[str, float], described: dict[str
     return text
 
 
+def _score_distinct(score: Callable[[list[dict[str, float]]], np.ndarray],
+                    variants: list[dict[str, float]]) -> np.ndarray:
+    """``score(variants)`` with each distinct parameter set simulated once (with two groups, one
+    group's "without" is the other's "alone"): the simulations are deterministic, so the scores are
+    the same numbers."""
+    keys = [tuple(sorted(v.items())) for v in variants]
+    distinct = list(dict.fromkeys(keys))
+    rms = np.asarray(score([dict(k) for k in distinct]), float)
+    return rms[[distinct.index(k) for k in keys]]
+
+
 def find_causes(changed: list[str], values: dict[str, float], described: dict[str, float], corr: np.ndarray,
                 ties: dict[str, list[str]], score: Callable[[list[dict[str, float]]], np.ndarray],
                 rms_before: float, rms_after: float, *, wheels: bool = False,
@@ -234,7 +245,7 @@ def find_causes(changed: list[str], values: dict[str, float], described: dict[st
     for g in gs:
         variants.append({**full, **{n: described[n] for n in g}})  # without the cause
         variants.append({**{n: described[n] for n in changed}, **{n: values[n] for n in g}})  # the cause alone
-    rms = score(variants)
+    rms = _score_distinct(score, variants)
     gain = rms_before - rms_after
     traction = None if robot is None else traction_limit(robot, values)
     out = []
