@@ -23,8 +23,9 @@ their speed is a model field); T steps of the model's own time step.
   it overflowed;
 * the model as built is offered to ``mujoco_warp.put_model`` first: what it refuses is recorded
   (``gpu_as_built``), and the model is adapted to what it runs (``adapted``: the PGS solver ->
-  Newton, the automatic reset back on; the noslip pass kept unless ``--drop-noslip``); ``adaptation_shift_m`` is what the
-  adaptation alone does to the motion on the CPU (the chassis position after T steps).
+  Newton, the automatic reset back on; the noslip pass kept unless ``--drop-noslip``);
+  ``adaptation_shift_m`` is what the adaptation alone does to the motion on the CPU (the chassis
+  position after T steps).
 
 Writes benchmarks/results/gpu_rollout.json (or --out): per model and world count the steps per
 second of each, the ratio, the agreement and the machine (GPU name, CPU threads, versions).
@@ -67,9 +68,9 @@ def models():
 
 
 def adapted(m, drop_noslip: bool = False):
-    """A copy of ``m`` with what MuJoCo Warp refuses changed to what it runs (each change named):
-    the PGS solver -> Newton (the noslip pass, which carries the friction, kept), no automatic reset on a
-    bad state (MuJoCo's default reset then)."""
+    """A copy of ``m`` with what MuJoCo Warp refuses changed to what it runs (each change named): the
+    PGS solver -> Newton (the noslip pass, which carries the friction, kept unless ``drop_noslip``),
+    MuJoCo's automatic reset on a bad state back on."""
     import copy
 
     import mujoco
@@ -85,12 +86,6 @@ def adapted(m, drop_noslip: bool = False):
         a.opt.noslip_iterations = 0
         changes.append("no noslip iterations")
     return a, changes
-
-
-def settled(m) -> np.ndarray:
-    from mjtrack.sim.rollout import settled_state
-
-    return settled_state(m)
 
 
 def cpu_run(m, state0, ctrl, steps: int, nthread: int) -> tuple[float, np.ndarray, dict]:
@@ -187,7 +182,7 @@ def main(argv=None) -> int:
         import mujoco_warp
         import warp as wp
     except ImportError as e:
-        print(f"gpu_rollout: {e}: needs mujoco_warp and warp-lang", file=sys.stderr)
+        print(f"bench_sim.py --gpu: {e}: needs mujoco_warp and warp-lang", file=sys.stderr)
         return 2
     wp.init()
     dev = wp.get_device(args.device)
@@ -195,16 +190,18 @@ def main(argv=None) -> int:
                "python": platform.python_version(), "mujoco": mujoco.__version__, "warp": wp.__version__,
                "mujoco_warp": getattr(mujoco_warp, "__version__", "unknown"), "load_before": os.getloadavg()}
     print(json.dumps(machine), flush=True)
+    from mjtrack.sim.rollout import settled_state
+    from mjtrack.sim.surfacevel import set_track_speeds
+
     rng = np.random.default_rng(args.seed)
     worlds = [int(w) for w in args.worlds.split(",")]
     nthread = os.cpu_count() or 1
     results = []
     for name, m, B, ids in models():
-        state0 = settled(m)
+        state0 = settled_state(m)
         for n in worlds:
             cmd = rng.uniform(-1.0, 1.0, size=(n, 2))
             if ids is not None:  # one track speed pair for every world: a model field
-                from mjtrack.sim.surfacevel import set_track_speeds
                 set_track_speeds(m, *cmd[0], ids=ids)
                 cmd[:] = cmd[0]
             ctrl = cmd @ B.T if B is not None else np.zeros((n, m.nu))
@@ -224,9 +221,7 @@ def main(argv=None) -> int:
                 results.append(row)
                 continue
             try:  # the model as mjtrack builds it
-                import mujoco_warp as mjw
-
-                mjw.put_model(m)
+                mujoco_warp.put_model(m)
                 row["gpu_as_built"] = "accepted"
             except Exception as e:  # noqa: BLE001 - what MuJoCo Warp refuses is the finding
                 row["gpu_as_built"] = f"{type(e).__name__}: {e}"[:500]

@@ -455,11 +455,11 @@ def _starts(args, load0) -> int:
 def _agreement_only(args) -> int:
     stored = json.loads(STARTS_RESULT.read_text())
     for name, r in stored["robots"].items():
-        for start, robot in (("shipped", None), ("public", None)):
-            if "mass" not in r["starts"][start]:  # the descriptions' masses, as starts_robot records them
-                _, base = read_log_with_robot(ROBOTS[name]["log"])
-                r["starts"][start]["mass"] = (base if start == "shipped"
-                                              else starting_robot(base, ROBOTS[name]["public"])).mass
+        if any("mass" not in r["starts"][s] for s in ("shipped", "public")):
+            # the descriptions' masses, as starts_robot records them
+            _, base = read_log_with_robot(ROBOTS[name]["log"])
+            r["starts"]["shipped"]["mass"] = base.mass
+            r["starts"]["public"]["mass"] = starting_robot(base, ROBOTS[name]["public"]).mass
         r.update(agreement(r["starts"]["shipped"], r["starts"]["public"]))
         print(f"{name}: agree {r['agree']}")
     stored["agreement_command"] = "python benchmarks/real_robots.py --starts --agreement-only"

@@ -334,7 +334,7 @@ def _speed() -> Page:
 
 
 def _gpu_tables(gpu: Source) -> list[Table]:
-    """Batched rollouts on a lent GPU against its machine's CPU (benchmarks/gpu_rollout.py)."""
+    """Batched rollouts on a lent GPU against its machine's CPU (benchmarks/bench_sim.py --gpu)."""
     refused = Table("What MuJoCo Warp (`mujoco_warp.put_model`) says of each model as mjtrack builds it, and what "
                     "was changed so that it runs (the adapted model, timed below on both).",
                     ["model", "as built", "adapted"])
