@@ -3,7 +3,7 @@
 
     python benchmarks/real_robots.py [--robots marmotte,husky,warthog] [--rollers 6] [--diagnose]
     python benchmarks/real_robots.py --diagnose-only        # diagnose the stored calibrated robots
-    python benchmarks/real_robots.py --starts --robots marmotte   # two starting descriptions, one answer?
+    python benchmarks/real_robots.py --starts --robots marmotte [--rounds 8]  # two starting descriptions, one answer?
 
 For each robot: its log's description plus the public specification of what the log does not give
 (every such value named, with its source, under ``assumed`` in calibration.json), calibrated with
@@ -27,14 +27,15 @@ robot (what the calibrated simulation still gets wrong), recorded under ``diagno
 same and the machine's load.
 
 ``--starts``: does the answer hang on the start? Each robot calibrated, with calibrate's defaults (as
-a user runs it: its default windows) and the drive input of the reference run above (``fitted`` for
+a user runs it: its default windows; ``--rounds N`` gives the fit more rounds to settle) and the drive input of the reference run above (``fitted`` for
 Husky and Warthog, the commands for Marmotte), from two descriptions: the log's own as
 shipped (gauge and sprocket radius; every other key a default) and the starting robot above (the
 public specification), on the same split, with the first 70 % of the log for training and the rest
 for testing. Per parameter both values and intervals, and whether each value lies in the other's
 interval where both are determined (a drive force limit per kilogram of each description's mass,
 which the log does not determine: the log fixes how fast the drives can speed the robot up, not
-the force); the causes, summaries and held-out errors of both. Writes
+the force; a value beyond the other description's search range, which follows its geometry, compared
+with the nearest end of that range, the closest the other fit could come); the causes, summaries and held-out errors of both. Writes
 benchmarks/results/start_independence.json; ``--starts --agreement-only`` recomputes the
 agreement of the stored file with the rule now.
 """
@@ -262,25 +263,34 @@ def run_robot(name: str, spec: dict, *, rollers: int) -> dict:
             "seconds": wall, **context_of_stored(name, spec, rollers=rollers)}
 
 
-def starts_robot(name: str, spec: dict) -> dict:
-    """The robot calibrated from the shipped description and from the public one (module docstring)."""
+def starts_robot(name: str, spec: dict, rounds: int | None = None) -> dict:
+    """The robot calibrated from the shipped description and from the public one (module docstring);
+    ``rounds``: calibrate's rounds (None: its default)."""
+    from mjtrack.calibrate.params import specs_for
+    from mjtrack.calibrate.rounds import MAX_ROUNDS
+
     log, base = read_log_with_robot(spec["log"])
     train, test = split(log, *STARTS_SPLIT)
-    out = {"split": list(STARTS_SPLIT), "starts": {}}
+    out = {"split": list(STARTS_SPLIT), "rounds": MAX_ROUNDS if rounds is None else rounds, "starts": {}}
     for start, robot in (("shipped", base), ("public", starting_robot(base, spec["public"]))):
         t0 = time.time()
         cal = calibrate(train, robot, test=test, quiet=not sys.stderr.isatty(),
-                        drive_input=spec.get("drive_input", "commanded"))
+                        drive_input=spec.get("drive_input", "commanded"), rounds=out["rounds"])
         cj = cal.to_json()
         out["starts"][start] = {"seconds": time.time() - t0, "test": cj["test"], "parameters": cj["parameters"],
                                 "intervals": cj["intervals"], "determined": cj["determined"],
                                 "described": cj["described"], "causes": cj["causes"], "summary": cj["summary"],
-                                "assumed": cj["assumed"], "drive_input": cj.get("drive_input_mode", "commanded")}
+                                "assumed": cj["assumed"], "drive_input": cj.get("drive_input_mode", "commanded"),
+                                "mass": robot.mass, "bounds": _bounds(robot, specs_for)}
         print(f"  {name} from the {start} description: test {cj['test']['before']:.4f} -> {cj['test']['after']:.4f} m, "
               f"{time.time() - t0:.0f} s", flush=True)
-    out["starts"]["shipped"]["mass"], out["starts"]["public"]["mass"] = base.mass, starting_robot(base, spec["public"]).mass
     out.update(agreement(out["starts"]["shipped"], out["starts"]["public"]))
     return out
+
+
+def _bounds(robot: Robot, specs_for) -> dict[str, list[float]]:
+    """Every candidate's search range for this description (the centre of mass's follows its geometry)."""
+    return {n: [float(s.lo), float(s.hi)] for n, s in specs_for(robot).items()}
 
 
 # parameters that scale with the robot's mass, which the log does not determine and the two starting
@@ -293,7 +303,9 @@ def agreement(a: dict, b: dict) -> dict:
     """Whether two calibrations of one log agree: per parameter both values and, where both determine
     it, whether each lies in the other's interval (a value kept at its description, which the log
     confirms, has no interval: its own value stands for it); :data:`PER_KG` parameters per kilogram
-    of each description's mass."""
+    of each description's mass. A value beyond the other description's search range (a centre of
+    mass's range follows the described geometry) is compared with the nearest end of that range, the
+    closest the other fit could come, and marked ``beyond_the_other_range``."""
     agree = {}
     for n in a["parameters"]:
         if n not in b["parameters"]:
@@ -304,10 +316,14 @@ def agreement(a: dict, b: dict) -> dict:
         va, vb = a["parameters"][n] / ka, b["parameters"][n] / kb
         ia = [x / ka for x in a["intervals"][n]] if a["intervals"].get(n) else [va, va]
         ib = [x / kb for x in b["intervals"][n]] if b["intervals"].get(n) else [vb, vb]
+        ra = [x / ka for x in a.get("bounds", {}).get(n, [-np.inf, np.inf])]
+        rb = [x / kb for x in b.get("bounds", {}).get(n, [-np.inf, np.inf])]
+        ca, cb = float(np.clip(va, *rb)), float(np.clip(vb, *ra))  # each as near as the other's range allows
         tol = 1e-9 * max(abs(va), abs(vb), 1e-12)
-        inside = ib[0] - tol <= va <= ib[1] + tol and ia[0] - tol <= vb <= ia[1] + tol
+        inside = ib[0] - tol <= ca <= ib[1] + tol and ia[0] - tol <= cb <= ia[1] + tol
         agree[n] = {"shipped": a["parameters"][n], "public": b["parameters"][n], "determined_in_both": both,
                     "each_in_the_other_interval": inside if both else None,
+                    **({"beyond_the_other_range": True} if both and (ca != va or cb != vb) else {}),
                     **({"per_kg": {"shipped": va, "public": vb}} if n in PER_KG else {})}
     return {"agreement": agree, "agree": all(v["each_in_the_other_interval"] is not False for v in agree.values())}
 
@@ -343,6 +359,9 @@ def main(argv=None) -> int:
                          "the error concentration and the errors over every test window (seconds to minutes)")
     ap.add_argument("--agreement-only", action="store_true",
                     help="--starts: only recompute the agreement of the stored start_independence.json")
+    ap.add_argument("--rounds", type=int, default=None,
+                    help="--starts: calibrate's rounds (default: its own); more let a fit that has not settled reach "
+                         "what the log points at")
     ap.add_argument("--starts", action="store_true",
                     help="calibrate each robot from its shipped description and from the public one; write "
                          "start_independence.json (module docstring)")
@@ -439,11 +458,13 @@ def _starts(args, load0) -> int:
         if not spec["log"].exists():
             print(f"{spec['log']} not found (the shared data); skipped")
             continue
-        robots[name] = {**starts_robot(name, spec), "command": command}
+        robots[name] = {**starts_robot(name, spec, args.rounds), "command": command}
         for n, v in robots[name]["agreement"].items():
             print(f"  {n:20s} shipped {v['shipped']:.4g}  public {v['public']:.4g}  "
                   + ("not determined in both" if not v["determined_in_both"]
-                     else f"each in the other's interval: {v['each_in_the_other_interval']}"))
+                     else f"each in the other's interval: {v['each_in_the_other_interval']}"
+                     + (" (a value beyond the other's range, compared with its end)"
+                        if v.get("beyond_the_other_range") else "")))
         STARTS_RESULT.parent.mkdir(parents=True, exist_ok=True)
         commands = sorted({r["command"] for r in robots.values()})
         STARTS_RESULT.write_text(json.dumps({"command": "; ".join(commands), "robots": robots, "load_before": load0,
@@ -455,11 +476,13 @@ def _starts(args, load0) -> int:
 def _agreement_only(args) -> int:
     stored = json.loads(STARTS_RESULT.read_text())
     for name, r in stored["robots"].items():
-        if any("mass" not in r["starts"][s] for s in ("shipped", "public")):
-            # the descriptions' masses, as starts_robot records them
+        if any("mass" not in r["starts"][s] or "bounds" not in r["starts"][s] for s in ("shipped", "public")):
+            # the descriptions' masses and search ranges, as starts_robot records them
+            from mjtrack.calibrate.params import specs_for
+
             _, base = read_log_with_robot(ROBOTS[name]["log"])
-            r["starts"]["shipped"]["mass"] = base.mass
-            r["starts"]["public"]["mass"] = starting_robot(base, ROBOTS[name]["public"]).mass
+            for s, robot in (("shipped", base), ("public", starting_robot(base, ROBOTS[name]["public"]))):
+                r["starts"][s]["mass"], r["starts"][s]["bounds"] = robot.mass, _bounds(robot, specs_for)
         r.update(agreement(r["starts"]["shipped"], r["starts"]["public"]))
         print(f"{name}: agree {r['agree']}")
     stored["agreement_command"] = "python benchmarks/real_robots.py --starts --agreement-only"

@@ -309,7 +309,8 @@ def diagnose_log(log: "DriveLog", robot: "Robot", *, baseline: str = "auto", tes
 def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | None" = None,
                     params: list[str] | None = None, horizon_s: float = 2.0, max_iter: int = 8,
                     out_dir: str | os.PathLike | None = None, quiet: bool = True,
-                    drive_input: str = "commanded", fit_windows: int | None | str = "default") -> "Calibration":
+                    drive_input: str = "commanded", fit_windows: int | None | str = "default",
+                    rounds: int = 3) -> "Calibration":
     """Fit the MuJoCo robot's description to a drive log.
 
     The Python form of ``mjtrack calibrate``: windows of ``horizon_s`` simulated from the measured
@@ -336,6 +337,9 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
             why are in the result's ``drive_input_mode`` and ``drive_input_why``).
         fit_windows: windows the fit uses, spread over the log (``--fit-windows``; None: all;
             default: the command's).
+        rounds: at most this many refits after the first fit, each after what the log determines
+            is decided again (``--rounds``, 0 to 20); a fit that has not settled when they run out
+            says what the log points at that it did not reach.
 
     Returns:
         The calibration: ``calibrated`` (the fitted :class:`~mjtrack.io.robot.Robot`),
@@ -356,7 +360,7 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
 
     cal = calibrate(log, robot, test=test_log, names=None if params is None else ",".join(params), horizon_s=horizon_s,
                     max_iter=max_iter, quiet=quiet, train_path=log.source or "train log", drive_input=drive_input,
-                    test_path=None if test_log is None else test_log.source or "test log",
+                    test_path=None if test_log is None else test_log.source or "test log", rounds=rounds,
                     **({} if fit_windows == "default" else {"fit_windows": fit_windows}))
     if out_dir is not None:
         write_outputs(cal, out_dir)

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from mjtrack.calibrate.run import calibrate
+from mjtrack.errors import InputError
 from mjtrack.io.logs import write_log
 from mjtrack.io.robot import Robot, read_robot, write_robot
 from mjtrack.sim import SimConfig, drive_log
@@ -104,7 +105,7 @@ def test_cli_writes_a_robot_every_command_accepts(logs, tmp_path):
 
 
 @pytest.mark.parametrize("case", ["other_robot", "too_short", "unknown_param", "out_of_range",
-                                  "wrong_ground_param", "bad_drive_input"])
+                                  "wrong_ground_param", "bad_drive_input", "too_many_rounds"])
 def test_bad_input_exits_2_one_line_nothing_written(logs, tmp_path, case):
     from mjtrack.io.logs import read_log
 
@@ -128,6 +129,8 @@ def test_bad_input_exits_2_one_line_nothing_written(logs, tmp_path, case):
         args += ["--robot", tmp_path / "r.json", "--params", "mu,drive_lag"]
     elif case == "wrong_ground_param":
         args += ["--params", "lateral_ratio"]
+    elif case == "too_many_rounds":
+        args += ["--rounds", "21"]
     elif case == "bad_drive_input":  # the robot file's record of what its drives followed
         (tmp_path / "r.json").write_text(json.dumps({**json.loads((logs / "train.json").read_text()),
                                                      "simulator": {"drive_input": "wheels"}}))
@@ -271,6 +274,37 @@ def test_a_fit_that_blows_up_on_an_unused_window_is_fitted_again_with_it(monkeyp
     assert calls["after"] == 2 and cal.after.diverged == 0
     assert not any(f["what"] == "diverged windows" and f["simulated_after"] for f in cal.findings)
     assert "blows up" not in cal.sentence
+
+
+@pytest.mark.parametrize("bad", [-1, 21, 2.5, True, "3"])
+def test_rounds_out_of_range_are_refused(bad):
+    with pytest.raises(InputError, match="rounds must be a whole number from 0 to 20"):
+        calibrate(_log(Robot(cg_x=0.04), 16.0, 3, lag=0.0), Robot(), names=["cg_x"], rounds=bad)
+
+
+def test_rounds_reach_the_fit_and_are_recorded(monkeypatch):
+    """The rounds asked for are the ones the fit's decisions run (the guard's second attempt keeps
+    its own), and calibration.json records them; the option's bound, the API's default and the
+    library's agree."""
+    import inspect
+
+    from mjtrack import api
+    from mjtrack.calibrate import rounds as rounds_mod
+    from mjtrack.commands._common import OPTION_BOUNDS
+
+    assert OPTION_BOUNDS["rounds"].high == rounds_mod.MAX_ROUNDS_LIMIT and OPTION_BOUNDS["rounds"].low == 0
+    assert inspect.signature(api.calibrate_robot).parameters["rounds"].default == rounds_mod.MAX_ROUNDS
+    seen = []
+    real = rounds_mod.decision_rounds
+
+    def spy(fx, obj, fws, cur, rounds, on_iter):
+        seen.append(rounds)
+        return real(fx, obj, fws, cur, rounds, on_iter)
+
+    monkeypatch.setattr(rounds_mod, "decision_rounds", spy)
+    cal = calibrate(_log(Robot(cg_x=0.04), 16.0, 3, lag=0.0), Robot(), names=["cg_x"], fit_windows=3, max_iter=3,
+                    rounds=5)
+    assert seen == [5] and cal.to_json()["method"]["rounds"] == 5
 
 
 def test_a_blow_up_that_stays_is_said(monkeypatch):

@@ -156,3 +156,25 @@ def test_the_multistart_screen_keeps_the_start_that_wins_on_every_window():
     full = [float(np.sum(obj.residuals(c) ** 2)) for c in np.stack(cands, -1).T]
     assert np.allclose(best, cands[int(np.argmin(full))])
     assert sum(np.isfinite(c) for _, c in tried) == SCREEN_KEEP
+
+
+@pytest.mark.parametrize("n_rounds", [0, rounds.MAX_ROUNDS])
+def test_rounds_that_run_out_say_what_the_log_points_at_and_how_to_go_further(n_rounds):
+    """From a point where only mu was fitted, the log points at cg_x: with no rounds left the fit
+    cannot move it, so cg_x keeps its description and its verdict says where the log points and
+    that more rounds would reach it; with the default rounds the fit reaches the truth."""
+    from mjtrack.calibrate.fit import central_jacobian
+
+    fx = _fitter()
+    obj = Analytic(NAMES)
+    resid, jac = central_jacobian(obj, fx.scaled(DESCRIBED))
+    cur = rounds.Linearisation(dict(DESCRIBED), resid, jac, ["mu"])
+    sel, cur, theta, sources, size, fits = rounds.decision_rounds(fx, obj, np.arange(M), cur, n_rounds, None)
+    verdicts, values, *_ = rounds.settle_verdicts(fx, obj, sel, cur, theta, sources, size, n_rounds)
+    if n_rounds == 0:
+        assert fits == [] and values["cg_x"] == DESCRIBED["cg_x"]
+        assert f"did not settle within 0 rounds ({rounds.ROUNDS_HINT})" in verdicts["cg_x"].reason
+        assert verdicts["cg_x"].points_at == pytest.approx(TRUTH["cg_x"], abs=0.01)
+    else:
+        lo, hi = verdicts["cg_x"].interval
+        assert verdicts["cg_x"].changed and lo <= TRUTH["cg_x"] <= hi

@@ -813,14 +813,16 @@ def _calibration() -> Page:
                       "(gauge and sprocket radius; every other key a default) and from the public specification, "
                       "on the held-out split of `python benchmarks/real_robots.py --starts` (its docstring): every "
                       "candidate's two values, whether both calibrations determine it and, if so, whether each "
-                      "value lies in the other's interval.",
+                      "value lies in the other's interval (a value beyond the other description's search range, "
+                      "which follows its geometry, compared with the nearest end of that range).",
                       ["robot", "parameter", "from shipped", "from public", "determined in both",
                        "each in the other's interval", "compared"])
         errs = Table("The two calibrations of the table above: held-out position error [m] at the window's end "
                      "before and after, the wall time of the calibration [s] (the load is in the result file) and "
                      "the causes each names, largest share first (not plausible: said as something no candidate "
                      "describes, never as a cause).",
-                     ["robot", "start", "drive input", "test before", "test after", "seconds", "causes named"])
+                     ["robot", "start", "drive input", "rounds", "test before", "test after", "seconds",
+                      "causes named"])
         for name, r in st.data["robots"].items():
             q = f"/robots/{name}"
             for n in r["agreement"]:
@@ -828,11 +830,14 @@ def _calibration() -> Page:
                 agree.add(name, n, number(st, a + "/shipped"), number(st, a + "/public"),
                           number(st, a + "/determined_in_both"),
                           number(st, a + "/each_in_the_other_interval"),
-                          "per kg of each description's mass" if "per_kg" in r["agreement"][n] else "as fitted")
+                          ("per kg of each description's mass" if "per_kg" in r["agreement"][n] else "as fitted")
+                          + ("; beyond the other's range: compared with its end"
+                             if r["agreement"][n].get("beyond_the_other_range") else ""))
             for start, x in r["starts"].items():
                 named = ["+".join(g["parameters"]) + ("" if g.get("plausible", True) else " (not plausible)")
                          for g in x["causes"]]
                 errs.add(name, start, x.get("drive_input", "commanded"),
+                         number(st, f"{q}/rounds") if "rounds" in r else "calibrate's default",
                          number(st, f"{q}/starts/{start}/test/before"),
                          number(st, f"{q}/starts/{start}/test/after"), number(st, f"{q}/starts/{start}/seconds"),
                          "; ".join(named) or "none")

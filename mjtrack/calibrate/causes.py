@@ -29,6 +29,7 @@ from typing import Callable
 
 import numpy as np
 
+from mjtrack.calibrate.rounds import ROUNDS_HINT
 from mjtrack.io.robot import G, Robot
 
 COUPLED = 0.7  # |correlation| above which changed parameters form one cause
@@ -293,7 +294,7 @@ def summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: t
     text = _summary(causes, rms, where=where, yaw=yaw, undetermined=undetermined)
     if unsettled:
         text += (" The log also points at " + ", ".join(f"{n} {v}" for n, v in unsettled.items())
-                 + ", which the fit did not reach within its rounds: "
+                 + f", which the fit did not reach within its rounds ({ROUNDS_HINT}): "
                  + ("it keeps its described value" if len(unsettled) == 1 else "they keep their described values")
                  + ", which the log does not confirm.")
     for n, (v, why) in (unsettled_implausible or {}).items():

@@ -140,6 +140,7 @@ class Calibration:
     drive_input_mode: str = "commanded"
     drive_input_why: str = "asked for"
     fit_windows: WindowSet | None = None  # the windows the fit used (None: every training window)
+    rounds: int = 3  # the most refits after the first fit it was allowed (calibrate's ``rounds``)
     #: windows left out because their poses move against the tracks (see
     #: :func:`mjtrack.sim.windows.contradicting_windows`), by part ("train", "test")
     left_out: dict[str, list[dict]] = field(default_factory=dict)
@@ -234,7 +235,7 @@ class Calibration:
             "summary": self.sentence,
             "model_form": self.model_form,
             "start": self.fit.start, "starts_tried": [{"parameters": p, "cost": c} for p, c in self.fit.starts_tried],
-            "method": {"optimizer": self.fit.method,
+            "method": {"optimizer": self.fit.method, "rounds": self.rounds,
                        "fits": [{"parameters": f.names, "iterations": f.iterations, "cost_start": f.cost_start,
                                  "cost_final": f.cost_final} for f in fits],
                        "simulated_windows": sum(f.evaluations for f in fits) * len(self.fitted_windows),

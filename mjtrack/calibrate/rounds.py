@@ -31,7 +31,12 @@ if TYPE_CHECKING:  # MuJoCo is loaded by the functions that simulate, not by imp
 
 log = logging.getLogger(__name__)
 
-MAX_ROUNDS = 3  # refits after the first fit, each after what the log determines was decided again
+#: refits after the first fit, each after what the log determines was decided again (calibrate's
+#: default ``rounds``; more let a fit that has not settled reach what the log points at, at the cost
+#: of one refit each)
+MAX_ROUNDS = 3
+MAX_ROUNDS_LIMIT = 20  # the most a user may ask for
+ROUNDS_HINT = "more rounds, --rounds, let it go further"  # said where the rounds ran out
 #: refits of the guard's second attempt (after a blow-up on a window the fit did not use): it starts
 #: from the first attempt's settled decision, which the added windows move only a little
 GUARD_ROUNDS = 1
@@ -134,6 +139,7 @@ class Fitter:
     nthread: int
     warmup_s: float
     meter: Meter
+    rounds: int = MAX_ROUNDS
     specs: dict = field(init=False)
     floors: dict[str, float] = field(init=False)
 
@@ -303,7 +309,7 @@ def settle_verdicts(fx: Fitter, obj, sel, cur: Linearisation, theta: np.ndarray,
             s = specs[n]
             verdicts[n] = Verdict(n, True, False, described[n], described[n], None,
                                   f"the log points at {fmt_value(sel.values[n], s.unit)} (linearised), but the "
-                                  f"fit did not settle within {rounds} rounds; it stays at its described "
+                                  f"fit did not settle within {rounds} rounds ({ROUNDS_HINT}); it stays at its described "
                                   f"value {fmt_value(described[n], s.unit)}, which the log does not confirm",
                                   points_at=float(sel.values[n]))
     ties = {k: v for k, v in sel.ties.items() if k in kept}
@@ -326,7 +332,7 @@ def fit_attempt(fx: Fitter, fws: WindowSet, start_at: dict[str, float], only: li
     """One attempt: the first fit, the rounds of decisions, the verdicts (``only``: the guard's
     second attempt, see :func:`_guarded_fit`)."""
     obj = fx.objective(fws, fx.names)
-    rounds = MAX_ROUNDS if only is None else GUARD_ROUNDS
+    rounds = fx.rounds if only is None else GUARD_ROUNDS
     fx.meter.stage("fit" if only is None else "guard refit")
     result, cur = first_fit(fx, obj, fws, start_at, only, None)
     sel, cur, theta, sources, size, fits = decision_rounds(fx, obj, fws, cur, rounds, None)

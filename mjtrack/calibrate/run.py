@@ -52,7 +52,7 @@ from mjtrack.calibrate.measures import (measured_speeds,
                                        turn_measures)
 from mjtrack.calibrate.result import Calibration, Scored, write_outputs
 
-from mjtrack.calibrate.rounds import Fitted, Fitter, Meter, expected_passes, fit_attempt
+from mjtrack.calibrate.rounds import MAX_ROUNDS, MAX_ROUNDS_LIMIT, Fitted, Fitter, Meter, expected_passes, fit_attempt
 
 log = logging.getLogger(__name__)
 
@@ -126,7 +126,8 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
               names: str | list[str] | None = None, horizon_s: float = 2.0, n_rollers: int | None = None,
               max_iter: int = 8, nthread: int = 2, quiet: bool = True, train_path: str | None = None,
               test_path: str | None = None, warmup_s: float = WARMUP_S, drive_input: str = "commanded",
-              fit_windows: int | None = FIT_WINDOWS, keep_contradicting: bool = False) -> Calibration:
+              fit_windows: int | None = FIT_WINDOWS, keep_contradicting: bool = False,
+              rounds: int = MAX_ROUNDS) -> Calibration:
     """Fit the MuJoCo robot to ``train`` (see the module docstring); bad input raises InputError.
 
     Args:
@@ -159,10 +160,16 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
             errors before and after and the causes use every window.
         keep_contradicting: keep the windows whose poses move against the tracks (by default they
             are left out of the fit and of every score, and listed under ``left_out``).
+        rounds: at most this many refits after the first fit, each after what the log determines
+            was decided again for every candidate (0 to 20); a fit that has not settled when they
+            run out keeps the candidates it has not reached at their described values and says
+            what the log points at. Each round costs about one refit of the kept parameters.
     """
     from mjtrack.sim.rollout import summarised_mujoco_warnings
 
     src = train_path or train.source or "train log"
+    if isinstance(rounds, bool) or not isinstance(rounds, (int, np.integer)) or not 0 <= rounds <= MAX_ROUNDS_LIMIT:
+        raise InputError(f"rounds must be a whole number from 0 to {MAX_ROUNDS_LIMIT}, got {rounds!r}")
     if drive_input not in DRIVE_INPUTS:
         raise InputError(f"drive_input must be one of {', '.join(DRIVE_INPUTS)}, got {drive_input!r}")
     drive_input, why = auto_drive_input(train, robot, names) if drive_input == "auto" else (drive_input, "asked for")
@@ -194,7 +201,7 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
         cal = _calibrate(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
                          max_iter=max_iter, nthread=nthread, quiet=quiet, train_path=train_path,
                          test_path=test_path, warmup_s=warmup_s, drive_input=drive_input, fit_windows=fit_windows,
-                         keep_contradicting=keep_contradicting)
+                         keep_contradicting=keep_contradicting, rounds=int(rounds))
     if chain is not None:
         rolling = cal.values["track_speed_scale"] if "track_speed_scale" in cal.changed else 1.0
         calibrated = chain_robot(cal.calibrated, chain.values, rolling)
@@ -459,7 +466,7 @@ def _explain(pb: _Problem, att: Fitted, changed: list[str], causes: list[Cause],
 
 
 def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, quiet,
-               train_path, test_path, warmup_s, drive_input, fit_windows, keep_contradicting) -> Calibration:
+               train_path, test_path, warmup_s, drive_input, fit_windows, keep_contradicting, rounds) -> Calibration:
     """The stages, each timed: prepare, before (the robot as described scored), fit (the first fit
     and its rounds of decisions), guard (every training window scored after; guard_refit when the
     second attempt runs), after (the test log scored after, the causes), explain."""
@@ -469,13 +476,13 @@ def _calibrate(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rolle
         return _stages(train, robot, test=test, names=names, horizon_s=horizon_s, n_rollers=n_rollers,
                        max_iter=max_iter, nthread=nthread, train_path=train_path, test_path=test_path,
                        warmup_s=warmup_s, drive_input=drive_input, fit_windows=fit_windows,
-                       keep_contradicting=keep_contradicting, clock=clock, meter=meter)
+                       keep_contradicting=keep_contradicting, rounds=rounds, clock=clock, meter=meter)
     finally:
         meter.close()
 
 
 def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers, max_iter, nthread, train_path,
-            test_path, warmup_s, drive_input, fit_windows, keep_contradicting, clock: _Clock,
+            test_path, warmup_s, drive_input, fit_windows, keep_contradicting, rounds, clock: _Clock,
             meter: Meter) -> Calibration:
     from mjtrack.calibrate.fit import multistart_passes, start_points, windows_done
     from mjtrack.sim.windows import WindowSim, simulate_windows
@@ -487,7 +494,7 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
                       keep_contradicting=keep_contradicting, src=src, test_src=test_src)
         sim = WindowSim(robot, pb.config, resisted="rolling_resistance" in pb.names)
     fx = Fitter(sim=sim, train=train, names=pb.names, described=pb.described, config=pb.config, max_iter=max_iter,
-                 nthread=nthread, warmup_s=warmup_s, meter=meter)
+                 nthread=nthread, warmup_s=warmup_s, meter=meter, rounds=rounds)
     n_fit = len(fit_index_of(pb.ws, fit_windows))
     n_test = 0 if pb.tws is None else len(pb.tws)
     starts = multistart_passes(len(start_points(pb.names, fx.specs, np.zeros(len(pb.names)))), n_fit)
@@ -539,7 +546,7 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
         model_form=att.model_form, causes=causes, train_windows=pb.ws, test_windows=pb.tws, train_log=train,
         test_log=test, before=before, after=after, test_before=test_before, test_after=test_after,
         findings=json_value(findings), sentence=sentence, config=pb.config.to_dict(), timings=clock.total(),
-        drive_input=drive_input, fit_windows=att.fws, left_out=pb.left_out)
+        drive_input=drive_input, fit_windows=att.fws, left_out=pb.left_out, rounds=rounds)
 
 
 def _without_contradicting(lg: DriveLog, ws: WindowSet, src: str, gauge: float) -> tuple[WindowSet, list[dict]]:

@@ -51,7 +51,7 @@ PARAMETER_OPTIONS: dict[str, str] = {
     "horizon_s": "--horizon", "workers": "--workers", "scheduler": "--scheduler", "baseline": "--baseline",
     "force": "--force", "restart": "--force", "drive_input": "--drive-input", "odom": "--odom", "cmd": "--cmd",
     "joints": "--joints", "robot_path": "--robot", "out": "--out", "keep_contradicting": "--keep-contradicting",
-    "fit_windows": "--fit-windows", "n_folds": "--folds",
+    "fit_windows": "--fit-windows", "n_folds": "--folds", "rounds": "--rounds",
 }
 _NAMES = "|".join(sorted(PARAMETER_OPTIONS, key=len, reverse=True))
 _LEADING = re.compile(rf"^({_NAMES}):")  # "params: unknown parameter 'x'"
@@ -134,6 +134,7 @@ OPTION_BOUNDS: dict[str, Bound] = {
     "height": Bound(16, 4320, "px", "an even image height", integer=True, even=True),
     "folds": Bound(3, 1_000, "", "a number of folds", integer=True),
     "iterations": Bound(1, 1_000, "", "a number of iterations", integer=True),
+    "rounds": Bound(0, 20, "", "a number of rounds", integer=True),  # = calibrate.rounds.MAX_ROUNDS_LIMIT (a test holds it)
     "rollers": Bound(2, 200, "", "rollers per track", integer=True),  # a robot file's simulator n_rollers too
     "threads": Bound(1, 64, "", "a number of threads", integer=True),
     "fit_windows": Bound(5, 1_000_000, "", "a number of windows", integer=True),

@@ -33,6 +33,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from mjtrack.calibrate.rounds import MAX_ROUNDS, MAX_ROUNDS_LIMIT
 from mjtrack.calibrate.run import FIT_WINDOWS
 from mjtrack.commands._common import (add_output_options, add_robot_options, bounded, check_out_dir, check_overwrite,
                                       command_inputs, log_and_robot, test_log_and_robot)
@@ -50,6 +51,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--params", metavar="NAMES", default=None, help="parameters to fit, comma separated")
     parser.add_argument("--horizon", metavar="S", type=bounded("horizon"), default=2.0, help="window length [s] (default 2)")
     parser.add_argument("--max-iter", metavar="N", type=bounded("iterations"), default=8, help="optimiser iterations (default 8)")
+    parser.add_argument("--rounds", metavar="N", type=bounded("rounds"), default=MAX_ROUNDS,
+                        help=f"at most N refits after the first fit, each after what the log determines is decided "
+                             f"again (0 to {MAX_ROUNDS_LIMIT}, default {MAX_ROUNDS}); when they run out before the fit settles, the "
+                             "summary names what the log points at that the fit did not reach. Each round costs "
+                             "about one refit")
     parser.add_argument("--rollers", metavar="N", type=bounded("rollers"), default=None,
                         help="contact rollers per track in the simulation (default: the robot file's simulator "
                              "setting, else 10; 6 is ~2x faster); recorded in robot.json")
@@ -93,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
     cal = calibrate(train, robot, test=test, names=args.params, horizon_s=args.horizon,
                     n_rollers=args.rollers, max_iter=args.max_iter, nthread=args.threads, quiet=args.quiet,
                     drive_input=args.drive_input, fit_windows=args.fit_windows,
-                    keep_contradicting=args.keep_contradicting,
+                    keep_contradicting=args.keep_contradicting, rounds=args.rounds,
                     train_path=str(args.log), test_path=None if args.test is None else str(args.test))
     write_outputs(cal, out)
     changed = ", ".join(f"{n} {cal.described[n]:.4g} -> {cal.values[n]:.4g}" for n in cal.changed) or "nothing"
