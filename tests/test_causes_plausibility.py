@@ -180,3 +180,25 @@ def test_each_distinct_parameter_set_of_the_causes_is_simulated_once():
     by = {c.parameters[0]: c for c in causes}
     assert by["cg_x"].share == pytest.approx(0.1 / 0.15) and by["mu"].share == pytest.approx(0.05 / 0.15)
     assert by["cg_x"].gain_alone == pytest.approx(0.1 / 0.3) and by["mu"].gain_alone == pytest.approx(0.05 / 0.3)
+
+
+def _yaw_row(part, lo, hi, measured, after, windows):
+    return {"what": f"yaw ratio (|turn ratio| {lo:g} to {hi:g})", "part": part, "measured": measured,
+            "simulated_before": 0.5, "simulated_after": after, "windows": windows, "turn_class": [lo, hi]}
+
+
+def test_a_yaw_ratio_off_in_a_turn_class_is_said_as_what_no_candidate_describes():
+    """Only classes with enough steady turns count, the test part when there is one, and only a gap
+    beyond YAW_CLASS_GAP; a class the calibrated robot never turned steadily in (null) says nothing."""
+    from mjtrack.calibrate.causes import YAW_CLASS_GAP, YAW_CLASS_MIN, yaw_class_gaps
+
+    rows = [_yaw_row("train", 0.15, 0.5, 0.62, 0.90, 50),  # train: ignored when a test part exists
+            _yaw_row("test", 0.15, 0.5, 0.62, 0.62 + 2 * YAW_CLASS_GAP, YAW_CLASS_MIN),
+            _yaw_row("test", 0.5, 1.0, 0.574, 0.574 - YAW_CLASS_GAP / 2, 34),  # within the gap
+            _yaw_row("test", 0.0, 0.15, 0.44, 0.90, YAW_CLASS_MIN - 1),  # too few turns
+            _yaw_row("test", 0.0, 0.15, 0.44, None, 40)]  # no steady turn simulated
+    text = yaw_class_gaps(rows)
+    assert "|turn ratio| 0.15 to 0.5: measured 0.620, calibrated 0.680 over 10 steady turns" in text
+    assert "0.5 to 1" not in text and "0 to 0.15" not in text and text.startswith("no candidate makes")
+    assert yaw_class_gaps(rows[:1]).count("train windows") == 1  # no test part: the training part's
+    assert yaw_class_gaps(rows[2:]) == ""

@@ -366,6 +366,30 @@ def not_explained(causes: list[Cause], speeds: dict | None = None) -> list[dict]
     return out
 
 
+#: a calibrated robot whose steady-turn yaw ratio is this far from the measured one in a turn class
+#: does not turn as the log does there (a 2 s turn then ends 3 % of its nominal rotation off)
+YAW_CLASS_GAP = 0.03
+#: steady turns a class needs before its yaw ratio is held against the calibrated robot's
+YAW_CLASS_MIN = 10
+
+
+def yaw_class_gaps(findings: list[dict]) -> str:
+    """The sentence saying in which |turn ratio| classes (with at least :data:`YAW_CLASS_MIN`
+    steady turns, on the test part when there is one) the calibrated robot's steady-turn yaw ratio
+    is more than :data:`YAW_CLASS_GAP` from the measured one, else ""."""
+    rows = [f for f in findings if "turn_class" in f and f["what"].startswith("yaw ratio")]
+    part = "test" if any(f["part"] == "test" for f in rows) else "train"
+    off = [f for f in rows if f["part"] == part and f["windows"] >= YAW_CLASS_MIN
+           and f["simulated_after"] is not None and f["measured"] is not None
+           and abs(f["simulated_after"] - f["measured"]) > YAW_CLASS_GAP]  # null: no steady turn simulated there
+    if not off:
+        return ""
+    each = "; ".join(f"|turn ratio| {f['turn_class'][0]:g} to {f['turn_class'][1]:g}: measured {f['measured']:.3f}, "
+                     f"calibrated {f['simulated_after']:.3f} over {f['windows']} steady turns" for f in off)
+    return (f"no candidate makes the simulated steady-turn yaw ratio follow the measured one in every turn class "
+            f"({part} windows; {each}; more than {YAW_CLASS_GAP:g} apart)")
+
+
 def speeds_worse(speeds: dict | None) -> str:
     """The sentence saying the calibrated robot's simulated track speeds are further from the
     measured than the described robot's (by more than :data:`SPEED_WORSE`), else ""."""
@@ -401,5 +425,6 @@ def saturation_words(command_peak: tuple[float, float], measured_peak: tuple[flo
     return text
 
 
-__all__ = ["COUPLED", "GEOMETRY_RATIO", "SATURATED", "SPEED_WORSE", "Cause", "find_causes", "groups",
-           "implausibility", "not_explained", "saturation_words", "speeds_worse", "summary", "traction_limit"]
+__all__ = ["COUPLED", "GEOMETRY_RATIO", "SATURATED", "SPEED_WORSE", "YAW_CLASS_GAP", "YAW_CLASS_MIN", "Cause",
+           "find_causes", "groups", "implausibility", "not_explained", "saturation_words", "speeds_worse", "summary",
+           "traction_limit", "yaw_class_gaps"]

@@ -49,7 +49,8 @@ def turn_measures(lg: DriveLog, ws: WindowSet, robot: Robot, poses: np.ndarray, 
     """Yaw ratio and ICRs of steady windows from window poses (M, K, 3) and track speeds (M, K, 2).
 
     yaw ratio: median over steady windows with |nominal yaw rate| >= STEADY_MIN_WZ of the
-    window's yaw rate / ((v_R - v_L) / T) (mean track speeds of the window); ICRs (2.13) from the
+    window's yaw rate / ((v_R - v_L) / T) (mean track speeds of the window), also per |turn ratio|
+    class (:data:`TURN_CLASSES`, where a class has at least 3 such windows); ICRs (2.13) from the
     window's chord twist where |turn ratio| >= ICR_MIN_TURN, medians per turn direction; forward
     speed ratio: median of the chord's forward speed / the mean track speed per |turn ratio| class
     (:data:`TURN_CLASSES`), where |mean track speed| >= SPEED_MIN -- 1 without longitudinal slip; a
@@ -81,7 +82,13 @@ def turn_measures(lg: DriveLog, ws: WindowSet, robot: Robot, poses: np.ndarray, 
         m = steady & (np.abs(vm) >= SPEED_MIN) & (np.abs(turn) >= lo) & ((np.abs(turn) < hi) | (hi >= 1.0))
         if m.sum() >= 3:
             fwd[(lo, hi)] = (float(np.median(tw[m, 0] / vm[m])), int(m.sum()))
-    return {"yaw_ratio": ratio, "yaw_windows": int(use.sum()), "icr": icr, "speed_ratio": fwd}
+    yaw_by_class = {}
+    for lo, hi in TURN_CLASSES:
+        m = use & (np.abs(turn) >= lo) & ((np.abs(turn) < hi) | (hi >= 1.0))
+        if m.sum() >= 3:
+            yaw_by_class[(lo, hi)] = (float(np.median(tw[m, 2] / wnom[m])), int(m.sum()))
+    return {"yaw_ratio": ratio, "yaw_windows": int(use.sum()), "icr": icr, "speed_ratio": fwd,
+            "yaw_ratio_by_class": yaw_by_class}
 
 
 def measured_speeds(lg: DriveLog, ws: WindowSet) -> np.ndarray:

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mjtrack.calibrate.causes import Cause, not_explained, saturation_words, speeds_worse
+from mjtrack.calibrate.causes import Cause, not_explained, saturation_words, speeds_worse, yaw_class_gaps
 from mjtrack.calibrate.identify import Verdict
 from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.jsonfile import json_value
@@ -198,6 +198,9 @@ class Calibration:
         sat = self.saturation()
         if sat and self.drive_input_mode == "commanded":
             out.append({"what": "drives that saturate", "parameters": [], "acts_like": sat, "why": [], "share": None})
+        yaw = yaw_class_gaps(self.findings) if self.changed else ""
+        if yaw:
+            out.append({"what": "yaw ratio by turn class", "parameters": [], "acts_like": yaw, "why": [], "share": None})
         return out
 
     def evidence(self) -> str:
@@ -211,6 +214,9 @@ class Calibration:
         elif sat and self.drive_input_mode == "commanded":
             text += (f" The log's measured track speeds show what no candidate here describes: {sat} "
                      "(--drive-input fitted fits the drives to them).")
+        yaw = yaw_class_gaps(self.findings) if self.changed else ""
+        if yaw:
+            text += f" The log shows what no candidate here describes: {yaw}."
         worse = speeds_worse(self.simulated_wheel_speeds())
         if worse:
             text += f" Warning: {worse}."

@@ -410,6 +410,12 @@ def _turn_findings(pb: _Problem, scope) -> tuple[list[dict], dict]:
                          "simulated_before": tb["yaw_ratio"], "simulated_after": ta["yaw_ratio"],
                          "windows": meas["yaw_windows"],
                          "definition": "median over steady windows of yaw rate / ((v_R - v_L) / T), mean track speeds"})
+        for (lo, hi), (value, count) in meas["yaw_ratio_by_class"].items():
+            findings.append({"what": f"yaw ratio (|turn ratio| {lo:g} to {hi:g})", "part": label, "measured": value,
+                             "simulated_before": tb["yaw_ratio_by_class"].get((lo, hi), (float("nan"),))[0],
+                             "simulated_after": ta["yaw_ratio_by_class"].get((lo, hi), (float("nan"),))[0],
+                             "windows": count, "turn_class": [lo, hi],
+                             "definition": "the yaw ratio over the steady windows of this |turn ratio| class"})
         for (lo, hi), (value, count) in meas["speed_ratio"].items():
             findings.append({"what": f"forward speed ratio (|turn ratio| {lo:g} to {hi:g})", "part": label,
                              "measured": value, "simulated_before": tb["speed_ratio"].get((lo, hi), (float("nan"),))[0],

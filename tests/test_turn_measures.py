@@ -1,0 +1,53 @@
+"""Yaw ratio per turn class (mjtrack.calibrate.measures.turn_measures) on a log written here:
+each 2 s segment a steady turn at constant track speeds whose body turns at a ratio k of the
+nominal yaw rate (v_R - v_L) / T, k chosen per |turn ratio| class; the poses are the exact arcs."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjtrack.calibrate.measures import turn_measures
+from mjtrack.io.logs import DriveLog
+from mjtrack.io.robot import Robot
+from mjtrack.windows import make_windows
+from mjtrack.windows.define import measured_window_poses
+
+GAUGE = 0.5
+RATE = 20.0
+# (v_left, v_right) [m/s] -> |turn ratio| |v_R - v_L| / (|v_L| + |v_R|), and the ratio k the body turns at
+TURNS = {(0.5, 0.8): 0.9,    # 0.23: class 0.15 to 0.5
+         (0.2, 0.9): 0.7,    # 0.64: class 0.5 to 1
+         (-0.4, 0.4): 0.5}   # 1.0:  class 0.5 to 1 (a spin): median of its class with the one above
+
+
+def _log(repeats: int = 4) -> DriveLog:
+    cols = {k: [] for k in ("t", "vl", "vr", "x", "y", "yaw", "w")}
+    t_local = np.arange(int(2.0 * RATE) + 1) / RATE
+    seg = 0
+    for _ in range(repeats):
+        for (vl, vr), k in TURNS.items():
+            vx, wz = (vl + vr) / 2, k * (vr - vl) / GAUGE
+            cols["x"].append(vx / wz * np.sin(wz * t_local))
+            cols["y"].append(vx / wz * (1 - np.cos(wz * t_local)))
+            cols["yaw"].append(wz * t_local)
+            cols["t"].append(seg * 10.0 + t_local)
+            cols["vl"].append(np.full_like(t_local, vl))
+            cols["vr"].append(np.full_like(t_local, vr))
+            cols["w"].append(np.full(t_local.size, seg))
+            seg += 1
+    c = {k: np.concatenate(v) for k, v in cols.items()}
+    return DriveLog(t=c["t"], v_left_cmd=c["vl"], v_right_cmd=c["vr"], x=c["x"], y=c["y"], yaw=c["yaw"],
+                    v_left=c["vl"], v_right=c["vr"], window=c["w"].astype(np.int64))
+
+
+def test_the_yaw_ratio_per_turn_class_is_the_median_of_its_steady_turns():
+    lg = _log()
+    ws = make_windows(lg, 2.0)
+    speeds = np.stack([[np.column_stack([lg.v_left[s:e + 1], lg.v_right[s:e + 1]])] for s, e in
+                       zip(ws.starts, ws.ends)])[:, 0]
+    m = turn_measures(lg, ws, Robot(track_gauge=GAUGE), measured_window_poses(lg, ws), speeds)
+    by = m["yaw_ratio_by_class"]
+    assert set(by) == {(0.15, 0.5), (0.5, 1.0)}  # no straight windows
+    assert by[(0.15, 0.5)][1] == 4 and abs(by[(0.15, 0.5)][0] - 0.9) < 1e-9
+    assert by[(0.5, 1.0)][1] == 8 and abs(by[(0.5, 1.0)][0] - 0.6) < 1e-9  # median of 0.7 x 4 and 0.5 x 4
+    assert abs(m["yaw_ratio"] - 0.7) < 1e-9  # all 12: four 0.9, four 0.7, four 0.5
