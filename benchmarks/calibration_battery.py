@@ -192,7 +192,8 @@ def main(argv=None) -> int:
     cov = [x["covered"] for _, x in rows if x["covered"] is not None]
     print(f"\ncoverage of determined parameters: {sum(cov)}/{len(cov)} = {np.mean(cov):.3f}")
     print(f"causes right: {sum(r['cause_ok'] for r in results.values())}/{len(results)}")
-    worst = max(rows, key=lambda nx: (0 if nx[1]["covered"] is not False else 1,
+    # a determined value the fit did not reach within its rounds has no interval: nothing to hold
+    worst = max([(n, x) for n, x in rows if x["interval"]], key=lambda nx: (0 if nx[1]["covered"] is not False else 1,
                                       abs(nx[1]["estimate"] - nx[1]["truth"]) /
                                       max(1e-12, (nx[1]["interval"][1] - nx[1]["interval"][0]) / 2)))
     n, x = worst
