@@ -146,8 +146,9 @@ def test_what_the_log_points_at_but_the_fit_did_not_reach_is_said():
     assert "points_at" not in Verdict("mu", True, False, 0.5, 0.5, (0.4, 0.6), "kept").to_json()
     c = Cause(["wheelbase"], {"wheelbase": (0.512, 0.6)}, [], 0.9, 0.3, "its wheelbase acts as 0.6 m")
     one = summary([c], (0.3, 0.2), where="held-out", yaw=None, unsettled={"mu_ratio": "1.3"})
-    assert one.endswith("The log also points at mu_ratio 1.3, which the fit did not reach within its rounds: it "
-                        "keeps its described value, which the log does not confirm.")
+    assert one.endswith("The log also points at mu_ratio 1.3, which the fit did not reach within its rounds (more "
+                        "rounds, --rounds, let it go further): it keeps its described value, which the log does not "
+                        "confirm.")
     two = summary([c], (0.3, 0.2), where="held-out", yaw=None, unsettled={"mu_ratio": "1.3", "cg_y": "-0.047 m"})
     assert "points at mu_ratio 1.3, cg_y -0.047 m, which" in two and "they keep their described values" in two
     assert summary([c], (0.3, 0.2), where="held-out", yaw=None) == summary([c], (0.3, 0.2), where="held-out",

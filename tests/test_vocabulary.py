@@ -88,7 +88,7 @@ QUANTITY = {
 NOT_A_QUANTITY = {
     "ground", "simulator", "traction", "terrain", "extra", "provided", "model", "track_model", "drive_input",
     "log", "robot", "test_log", "params", "effects", "baseline", "scenario", "commands", "seed", "quiet", "out_dir",
-    "max_iter", "fit_windows", "n_folds", "speeds", "inertial", "load_transfer",
+    "max_iter", "rounds", "fit_windows", "n_folds", "speeds", "inertial", "load_transfer",
     # effects whose quantity is their parameter's: a ground model switched on, an incline
     "ground_anisotropy", "road_wheels", "slope",
     # a ground model's name (its parameter is the quantity) and the measurement noise record of a log
