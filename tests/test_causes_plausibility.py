@@ -202,3 +202,18 @@ def test_a_yaw_ratio_off_in_a_turn_class_is_said_as_what_no_candidate_describes(
     assert "0.5 to 1" not in text and "0 to 0.15" not in text and text.startswith("no candidate makes")
     assert yaw_class_gaps(rows[:1]).count("train windows") == 1  # no test part: the training part's
     assert yaw_class_gaps(rows[2:]) == ""
+
+
+def test_a_traction_bound_resting_on_defaults_says_which():
+    """A description that gives no mass (the shipped Warthog's) gets the default weight: the
+    force-limit reason names that default, and the friction's when it was neither given nor fitted."""
+    from mjtrack.calibrate.causes import traction_defaults
+    bare = Robot.from_dict({"traction": "wheels", "track_gauge": 1.08, "wheelbase": 1.1})
+    full = Robot.from_dict({"traction": "wheels", "track_gauge": 1.08, "wheelbase": 1.1, "mass": 228.0, "mu": 0.9})
+    assert traction_defaults(bare, {}) == (f", with the default mass {bare.mass:g} kg and friction {bare.mu:g} that the "
+                                           "description does not give")
+    assert traction_defaults(bare, {"mu": 0.5}) == f", with the default mass {bare.mass:g} kg that the description does not give"
+    assert traction_defaults(full, {}) == "" and traction_defaults(Robot(), {}) == ""  # built in code: nothing assumed
+    why = implausibility("drive_force_limit", 700.0, 200.0, None, traction=78.5,
+                         traction_note=traction_defaults(bare, {}))
+    assert f"(friction times the side's share of the weight, with the default mass {bare.mass:g} kg" in why

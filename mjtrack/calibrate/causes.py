@@ -65,11 +65,13 @@ class Cause:
 
 def implausibility(name: str, value: float, described: float,
                    bounds: tuple[float, float, float] | None,
-                   interval: tuple[float, float] | None = None, traction: float | None = None) -> str | None:
+                   interval: tuple[float, float] | None = None, traction: float | None = None,
+                   traction_note: str = "") -> str | None:
     """Why a fitted ``value`` is not the robot's, in words, or None (module docstring);
     ``bounds``: (low, high, resolution) of its range; ``interval``: its 95 % interval;
     ``traction``: the largest force [N] the ground transmits under one side (:func:`traction_limit`);
-    every reason that applies, joined by "; "."""
+    ``traction_note``: the defaults it rests on (:func:`traction_defaults`); every reason that
+    applies, joined by "; "."""
     why = []
     if bounds is not None:
         lo, hi, res = bounds
@@ -85,7 +87,8 @@ def implausibility(name: str, value: float, described: float,
                    f"(beyond {1 / GEOMETRY_RATIO:.2f} to {GEOMETRY_RATIO:g})")
     if name == "drive_force_limit" and traction is not None and value > traction:
         why.append(f"drive_force_limit {value:.3g} N is above what the ground can transmit under a side, "
-                   f"{traction:.3g} N (friction times the side's share of the weight): a limit above it cannot bound "
+                   f"{traction:.3g} N (friction times the side's share of the weight{traction_note}): a limit above "
+                   "it cannot bound "
                    "the force on the robot, only how fast a wheel spins against sliding ground")
     return "; ".join(why) or None
 
@@ -104,6 +107,19 @@ def traction_limit(robot: Robot, values: dict[str, float]) -> float:
         left, right = mu * math.sqrt(ratio), mu / math.sqrt(ratio)
     share = min(1.0, max(0.0, 0.5 + values.get("cg_y", robot.cg_y) / robot.track_gauge))
     return float(robot.mass * G * max(left * share, right * (1.0 - share)))
+
+
+def traction_defaults(robot: Robot, values: dict[str, float]) -> str:
+    """", with the default ... that the description does not give" for the values
+    :func:`traction_limit` takes from defaults (the mass; the friction when it was not fitted), so
+    that a force limit called implausible by a weight nobody described says so; "" when none."""
+    if robot.provided is None:
+        return ""
+    fitted_mu = any(k in values for k in ("mu", "mu_ratio", "mu_left", "mu_right"))
+    missing = [f"mass {robot.mass:g} kg"] if "mass" not in robot.provided else []
+    if not fitted_mu and not {"mu", "mu_left", "mu_right"} & robot.provided:
+        missing.append(f"friction {robot.mu:g}")
+    return f", with the default {' and '.join(missing)} that the description does not give" if missing else ""
 
 
 def groups(names: list[str], corr: np.ndarray) -> list[list[str]]:
@@ -249,12 +265,13 @@ def find_causes(changed: list[str], values: dict[str, float], described: dict[st
     rms = _score_distinct(score, variants)
     gain = rms_before - rms_after
     traction = None if robot is None else traction_limit(robot, values)
+    note = "" if robot is None else traction_defaults(robot, values)
     out = []
     for k, g in enumerate(gs):
         without, alone = float(rms[2 * k]), float(rms[2 * k + 1])
         tied = sorted({t for n in g for t in ties.get(n, [])})
         why = [w for n in g if (w := implausibility(n, values[n], described[n], (bounds or {}).get(n),
-                                                    (intervals or {}).get(n), traction))]
+                                                    (intervals or {}).get(n), traction, note))]
         sentence = sentence_of(g, values, described, tied, wheels, measured)
         if why:
             sentence = f"the log shows something no candidate describes, which acts like this: {sentence} ({'; '.join(why)})"
@@ -427,4 +444,4 @@ def saturation_words(command_peak: tuple[float, float], measured_peak: tuple[flo
 
 __all__ = ["COUPLED", "GEOMETRY_RATIO", "SATURATED", "SPEED_WORSE", "YAW_CLASS_GAP", "YAW_CLASS_MIN", "Cause",
            "find_causes", "groups", "implausibility", "not_explained", "saturation_words", "speeds_worse", "summary",
-           "traction_limit", "yaw_class_gaps"]
+           "traction_defaults", "traction_limit", "yaw_class_gaps"]

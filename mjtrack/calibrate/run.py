@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
-from mjtrack.calibrate.causes import Cause, find_causes, implausibility, summary, traction_limit
+from mjtrack.calibrate.causes import Cause, find_causes, implausibility, summary, traction_defaults, traction_limit
 from mjtrack.calibrate.drivetrain import chain_robot, fit_chain, has_measured_speeds, predicted_drive_log
 from mjtrack.calibrate.identify import fmt_value
 from mjtrack.calibrate.params import (described_values, geometry_name, parse_names, specs_for, start_values,
@@ -446,7 +446,7 @@ def _explain(pb: _Problem, att: Fitted, changed: list[str], causes: list[Cause],
         if v is None:
             continue
         why = implausibility(n, v, pb.described[n], (specs[n].lo, specs[n].hi, specs[n].resolution),
-                             traction=traction)
+                             traction=traction, traction_note=traction_defaults(pb.robot, att.values))
         if why is None:
             unsettled[n] = fmt_value(v, specs[n].unit)
         else:
