@@ -213,6 +213,7 @@ def test_a_traction_bound_resting_on_defaults_says_which():
     assert traction_defaults(bare, {}) == (f", with the default mass {bare.mass:g} kg and friction {bare.mu:g} that the "
                                            "description does not give")
     assert traction_defaults(bare, {"mu": 0.5}) == f", with the default mass {bare.mass:g} kg that the description does not give"
+    assert "friction" in traction_defaults(bare, {"mu": bare.mu, "mu_ratio": 1.0})  # a candidate left at the default
     assert traction_defaults(full, {}) == "" and traction_defaults(Robot(), {}) == ""  # built in code: nothing assumed
     why = implausibility("drive_force_limit", 700.0, 200.0, None, traction=78.5,
                          traction_note=traction_defaults(bare, {}))

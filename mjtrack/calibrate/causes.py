@@ -98,15 +98,22 @@ def traction_limit(robot: Robot, values: dict[str, float]) -> float:
     max over the sides of mu_side x the side's share of the weight m g (1/2 + cg_y / T for the left,
     1/2 - cg_y / T for the right), with the friction and the centre of mass of ``values`` where they
     are there (``mu``/``mu_ratio`` or ``mu_left``/``mu_right``, ``cg_y``), else the robot's."""
-    left, right = robot.friction_left, robot.friction_right
-    if "mu_left" in values or "mu_right" in values:
-        left, right = values.get("mu_left", left), values.get("mu_right", right)
-    elif "mu" in values or "mu_ratio" in values:
-        mu = values.get("mu", math.sqrt(left * right))
-        ratio = values.get("mu_ratio", left / right)
-        left, right = mu * math.sqrt(ratio), mu / math.sqrt(ratio)
+    left, right = _side_friction(robot, values)
     share = min(1.0, max(0.0, 0.5 + values.get("cg_y", robot.cg_y) / robot.track_gauge))
     return float(robot.mass * G * max(left * share, right * (1.0 - share)))
+
+
+def _side_friction(robot: Robot, values: dict[str, float]) -> tuple[float, float]:
+    """(left, right) friction of ``values`` (``mu``/``mu_ratio`` or ``mu_left``/``mu_right``) where
+    they are there, else the robot's."""
+    left, right = robot.friction_left, robot.friction_right
+    if "mu_left" in values or "mu_right" in values:
+        return values.get("mu_left", left), values.get("mu_right", right)
+    if "mu" in values or "mu_ratio" in values:
+        mu = values.get("mu", math.sqrt(left * right))
+        ratio = values.get("mu_ratio", left / right)
+        return mu * math.sqrt(ratio), mu / math.sqrt(ratio)
+    return left, right
 
 
 def traction_defaults(robot: Robot, values: dict[str, float]) -> str:
@@ -115,7 +122,10 @@ def traction_defaults(robot: Robot, values: dict[str, float]) -> str:
     that a force limit called implausible by a weight nobody described says so; "" when none."""
     if robot.provided is None:
         return ""
-    fitted_mu = any(k in values for k in ("mu", "mu_ratio", "mu_left", "mu_right"))
+    # the friction was fitted when the values move a side's friction off the robot's own (a candidate
+    # the log left at its description is still the default)
+    fitted_mu = any(not math.isclose(a, b, rel_tol=1e-9) for a, b in
+                    zip(_side_friction(robot, values), (robot.friction_left, robot.friction_right)))
     missing = [f"mass {robot.mass:g} kg"] if "mass" not in robot.provided else []
     if not fitted_mu and not {"mu", "mu_left", "mu_right"} & robot.provided:
         missing.append(f"friction {robot.mu:g}")
