@@ -178,3 +178,20 @@ def test_rounds_that_run_out_say_what_the_log_points_at_and_how_to_go_further(n_
     else:
         lo, hi = verdicts["cg_x"].interval
         assert verdicts["cg_x"].changed and lo <= TRUTH["cg_x"] <= hi
+
+
+def test_a_tie_with_a_parameter_the_last_fit_kept_free_is_not_claimed():
+    """When the rounds run out, the last fit (every candidate free here) stands; a tie the last
+    decision drew with a parameter that fit kept free (mu) is not said: mu has its own value and
+    verdict, so cg_x cannot "hold only with mu at the described value"."""
+    import dataclasses
+
+    fx = _fitter()
+    obj = Analytic(NAMES)
+    first = fit(obj, dict(DESCRIBED), multistart=False)
+    cur = rounds.Linearisation(dict(first.values), first.resid, first.jac, list(NAMES))
+    sel, cur, theta, sources, size, _ = rounds.decision_rounds(fx, obj, np.arange(M), cur, 0, None)
+    sel = dataclasses.replace(sel, ties={"cg_x": ["mu"]})  # what the decision said, not what was fitted
+    verdicts, values, *_, ties = rounds.settle_verdicts(fx, obj, sel, cur, theta, sources, size, 0)
+    assert ties == {} and "carries its combination" not in verdicts["cg_x"].reason
+    assert values["mu"] == cur.point["mu"] and verdicts["mu"].value == cur.point["mu"]

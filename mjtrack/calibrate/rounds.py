@@ -312,7 +312,10 @@ def settle_verdicts(fx: Fitter, obj, sel, cur: Linearisation, theta: np.ndarray,
                                   f"fit did not settle within {rounds} rounds ({ROUNDS_HINT}); it stays at its described "
                                   f"value {fmt_value(described[n], s.unit)}, which the log does not confirm",
                                   points_at=float(sel.values[n]))
-    ties = {k: v for k, v in sel.ties.items() if k in kept}
+    # a tie of the last decision holds only where that decision was fitted: when the rounds ran out
+    # with its partner still free in the last fit, the partner has its own value and verdict
+    ties = {k: [t for t in v if t not in kept] for k, v in sel.ties.items() if k in kept}
+    ties = {k: v for k, v in ties.items() if v}
     values = {**described}
     if not kept:
         return verdicts, values, {}, None, None, ties
