@@ -195,3 +195,18 @@ def test_a_tie_with_a_parameter_the_last_fit_kept_free_is_not_claimed():
     verdicts, values, *_, ties = rounds.settle_verdicts(fx, obj, sel, cur, theta, sources, size, 0)
     assert ties == {} and "carries its combination" not in verdicts["cg_x"].reason
     assert values["mu"] == cur.point["mu"] and verdicts["mu"].value == cur.point["mu"]
+
+
+def test_a_fitted_value_the_last_decision_would_send_back_is_said_unsettled():
+    """Rounds run out while the last decision sends mu and cg_y back (only cg_x free) but the last
+    fit still has them free: their values are the last fit's, and their verdicts say so."""
+    fx = _fitter()
+    obj = Analytic(NAMES)
+    first = fit(obj, dict(DESCRIBED), multistart=False)  # every candidate free, mu a little off 0.8 by noise
+    cur = rounds.Linearisation(dict(first.values), first.resid, first.jac, list(NAMES))
+    sel, cur, theta, sources, size, fits = rounds.decision_rounds(fx, obj, np.arange(M), cur, 0, None)
+    assert sel.free == ["cg_x"] and fits == []
+    verdicts, *_ = rounds.settle_verdicts(fx, obj, sel, cur, theta, sources, size, 0)
+    assert verdicts["mu"].unsettled and verdicts["mu"].to_json()["unsettled"] is True
+    assert "last decision would send it back to its described value, but its 0 rounds ran out" in verdicts["mu"].reason
+    assert not verdicts["cg_x"].unsettled and "unsettled" not in verdicts["cg_x"].to_json()

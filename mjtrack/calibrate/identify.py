@@ -165,6 +165,9 @@ class Verdict:
     #: the value the log points at when the fit's rounds ran out before reaching it (the parameter
     #: then keeps its described value, which the log does not confirm)
     points_at: float | None = None
+    #: the fit's rounds ran out while its last decision would send this fitted parameter back to its
+    #: described value: the value is the last fit's, which the decisions did not settle on
+    unsettled: bool = False
 
     def to_json(self) -> dict:
         out = {"determined": bool(self.determined), "changed": bool(self.changed), "reason": self.reason}
@@ -172,6 +175,8 @@ class Verdict:
             out["tied_with"] = list(self.tied_with)
         if self.points_at is not None:
             out["points_at"] = float(self.points_at)
+        if self.unsettled:
+            out["unsettled"] = True
         return out
 
 

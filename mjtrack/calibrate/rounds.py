@@ -323,6 +323,11 @@ def settle_verdicts(fx: Fitter, obj, sel, cur: Linearisation, theta: np.ndarray,
     klin = fx.linearised(obj, theta[kidx], cur.jac[:, kidx], cur.resid,
                          [ModelFormSource(m.name, m.g[kidx]) for m in sources], names=kept)
     final, u, rest = final_verdicts(klin, described, ties)
+    for n in kept:  # the rounds ran out while the last decision would send it back: said, not hidden
+        if n not in sel.free and final[n].changed:
+            final[n].reason += (f"; the fit's last decision would send it back to its described value, but its "
+                                f"{rounds} rounds ran out first ({ROUNDS_HINT}): this is the last fit's value")
+            final[n].unsettled = True
     verdicts.update(final)
     values.update({n: cur.point[n] for n in kept})
     model_form = {"residual_change_m": size,

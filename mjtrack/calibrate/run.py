@@ -52,7 +52,7 @@ from mjtrack.calibrate.measures import (measured_speeds,
                                        turn_measures)
 from mjtrack.calibrate.result import Calibration, Scored, write_outputs
 
-from mjtrack.calibrate.rounds import MAX_ROUNDS, MAX_ROUNDS_LIMIT, Fitted, Fitter, Meter, expected_passes, fit_attempt
+from mjtrack.calibrate.rounds import MAX_ROUNDS, MAX_ROUNDS_LIMIT, ROUNDS_HINT, Fitted, Fitter, Meter, expected_passes, fit_attempt
 
 log = logging.getLogger(__name__)
 
@@ -455,6 +455,11 @@ def _explain(pb: _Problem, att: Fitted, changed: list[str], causes: list[Cause],
                        yaw=(m["yaw_ratio"], tb["yaw_ratio"]),
                        undetermined=[n for n in pb.names if not att.verdicts[n].determined],
                        unsettled=unsettled, unsettled_implausible=unsettled_implausible)
+    back = [n for n in pb.names if att.verdicts[n].unsettled]
+    if back:
+        sentence += (f" The fit's rounds ran out before its decisions settled: the last decision would send "
+                     f"{', '.join(back)} back to {'its described value' if len(back) == 1 else 'their described values'} "
+                     f"({ROUNDS_HINT}); the values given are the last fit's.")
     for label, _, _, b, a in scope:
         findings.append({"what": "diverged windows", "part": label, "measured": None, "simulated_before": b.diverged,
                          "simulated_after": a.diverged, "windows": int(b.diverged_mask.size),
