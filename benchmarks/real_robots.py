@@ -27,15 +27,17 @@ robot (what the calibrated simulation still gets wrong), recorded under ``diagno
 same and the machine's load.
 
 ``--starts``: does the answer hang on the start? Each robot calibrated, with calibrate's defaults (as
-a user runs it: its default windows; ``--rounds N`` gives the fit more rounds to settle) and the drive input of the reference run above (``fitted`` for
-Husky and Warthog, the commands for Marmotte), from two descriptions: the log's own as
+a user runs it: its default windows; ``--rounds N`` gives the fit more rounds to settle) and the
+drive input of the reference run above (``fitted`` for Husky and Warthog, the commands for
+Marmotte), from two descriptions: the log's own as
 shipped (gauge and sprocket radius; every other key a default) and the starting robot above (the
 public specification), on the same split, with the first 70 % of the log for training and the rest
 for testing. Per parameter both values and intervals, and whether each value lies in the other's
 interval where both are determined (a drive force limit per kilogram of each description's mass,
 which the log does not determine: the log fixes how fast the drives can speed the robot up, not
 the force; a value beyond the other description's search range, which follows its geometry, compared
-with the nearest end of that range, the closest the other fit could come); the causes, summaries and held-out errors of both. Writes
+with the nearest end of that range, the closest the other fit could come); the causes, summaries
+and held-out errors of both. Writes
 benchmarks/results/start_independence.json; ``--starts --agreement-only`` recomputes the
 agreement of the stored file with the rule now.
 """
@@ -51,6 +53,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mjtrack.calibrate.params import specs_for
 from mjtrack.calibrate.result import write_outputs
 from mjtrack.calibrate.run import calibrate
 from mjtrack.io import read_log_with_robot
@@ -266,7 +269,6 @@ def run_robot(name: str, spec: dict, *, rollers: int) -> dict:
 def starts_robot(name: str, spec: dict, rounds: int | None = None) -> dict:
     """The robot calibrated from the shipped description and from the public one (module docstring);
     ``rounds``: calibrate's rounds (None: its default)."""
-    from mjtrack.calibrate.params import specs_for
     from mjtrack.calibrate.rounds import MAX_ROUNDS
 
     log, base = read_log_with_robot(spec["log"])
@@ -281,14 +283,14 @@ def starts_robot(name: str, spec: dict, rounds: int | None = None) -> dict:
                                 "intervals": cj["intervals"], "determined": cj["determined"],
                                 "described": cj["described"], "causes": cj["causes"], "summary": cj["summary"],
                                 "assumed": cj["assumed"], "drive_input": cj.get("drive_input_mode", "commanded"),
-                                "mass": robot.mass, "bounds": _bounds(robot, specs_for)}
+                                "mass": robot.mass, "bounds": _bounds(robot)}
         print(f"  {name} from the {start} description: test {cj['test']['before']:.4f} -> {cj['test']['after']:.4f} m, "
               f"{time.time() - t0:.0f} s", flush=True)
     out.update(agreement(out["starts"]["shipped"], out["starts"]["public"]))
     return out
 
 
-def _bounds(robot: Robot, specs_for) -> dict[str, list[float]]:
+def _bounds(robot: Robot) -> dict[str, list[float]]:
     """Every candidate's search range for this description (the centre of mass's follows its geometry)."""
     return {n: [float(s.lo), float(s.hi)] for n, s in specs_for(robot).items()}
 
@@ -478,11 +480,9 @@ def _agreement_only(args) -> int:
     for name, r in stored["robots"].items():
         if any("mass" not in r["starts"][s] or "bounds" not in r["starts"][s] for s in ("shipped", "public")):
             # the descriptions' masses and search ranges, as starts_robot records them
-            from mjtrack.calibrate.params import specs_for
-
             _, base = read_log_with_robot(ROBOTS[name]["log"])
             for s, robot in (("shipped", base), ("public", starting_robot(base, ROBOTS[name]["public"]))):
-                r["starts"][s]["mass"], r["starts"][s]["bounds"] = robot.mass, _bounds(robot, specs_for)
+                r["starts"][s]["mass"], r["starts"][s]["bounds"] = robot.mass, _bounds(robot)
         r.update(agreement(r["starts"]["shipped"], r["starts"]["public"]))
         print(f"{name}: agree {r['agree']}")
     stored["agreement_command"] = "python benchmarks/real_robots.py --starts --agreement-only"

@@ -153,6 +153,10 @@ def test_what_the_log_points_at_but_the_fit_did_not_reach_is_said():
     assert "points at mu_ratio 1.3, cg_y -0.047 m, which" in two and "they keep their described values" in two
     assert summary([c], (0.3, 0.2), where="held-out", yaw=None) == summary([c], (0.3, 0.2), where="held-out",
                                                                           yaw=None, unsettled={})
+    back = summary([c], (0.3, 0.2), where="held-out", yaw=None, sent_back=["mu", "drive_force_limit"])
+    assert back.endswith("The fit's rounds ran out before its decisions settled: the last decision would send mu, "
+                         "drive_force_limit back to their described values (more rounds, --rounds, let it go "
+                         "further); the values given are the last fit's.")
 
 
 def test_an_unreached_value_that_cannot_be_the_robots_is_not_said_to_be_pointed_at():

@@ -88,8 +88,7 @@ def implausibility(name: str, value: float, described: float,
     if name == "drive_force_limit" and traction is not None and value > traction:
         why.append(f"drive_force_limit {value:.3g} N is above what the ground can transmit under a side, "
                    f"{traction:.3g} N (friction times the side's share of the weight{traction_note}): a limit above "
-                   "it cannot bound "
-                   "the force on the robot, only how fast a wheel spins against sliding ground")
+                   "it cannot bound the force on the robot, only how fast a wheel spins against sliding ground")
     return "; ".join(why) or None
 
 
@@ -311,13 +310,15 @@ def alone_words(gain_alone: float) -> str:
 
 def summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: tuple[float, float] | None,
             undetermined: list[str] | None = None, unsettled: dict[str, str] | None = None,
-            unsettled_implausible: dict[str, tuple[str, str]] | None = None) -> str:
+            unsettled_implausible: dict[str, tuple[str, str]] | None = None,
+            sent_back: list[str] | None = None) -> str:
     """The calibration's one-paragraph conclusion, from its measured causes (``undetermined``: the
     candidates the log does not determine; ``unsettled``: name -> the value, in words, the log points
     at for the candidates the fit's rounds did not reach, which kept their described values;
     ``unsettled_implausible``: name -> (that value in words, why it cannot be the robot's,
     :func:`implausibility`) for such candidates whose value would not be plausible: said, never as
-    something the log points at)."""
+    something the log points at; ``sent_back``: fitted candidates the last decision would have sent
+    back to their described values when the rounds ran out, whose values are the last fit's)."""
     text = _summary(causes, rms, where=where, yaw=yaw, undetermined=undetermined)
     if unsettled:
         text += (" The log also points at " + ", ".join(f"{n} {v}" for n, v in unsettled.items())
@@ -327,6 +328,11 @@ def summary(causes: list[Cause], rms: tuple[float, float], *, where: str, yaw: t
     for n, (v, why) in (unsettled_implausible or {}).items():
         text += (f" The log also moves {n} towards {v}, which the fit did not reach within its rounds and which "
                  f"cannot be the robot's ({why}): not a cause; it keeps its described value.")
+    if sent_back:
+        text += (f" The fit's rounds ran out before its decisions settled: the last decision would send "
+                 f"{', '.join(sent_back)} back to "
+                 f"{'its described value' if len(sent_back) == 1 else 'their described values'} ({ROUNDS_HINT}); "
+                 "the values given are the last fit's.")
     return text
 
 

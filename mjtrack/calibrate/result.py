@@ -13,6 +13,7 @@ import numpy as np
 
 from mjtrack.calibrate.causes import Cause, not_explained, saturation_words, speeds_worse, yaw_class_gaps
 from mjtrack.calibrate.identify import Verdict
+from mjtrack.calibrate.rounds import MAX_ROUNDS
 from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.jsonfile import json_value
 from mjtrack.io.logs import DriveLog
@@ -140,7 +141,7 @@ class Calibration:
     drive_input_mode: str = "commanded"
     drive_input_why: str = "asked for"
     fit_windows: WindowSet | None = None  # the windows the fit used (None: every training window)
-    rounds: int = 3  # the most refits after the first fit it was allowed (calibrate's ``rounds``)
+    rounds: int = MAX_ROUNDS  # the most refits after the first fit it was allowed (calibrate's ``rounds``)
     #: windows left out because their poses move against the tracks (see
     #: :func:`mjtrack.sim.windows.contradicting_windows`), by part ("train", "test")
     left_out: dict[str, list[dict]] = field(default_factory=dict)

@@ -52,7 +52,7 @@ from mjtrack.calibrate.measures import (measured_speeds,
                                        turn_measures)
 from mjtrack.calibrate.result import Calibration, Scored, write_outputs
 
-from mjtrack.calibrate.rounds import MAX_ROUNDS, MAX_ROUNDS_LIMIT, ROUNDS_HINT, Fitted, Fitter, Meter, expected_passes, fit_attempt
+from mjtrack.calibrate.rounds import MAX_ROUNDS, MAX_ROUNDS_LIMIT, Fitted, Fitter, Meter, expected_passes, fit_attempt
 
 log = logging.getLogger(__name__)
 
@@ -440,13 +440,14 @@ def _explain(pb: _Problem, att: Fitted, changed: list[str], causes: list[Cause],
     # a value the log points at but the fit did not reach is said; one that could not be the robot's
     # (on a bound, above what traction transmits) is said as such, never as what the log points at
     specs, traction = specs_for(pb.robot), traction_limit(pb.robot, att.values)
+    traction_note = traction_defaults(pb.robot, att.values)
     unsettled, unsettled_implausible = {}, {}
     for n in pb.names:
         v = att.verdicts[n].points_at
         if v is None:
             continue
         why = implausibility(n, v, pb.described[n], (specs[n].lo, specs[n].hi, specs[n].resolution),
-                             traction=traction, traction_note=traction_defaults(pb.robot, att.values))
+                             traction=traction, traction_note=traction_note)
         if why is None:
             unsettled[n] = fmt_value(v, specs[n].unit)
         else:
@@ -454,12 +455,8 @@ def _explain(pb: _Problem, att: Fitted, changed: list[str], causes: list[Cause],
     sentence = summary(causes, (b.rms, a.rms), where="held-out" if test else "training",
                        yaw=(m["yaw_ratio"], tb["yaw_ratio"]),
                        undetermined=[n for n in pb.names if not att.verdicts[n].determined],
-                       unsettled=unsettled, unsettled_implausible=unsettled_implausible)
-    back = [n for n in pb.names if att.verdicts[n].unsettled]
-    if back:
-        sentence += (f" The fit's rounds ran out before its decisions settled: the last decision would send "
-                     f"{', '.join(back)} back to {'its described value' if len(back) == 1 else 'their described values'} "
-                     f"({ROUNDS_HINT}); the values given are the last fit's.")
+                       unsettled=unsettled, unsettled_implausible=unsettled_implausible,
+                       sent_back=[n for n in pb.names if att.verdicts[n].unsettled])
     for label, _, _, b, a in scope:
         findings.append({"what": "diverged windows", "part": label, "measured": None, "simulated_before": b.diverged,
                          "simulated_after": a.diverged, "windows": int(b.diverged_mask.size),
