@@ -276,6 +276,31 @@ def test_a_fit_that_blows_up_on_an_unused_window_is_fitted_again_with_it(monkeyp
     assert "blows up" not in cal.sentence
 
 
+def test_causes_are_scored_on_the_fit_windows(monkeypatch):
+    """On a log longer than --fit-windows the causes' variants run on the windows the fit used, and
+    the errors before and after they are set against are those of the same windows (else a share
+    compares errors of different windows)."""
+    import mjtrack.calibrate.run as run_mod
+
+    seen = {}
+    real = run_mod.find_causes
+
+    def spy(changed, values, described, corr, ties, score, rms_before, rms_after, **kw):
+        seen["rms"] = (rms_before, rms_after)
+        seen["described"] = float(score([{n: described[n] for n in changed}])[0])
+        return real(changed, values, described, corr, ties, score, rms_before, rms_after, **kw)
+
+    monkeypatch.setattr(run_mod, "find_causes", spy)
+    cal = calibrate(_log(Robot(cg_x=0.04), 16.0, 3, lag=0.0), Robot(), names=["cg_x"], fit_windows=3, max_iter=3)
+    idx = np.flatnonzero(np.isin(cal.train_windows.starts, cal.fitted_windows.starts))
+    assert 0 < idx.size < len(cal.train_windows)
+    e = cal.before.errors[idx]
+    assert seen["rms"][0] == pytest.approx(float(np.sqrt(np.mean(e[:, 0] ** 2 + e[:, 1] ** 2))), rel=1e-12)
+    assert seen["rms"][0] != pytest.approx(cal.before.rms, rel=1e-6)  # not every window's
+    # the described robot simulated by the causes' scorer on those windows errs as before did on them
+    assert seen["described"] == pytest.approx(seen["rms"][0], rel=1e-9)
+
+
 @pytest.mark.parametrize("bad", [-1, 21, 2.5, True, "3"])
 def test_rounds_out_of_range_are_refused(bad):
     with pytest.raises(InputError, match="rounds must be a whole number from 0 to 20"):

@@ -305,7 +305,10 @@ def _speed() -> Page:
             tables.append(_diagnose_profile(diag))
     marmotte = Source(RESULTS / "bench_calibrate_marmotte.json")
     sources.append(marmotte)
-    tables.append(_calibration_ab(marmotte, "Calibration of the whole shared Marmotte log, 6 rollers per track.")
+    tables.append(_calibration_ab(marmotte, "Calibration of the whole shared Marmotte log (the fit uses --fit-windows "
+                                            "of its windows), 6 rollers per track, the code before and after the causes were "
+                                            "scored on the fit's windows instead of every training window (stage "
+                                            "after); old and new alternating in one run.")
                   if "runs" in marmotte.data else _calibration_whole(marmotte))
     gpu_path = RESULTS / "gpu_rollout.json"
     if gpu_path.exists():

@@ -3,7 +3,7 @@
 A *cause* is one changed parameter, or a group of changed parameters that the fit cannot move
 independently (|correlation| of their estimates at least :data:`COUPLED`), together with the
 parameters the log cannot tell apart from them (ties, :mod:`mjtrack.calibrate.identify`). For each
-cause two simulations of the training windows are scored: the calibrated robot with the cause's
+cause two simulations of the windows the fit used are scored: the calibrated robot with the cause's
 parameters back at their described values (``share``: the fraction of the improvement lost) and
 the described robot with only the cause's changes (``gain_alone``: its relative improvement).
 Causes are ordered by ``share``; the summary sentence is built from them, never from a template of

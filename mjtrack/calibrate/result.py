@@ -41,6 +41,11 @@ class Scored:
     diverged: int
     diverged_mask: np.ndarray  # (M,) windows whose simulation blew up
 
+    def rms_on(self, index: np.ndarray) -> float:
+        """RMS position error [m] of the windows ``index`` (:attr:`rms` when they are all)."""
+        e = self.errors[np.asarray(index)]
+        return float(np.sqrt(np.mean(e[:, 0] ** 2 + e[:, 1] ** 2)))
+
     @classmethod
     def of(cls, res: WindowResult, p: int = 0) -> "Scored":
         e = res.errors[p]

@@ -157,7 +157,7 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
             drive's timing, else ``"commanded"`` (:func:`auto_drive_input`). The mode used and why
             are kept in ``drive_input_mode`` and ``drive_input_why``.
         fit_windows: windows the fit uses, spread evenly over the log (None: every window); the
-            errors before and after and the causes use every window.
+            errors before and after use every window, the causes the windows the fit used.
         keep_contradicting: keep the windows whose poses move against the tracks (by default they
             are left out of the fit and of every score, and listed under ``left_out``).
         rounds: at most this many refits after the first fit, each after what the log determines
@@ -506,9 +506,10 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
     n_fit = len(fit_index_of(pb.ws, fit_windows))
     n_test = 0 if pb.tws is None else len(pb.tws)
     starts = multistart_passes(len(start_points(pb.names, fx.specs, np.zeros(len(pb.names)))), n_fit)
-    # the fit, then every training window (the guard), the test windows, and the causes' variants
+    # the fit, then every training window (the guard), the test windows, and the causes' variants (on
+    # the fit windows, two per cause: about two causes)
     passes = expected_passes(len(pb.names), starts, max_iter, fx.refit_iter)
-    after_windows = len(pb.ws) + n_test + 2 * len(pb.ws)
+    after_windows = len(pb.ws) + n_test + 2 * n_fit
     meter.tail = after_windows
     meter.stage("as described", len(pb.ws) + n_test + passes * n_fit + after_windows)
     kw = dict(nthread=nthread, warmup_s=warmup_s, progress=meter.windows)
@@ -521,7 +522,7 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
               f"{clock_text((passes * n_fit + after_windows) / rate)} more")
     att, changed, wp, after = _guarded_fit(fx, pb, fit_windows, before, clock, kw)
     with clock.stage("after"):
-        meter.stage("causes", n_test + 2 * len(pb.ws))
+        meter.stage("causes", n_test + 2 * n_fit)
         test_after = None
         if test is not None:
             test_after = _score(sim, test, pb.tws, [wp], **kw)[0] if changed else test_before
@@ -531,12 +532,20 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
             cidx = [att.lin.names.index(n) for n in changed]
             corr = att.u.corr[np.ix_(cidx, cidx)]
 
+        # the causes are measured on the windows the fit used (all of them up to ``fit_windows``): each
+        # cause costs two passes, and on a long log a pass over every window was a sixth of the time
+        # (benchmarks/bench_calibrate.py --case marmotte); the fit's own windows are the evidence its
+        # values and intervals rest on
+        cidx = np.flatnonzero(np.isin(pb.ws.starts, att.fws.starts))
+        cws = pb.ws.subset(cidx)
+
         def score(variants):
-            res = simulate_windows(sim, train, pb.ws, [window_params(v, robot) for v in variants], nthread=nthread,
+            res = simulate_windows(sim, train, cws, [window_params(v, robot) for v in variants], nthread=nthread,
                                    warmup_s=warmup_s, progress=windows_done(meter.windows))
             return res.rms()
 
-        causes = find_causes(changed, att.values, pb.described, corr, att.ties, score, before.rms, after.rms,
+        causes = find_causes(changed, att.values, pb.described, corr, att.ties, score, before.rms_on(cidx),
+                             after.rms_on(cidx),
                              wheels=robot.traction == "wheels", measured=drive_input == "measured",
                              bounds={n: (s.lo, s.hi, s.resolution) for n, s in fx.specs.items()},
                              intervals={n: att.verdicts[n].interval for n in changed}, robot=robot)

@@ -72,7 +72,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "calibration.json (drive_input_mode, drive_input_why)")
     parser.add_argument("--fit-windows", metavar="N", type=bounded("fit_windows", {"all": None}), default=FIT_WINDOWS,
                         help=f"windows the fit uses, spread evenly over the log (default {FIT_WINDOWS}; 'all': every "
-                             "window). The errors before and after, and the causes, use every window; a fit's time "
+                             "window). The errors before and after use every window, the causes the fit's; a fit's time "
                              "grows with its windows, its intervals narrow with their square root")
     parser.add_argument("--keep-contradicting", action="store_true",
                         help="keep the windows the ground cannot explain (by default they are left out of the fit "
