@@ -460,3 +460,92 @@ def test_progress_says_the_expected_time_then_each_stage_and_ends_its_line(monke
     assert "left" in " ".join(frames)  # an estimate of the time left while it runs
     assert tty.text.endswith("\n")
     assert cal.changed == ["cg_x"]
+
+
+def _fake_attempts(monkeypatch, outcomes):
+    """_guarded_fit with each attempt replaced by ``outcomes[start mu]``: (values, changed, train RMS)."""
+    from types import SimpleNamespace
+
+    import mjtrack.calibrate.run as run_mod
+
+    calls = []
+
+    def once(fx, pb, fit_index, start, before, clock, kw):
+        calls.append(start["mu"])
+        values, changed, rms = outcomes[start["mu"]]
+        return SimpleNamespace(values=values), changed, {}, SimpleNamespace(rms=rms)
+
+    monkeypatch.setattr(run_mod, "_guarded_once", once)
+    return calls
+
+
+def _restart(monkeypatch, outcomes, start_mu, names=("mu", "cg_y")):
+    from types import SimpleNamespace
+
+    import mjtrack.calibrate.run as run_mod
+    from mjtrack.calibrate.params import specs_for
+
+    calls = _fake_attempts(monkeypatch, outcomes)
+    said = []
+    fx = SimpleNamespace(specs=specs_for(Robot()), meter=SimpleNamespace(say=said.append))
+    pb = SimpleNamespace(start={"mu": start_mu, "cg_y": 0.0}, names=list(names), ws=list(range(10)))
+    out = run_mod._guarded_fit(fx, pb, None, None, None, {})
+    return calls, out, said
+
+
+def test_a_value_on_a_bound_starts_the_fit_again_from_other_frictions(monkeypatch):
+    """A changed value on its bound: the fit starts again from the other friction levels and the attempt
+    with the lowest training RMS is the answer; the records say which (the Warthog's public start)."""
+    from mjtrack.calibrate.params import specs_for
+    from mjtrack.calibrate.run import FRICTION_STARTS
+
+    hi = specs_for(Robot())["cg_y"].hi
+    outcomes = {0.8: ({"mu": 0.8, "cg_y": hi}, ["cg_y"], 0.74), 0.5: ({"mu": 0.5, "cg_y": hi}, ["cg_y"], 0.80),
+                1.0: ({"mu": 1.1, "cg_y": 0.0}, ["mu"], 0.58)}
+    calls, out, said = _restart(monkeypatch, outcomes, 0.8)
+    assert set(FRICTION_STARTS) == {0.5, 1.0} and calls == [0.8, 0.5, 1.0]
+    assert out[0].values == {"mu": 1.1, "cg_y": 0.0} and out[1] == ["mu"]
+    assert out[4] == [{"mu_start": 0.8, "train_rms_m": 0.74, "on_bound": ["cg_y"], "kept": False},
+                      {"mu_start": 0.5, "train_rms_m": 0.80, "on_bound": ["cg_y"], "kept": False},
+                      {"mu_start": 1.0, "train_rms_m": 0.58, "on_bound": [], "kept": True}]
+    assert len(said) == 2 and "cg_y ended on a bound" in said[0]
+
+
+def test_a_start_at_a_restart_level_is_not_tried_twice_and_a_worse_restart_is_not_kept(monkeypatch):
+    from mjtrack.calibrate.params import specs_for
+
+    lo = specs_for(Robot())["mu"].lo
+    outcomes = {0.5: ({"mu": lo, "cg_y": 0.0}, ["mu"], 0.30), 1.0: ({"mu": lo, "cg_y": 0.0}, ["mu"], 0.31)}
+    calls, out, _ = _restart(monkeypatch, outcomes, 0.5)
+    assert calls == [0.5, 1.0]  # 0.5 is the start itself
+    assert [r["kept"] for r in out[4]] == [True, False] and out[3].rms == 0.30
+
+
+def test_no_restart_without_a_bound_or_without_friction(monkeypatch):
+    from mjtrack.calibrate.params import specs_for
+
+    hi = specs_for(Robot())["cg_y"].hi
+    calls, out, _ = _restart(monkeypatch, {0.8: ({"mu": 0.8, "cg_y": 0.5 * hi}, ["cg_y"], 0.5)}, 0.8)
+    assert calls == [0.8] and out[4] == []
+    # a bound at zero is physics (no resistance, no lag), not a limit of the search
+    calls, out, _ = _restart(monkeypatch, {0.8: ({"mu": 0.8, "cg_y": 0.0, "drive_lag": 0.0}, ["drive_lag"], 0.5)},
+                             0.8)
+    assert calls == [0.8] and out[4] == []
+    calls, out, _ = _restart(monkeypatch, {0.8: ({"mu": 0.8, "cg_y": hi}, ["cg_y"], 0.5)}, 0.8, names=("cg_y",))
+    assert calls == [0.8] and out[4] == []
+
+
+def test_restart_sentences():
+    from mjtrack.calibrate.run import restart_sentence
+
+    assert restart_sentence([]) == ""
+    won = restart_sentence([{"mu_start": 0.5, "train_rms_m": 0.744, "on_bound": ["cg_y"], "kept": False},
+                            {"mu_start": 1.0, "train_rms_m": 0.624, "on_bound": [], "kept": True}])
+    assert won == (" From friction 0.5 the fit ended with cg_y on a bound of its range (0.744 m on the training "
+                   "windows); started again from friction 1 it fits them better (0.624 m, none on a bound), and "
+                   "that is the answer.")
+    lost = restart_sentence([{"mu_start": 0.8, "train_rms_m": 0.2, "on_bound": ["mu"], "kept": True},
+                             {"mu_start": 0.5, "train_rms_m": 0.25, "on_bound": [], "kept": False},
+                             {"mu_start": 1.0, "train_rms_m": 0.21, "on_bound": ["mu"], "kept": False}])
+    assert "started again from friction 0.5 and 1, it fit the training windows no better (0.25, 0.21 m against 0.2 m)" \
+        in lost

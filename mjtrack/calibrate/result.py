@@ -147,6 +147,9 @@ class Calibration:
     drive_input_why: str = "asked for"
     fit_windows: WindowSet | None = None  # the windows the fit used (None: every training window)
     rounds: int = MAX_ROUNDS  # the most refits after the first fit it was allowed (calibrate's ``rounds``)
+    #: the fit started again from other friction levels because a changed value ended on a bound: one
+    #: record per attempt ("mu_start", "train_rms_m", "on_bound", "kept"), the first the fit's own start
+    restarts: list[dict] = field(default_factory=list)
     #: windows left out because their poses move against the tracks (see
     #: :func:`mjtrack.sim.windows.contradicting_windows`), by part ("train", "test")
     left_out: dict[str, list[dict]] = field(default_factory=dict)
@@ -247,7 +250,7 @@ class Calibration:
             "summary": self.sentence,
             "model_form": self.model_form,
             "start": self.fit.start, "starts_tried": [{"parameters": p, "cost": c} for p, c in self.fit.starts_tried],
-            "method": {"optimizer": self.fit.method, "rounds": self.rounds,
+            "method": {"optimizer": self.fit.method, "rounds": self.rounds, "friction_restarts": self.restarts,
                        "fits": [{"parameters": f.names, "iterations": f.iterations, "cost_start": f.cost_start,
                                  "cost_final": f.cost_final} for f in fits],
                        "simulated_windows": sum(f.evaluations for f in fits) * len(self.fitted_windows),
