@@ -36,7 +36,9 @@ for testing. Per parameter both values and intervals, and whether each value lie
 interval where both are determined (a drive force limit per kilogram of each description's mass,
 which the log does not determine: the log fixes how fast the drives can speed the robot up, not
 the force; a value beyond the other description's search range, which follows its geometry, compared
-with the nearest end of that range, the closest the other fit could come); the causes, summaries
+with the nearest end of that range, the closest the other fit could come), and the weaker reading
+beside it: whether their difference lies within its own 95 % interval, the half-widths added in
+quadrature; the causes, summaries
 and held-out errors of both. Writes
 benchmarks/results/start_independence.json; ``--starts --agreement-only`` recomputes the
 agreement of the stored file with the rule now.
@@ -45,6 +47,7 @@ agreement of the stored file with the rule now.
 from __future__ import annotations
 
 import argparse
+import math
 import json
 import os
 import sys
@@ -323,8 +326,13 @@ def agreement(a: dict, b: dict) -> dict:
         ca, cb = float(np.clip(va, *rb)), float(np.clip(vb, *ra))  # each as near as the other's range allows
         tol = 1e-9 * max(abs(va), abs(vb), 1e-12)
         inside = ib[0] - tol <= ca <= ib[1] + tol and ia[0] - tol <= cb <= ia[1] + tol
+        # the weaker reading: the difference of the two estimates within its own 95 % interval, the
+        # half-widths added in quadrature (two fits of one log are not independent: an approximation)
+        dha, dhb = (ia[1] - ia[0]) / 2, (ib[1] - ib[0]) / 2
+        consistent = abs(ca - cb) <= math.hypot(dha, dhb) + tol
         agree[n] = {"shipped": a["parameters"][n], "public": b["parameters"][n], "determined_in_both": both,
                     "each_in_the_other_interval": inside if both else None,
+                    "difference_within_its_interval": consistent if both else None,
                     **({"beyond_the_other_range": True} if both and (ca != va or cb != vb) else {}),
                     **({"per_kg": {"shipped": va, "public": vb}} if n in PER_KG else {})}
     return {"agreement": agree, "agree": all(v["each_in_the_other_interval"] is not False for v in agree.values())}

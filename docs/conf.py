@@ -42,7 +42,7 @@ napoleon_use_rtype = False
 html_theme = "furo"
 html_title = f"mjtrack {release}"
 html_static_path = ["_static"]
-# MathJax bundled (docs/_static/mathjax/README.md): the maths renders offline, no CDN is contacted
+# MathJax bundled (docs/_static/mathjax/README.txt): the maths renders offline, no CDN is contacted
 mathjax_path = "mathjax/tex-svg.js"
 
 nitpicky = False

@@ -199,8 +199,10 @@ def test_a_library_error_reaches_the_command_line_in_options(tmp_path):
 
 
 
-# "(2.13)", "eq. 2.21", "section 4.2", "thesis 4.2": a citation of a source's equation or section
-CITED = re.compile(r"(?<![\w.])(?:\(\d\.\d{1,2}\)|(?:eq\.|eqs\.|section|thesis) \(?\d\.\d{1,2}\)?)")
+# "(2.13)", "eq. 2.21", "eqs. 3.1-3.4", "(3.2.2.1)", "Section 4.2", "fig. 4.1", "figures 4.8-4.14", "thesis 4.2":
+# a citation of a source's equation, section or figure
+CITED = re.compile(r"(?<![\w.])(?:\(\d\.\d{1,2}(?:\.\d{1,2})*(?:-\d\.\d{1,2})?\)|(?:eqs?\.|section|thesis|figs?\.|"
+                   r"figures?|table) \(?\d\.\d{1,2}(?:\.\d{1,2})*(?:-\d\.\d{1,2})?\)?)", re.IGNORECASE)
 
 
 def test_every_equation_number_in_help_and_reports_names_its_source():
@@ -219,7 +221,7 @@ def test_every_equation_number_in_help_and_reports_names_its_source():
             after = text[match.end():match.end() + 30]
             cited.append(where)
             assert any(f"of {label}" in after for label in labels), (where, text[match.start():match.end() + 30])
-    assert {"validate", "track", "validate report"} <= set(cited)  # the scan saw the citations
+    assert {"validate", "track", "thesis", "validate report"} <= set(cited)  # the scan saw the citations
 
 
 def test_one_word_for_simulated_and_for_logged_motion(tmp_path):

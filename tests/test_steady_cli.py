@@ -88,3 +88,13 @@ def test_simulate_notes_that_a_measured_drive_input_is_not_used(tmp_path):
     res = run_cli(["simulate", "--scenario", "straight", "--duration", "0.2", "--robot", plain,
                    "--out", tmp_path / "run2.csv"])
     assert res.rc == 0 and "drive_input" not in res.err
+
+
+def test_the_table_speaks_of_wheels_on_a_wheeled_robot():
+    from mjtrack.commands.steady import _ROWS, steady_table
+
+    values = {key: 0.1 for key, _, _ in _ROWS}
+    wheels, tracks = steady_table(values, "wheels"), steady_table(values)
+    assert "track" not in wheels and "roller" not in wheels
+    assert "left wheel speed" in wheels and "wheels in contact" in wheels and "left-wheels ICR" in wheels
+    assert "left track speed" in tracks and "rollers in contact" in tracks

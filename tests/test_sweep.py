@@ -295,3 +295,25 @@ def test_icr_map_ticks_read_plain_numbers_and_the_title_says_simulated(radii):
         assert fig._suptitle.get_text().startswith("Simulated ICRs of 4 steady states")
     finally:
         plt.close(fig)
+
+
+@pytest.mark.parametrize("traction, side", [("tracks", "track"), ("wheels", "wheels")])
+def test_icr_map_names_what_carries_a_side_and_shows_no_speeds_never_commanded(traction, side):
+    """A wheeled robot's side ICRs are its wheels' (not a track's); one commanded speed has no colour
+    bar spanning speeds nobody commanded, the title says the speed instead."""
+    import matplotlib.pyplot as plt
+
+    from mjtrack.sweep.figure import icr_map_figure
+
+    base = Robot(track_gauge=0.5, traction=traction, **({"wheelbase": 0.5, "mass": 50.0} if traction == "wheels"
+                                                       else {}))
+    grid = grid_from_dict({"speed": [0.5], "turn_radius": [1.0, 2.0]}, base=base)
+    records = [{"case": i, "y_l": 0.3, "y_r": -0.3, "x_c": 0.01} for i in range(2)]
+    fig = icr_map_figure(records, grid)
+    try:
+        ylabels = [ax.get_ylabel() for ax in fig.axes if ax.get_ylabel()]
+        assert ylabels[:2] == [f"left-{side} ICR y_l [m]", f"right-{side} ICR y_r [m]"]
+        assert not any(ax.get_label() == "<colorbar>" for ax in fig.axes)
+        assert "commanded speed 0.5 m/s" in fig._suptitle.get_text()
+    finally:
+        plt.close(fig)

@@ -817,9 +817,11 @@ def _calibration() -> Page:
                       "on the held-out split of `python benchmarks/real_robots.py --starts` (its docstring): every "
                       "candidate's two values, whether both calibrations determine it and, if so, whether each "
                       "value lies in the other's interval (a value beyond the other description's search range, "
-                      "which follows its geometry, compared with the nearest end of that range).",
+                      "which follows its geometry, compared with the nearest end of that range), and the weaker "
+                      "reading: whether their difference lies within its 95 % interval (the two half-widths added in "
+                      "quadrature).",
                       ["robot", "parameter", "from shipped", "from public", "determined in both",
-                       "each in the other's interval", "compared"])
+                       "each in the other's interval", "difference within its interval", "compared"])
         errs = Table("The two calibrations of the table above: held-out position error [m] at the window's end "
                      "before and after, the wall time of the calibration [s] (the load is in the result file) and "
                      "the causes each names, largest share first (not plausible: said as something no candidate "
@@ -833,6 +835,8 @@ def _calibration() -> Page:
                 agree.add(name, n, number(st, a + "/shipped"), number(st, a + "/public"),
                           number(st, a + "/determined_in_both"),
                           number(st, a + "/each_in_the_other_interval"),
+                          number(st, a + "/difference_within_its_interval")
+                          if "difference_within_its_interval" in r["agreement"][n] else "–",
                           ("per kg of each description's mass" if "per_kg" in r["agreement"][n] else "as fitted")
                           + ("; beyond the other's range: compared with its end"
                              if r["agreement"][n].get("beyond_the_other_range") else ""))

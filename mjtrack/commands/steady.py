@@ -34,8 +34,8 @@ HELP = "steady-state twist and ICRs of the MuJoCo robot under constant track spe
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--v-left", metavar="A", type=bounded("speed"), required=True, help="left track speed [m/s]")
-    parser.add_argument("--v-right", metavar="B", type=bounded("speed"), required=True, help="right track speed [m/s]")
+    parser.add_argument("--v-left", metavar="A", type=bounded("speed"), required=True, help="left track (wheel side) speed [m/s]")
+    parser.add_argument("--v-right", metavar="B", type=bounded("speed"), required=True, help="right track (wheel side) speed [m/s]")
     parser.add_argument("--settle", metavar="S", type=bounded("settle"), default=3.0, help="transient time [s] (default 3)")
     parser.add_argument("--window", metavar="S", type=bounded("window"), default=2.0, help="averaging window [s] (default 2)")
     parser.add_argument("--track-model", choices=["rollers", "surfacevel"], default=None,
@@ -55,11 +55,11 @@ def run(args: argparse.Namespace) -> int:
                           settle_s=args.settle, window_s=args.window, terrain=terrain_from_args(args))
     if result.unsettled:
         print(f"mjtrack steady: warning: {option_words(result.unsettled)}", file=sys.stderr)
-    print(json.dumps(result.to_dict(), indent=2) if args.json else steady_table(result.to_dict()))
+    print(json.dumps(result.to_dict(), indent=2) if args.json else steady_table(result.to_dict(), robot.traction))
     return 0
 
 
-# (key, label, unit) of the table's rows, in the order printed
+# (key, label, unit) of the table's rows, in the order printed (a wheeled robot's in :func:`_rows`)
 _ROWS = (("v_left_cmd", "commanded left track speed", "m/s"), ("v_right_cmd", "commanded right track speed", "m/s"),
          ("v_left", "measured left track speed", "m/s"), ("v_right", "measured right track speed", "m/s"),
          ("vx", "vx (std)", "m/s"), ("vy", "vy (std)", "m/s"), ("wz", "wz (std)", "rad/s"),
@@ -69,10 +69,25 @@ _ROWS = (("v_left_cmd", "commanded left track speed", "m/s"), ("v_right_cmd", "c
          ("roller_contact", "rollers in contact", "share in the window"))
 
 
-def steady_table(values: dict) -> str:
-    """The steady state as aligned text rows (``--json`` prints ``values`` as they are)."""
-    lines = []
+def _rows(traction: str) -> tuple[tuple[str, str, str], ...]:
+    """:data:`_ROWS` in the words of a robot on ``traction`` (wheels, not tracks and rollers)."""
+    if traction != "wheels":
+        return _ROWS
+    words = {"track speed": "wheel speed", "track ICR": "wheels ICR", "track in contact": "wheels in contact",
+             "rollers in contact": "wheels in contact"}
+    out = []
     for key, label, unit in _ROWS:
+        for a, b in words.items():
+            label = label.replace(a, b)
+        out.append((key, label, unit))
+    return tuple(out)
+
+
+def steady_table(values: dict, traction: str = "tracks") -> str:
+    """The steady state as aligned text rows (``--json`` prints ``values`` as they are), in the words
+    of a robot on ``traction``."""
+    lines = []
+    for key, label, unit in _rows(traction):
         value = values[key]
         text = "null" if value is None else f"{value:.6g}"
         std = values.get(f"{key}_std")

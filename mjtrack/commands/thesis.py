@@ -1,12 +1,13 @@
-"""Reproduce the chapter-4 experiments of the tracked-robot thesis.
+"""Reproduce the chapter-4 experiments of the tracked-robot thesis [Mendaluk] (docs: references).
 
-Section 4.1: the MPP, MICR and MVIR kinematic models driven along the reconstructed U-shaped
-path of fig. 4.1 in three slip cases (none, longitudinal, lateral). Writes figures 4.1-4.7 as
-PNG and DIR/thesis.json (per case: max_dev_m, the largest distance between the MPP, MICR and
-MVIR paths; nominal_dev_m; final poses; the reconstruction parameters; figure files and
-captions). Section 4.2: the slip, ICR and virtual-robot filters, as printed and improved, on
-MPP truth (V = 0.4 m/s, w = -7 deg/s, s_L = 0.2, alpha = 15 deg); figures 4.8-4.14 and, per
-filter, param_error_final, converged_after_s and pred_err_ratio. Takes a few seconds, no MuJoCo.
+Section 4.1 of [Mendaluk]: the MPP, MICR and MVIR kinematic models driven along the reconstructed
+U-shaped path of its fig. 4.1 of [Mendaluk] in three slip cases (none, longitudinal, lateral).
+Writes its figures 4.1-4.7 of [Mendaluk] as PNG and DIR/thesis.json (per case: max_dev_m, the
+largest distance between the MPP, MICR and MVIR paths; nominal_dev_m; final poses; the
+reconstruction parameters; figure files and captions). Section 4.2 of [Mendaluk]: the slip, ICR and
+virtual-robot filters, as printed and improved, on MPP truth (V = 0.4 m/s, w = -7 deg/s, s_L = 0.2,
+alpha = 15 deg); its figures 4.8-4.14 of [Mendaluk] and, per filter, param_error_final,
+converged_after_s and pred_err_ratio. Takes a few seconds, no MuJoCo.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from pathlib import Path
 
 from mjtrack.commands._common import add_output_options, check_out_dir, check_overwrite
 
-HELP = "reproduce the source thesis's chapter-4 experiments (figures + thesis.json)"
+HELP = "reproduce the chapter-4 experiments of the tracked-robot thesis [Mendaluk] (figures + thesis.json)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

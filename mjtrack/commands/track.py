@@ -4,12 +4,12 @@ Drives the MuJoCo robot, tracked or wheeled (--robot FILE), along a tracking sce
 (figure_eight: lemniscate of Gerono, A = 1.5 m, 2 laps; circle: radius 1 m, 1.5 turns;
 lane_change: 1.5 m straight, a 1 m shift to the left over 3 m with continuous curvature, 1.5 m
 straight; all at 0.5 m/s unless --speed) with a controller: tracker (feed-forward + pole-placement
-feedback, slip-compensated) or one of the wheeled-robot thesis's five, set up to follow the path
+feedback, slip-compensated) or one of the wheeled-robot thesis's five ([Jonszta]), set up to follow the path
 (mjtrack.control.path_controllers): feedforward (open loop), pole_placement (the tracker's law,
 uncompensated by default), reactive (chasing a goal that runs ahead on the path), posture (the
 polar law chasing a goal pose ahead on the path), line_following (two sensors on the path as a
 line). Their body commands (v, w) go to the tracks or wheel sides through a compensation: none
-(nominal V_L,R = v -+ w T/2: the thesis's adapter), icr (inverse ICR map of the online estimate for the feed-forward, feedback
+(nominal V_L,R = v -+ w T/2: [Jonszta]'s adapter), icr (inverse ICR map of the online estimate for the feed-forward, feedback
 on the body point that does not drift sideways) or vir (the same map plus the virtual-robot
 heading correction, eq. (2.21) of [Mendaluk]). The estimate is applied with a trust
 weight in [0, 1]: 0 while it is
@@ -40,7 +40,7 @@ from mjtrack.commands._common import (TERRAIN_HELP, add_output_options, add_robo
                                       terrain_from_args)
 
 HELP = ("closed-loop path tracking on the MuJoCo robot, tracked or wheeled (the slip-compensated tracker or the "
-        "thesis's five controllers) -> tracking.json + tracking.png")
+        "thesis's five controllers, [Jonszta]) -> tracking.json + tracking.png")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -63,7 +63,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--controller", choices=list(CONTROLLERS), default="tracker",
                         help="tracker: feed-forward + pole-placement state feedback with the slip compensation (default); "
                              + "; ".join(f"{k}: {v}" for k, v in DESCRIPTIONS.items())
-                             + ". The thesis's controllers were designed for a wheeled robot's model; here they drive the "
+                             + ". [Jonszta]'s controllers were designed for a wheeled robot's model; here they drive the "
                                "MuJoCo robot through the same track-speed (wheel-side speed) interface")
     parser.add_argument("--speed", metavar="M/S", type=bounded("reference_speed"), default=None, help="reference speed [m/s] (default 0.5)")
     parser.add_argument("--laps", metavar="N", type=bounded("laps"), default=None, help="laps / turns of the path")

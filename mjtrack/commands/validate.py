@@ -13,8 +13,8 @@ the pose restarts), and on a log read from a file take its measurement noise est
 Writes DIR/report.html (self-contained: verdicts, setup, definitions, figures, filter
 consistency with NIS over time) and DIR/metrics.json (the same numbers; per filter and truth
 consistency: nis_mean, nis_dof, nees_mean (null on a log read from a file), nees_dof, band95).
-On a wheeled robot (robot key traction: "wheels") it also scores the wheeled-robot thesis's four
-models on the log: the kinematic differential drive and the four-wheel skid steer driven by the
+On a wheeled robot (robot key traction: "wheels") it also scores the four models of the wheeled-robot thesis [Jonszta] (docs: references)
+on the log: the kinematic differential drive and the four-wheel skid steer driven by the
 wheel speeds, dynamic models 1 and 2 by the commanded wheel speeds (their own regulator), each
 from the logged state at every window start; metrics.json gets the median and worst position and
 heading error per model and horizon and the best model per horizon (wheeled_models), the report a

@@ -44,13 +44,13 @@ THESIS_CONTROLLERS = ("feedforward", "pole_placement", "reactive", "posture", "l
 """The five controllers of the thesis's chapter 3, in its order."""
 
 DESCRIPTIONS = {
-    "feedforward": "the thesis's feed-forward (3.1-3.4): the reference's speed and yaw rate, open loop",
-    "pole_placement": "the thesis's trajectory tracker (3.11-3.21): feed-forward plus state feedback on the "
+    "feedforward": "the feed-forward (eqs. 3.1-3.4 of [Jonszta]): the reference's speed and yaw rate, open loop",
+    "pole_placement": "the trajectory tracker (eqs. 3.11-3.21 of [Jonszta]): feed-forward plus state feedback on the "
                       "error to the reference pose, gains by pole placement",
-    "reactive": "the thesis's reactive law (3.5-3.6) chasing a goal that runs ahead on the path, with the PI "
+    "reactive": "the reactive law (eqs. 3.5-3.6 of [Jonszta]) chasing a goal that runs ahead on the path, with the PI "
                 "distance regulator of a moving goal",
-    "posture": "the thesis's polar posture law (3.7-3.10) chasing a goal pose that runs ahead on the path",
-    "line_following": "the thesis's two-sensor line follower (3.2.2.1) on the path as a line, at the reference "
+    "posture": "the polar posture law (eqs. 3.7-3.10 of [Jonszta]) chasing a goal pose that runs ahead on the path",
+    "line_following": "the two-sensor line follower (section 3.2.2.1 of [Jonszta]) on the path as a line, at the reference "
                       "speed",
 }
 

@@ -112,6 +112,12 @@ GROUND_MODELS: dict[str, dict[str, tuple[float, float, float]]] = {
 }
 
 
+
+def side_word(traction: str) -> str:
+    """What carries each side of a robot on ``traction`` ("tracks" or "wheels"), in words: "track" or
+    "wheels" (a wheeled robot's side ICR is that of its left or right wheels)."""
+    return "wheels" if traction == "wheels" else "track"
+
 @dataclass(frozen=True)
 class Ground:
     """The ground model and its parameters (robot key ``ground``, e.g.
@@ -415,6 +421,12 @@ class Robot:
         """Largest accepted ``cg_z`` [m]: :data:`MAX_CG_HEIGHT_RATIO` times the footprint's larger
         side, max(track_gauge, :attr:`contact_length`)."""
         return MAX_CG_HEIGHT_RATIO * max(self.track_gauge, self.contact_length)
+
+    @property
+    def side(self) -> str:
+        """What carries each side, in words: "track", or "wheels" on a wheeled robot (labels such as
+        "left track speed", "left wheels speed")."""
+        return side_word(self.traction)
 
     @property
     def contact_length(self) -> float:

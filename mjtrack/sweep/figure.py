@@ -15,10 +15,17 @@ import math
 from collections import defaultdict
 from typing import Any, Sequence
 
+from mjtrack.io.robot import side_word
 from mjtrack.sweep.grid import Grid, nominal_turn
 
 ICR_ROWS = (("y_l", "left-track ICR y_l [m]"), ("y_r", "right-track ICR y_r [m]"),
             ("x_c", "ICR shift x_c [m]"))
+
+
+def icr_rows(traction: str = "tracks") -> tuple[tuple[str, str], ...]:
+    """:data:`ICR_ROWS` for a robot on ``traction`` (a wheeled robot's side ICRs are its wheels')."""
+    side = side_word(traction)
+    return (("y_l", f"left-{side} ICR y_l [m]"), ("y_r", f"right-{side} ICR y_r [m]"), ICR_ROWS[2])
 MAX_COLUMNS = 6
 
 
@@ -60,12 +67,15 @@ def icr_map_figure(records: Sequence[dict[str, Any]], grid: Grid):
     from matplotlib import cm, colors
 
     facet_keys = [k for k in grid.keys if k not in grid.form]
+    tractions = {c.robot.traction for c in grid.cases}
+    rows = icr_rows(next(iter(tractions))) if len(tractions) == 1 else (
+        ("y_l", "left ICR y_l [m]"), ("y_r", "right ICR y_r [m]"), ICR_ROWS[2])
     facets: dict[tuple, list[tuple[float, float, dict[str, Any], float]]] = defaultdict(list)
     undefined = 0
     for rec in records:
         case = grid.cases[int(rec["case"])]
         speed, radius = nominal_turn(case.v_left_cmd, case.v_right_cmd, case.robot.track_gauge)
-        if radius is None or any(rec.get(k) is None for k, _ in ICR_ROWS):
+        if radius is None or any(rec.get(k) is None for k, _ in rows):
             undefined += 1
             continue
         facets[tuple(rec.get(k) for k in facet_keys)].append((speed, radius, rec, case.robot.track_gauge))
@@ -84,7 +94,7 @@ def icr_map_figure(records: Sequence[dict[str, Any]], grid: Grid):
         by_speed: dict[float, list] = defaultdict(list)
         for s, r, rec, gauge in pts:
             by_speed[round(s, 9)].append((r, rec, gauge))
-        for row, (name, label) in enumerate(ICR_ROWS):
+        for row, (name, label) in enumerate(rows):
             ax = axes[3 * b + row, c]
             for s, items in sorted(by_speed.items()):
                 items.sort(key=lambda it: it[0])
@@ -115,8 +125,11 @@ def icr_map_figure(records: Sequence[dict[str, Any]], grid: Grid):
         b, c = divmod(f, ncol)
         for row in range(3):
             axes[3 * b + row, c].set_visible(False)
-    sm = cm.ScalarMappable(norm=norm, cmap=cmap)
-    fig.colorbar(sm, ax=axes, label="commanded speed [m/s]", shrink=0.6)
     note = f"\n{undefined} straight or spot-turn cases have no ICRs and are not shown" if undefined else ""
+    if len(speeds) > 1:
+        sm = cm.ScalarMappable(norm=norm, cmap=cmap)
+        fig.colorbar(sm, ax=axes, label="commanded speed [m/s]", shrink=0.6)
+    else:  # one speed: a colour bar would span speeds never commanded
+        note += f"\ncommanded speed {speeds[0]:g} m/s" if records else ""
     fig.suptitle(f"Simulated ICRs of {len(records)} steady states (dashed: no-slip ICRs){note}", fontsize=10)
     return fig

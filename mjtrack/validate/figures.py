@@ -10,6 +10,7 @@ import math
 import numpy as np
 from matplotlib.figure import Figure
 
+from mjtrack.io.robot import side_word
 from mjtrack.validate.evaluate import CaseResult
 from mjtrack.validate.wheeled import WheeledResult
 
@@ -98,14 +99,16 @@ def paths_figure(res: CaseResult) -> Figure:
     return fig
 
 
-def icr_figure(res: CaseResult, wz_min: float) -> Figure:
-    """ICRs over time: the truth's own (2.13) vs those implied by each filter's estimate."""
+def icr_figure(res: CaseResult, wz_min: float, traction: str = "tracks") -> Figure:
+    """ICRs over time: the truth's own (2.13) vs those implied by each filter's estimate (the side
+    ICRs named after what carries a side of a robot on ``traction``)."""
     fig = Figure(figsize=(10, 7.5))
     axes = fig.subplots(3, 1, sharex=True)
     c = res.case
     valid = res.icr_true.valid
     by_key = {p.key: p for p in res.predictors}
-    for ax, f, name in zip(axes, ("y_l", "y_r", "x_c"), ("left-track ICR y_l [m]", "right-track ICR y_r [m]",
+    side = side_word(traction)
+    for ax, f, name in zip(axes, ("y_l", "y_r", "x_c"), (f"left-{side} ICR y_l [m]", f"right-{side} ICR y_r [m]",
                                                           "ICR x_c [m]")):
         true = np.where(valid, getattr(res.icr_true, f), np.nan)
         ax.plot(c.t, true, ".", color="k", ms=2.5, label="truth's own ICRs (eq. (2.13) of [Mendaluk])")

@@ -207,7 +207,7 @@ def build_report(results: dict[str, CaseResult], robot: Robot, setup: dict, verd
         s = rep.section(f"Paths and ICRs: {r.case.title}")
         s.figure(figures.paths_figure(r), f"True path (black) and each predictor's open-loop path over the whole "
                  f"log, from the true start (truth: {r.case.title}). Dashed: oracles.")
-        s.figure(figures.icr_figure(r, setup["wz_min"]), "ICRs over time: the truth's own ICRs (black dots) and the "
+        s.figure(figures.icr_figure(r, setup["wz_min"], robot.traction), "ICRs over time: the truth's own ICRs (black dots) and the "
                  "ICRs implied by each filter's online estimate.")
         rows = [[p.label] + [r.metrics["predictors"][p.key]["icr_error_m"][f] for f in ("y_l", "y_r", "x_c")]
                 for p in r.predictors if p.key != "nominal"]
