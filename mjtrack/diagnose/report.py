@@ -244,7 +244,9 @@ def build_report(d: Diagnosis) -> Report:
         if sw["windows"]:
             n.table(["window", "start [s]", "simulations that warned", "warning", "left out"],
                     [[w["window"], w["t0"], "; ".join(w["simulations"]), "; ".join(w["warnings"]),
-                      "yes" if w["left_out"] else "no"] for w in sw["windows"]])
+                      "yes" if w["left_out"] else "no"] for w in sw["windows"]],
+                    caption="The \"Time\" in MuJoCo's warning is the time within that window's simulation "
+                            "(its warm-up included), not the log's time: the window starts at \"start\".")
         if sw["outside_windows"]:
             n.table(["outside any window"], [[x] for x in sw["outside_windows"]])
 
