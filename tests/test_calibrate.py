@@ -519,6 +519,13 @@ def test_a_start_at_a_restart_level_is_not_tried_twice_and_a_worse_restart_is_no
     calls, out, _ = _restart(monkeypatch, outcomes, 0.5)
     assert calls == [0.5, 1.0]  # 0.5 is the start itself
     assert [r["kept"] for r in out[4]] == [True, False] and out[3].rms == 0.30
+    # a restart that reaches the same basin (better by less than RESTART_GAIN) does not replace the first
+    from mjtrack.calibrate.run import RESTART_GAIN
+
+    same = {0.5: ({"mu": lo, "cg_y": 0.0}, ["mu"], 0.30), 1.0: ({"mu": lo, "cg_y": 0.0}, ["mu"],
+                                                                0.30 * (1 - RESTART_GAIN / 2))}
+    calls, out, _ = _restart(monkeypatch, same, 0.5)
+    assert [r["kept"] for r in out[4]] == [True, False]
 
 
 def test_no_restart_without_a_bound_or_without_friction(monkeypatch):
