@@ -98,3 +98,4 @@ def test_the_table_speaks_of_wheels_on_a_wheeled_robot():
     assert "track" not in wheels and "roller" not in wheels
     assert "left wheel speed" in wheels and "wheels in contact" in wheels and "left-wheels ICR" in wheels
     assert "left track speed" in tracks and "rollers in contact" in tracks
+

@@ -184,3 +184,21 @@ def test_validate_help_documents_the_wheeled_models():
     assert out.rc == 0
     text = " ".join(out.out.split())
     assert "wheel" in text and "skid" in text and "dynamic" in text
+
+
+@pytest.mark.parametrize("traction, side", [("tracks", "track"), ("wheels", "wheels")])
+def test_the_validate_icr_figure_names_what_carries_a_side(traction, side):
+    """Made-up ICRs (no filter run): the axes' words only."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from mjtrack.validate.figures import icr_figure
+
+    t = np.linspace(0.0, 1.0, 5)
+    icr = SimpleNamespace(valid=np.ones(5, bool), y_l=t + 0.3, y_r=-t - 0.3, x_c=0 * t)
+    keys = ("mpp_slip_ekf", "micr_icr_ekf", "mvir_vir_filter")
+    res = SimpleNamespace(case=SimpleNamespace(t=t), icr_true=icr, icrs={k: icr for k in keys},
+                          predictors=[SimpleNamespace(key=k, causal=True, label=k) for k in keys])
+    fig = icr_figure(res, 0.05, traction)
+    assert [ax.get_ylabel() for ax in fig.axes[:2]] == [f"left-{side} ICR y_l [m]", f"right-{side} ICR y_r [m]"]
