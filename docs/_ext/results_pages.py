@@ -818,7 +818,7 @@ def _calibration() -> Page:
                       "candidate's two values, whether both calibrations determine it and, if so, whether each "
                       "value lies in the other's interval (a value beyond the other description's search range, "
                       "which follows its geometry, compared with the nearest end of that range), and the weaker "
-                      "reading: whether their difference lies within its 95 % interval (the two half-widths added in "
+                      "reading: whether their difference lies within its own interval (the two half-widths added in "
                       "quadrature).",
                       ["robot", "parameter", "from shipped", "from public", "determined in both",
                        "each in the other's interval", "difference within its interval", "compared"])
