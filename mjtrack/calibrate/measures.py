@@ -82,13 +82,44 @@ def turn_measures(lg: DriveLog, ws: WindowSet, robot: Robot, poses: np.ndarray, 
         m = steady & (np.abs(vm) >= SPEED_MIN) & (np.abs(turn) >= lo) & ((np.abs(turn) < hi) | (hi >= 1.0))
         if m.sum() >= 3:
             fwd[(lo, hi)] = (float(np.median(tw[m, 0] / vm[m])), int(m.sum()))
-    yaw_by_class = {}
+    yaw_by_class, samples = {}, {}
     for lo, hi in TURN_CLASSES:
         m = use & (np.abs(turn) >= lo) & ((np.abs(turn) < hi) | (hi >= 1.0))
         if m.sum() >= 3:
             yaw_by_class[(lo, hi)] = (float(np.median(tw[m, 2] / wnom[m])), int(m.sum()))
+            samples[(lo, hi)] = (np.flatnonzero(m), tw[m, 2] / wnom[m])
     return {"yaw_ratio": ratio, "yaw_windows": int(use.sum()), "icr": icr, "speed_ratio": fwd,
-            "yaw_ratio_by_class": yaw_by_class}
+            "yaw_ratio_by_class": yaw_by_class, "yaw_ratio_samples": samples}
+
+
+GAP_BOOT = 2000  # bootstrap replicates of a class's yaw-ratio gap (:func:`class_gap_interval`)
+
+
+def class_gap_interval(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray], *,
+                       level: float = 0.95, n_boot: int = GAP_BOOT, seed: int = 0) -> tuple[float, float] | None:
+    """Percentile bootstrap interval of median(a) - median(b), two per-window samples of one log's
+    windows, each (window indices, values) as :func:`turn_measures` keeps them per class
+    (``yaw_ratio_samples``): the windows of either are drawn with replacement, each draw keeping a
+    window's value in both where it has one, so that the gap's interval holds how much the class's few
+    windows alone can move it. None when either sample is empty."""
+    (ia, va), (ib, vb) = a, b
+    if len(ia) == 0 or len(ib) == 0:
+        return None
+    windows = np.union1d(ia, ib)
+    pos = {int(w): k for k, w in enumerate(windows)}
+    ka = np.array([pos[int(w)] for w in ia])
+    kb = np.array([pos[int(w)] for w in ib])
+    rng = np.random.default_rng(seed)
+    counts = rng.multinomial(len(windows), np.full(len(windows), 1.0 / len(windows)), size=n_boot)
+    gaps = []
+    for c in counts:
+        ra, rb = np.repeat(va, c[ka]), np.repeat(vb, c[kb])
+        if ra.size and rb.size:
+            gaps.append(np.median(ra) - np.median(rb))
+    if not gaps:
+        return None
+    lo, hi = np.percentile(gaps, [50 * (1 - level), 50 * (1 + level)])
+    return float(lo), float(hi)
 
 
 def measured_speeds(lg: DriveLog, ws: WindowSet) -> np.ndarray:
