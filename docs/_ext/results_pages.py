@@ -851,6 +851,27 @@ def _calibration() -> Page:
         starts_tables = [agree, errs]
     written = [real.path.parent / "real_robots" / name / f for name in real.data["robots"]
                for f in ("robot.json", "calibration.json", "report.html")]
+    yaw_sources, yaw = [], Table(
+        "Steady-turn yaw ratio per |turn ratio| class on the held-out windows of the calibrations above (each "
+        "robot's calibration.json, findings): measured, as described, calibrated, and the bootstrap interval over "
+        "the windows of measured minus calibrated (how far the class's few windows alone move the gap).",
+        ["robot", "|turn ratio| from", "to", "windows", "measured", "described robot", "calibrated",
+         "gap interval, low", "gap interval, high"])
+    for name in real.data["robots"]:
+        path = real.path.parent / "real_robots" / name / "calibration.json"
+        if not path.exists():
+            continue
+        cal = Source(path)
+        rows = [(k, f) for k, f in enumerate(cal.data["findings"]) if f.get("turn_class") and f["part"] == "test"
+                and f.get("gap_after_interval")]
+        if rows:
+            yaw_sources.append(cal)
+        for k, f in rows:
+            q = f"/findings/{k}"
+            yaw.add(name, number(cal, q + "/turn_class/0"), number(cal, q + "/turn_class/1"), number(cal, q + "/windows"),
+                    number(cal, q + "/measured"), number(cal, q + "/simulated_before"),
+                    number(cal, q + "/simulated_after"), number(cal, q + "/gap_after_interval/0"),
+                    number(cal, q + "/gap_after_interval/1"))
     return Page(
         "calibration", "Calibration",
         "What `mjtrack calibrate` finds on logs whose truth is known (the MuJoCo robot's own logs, one change each), "
@@ -858,8 +879,8 @@ def _calibration() -> Page:
         "A parameter the log does not determine keeps its described value and is marked so; intervals carry the "
         "correlation of a log's windows and the measured model-form error of simulating a window from a logged "
         "state.", [bat, *([noisy] if noisy is not None else []), real,
-                   *([Source(starts_path)] if starts_path.exists() else [])],
-        [*battery, robots, context, speed, params, summaries, *starts_tables],
+                   *([Source(starts_path)] if starts_path.exists() else []), *yaw_sources],
+        [*battery, robots, context, speed, params, summaries, *([yaw] if yaw_sources else []), *starts_tables],
         written=[p for p in written if p.exists()])
 
 
