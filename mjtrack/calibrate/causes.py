@@ -63,6 +63,12 @@ class Cause:
                 "implausible": self.implausible}
 
 
+def on_bound(value: float, lo: float, hi: float, resolution: float) -> bool:
+    """Whether ``value`` ended within one ``resolution`` of a bound of its range [lo, hi] (a bound at
+    0 is physics, not a limit of the search: no lag, no resistance)."""
+    return value >= hi - resolution or (lo != 0 and value <= lo + resolution)
+
+
 def implausibility(name: str, value: float, described: float,
                    bounds: tuple[float, float, float] | None,
                    interval: tuple[float, float] | None = None, traction: float | None = None,
@@ -75,8 +81,7 @@ def implausibility(name: str, value: float, described: float,
     why = []
     if bounds is not None:
         lo, hi, res = bounds
-        # (a bound at 0 is physics, not a limit of the search: no lag, no resistance)
-        if value >= hi - res or (lo != 0 and value <= lo + res):
+        if on_bound(value, lo, hi, res):
             why.append(f"{name} ended on its bound, {value:.3g} (range {lo:.3g} to {hi:.3g})")
         elif interval is not None and (interval[1] >= hi - res or (lo != 0 and interval[0] <= lo + res)):
             edge = hi if interval[1] >= hi - res else lo
@@ -459,5 +464,5 @@ def saturation_words(command_peak: tuple[float, float], measured_peak: tuple[flo
 
 
 __all__ = ["COUPLED", "GEOMETRY_RATIO", "SATURATED", "SPEED_WORSE", "YAW_CLASS_GAP", "YAW_CLASS_MIN", "Cause",
-           "find_causes", "groups", "implausibility", "not_explained", "saturation_words", "speeds_worse", "summary",
+           "find_causes", "groups", "implausibility", "not_explained", "on_bound", "saturation_words", "speeds_worse", "summary",
            "traction_defaults", "traction_limit", "yaw_class_gaps"]

@@ -86,8 +86,9 @@ def turn_measures(lg: DriveLog, ws: WindowSet, robot: Robot, poses: np.ndarray, 
     for lo, hi in TURN_CLASSES:
         m = use & (np.abs(turn) >= lo) & ((np.abs(turn) < hi) | (hi >= 1.0))
         if m.sum() >= 3:
-            yaw_by_class[(lo, hi)] = (float(np.median(tw[m, 2] / wnom[m])), int(m.sum()))
-            samples[(lo, hi)] = (np.flatnonzero(m), tw[m, 2] / wnom[m])
+            values = tw[m, 2] / wnom[m]
+            yaw_by_class[(lo, hi)] = (float(np.median(values)), int(m.sum()))
+            samples[(lo, hi)] = (np.flatnonzero(m), values)
     return {"yaw_ratio": ratio, "yaw_windows": int(use.sum()), "icr": icr, "speed_ratio": fwd,
             "yaw_ratio_by_class": yaw_by_class, "yaw_ratio_samples": samples}
 
@@ -106,9 +107,7 @@ def class_gap_interval(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np
     if len(ia) == 0 or len(ib) == 0:
         return None
     windows = np.union1d(ia, ib)
-    pos = {int(w): k for k, w in enumerate(windows)}
-    ka = np.array([pos[int(w)] for w in ia])
-    kb = np.array([pos[int(w)] for w in ib])
+    ka, kb = np.searchsorted(windows, ia), np.searchsorted(windows, ib)
     rng = np.random.default_rng(seed)
     counts = rng.multinomial(len(windows), np.full(len(windows), 1.0 / len(windows)), size=n_boot)
     gaps = []

@@ -30,7 +30,8 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
-from mjtrack.calibrate.causes import Cause, find_causes, implausibility, summary, traction_defaults, traction_limit
+from mjtrack.calibrate.causes import (Cause, find_causes, implausibility, on_bound, summary, traction_defaults,
+                                     traction_limit)
 from mjtrack.calibrate.drivetrain import chain_robot, fit_chain, has_measured_speeds, predicted_drive_log
 from mjtrack.calibrate.identify import fmt_value
 from mjtrack.calibrate.params import (described_values, geometry_name, parse_names, specs_for, start_values,
@@ -368,7 +369,7 @@ def _prepare(train: DriveLog, robot: Robot, test: DriveLog | None, names, *, hor
 #: friction levels a fit starts from again when its first answer has a changed value on a bound
 #: (:func:`_guarded_fit`): the cost seen from a start misleads here -- on the Warthog log, from the
 #: public description (260 kg, mu 0.5) the fit ended with cg_y on its bound and a left/right friction
-#: split, 0.744 m on the training windows, while from mu 1.0 it ended at 0.576 m with neither, though
+#: split, 0.744 m on the training windows, while from mu 1.0 it ended at 0.624 m with neither, though
 #: the start at 0.5 cost less than the one at 1.0 (benchmarks/real_robots.py --starts)
 FRICTION_STARTS = (0.5, 1.0)
 #: a restart is the answer only when it lowers the training RMS by more than this share: attempts
@@ -377,14 +378,8 @@ RESTART_GAIN = 0.01
 
 
 def on_bounds(values: dict[str, float], changed: list[str], specs: dict) -> list[str]:
-    """The changed parameters whose value ended within one resolution of a bound of its range
-    (a bound at zero is physics, not a limit of the search: no lag, no resistance)."""
-    out = []
-    for n in changed:
-        s, v = specs[n], values[n]
-        if v >= s.hi - s.resolution or (s.lo != 0 and v <= s.lo + s.resolution):
-            out.append(n)
-    return out
+    """The changed parameters whose value ended on a bound of its range (:func:`on_bound`)."""
+    return [n for n in changed if on_bound(values[n], specs[n].lo, specs[n].hi, specs[n].resolution)]
 
 
 def _guarded_fit(fx: Fitter, pb: _Problem, fit_windows: int | None, before: Scored, clock: _Clock, kw: dict
@@ -611,16 +606,16 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
         # cause costs two passes, and on a long log a pass over every window was a sixth of the time
         # (benchmarks/bench_calibrate.py --case marmotte); the fit's own windows are the evidence its
         # values and intervals rest on
-        cidx = np.flatnonzero(np.isin(pb.ws.starts, att.fws.starts))
-        cws = pb.ws.subset(cidx)
+        fit_idx = np.flatnonzero(np.isin(pb.ws.starts, att.fws.starts))
+        cws = pb.ws.subset(fit_idx)
 
         def score(variants):
             res = simulate_windows(sim, train, cws, [window_params(v, robot) for v in variants], nthread=nthread,
                                    warmup_s=warmup_s, progress=windows_done(meter.windows))
             return res.rms()
 
-        causes = find_causes(changed, att.values, pb.described, corr, att.ties, score, before.rms_on(cidx),
-                             after.rms_on(cidx),
+        causes = find_causes(changed, att.values, pb.described, corr, att.ties, score, before.rms_on(fit_idx),
+                             after.rms_on(fit_idx),
                              wheels=robot.traction == "wheels", measured=drive_input == "measured",
                              bounds={n: (s.lo, s.hi, s.resolution) for n, s in fx.specs.items()},
                              intervals={n: att.verdicts[n].interval for n in changed}, robot=robot)

@@ -423,12 +423,6 @@ class Robot:
         return MAX_CG_HEIGHT_RATIO * max(self.track_gauge, self.contact_length)
 
     @property
-    def side(self) -> str:
-        """What carries each side, in words: "track", or "wheels" on a wheeled robot (labels such as
-        "left track speed", "left wheels speed")."""
-        return side_word(self.traction)
-
-    @property
     def contact_length(self) -> float:
         """Length of a side's ground contact along x [m]: ``track_length`` on tracks; on wheels
         the distance from the front to the rear contact point, ``wheelbase``."""

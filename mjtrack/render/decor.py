@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from mjtrack.io.robot import side_word
 from mjtrack.render.offscreen import OffscreenRenderer
 
 GROUND_LIFT = 0.004  # [m] height of grid, trail and markers above the z = 0 ground
@@ -28,9 +29,8 @@ ICR_LABELS = ("ICR left track", "ICR right track", "ICR body")
 def icr_labels(traction: str = "tracks") -> tuple[str, str, str]:
     """The legend's names of the three ICRs for a robot on ``traction`` ("tracks" or "wheels":
     a wheeled robot's side ICRs are those of its left and right wheels)."""
-    if traction == "wheels":
-        return ("ICR left wheels", "ICR right wheels", "ICR body")
-    return ICR_LABELS
+    side = side_word(traction)
+    return (f"ICR left {side}", f"ICR right {side}", ICR_LABELS[2])
 _LINE = mujoco.mjtGeom.mjGEOM_LINE
 _SPHERE = mujoco.mjtGeom.mjGEOM_SPHERE
 
