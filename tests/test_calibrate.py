@@ -332,6 +332,28 @@ def test_rounds_reach_the_fit_and_are_recorded(monkeypatch):
     assert seen == [5] and cal.to_json()["method"]["rounds"] == 5
 
 
+def test_simulated_windows_counts_every_window_of_every_stage(monkeypatch):
+    """method.simulated_windows: every window the calibration simulated (before, the fit, the guard,
+    the causes, the test log), counted here where the window simulator is called."""
+    import mjtrack.calibrate.fit as fit_mod
+    import mjtrack.sim.windows as sim_windows
+
+    count = [0]
+    real = sim_windows.simulate_windows
+
+    def counted(sim, log, ws, variants=None, **kw):
+        count[0] += (1 if variants is None else len(variants)) * len(ws)
+        return real(sim, log, ws, variants, **kw)
+
+    for mod in (sim_windows, fit_mod):  # (calibrate's run imports it where it calls it)
+        monkeypatch.setattr(mod, "simulate_windows", counted)
+    cal = calibrate(_log(Robot(cg_x=0.04), 16.0, 3, lag=0.0), Robot(), names=["cg_x"], fit_windows=3, max_iter=3,
+                    test=_log(Robot(cg_x=0.04), 8.0, 4, lag=0.0))
+    method = cal.to_json()["method"]
+    assert count[0] > 0 and method["simulated_windows"] == count[0]
+    assert method["simulated_windows"] > sum(f["iterations"] for f in method["fits"])
+
+
 def test_a_blow_up_that_stays_is_said(monkeypatch):
     _blow_up_window_1(monkeypatch, times=None)  # however it is fitted
     cal = calibrate(_log(Robot(cg_x=0.04), 16.0, 3, lag=0.0), Robot(), names=["cg_x"], fit_windows=3, max_iter=3)
@@ -472,6 +494,7 @@ def _fake_attempts(monkeypatch, outcomes):
 
     def once(fx, pb, fit_index, start, before, clock, kw):
         calls.append(start["mu"])
+        fx.meter.simulated += 100 * len(calls)  # the windows this attempt simulated
         values, changed, rms = outcomes[start["mu"]]
         return SimpleNamespace(values=values), changed, {}, SimpleNamespace(rms=rms)
 
@@ -487,7 +510,7 @@ def _restart(monkeypatch, outcomes, start_mu, names=("mu", "cg_y")):
 
     calls = _fake_attempts(monkeypatch, outcomes)
     said = []
-    fx = SimpleNamespace(specs=specs_for(Robot()), meter=SimpleNamespace(say=said.append))
+    fx = SimpleNamespace(specs=specs_for(Robot()), meter=SimpleNamespace(say=said.append, simulated=0))
     pb = SimpleNamespace(start={"mu": start_mu, "cg_y": 0.0}, names=list(names), ws=list(range(10)))
     out = run_mod._guarded_fit(fx, pb, None, None, None, {})
     return calls, out, said
@@ -505,9 +528,9 @@ def test_a_value_on_a_bound_starts_the_fit_again_from_other_frictions(monkeypatc
     calls, out, said = _restart(monkeypatch, outcomes, 0.8)
     assert set(FRICTION_STARTS) == {0.5, 1.0} and calls == [0.8, 0.5, 1.0]
     assert out[0].values == {"mu": 1.1, "cg_y": 0.0} and out[1] == ["mu"]
-    assert out[4] == [{"mu_start": 0.8, "train_rms_m": 0.74, "on_bound": ["cg_y"], "kept": False},
-                      {"mu_start": 0.5, "train_rms_m": 0.80, "on_bound": ["cg_y"], "kept": False},
-                      {"mu_start": 1.0, "train_rms_m": 0.58, "on_bound": [], "kept": True}]
+    assert out[4] == [{"mu_start": 0.8, "train_rms_m": 0.74, "on_bound": ["cg_y"], "kept": False, "simulated_windows": 100},
+                      {"mu_start": 0.5, "train_rms_m": 0.80, "on_bound": ["cg_y"], "kept": False, "simulated_windows": 200},
+                      {"mu_start": 1.0, "train_rms_m": 0.58, "on_bound": [], "kept": True, "simulated_windows": 300}]
     assert len(said) == 2 and "cg_y ended on a bound" in said[0]
 
 

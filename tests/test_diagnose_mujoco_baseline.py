@@ -366,3 +366,33 @@ def test_a_diagnosis_records_the_warnings_and_says_whether_they_change_the_answe
     assert any(w.startswith("MuJoCo warned") for w in js["warnings"])
     html = (tmp_path / "report.html").read_text()
     assert "Simulator warnings" in html and "QACC" in html
+
+
+def test_a_simulation_asked_for_again_is_not_run_again(monkeypatch):
+    # a grid value equal to the robot's own (cg_x's middle value) and a second request of the same
+    # values give the errors a fresh model computes, without simulating a window again
+    import mjtrack.diagnose.mujoco_baseline as mb
+
+    lg, _ = make_log(None, seed=4, duration=8.0)
+    model = MujocoBaseline(NOMINAL, lg)
+    problem = model.problem(2)
+    w = np.arange(len(model.ws))
+    cg = next(e for e in EFFECTS.values() if e.name == "cg_x")
+    values = [np.array([NOMINAL.cg_x]), np.array([NOMINAL.cg_x + 0.02])]
+    simulated = []
+    original = mb.simulate_windows
+
+    def counted(sim, log, ws, variants=None, **kw):
+        simulated.append(len(variants or [None]) * len(ws))
+        return original(sim, log, ws, variants, **kw)
+
+    monkeypatch.setattr(mb, "simulate_windows", counted)
+    first = model.errors(problem, w, cg, values)
+    assert simulated == [len(w)]  # the robot's own cg_x is the baseline problem() simulated
+    again = model.errors(problem, w[::2], cg, values[::-1])
+    assert simulated == [len(w)]
+    fresh = MujocoBaseline(NOMINAL, lg)
+    expected = fresh.errors(fresh.problem(2), w, cg, values)
+    assert np.array_equal(first, expected, equal_nan=True)
+    assert np.array_equal(again, expected[::-1][:, ::2], equal_nan=True)
+    assert np.array_equal(first[0], model.errors(problem, w)[0], equal_nan=True)

@@ -150,6 +150,9 @@ class Calibration:
     #: the fit started again from other friction levels because a changed value ended on a bound: one
     #: record per attempt ("mu_start", "train_rms_m", "on_bound", "kept"), the first the fit's own start
     restarts: list[dict] = field(default_factory=list)
+    #: windows simulated by the whole calibration: every stage and every attempt (a window's warm-up
+    #: is part of its simulation); None: not counted (then the fit's own passes are reported)
+    simulated_windows: int | None = None
     #: windows left out because their poses move against the tracks (see
     #: :func:`mjtrack.sim.windows.contradicting_windows`), by part ("train", "test")
     left_out: dict[str, list[dict]] = field(default_factory=dict)
@@ -253,7 +256,8 @@ class Calibration:
             "method": {"optimizer": self.fit.method, "rounds": self.rounds, "friction_restarts": self.restarts,
                        "fits": [{"parameters": f.names, "iterations": f.iterations, "cost_start": f.cost_start,
                                  "cost_final": f.cost_final} for f in fits],
-                       "simulated_windows": sum(f.evaluations for f in fits) * len(self.fitted_windows),
+                       "simulated_windows": (sum(f.evaluations for f in fits) * len(self.fitted_windows)
+                                             if self.simulated_windows is None else self.simulated_windows),
                        "intervals": "95 %: cluster-robust sandwich over clusters of consecutive windows (Student t), "
                                     "plus the model-form shift of each parameter (a finer simulator, a longer "
                                     "warm-up of the hidden states), linearised at the optimum",

@@ -63,8 +63,10 @@ class Meter:
 
         self.bar = Progress(total=None, label="calibrate", quiet=quiet)
         self.tail = 0  # windows expected after the fit (every training window, the test's, the causes')
+        self.simulated = 0  # windows simulated so far, every stage (calibration.json method.simulated_windows)
 
     def windows(self, n: int) -> None:
+        self.simulated += n
         self.bar.update(n)
 
     def stage(self, note: str, remaining: float | None = None) -> None:

@@ -390,9 +390,11 @@ def _guarded_fit(fx: Fitter, pb: _Problem, fit_windows: int | None, before: Scor
     basin, and only a descent from elsewhere tells the two apart. The answer is the attempt that
     fits every training window best, by more than :data:`RESTART_GAIN` of the first's RMS; the
     attempts are returned as records (start friction, the training RMS, the values on a bound,
-    whether it was kept)."""
+    whether it was kept, the windows it simulated)."""
     fit_index = fit_index_of(pb.ws, fit_windows)
+    simulated = fx.meter.simulated
     best = _guarded_once(fx, pb, fit_index, pb.start, before, clock, kw)
+    cost = [fx.meter.simulated - simulated]
     bound = on_bounds(best[0].values, best[1], fx.specs)
     if not bound or "mu" not in pb.names:
         return (*best, [])
@@ -403,13 +405,15 @@ def _guarded_fit(fx: Fitter, pb: _Problem, fit_windows: int | None, before: Scor
             continue
         log.info("calibrate: %s ended on a bound; fitting again from friction %g", ", ".join(bound), mu)
         fx.meter.say(f"calibrate: {', '.join(bound)} ended on a bound; fitting again from friction {mu:g}")
+        simulated = fx.meter.simulated
         att = _guarded_once(fx, pb, fit_index, {**pb.start, "mu": mu}, before, clock, kw)
+        cost.append(fx.meter.simulated - simulated)
         tries.append((mu, att, on_bounds(att[0].values, att[1], fx.specs)))
     k = min(range(len(tries)), key=lambda i: tries[i][1][3].rms)
     if tries[k][1][3].rms >= (1 - RESTART_GAIN) * tries[0][1][3].rms:
         k = 0  # no restart fits better than the optimiser's tolerance: the first answer stands
-    records = [{"mu_start": mu, "train_rms_m": a[3].rms, "on_bound": b, "kept": i == k}
-               for i, (mu, a, b) in enumerate(tries)]
+    records = [{"mu_start": mu, "train_rms_m": a[3].rms, "on_bound": b, "kept": i == k, "simulated_windows": n}
+               for i, ((mu, a, b), n) in enumerate(zip(tries, cost))]
     return (*tries[k][1], records)
 
 
@@ -633,7 +637,8 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
         model_form=att.model_form, causes=causes, train_windows=pb.ws, test_windows=pb.tws, train_log=train,
         test_log=test, before=before, after=after, test_before=test_before, test_after=test_after,
         findings=json_value(findings), sentence=sentence, config=pb.config.to_dict(), timings=clock.total(),
-        drive_input=drive_input, fit_windows=att.fws, left_out=pb.left_out, rounds=rounds, restarts=restarts)
+        drive_input=drive_input, fit_windows=att.fws, left_out=pb.left_out, rounds=rounds, restarts=restarts,
+        simulated_windows=meter.simulated)
 
 
 def _without_contradicting(lg: DriveLog, ws: WindowSet, src: str, gauge: float) -> tuple[WindowSet, list[dict]]:

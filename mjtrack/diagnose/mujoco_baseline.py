@@ -43,7 +43,7 @@ from mjtrack.sim.config import SimConfig, sim_config
 from mjtrack.sim.drivetrain import drive_of
 from mjtrack.sim.rollout import collected_mujoco_warnings
 from mjtrack.sim.windows import WindowSim, simulate_windows
-from mjtrack.windows import WARMUP_S, drive_params, make_windows, without_contradicting
+from mjtrack.windows import WARMUP_S, drive_params, make_windows, robot_params, without_contradicting
 
 N_BOOT = 1000  # blocked bootstrap replicates of the estimates (the gain test draws its own, stats.N_BOOT)
 # The MuJoCo baseline's own error on an effect's size, 1 sigma, as a share of the size |theta - nominal|
@@ -295,6 +295,9 @@ class MujocoBaseline(Baseline):
         self._sims: dict[str, WindowSim] = {}
         self.warnings: list[dict] = []  # MuJoCo warnings: {"window", "simulation", "warning"} (:meth:`_run`)
         self._cache: dict[tuple, object] = {}
+        # each window's errors (3,) by (simulation key, window) (:meth:`_simulation_key`), NaN when it
+        # diverged or warned: a simulation asked for again is not run again
+        self._done: dict[tuple, np.ndarray] = {}
 
     # -- the problem --------------------------------------------------------------------------------
     def problem(self, n_folds: int, *, n_train: int | None = None) -> Problem:
@@ -386,23 +389,44 @@ class MujocoBaseline(Baseline):
             j = i
             while j < len(specs) and (specs[j][0], specs[j][2]) == (kind, clip):
                 j += 1
-            lg = self.log if clip is None else _clip_log(self.log, clip)
-            variants = [s[1] for s in specs[i:j]]
-            with collected_mujoco_warnings() as messages:
-                res = simulate_windows(self._sim(kind), lg, ws, variants, nthread=self.nthread, warmup_s=WARMUP_S)
-            err = res.errors.copy()
-            err[res.diverged] = np.nan
-            if messages:
-                located = self._locate(kind, lg, windows, variants)
-                for w, v, message in located:
-                    err[v, int(np.flatnonzero(windows == w)[0])] = np.nan
-                    self.warnings.append({"window": int(w), "simulation": labels[i + v], "warning": message.strip()})
-                if not located:  # raised while preparing the simulation (e.g. settling the robot), not in a window
-                    self.warnings.append({"window": None, "simulation": ", ".join(labels[i:j]),
-                                          "warning": messages[0].strip()})
+            err = np.full((j - i, windows.size, 3), np.nan)
+            keys = [self._simulation_key(specs[v]) for v in range(i, j)]
+            todo = [v for v in range(j - i) if not all((keys[v], int(w)) in self._done for w in windows)]
+            for v in range(j - i):
+                if v not in todo:  # simulated before: the same model, commands and start on these windows
+                    err[v] = [self._done[keys[v], int(w)] for w in windows]
+            if todo:
+                lg = self.log if clip is None else _clip_log(self.log, clip)
+                variants = [specs[i + v][1] for v in todo]
+                with collected_mujoco_warnings() as messages:
+                    res = simulate_windows(self._sim(kind), lg, ws, variants, nthread=self.nthread, warmup_s=WARMUP_S)
+                new = res.errors.copy()
+                new[res.diverged] = np.nan
+                if messages:
+                    located = self._locate(kind, lg, windows, variants)
+                    for w, v, message in located:
+                        new[v, int(np.flatnonzero(windows == w)[0])] = np.nan
+                        self.warnings.append({"window": int(w), "simulation": labels[i + todo[v]],
+                                              "warning": message.strip()})
+                    if not located:  # raised while preparing the simulation (e.g. settling the robot), not in a window
+                        self.warnings.append({"window": None, "simulation": ", ".join(labels[i + v] for v in todo),
+                                              "warning": messages[0].strip()})
+                for n, v in enumerate(todo):
+                    err[v] = new[n]
+                    for k, w in enumerate(windows):
+                        self._done[keys[v], int(w)] = new[n, k]
             out.append(err)
             i = j
         return np.concatenate(out)
+
+    def _simulation_key(self, spec: tuple) -> tuple:
+        """What makes a window's simulation: the simulator kind, every window parameter (the
+        variant over the simulator's robot, as :func:`simulate_windows` merges them) and the
+        command clip. Two specs with one key simulate every window alike (a grid value equal to
+        the robot's own, a fold's estimate on a grid value), so a window is simulated once."""
+        kind, variant, clip = spec
+        merged = {**robot_params(self._sim(kind).robot), **variant}
+        return kind, tuple(sorted((k, None if v is None else float(v)) for k, v in merged.items())), clip
 
     def _locate(self, kind: str, lg: DriveLog, windows: np.ndarray, variants: list) -> list[tuple[int, int, str]]:
         """(window, variant index, first warning) of every simulation among ``windows`` x
