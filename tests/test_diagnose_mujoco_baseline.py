@@ -396,3 +396,55 @@ def test_a_simulation_asked_for_again_is_not_run_again(monkeypatch):
     assert np.array_equal(first, expected, equal_nan=True)
     assert np.array_equal(again, expected[::-1][:, ::2], equal_nan=True)
     assert np.array_equal(first[0], model.errors(problem, w)[0], equal_nan=True)
+
+
+class _TTY:
+    """A terminal that keeps what is drawn on it."""
+
+    def __init__(self) -> None:
+        self.text = ""
+
+    def write(self, s: str) -> int:
+        self.text += s
+        return len(s)
+
+    def flush(self) -> None:
+        pass
+
+    def isatty(self) -> bool:
+        return True
+
+
+def test_the_time_a_step_takes_is_said_as_it_starts(monkeypatch):
+    # on a terminal, unless quiet: the windows a step will simulate and the time that takes at the rate
+    # of the baseline's own pass, said once per step; the count is what the step then simulates, less
+    # the fold estimates that land on a grid value
+    import sys
+
+    import mjtrack.diagnose.mujoco_baseline as mb
+
+    lg, _ = make_log(None, seed=4, duration=12.0)
+    simulated = []
+    original = mb.simulate_windows
+
+    def counted(sim, log, ws, variants=None, **kw):
+        simulated.append(len(variants or [None]) * len(ws))
+        return original(sim, log, ws, variants, **kw)
+
+    monkeypatch.setattr(mb, "simulate_windows", counted)
+    tty = _TTY()
+    monkeypatch.setattr(sys, "stderr", tty)
+    d = diagnose(lg, NOMINAL, baseline="mujoco", effects=["drive_delay"], n_folds=3, quiet=False)
+    said = [ln.split("\r")[-1] for ln in tty.text.split("\n") if " more: about " in ln]
+    assert len(said) == len(d.steps) == 1, tty.text
+    m = len(d.starts)
+    assert said[0].startswith(f"diagnose {lg.source or 'drive log'}: {m} windows simulated at ")
+    more = int(said[0].split(" take about ")[1].split(" more")[0])
+    grid = GRIDS["drive_delay"](NOMINAL, lg)
+    assert more == (grid.size - 1) * m + m  # the delay's own 0 is the baseline's simulation
+    step = sum(simulated[1:])  # after the baseline's pass
+    assert (grid.size - 1) * m <= step <= more
+    quiet = _TTY()
+    monkeypatch.setattr(sys, "stderr", quiet)
+    diagnose(lg, NOMINAL, baseline="mujoco", effects=["drive_delay"], n_folds=3, quiet=True)
+    assert quiet.text == ""

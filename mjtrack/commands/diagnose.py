@@ -10,7 +10,9 @@ override single fields. With --confirm the cause is checked in MuJoCo: the log r
 with the MuJoCo robot, nominal and extended by the cause. With --test LOG2 the model is fitted on
 LOG and scored on LOG2 (same robot; LOG2.json, when it exists, must describe the same robot).
 Effects are found by forward selection (several at once when the data show them); the verdict
-flags effects the log cannot tell apart and error that stays unexplained. Bad input (log,
+flags effects the log cannot tell apart and error that stays unexplained. On a terminal (unless
+-q) a bar shows the candidates scored and the time left; with the MuJoCo baseline each step
+first says how many windows it will simulate and about how long that takes. Bad input (log,
 robot, options) exits with status 2, one line, and writes nothing.
 """
 

@@ -419,6 +419,29 @@ class MujocoBaseline(Baseline):
             i = j
         return np.concatenate(out)
 
+    def expected_windows(self, problem: Problem, effects: Sequence[Effect]) -> int:
+        """Windows a forward-selection step over ``effects`` is expected to simulate on ``problem``:
+        each one-parameter effect its grid on the fit windows (less the grid values that are the
+        baseline's own simulation, :meth:`_simulation_key`) and its folds' estimates on the scored
+        windows, the slope its four central differences and the same. An estimate: a fold's estimate
+        on a grid value costs nothing."""
+        n_fit, n_scored = int(problem.fit_windows.size), int(np.count_nonzero(problem.scored))
+        base = list(problem.base)
+        kind0 = _spec(self.robot, base)[0]
+        key0 = self._simulation_key(_spec(self.robot, base))
+        total = 0
+        for eff in effects:
+            if eff.name == "slope":
+                total += 4 * n_fit + n_scored
+                continue
+            new = 0
+            for v in np.asarray(GRIDS[eff.name](self.robot, self.log), float):
+                spec = _spec(self.robot, base + [(eff, np.array([v]))])
+                # another simulator kind is another simulation (its key would compile it now)
+                new += spec[0] != kind0 or self._simulation_key(spec) != key0
+            total += new * n_fit + n_scored
+        return total
+
     def _simulation_key(self, spec: tuple) -> tuple:
         """What makes a window's simulation: the simulator kind, every window parameter (the
         variant over the simulator's robot, as :func:`simulate_windows` merges them) and the

@@ -36,6 +36,7 @@ from mjtrack.io.atomic import atomic_write_text, make_output_dir
 from mjtrack.io.jsonfile import json_value
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import G, Robot, check_same_robot
+from mjtrack.progress import clock_text
 
 log = logging.getLogger(__name__)
 
@@ -156,6 +157,8 @@ def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, bas
         clock["screen"] = time.perf_counter()
         model, problem, notes = _mujoco_problem(log_, robot, test_log=test_log, horizon_s=horizon_s, n_folds=n_folds,
                                                 drive_input=drive_input)
+        # the rate of the baseline's pass over every window (problem() simulated it), for the time expected
+        rate = problem.starts.size / max(time.perf_counter() - clock["screen"], 1e-9)
         choice = {"requested": requested, "chosen": "mujoco", "why": mujoco_note, "screened_by_surrogate": screened}
     else:
         model, problem, notes, why = surrogate_problem(log_, robot, horizon_s=horizon_s, n_folds=n_folds,
@@ -176,10 +179,19 @@ def _diagnose(log_: DriveLog, robot: Robot, *, horizon_s, n_folds, min_gain, bas
         notes.append("no turning in the log: only the input effects (speed scale, lag, delay, limit) can be tested")
     clock["prepare"] = time.perf_counter()
     tested = [EFFECTS[n] for n in names if n not in skipped]
+    intro = None
+    if model.name == "mujoco":
+        def intro(current: Problem, remaining: list) -> str:
+            more = model.expected_windows(current, remaining)
+            step = "" if not current.base else f" on top of {' + '.join(e.name for e, _ in current.base)}"
+            text = (f"diagnose {src}: {problem.starts.size} windows simulated at {rate:.0f} a second; the "
+                    f"{len(remaining)} candidates{step} take about {more} more: about {clock_text(more / rate)}")
+            log.info(text)
+            return text
     steps, chosen = forward_select(model, problem, tested, n_folds=n_folds_used, min_gain=min_gain,
                                    max_effects=model.max_effects if max_effects is None else max_effects, quiet=quiet,
                                    free_steps=model.free_steps if max_effects is None else None,
-                                   noise=noise_floor(data))
+                                   noise=noise_floor(data), intro=intro)
     clock["selection"] = time.perf_counter()
     scored = problem.scored
     base_err = model.errors(problem, np.arange(problem.starts.size))[0][scored]

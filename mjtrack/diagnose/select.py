@@ -27,6 +27,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
@@ -348,14 +349,15 @@ def _no_substitute(r: CandidateResult, rivals: list[CandidateResult], nominal_sq
 
 def evaluate(bl: Baseline, problem: Problem, effects: list[Effect], *, n_folds: int, min_gain: float,
              quiet: bool = True, nominal: np.ndarray | None = None,
-             rivals: list[CandidateResult] = ()) -> tuple[dict, list[CandidateResult]]:
+             rivals: list[CandidateResult] = (), intro: str | None = None) -> tuple[dict, list[CandidateResult]]:
     """Score every effect against the problem's baseline; returns (baseline summary, results
     ordered as findings first, ties marked).
 
     ``nominal``: (M,) the nominal model's window errors (M, 3) on the scored windows when the
     problem's baseline already holds effects (the gain floor is a share of its RMSE), None when
     it is the nominal model; ``rivals``: the previous step's findings, each of which a finding
-    here must beat (docs/theory/diagnosis.md, "Beyond a first effect")."""
+    here must beat (docs/theory/diagnosis.md, "Beyond a first effect"); ``intro``: a line said above
+    the progress bar as it starts (how long the step is expected to take)."""
     allw = np.arange(problem.starts.size)
     base_err = bl.errors(problem, allw)[0]
     speed_base = _speed_base(bl, problem)
@@ -363,6 +365,8 @@ def evaluate(bl: Baseline, problem: Problem, effects: list[Effect], *, n_folds: 
     floor = pose_floor(min_gain, None if nominal is None else pos_rmse(nominal), before)
     results = []
     with Progress(total=len(effects) * (n_folds + 1), label="candidates", quiet=quiet) as bar:
+        if intro:
+            bar.say(intro)
         for eff in effects:
             results.append(score(bl, problem, eff, n_folds=n_folds, min_gain=min_gain, base_err=base_err,
                                  speed_base=speed_base, bar=bar, floor=floor))
@@ -395,14 +399,16 @@ def _tie_substitutes(top: CandidateResult, results: list[CandidateResult], rival
 
 def forward_select(bl: Baseline, problem: Problem, effects: list[Effect], *, n_folds: int, min_gain: float,
                    max_effects: int = 3, quiet: bool = True, free_steps: int | None = None,
-                   noise: float = 0.0) -> tuple[list[Step], list[CandidateResult]]:
+                   noise: float = 0.0, intro: Callable[[Problem, list[Effect]], str | None] | None = None
+                   ) -> tuple[list[Step], list[CandidateResult]]:
     """Forward selection over all effects (module docstring). Returns the steps and the final
     findings (the chosen effects refitted each with the others fixed, in the order found, each
     followed by the findings tied with it).
 
     ``free_steps``: after this many findings a further step is taken only when the residual can
     still hold a finding (:func:`residual_left`, with ``noise`` [m] the pose noise's share of a
-    window's error); None: always (up to ``max_effects``)."""
+    window's error); None: always (up to ``max_effects``). ``intro(problem, effects)``: the line each
+    step says as it starts (:func:`evaluate`)."""
     steps: list[Step] = []
     chosen: list[CandidateResult] = []
     remaining = list(effects)
@@ -410,7 +416,8 @@ def forward_select(bl: Baseline, problem: Problem, effects: list[Effect], *, n_f
     nominal, nominal_rmse, rivals = None, None, []
     while remaining and len(chosen) < max_effects:
         summary, results = evaluate(bl, current, remaining, n_folds=n_folds, min_gain=min_gain, quiet=quiet,
-                                    nominal=nominal, rivals=rivals)
+                                    nominal=nominal, rivals=rivals,
+                                    intro=None if intro is None else intro(current, remaining))
         if nominal is None:
             nominal, nominal_rmse = summary["errors"][problem.scored], summary["before"]
         steps.append(Step(tuple(e.name for e, _ in current.base), summary["before"], results))
