@@ -43,6 +43,13 @@ contact points). The limit: the same turns at K = 1e-4 m against the MuJoCo robo
 Coulomb ground. Errors over half the gauge T/2 (the ICR x_c also over the contact length L).
 Pass: every ICR within 0.02 T/2 of the reference, and within 0.005 T/2 of the Coulomb robot in
 the limit. Writes benchmarks/results/shear_fidelity.json; prints the same and the load.
+
+``--fidelity --track-model rollers``: the same on the roller chain (its default settings, the
+reference with the chain's 10 rollers as its contact points) for both tracked robots, and on two
+wheeled robots (a small and a large four-wheeler); a wheel's case is also held against the
+reference with the wheel touching at one point under its axle (``point_contact``), as MuJoCo's
+sphere does (docs/theory/shear.md, "In MuJoCo"). Writes
+benchmarks/results/shear_fidelity_rollers.json.
 """
 
 from __future__ import annotations
@@ -241,26 +248,47 @@ def mujoco_icr(robot, vl: float, vr: float, config) -> np.ndarray:
     return np.array([s.y_l, s.y_r, s.x_c])
 
 
-def fidelity(command: str) -> int:
+# the wheeled robots of the roller-chain run: a small and a large four-wheeler (gauge, wheelbase, wheel
+# radius, mass, cg height about those of the shared Husky and Warthog logs' descriptions)
+WHEELED = {"wheels_small": Robot(traction="wheels", track_gauge=0.55, wheelbase=0.51, sprocket_radius=0.165,
+                                 mass=50.0, cg_z=0.2),
+           "wheels_large": Robot(traction="wheels", track_gauge=1.1, wheelbase=1.1, sprocket_radius=0.3,
+                                 mass=280.0, cg_z=0.4)}
+
+
+def fidelity(command: str, track_model: str = "surfacevel") -> int:
     """The ``--fidelity`` run (module docstring); 0 when every case passes."""
-    from mjtrack.sim.config import surfacevel_config
+    from mjtrack.sim.config import SimConfig, surfacevel_config
 
     load0 = os.getloadavg()
-    config = surfacevel_config()
+    config = surfacevel_config() if track_model == "surfacevel" else SimConfig()
+    geometries = GEOMETRIES if track_model == "surfacevel" else {**GEOMETRIES, **WHEELED}
     t0 = time.time()
-    cases, limit = [], []
-    for geometry, base in GEOMETRIES.items():
-        half, L = base.track_gauge / 2, base.track_length
+    cases, limit, no_reference = [], [], []
+    for geometry, base in geometries.items():
+        half, L = base.track_gauge / 2, base.contact_length
         for vl, vr in SPEEDS:
             for K in MODULI:
                 robot = base.replace(ground={"model": "shear", "shear_modulus": K})
+                try:
+                    ref = np.array(shear.steady_state(robot, vl, vr, n_points=config.n_rollers).icr)
+                except MjtrackError as e:  # the reference's own solve failed: no case, counted
+                    no_reference.append({"geometry": geometry, "v_left": vl, "v_right": vr, "shear_modulus": K,
+                                         "why": str(e)})
+                    print(f"{geometry:8s} ({vl:+.1f}, {vr:+.1f}) K={K:<5g} no reference: {e}", flush=True)
+                    continue
                 got = mujoco_icr(robot, vl, vr, config)
-                ref = np.array(shear.steady_state(robot, vl, vr, n_points=config.n_rollers).icr)
                 err = np.abs(got - ref)
-                cases.append({"geometry": geometry, "v_left": vl, "v_right": vr, "shear_modulus": K,
-                              "mujoco": got.tolist(), "reference": ref.tolist(),
-                              "err_over_half_gauge": float(err.max() / half), "err_x_over_length": float(err[2] / L),
-                              "passed": bool(err.max() <= TOLERANCE * half)})
+                case = {"geometry": geometry, "traction": base.traction, "v_left": vl, "v_right": vr,
+                        "shear_modulus": K, "mujoco": got.tolist(), "reference": ref.tolist(),
+                        "err_over_half_gauge": float(err.max() / half), "err_x_over_length": float(err[2] / L),
+                        "passed": bool(err.max() <= TOLERANCE * half)}
+                if base.traction == "wheels":
+                    point = np.array(shear.steady_state(robot, vl, vr, point_contact=True).icr)
+                    case["point_contact_reference"] = point.tolist()
+                    case["err_point_over_half_gauge"] = float(np.abs(got - point).max() / half)
+                    case["err_y_over_half_gauge"] = float(err[:2].max() / half)
+                cases.append(case)
                 print(f"{geometry:8s} ({vl:+.1f}, {vr:+.1f}) K={K:<5g} mujoco {np.round(got, 4)} reference "
                       f"{np.round(ref, 4)}  max err {err.max() / half:.4f} T/2", flush=True)
             coulomb_robot = mujoco_icr(base, vl, vr, config)
@@ -272,16 +300,29 @@ def fidelity(command: str) -> int:
                           "passed": bool(d.max() <= LIMIT_TOLERANCE * half)})
             print(f"{geometry:8s} ({vl:+.1f}, {vr:+.1f}) K={LIMIT_K:g} vs the Coulomb robot: {d.max() / half:.5f} T/2",
                   flush=True)
-    summary = {"cases": len(cases), "passed": sum(c["passed"] for c in cases),
+    summary = {"cases": len(cases), "passed": sum(c["passed"] for c in cases), "no_reference": len(no_reference),
                "max_err_over_half_gauge": max(c["err_over_half_gauge"] for c in cases),
                "max_err_x_over_length": max(c["err_x_over_length"] for c in cases),
                "limit_cases": len(limit), "limit_passed": sum(c["passed"] for c in limit),
                "limit_max_diff_over_half_gauge": max(c["diff_over_half_gauge"] for c in limit)}
-    FIDELITY_RESULT.parent.mkdir(parents=True, exist_ok=True)
-    FIDELITY_RESULT.write_text(json.dumps({"command": command,
-                                  "track_model": "surfacevel", "n_elements": config.n_rollers,
+    for traction in sorted({c["traction"] for c in cases}):
+        own = [c for c in cases if c["traction"] == traction]
+        lim = [c for c, g in zip(limit, [c["geometry"] for c in limit]) if geometries[g].traction == traction]
+        part = {"cases": len(own), "passed": sum(c["passed"] for c in own),
+                "max_err_over_half_gauge": max(c["err_over_half_gauge"] for c in own),
+                "limit_cases": len(lim), "limit_passed": sum(c["passed"] for c in lim),
+                "limit_max_diff_over_half_gauge": max(c["diff_over_half_gauge"] for c in lim)}
+        if traction == "wheels":
+            part |= {"max_err_y_over_half_gauge": max(c["err_y_over_half_gauge"] for c in own),
+                     "max_err_point_over_half_gauge": max(c["err_point_over_half_gauge"] for c in own),
+                     "passed_point": sum(c["err_point_over_half_gauge"] <= TOLERANCE for c in own)}
+        summary[traction] = part
+    out = FIDELITY_RESULT if track_model == "surfacevel" else FIDELITY_RESULT.with_name("shear_fidelity_rollers.json")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps({"command": command,
+                                  "track_model": track_model, "n_elements": config.n_rollers,
                                   "tolerance_over_half_gauge": TOLERANCE, "limit_tolerance_over_half_gauge": LIMIT_TOLERANCE,
-                                  "summary": summary, "cases": cases, "limit": limit, "elapsed_s": time.time() - t0,
+                                  "summary": summary, "cases": cases, "limit": limit, "no_reference": no_reference, "elapsed_s": time.time() - t0,
                                   "load_before": load0, "load_after": os.getloadavg()}, indent=1) + "\n")
     print(f"{summary['passed']}/{summary['cases']} within {TOLERANCE} T/2 (worst {summary['max_err_over_half_gauge']:.4f}); "
           f"limit {summary['limit_passed']}/{summary['limit_cases']} within {LIMIT_TOLERANCE} T/2 (worst "
@@ -298,11 +339,14 @@ def main(argv=None) -> int:
                     help="candidates to fit (default all); the others keep what the result file holds")
     ap.add_argument("--fidelity", action="store_true",
                     help="instead: the MuJoCo shear ground against its reference (benchmarks/results/shear_fidelity.json)")
+    ap.add_argument("--track-model", choices=("surfacevel", "rollers"), default="surfacevel",
+                    help="--fidelity: the track model (rollers: the roller chain and two wheeled robots, "
+                         "benchmarks/results/shear_fidelity_rollers.json)")
     args = ap.parse_args(argv)
     load0 = os.getloadavg()
     command = "python benchmarks/ground_selection.py " + " ".join(sys.argv[1:] if argv is None else argv)
     if args.fidelity:
-        return fidelity(command.strip())
+        return fidelity(command.strip(), args.track_model)
     old = json.loads(RESULT.read_text()) if RESULT.exists() else {}
     robots = old.get("robots", {})
     for name in args.robots.split(","):

@@ -177,13 +177,20 @@ def test_mujoco_shear_ground_recovers_the_coulomb_robot():
         assert np.max(np.abs(a - b)) <= 0.005 * ROBOT.track_gauge / 2, (vl, vr, a, b)
 
 
-def test_shear_ground_only_where_it_is_built():
+def test_shear_ground_is_built_on_every_track_model_of_its_robot():
+    # the roller chain and the wheels take it (their friction is set per chunk of a rollout); a
+    # wheeled robot is built on the roller chain's settings only, its shear ground too
     from mjtrack.sim.builder import build_model
+    from mjtrack.sim.config import SimConfig
+    from mjtrack.sim.ground import ShearChunks, chunk_ground
 
-    with pytest.raises(InputError, match="surfacevel track model of a tracked robot only"):
-        build_model(Robot(ground="shear"))
-    with pytest.raises(InputError, match="surfacevel"):
-        build_model(Robot(traction="wheels", track_gauge=0.5, ground="shear"))
+    for robot in (Robot(ground="shear"), Robot(traction="wheels", track_gauge=0.5, ground="shear")):
+        model = build_model(robot)
+        assert isinstance(chunk_ground(model, robot, SimConfig()), ShearChunks)
+        assert chunk_ground(model, robot, SimConfig(), 0.0) is None  # K = 0: the Coulomb ground
+    assert chunk_ground(build_model(Robot()), Robot(), SimConfig()) is None
+    with pytest.raises(InputError, match="a wheeled robot has wheels, not the 'surfacevel'"):
+        build_model(Robot(traction="wheels", track_gauge=0.5, ground="shear"), SimConfig(track_model="surfacevel"))
 
 
 def test_motion_resistance_balance_and_sign():

@@ -303,6 +303,8 @@ def _speed() -> Page:
         tables.append(_diagnose_ab(diag))
         if "profile" in diag.data:
             tables.append(_diagnose_profile(diag))
+        if "noslip_cap" in diag.data:
+            tables.append(_diagnose_noslip(diag))
     marmotte = Source(RESULTS / "bench_calibrate_marmotte.json")
     sources.append(marmotte)
     tables.append(_calibration_ab(marmotte, "Calibration of the whole shared Marmotte log (the fit uses --fit-windows "
@@ -466,7 +468,9 @@ def _diagnose_ab(diag: Source) -> Table:
     """Old and new ``diagnose --baseline mujoco`` of the 60 s held-out log (benchmarks/bench_diagnose.py
     --case mujoco60): times, windows simulated, stage times, the cause named, the load."""
     labels = [k for k in ("old", "new") if k in diag.data["runs"]]
+    change = diag.data.get("change")
     runs = ("old and new alternating in one run, medians; stage times and cause of the first run of each"
+            + (f" (new: {change})" if change else "")
             if len(labels) > 1 else "the code now alone (the window simulator and the MuJoCo baseline are those "
             "the old calibration used), median; stage times and cause of the first run")
     table = Table("`diagnose --baseline mujoco` of the one-minute held-out log of the calibration above against "
@@ -482,6 +486,24 @@ def _diagnose_ab(diag: Source) -> Table:
     table.add("load average before (one minute)", *(number(diag, f"/runs/{k}/0/load_before/0") for k in labels))
     table.add("load average after (one minute)", *(number(diag, f"/runs/{k}/0/load_after/0") for k in labels))
     return table
+
+
+def _diagnose_noslip(diag: Source) -> Table:
+    """The same diagnosis with the noslip pass capped lower (bench_diagnose.py --noslip N)."""
+    t = Table("The same diagnosis, code now, with MuJoCo's noslip friction pass capped at fewer iterations than "
+              "the robot is built with (its iterations below; the log was simulated with the robot as built): "
+              "whether a cheaper step is where the time is.", ["quantity", "value"])
+    add_rows(t, diag, [("noslip iterations at most", "/noslip_cap/noslip_iterations"),
+                       ("wall time [s]", "/noslip_cap/wall_s"), ("CPU time (both threads) [s]", "/noslip_cap/cpu_s"),
+                       ("windows simulated", "/noslip_cap/windows")])
+    t.add("cause named", diag.data["noslip_cap"]["cause"] or "none")
+    for k, f in enumerate(diag.data["noslip_cap"]["estimates"]):
+        for name in f["estimate"]:
+            t.add(f"estimate of {name}", number(diag, f"/noslip_cap/estimates/{k}/estimate/{name}"))
+            t.add(f"interval of {name}, low", number(diag, f"/noslip_cap/estimates/{k}/interval/{name}/0"))
+            t.add(f"interval of {name}, high", number(diag, f"/noslip_cap/estimates/{k}/interval/{name}/1"))
+    add_load(t, diag, "/noslip_cap/load_before/0", "/noslip_cap/load_after/0")
+    return t
 
 
 def _diagnose_profile(diag: Source) -> Table:
@@ -1010,7 +1032,7 @@ def _peers() -> Page:
 def _shear_ground() -> Page:
     fid = Source(RESULTS / "shear_fidelity.json")
     sel = Source(RESULTS / "ground_selection.json")
-    fidelity = Table("The MuJoCo robot (surfacevel track model) on the shear ground against the shear reference, "
+    fidelity = Table("The MuJoCo tracked robot on its surfacevel track model on the shear ground against the shear reference, "
                      "and at K = 1e-4 m against the MuJoCo robot on the Coulomb ground. Errors over half the gauge T/2.",
                      ["check", "cases", "passed", "tolerance / (T/2)", "worst / (T/2)"])
     fidelity.add("against the reference", number(fid, "/summary/cases"), number(fid, "/summary/passed"),
@@ -1018,10 +1040,43 @@ def _shear_ground() -> Page:
     fidelity.add("K -> 0 against the Coulomb robot", number(fid, "/summary/limit_cases"),
                  number(fid, "/summary/limit_passed"), number(fid, "/limit_tolerance_over_half_gauge"),
                  number(fid, "/summary/limit_max_diff_over_half_gauge"))
+    tables = [fidelity]
+    sources = [fid, sel]
+    rollers_path = RESULTS / "shear_fidelity_rollers.json"
+    if rollers_path.exists():
+        rol = Source(rollers_path)
+        sources.append(rol)
+        t = Table("The roller chain (tracked robots) and the wheels (two four-wheelers) on the shear ground, the same "
+                  "grid: against the shear reference, a wheel also against the reference whose wheel touches at one "
+                  "point under its axle as MuJoCo's does (its patch builds the shear, the axle's point slides), and at "
+                  "K = 1e-4 m against the same robot on the Coulomb ground. Errors over half the gauge T/2; cases the "
+                  "reference has no steady state for are left out and counted.",
+                  ["robots", "check", "cases", "passed", "tolerance / (T/2)", "worst / (T/2)"])
+        for traction, label in (("tracks", "roller chain"), ("wheels", "wheels")):
+            if traction not in rol.data["summary"]:
+                continue
+            base = f"/summary/{traction}"
+            t.add(label, "against the reference", number(rol, base + "/cases"), number(rol, base + "/passed"),
+                  number(rol, "/tolerance_over_half_gauge"), number(rol, base + "/max_err_over_half_gauge"))
+            if traction == "wheels":
+                t.add(label, "the y ICRs against the reference", number(rol, base + "/cases"), "–",
+                      number(rol, "/tolerance_over_half_gauge"), number(rol, base + "/max_err_y_over_half_gauge"))
+                t.add(label, "against the one-point-contact reference", number(rol, base + "/cases"),
+                      number(rol, base + "/passed_point"), number(rol, "/tolerance_over_half_gauge"),
+                      number(rol, base + "/max_err_point_over_half_gauge"))
+            t.add(label, "K -> 0 against the Coulomb robot", number(rol, base + "/limit_cases"),
+                  number(rol, base + "/limit_passed"), number(rol, "/limit_tolerance_over_half_gauge"),
+                  number(rol, base + "/limit_max_diff_over_half_gauge"))
+        t.add("all", "no steady state of the reference", number(rol, "/summary/no_reference"), "–", "–", "–")
+        tables.append(t)
     runs = Table("The runs: seconds and the machine's one-minute load average before and after.", ["run", "value"])
     runs.add("fidelity grid: seconds", number(fid, "/elapsed_s"))
     runs.add("fidelity grid: load before", number(fid, "/load_before/0"))
     runs.add("fidelity grid: load after", number(fid, "/load_after/0"))
+    if rollers_path.exists():
+        runs.add("roller-chain and wheels grid: seconds", number(rol, "/elapsed_s"))
+        runs.add("roller-chain and wheels grid: load before", number(rol, "/load_before/0"))
+        runs.add("roller-chain and wheels grid: load after", number(rol, "/load_after/0"))
     classes = sel.data["robots"][next(iter(sel.data["robots"]))]["turn_classes"]
     header = ["robot", "ground", "K [m]", "f_r", "length factor", "on a bound", "held-out class gap (RMS)"]
     for lo, hi in classes:
@@ -1051,7 +1106,7 @@ def _shear_ground() -> Page:
         "shear_ground", "The shear-displacement ground",
         "The Janosi-Hanamoto shear ground (theory: the shear-displacement ground page): the MuJoCo robot against "
         "its reference and its Coulomb limit, and which ground the three real robots' steady turns select.",
-        [fid, sel], [fidelity, selection, chosen, runs])
+        sources, tables + [selection, chosen, runs])
 
 
 PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _implementations, _filters, _speed, _wheeled,

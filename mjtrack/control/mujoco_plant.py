@@ -37,6 +37,7 @@ from mjtrack.geometry import compose, relative_pose
 from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
+from mjtrack.sim.ground import chunk_ground
 from mjtrack.sim.rollout import MAX_STEPS, STATE_SPEC, SensorMap, settled_state, yaw_of
 from mjtrack.sim.terrain import Terrain, timestep_for
 
@@ -87,13 +88,18 @@ class MujocoTrackedPlant:
         self.data = mujoco.MjData(self.model)
         self.smap = SensorMap.of(self.model)
         self.B = control_matrix(self.model)
+        # the shear ground's friction, set every few steps from the state as in a rollout (sim.ground)
+        self.ground = chunk_ground(self.model, robot, self.config)
         self.pose0 = np.asarray(pose0, float).reshape(3)
         self.reset()
 
     def reset(self) -> None:
         """Back to the settled rest state at t = 0."""
+        if self.ground is not None:  # the Coulomb friction the model was built with, as at rest
+            self.model.pair_friction[self.ground.pairs, :2] = self.ground.mu[:, None]
         mujoco.mj_setState(self.model, self.data, settled_state(self.model), STATE_SPEC)
         mujoco.mj_forward(self.model, self.data)
+        self._steps = 0
         self._origin = self._raw_pose()
         self._yaw_prev = float(self.pose0[2])
 
@@ -129,7 +135,12 @@ class MujocoTrackedPlant:
             raise InputError(f"control period {duration} s must be a multiple of the time step {self.model.opt.timestep} s")
         self.data.ctrl[:] = self.B @ np.array([v_left, v_right], float)
         for _ in range(n):
+            if self.ground is not None and self._steps % self.ground.every == 0:
+                state = np.empty(mujoco.mj_stateSize(self.model, STATE_SPEC))
+                mujoco.mj_getState(self.model, self.data, state, STATE_SPEC)
+                self.ground.apply([self.model], state[None])
             mujoco.mj_step(self.model, self.data)
+            self._steps += 1
         # mj_step evaluates the sensors before it integrates: without a forward pass the
         # controller would read the state one time step old (mjtrack.sim.rollout.aligned_rollout)
         mujoco.mj_forward(self.model, self.data)

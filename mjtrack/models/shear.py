@@ -57,11 +57,14 @@ class ShearContacts:
 
     ``x``, ``y`` (n,) [m] body-frame contact points, ``x_entry`` (n, 2) the point's track front
     (column 0, used when its side runs forwards) and rear (column 1), ``left`` (n,) bool, ``mu``
-    (n,) friction per point, ``share`` (n,) the share of its Coulomb reference point's load, and
-    ``parent`` (n,) that point's index in :func:`mjtrack.models.coulomb.normal_loads`.
+    (n,) friction per point, ``share`` (n,) the share of its Coulomb reference point's load,
+    ``parent`` (n,) that point's index in :func:`mjtrack.models.coulomb.normal_loads`, and
+    ``x_slide`` (n,) where each point slides and its force acts: ``x``, or with ``point_contact`` (a
+    wheel touching at one point, as MuJoCo's sphere) its axle's x.
     """
 
-    def __init__(self, robot: Robot, *, n_points: int = DEFAULT_N_POINTS, patch_length: float | None = None) -> None:
+    def __init__(self, robot: Robot, *, n_points: int = DEFAULT_N_POINTS, patch_length: float | None = None,
+                 point_contact: bool = False) -> None:
         self.robot = robot
         self.n_points = n_points
         x0, y0, _ = normal_loads(robot, n_points=n_points)
@@ -82,6 +85,9 @@ class ShearContacts:
             front, rear = np.full(x0.size, L / 2), np.full(x0.size, -L / 2)
             self.share = np.ones(x0.size)
         self.x_entry = np.stack([front, rear], axis=1)
+        # where each point slides and its force acts: itself, or (a wheel touching at one point, as
+        # MuJoCo's sphere does) under its axle, the patch giving only the shear it has built up
+        self.x_slide = x0[self.parent] if point_contact else self.x
         self.y = y0[self.parent]
         self.left = left0[self.parent]
         self.mu = np.where(self.left, robot.friction_left, robot.friction_right)
@@ -100,7 +106,7 @@ class ShearContacts:
                shear_modulus: float) -> np.ndarray:
         """(Fx, Fy, Mz) [N, N, N m] about the geometric centre of the shear forces (S1)."""
         V = np.where(self.left, v_left, v_right)
-        ux, uy = vx - wz * self.y - V, vy + wz * self.x
+        ux, uy = vx - wz * self.y - V, vy + wz * self.x_slide
         nrm = np.hypot(ux, uy)
         return self._forces(ux, uy, nrm, self.displacement(vx, vy, wz, v_left, v_right), N, shear_modulus)
 
@@ -109,7 +115,7 @@ class ShearContacts:
         """The same wrench written with the ICRs (u_i = wz (y_side - y_i, x_i - x_c)), free of the
         cancellation vx - V_side at nearly equal track speeds."""
         ux = wz * (np.where(self.left, y_l, y_r) - self.y)
-        uy = wz * (self.x - x_c)
+        uy = wz * (self.x_slide - x_c)
         vx = v_left + wz * y_l
         return self._forces(ux, uy, np.hypot(ux, uy), self.displacement(vx, -wz * x_c, wz, v_left, v_right),
                             N, shear_modulus)
@@ -118,27 +124,28 @@ class ShearContacts:
         build = shear_factor(j, K)
         k = np.where(nrm > 0.0, self.mu * N * build / np.where(nrm > 0.0, nrm, 1.0), 0.0)
         fx, fy = -k * ux, -k * uy
-        return np.array([fx.sum(), fy.sum(), np.sum(self.x * fy - self.y * fx)])
+        return np.array([fx.sum(), fy.sum(), np.sum(self.x_slide * fy - self.y * fx)])
 
 
 def shear_displacement(x: np.ndarray, y: np.ndarray, x_entry: np.ndarray, v_side: np.ndarray, twist) -> np.ndarray:
     """j (n,) [m] of (S2): the shear displacement of the track elements now at body points (x, y)
     (n,) [m] whose side runs at v_side (n,) [m/s] relative to the body, with ``x_entry`` (n, 2) the
     front and rear ends of their contact, in the steady turn of body twist (vx, vy, wz); inf on a
-    stopped side (it has slid for ever)."""
-    vx, vy, wz = (float(v) for v in twist)
+    stopped side (it has slid for ever). Batched: twist components of shape (M, 1) and v_side (M, n)
+    give j (M, n), each row in its own twist."""
+    vx, vy, wz = (np.asarray(v, dtype=float) for v in twist)
     V = np.asarray(v_side, dtype=float)
     xe = np.where(V >= 0.0, x_entry[:, 0], x_entry[:, 1])
     moving = V != 0.0
     t = np.where(moving, np.abs(xe - x) / np.where(moving, np.abs(V), 1.0), 0.0)
-    if wz == 0.0:  # translation: the element slid at u for t
-        j = np.hypot(vx - V, vy) * t
-    else:
-        cx, cy = -vy / wz, vx / wz
-        px, py = x - cx, y - cy
-        ex, ey = xe - cx, y - cy
-        c, s = np.cos(wz * t), np.sin(-wz * t)
-        j = np.hypot(px - (c * ex - s * ey), py - (s * ex + c * ey))
+    turning = wz != 0.0
+    w = np.where(turning, wz, 1.0)
+    cx, cy = -vy / w, vx / w
+    px, py = x - cx, y - cy
+    ex, ey = xe - cx, y - cy
+    c, s = np.cos(w * t), np.sin(-w * t)
+    rotated = np.hypot(px - (c * ex - s * ey), py - (s * ex + c * ey))
+    j = np.where(turning, rotated, np.hypot(vx - V, vy) * t)  # translation: the element slid at u for t
     return np.where(moving, j, np.inf)
 
 
@@ -176,7 +183,7 @@ def contact_wrench(robot: Robot, vx: float, vy: float, wz: float, v_left: float,
 def steady_state(robot: Robot, v_left: float, v_right: float, *, shear_modulus: float | None = None,
                  inertial: bool = True, load_transfer: bool = True, n_points: int = DEFAULT_N_POINTS,
                  patch_length: float | None = None, start: SteadyState | None = None,
-                 tol: float = 1e-12) -> SteadyState:
+                 tol: float = 1e-12, point_contact: bool = False) -> SteadyState:
     """Steady twist and ICRs for constant track speeds v_left, v_right [m/s] on the shear ground (S4).
 
     ``shear_modulus`` K [m] (default: the robot's ground parameter); K = 0 is the Coulomb
@@ -184,7 +191,10 @@ def steady_state(robot: Robot, v_left: float, v_right: float, *, shear_modulus: 
     transfer when ``inertial``/``load_transfer``), solved in the ICR coordinates from the Coulomb
     steady state, then by continuation in K when the direct solve fails. Raises MjtrackError
     when no solution with a residual <= 1e-10 m g is found. ``start``: a turning steady state of
-    the same speeds to start from (default: the Coulomb reference's, solved here).
+    the same speeds to start from (default: the Coulomb reference's, solved here). ``point_contact``
+    (wheels): each wheel touches at one point under its axle, as MuJoCo's sphere does: every point
+    of its patch slides as that point and its force acts there, with the shear the patch built up
+    (docs/theory/shear.md, "In MuJoCo").
     """
     K = shear_modulus_of(robot, shear_modulus)
     vl, vr = float(v_left), float(v_right)
@@ -193,7 +203,7 @@ def steady_state(robot: Robot, v_left: float, v_right: float, *, shear_modulus: 
     meta = dict(v_left=vl, v_right=vr, inertial=inertial, load_transfer=load_transfer, n_points=n_points)
     if vl == vr:
         return SteadyState(vx=vl, vy=0.0, wz=0.0, residual=0.0, **meta)
-    c = ShearContacts(robot, n_points=n_points, patch_length=patch_length)
+    c = ShearContacts(robot, n_points=n_points, patch_length=patch_length, point_contact=point_contact)
     T, m = robot.track_gauge, robot.mass * (1.0 if inertial else 0.0)
     N_static = c.loads()
     side_y = np.array([T / 2, -T / 2])

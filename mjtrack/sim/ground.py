@@ -27,12 +27,16 @@ measurements: ``assets/README.md`` ("Ground models").
   rho mu, longitudinal mu. The elliptic cone
   (f_lat / (rho mu))^2 + (f_long / mu)^2 <= f_n^2 with the noslip pass's hard friction gives the
   maximum-dissipation force on that ellipse, f = -f_n M^2 u / |M u|, M = diag(mu, rho mu).
-* ``shear`` (shear_modulus K): Janosi-Hanamoto friction, on the surface-velocity track model
-  only (its contact elements sit at fixed body points, so the belt element over each is known).
-  MuJoCo's contact is Coulomb; :class:`ShearFriction` sets each element's pair friction before
-  every step to mu (1 - exp(-j/K)) (eq. S1 of :mod:`mjtrack.models.shear`), j the shear
-  displacement (S2) of the belt element over it in the steady turn of the body's present twist
-  (low-passed over ``TWIST_FILTER_S``): exact in a steady turn, quasi-steady in a transient.
+* ``shear`` (shear_modulus K): Janosi-Hanamoto friction. MuJoCo's contact is Coulomb; the
+  contact elements sit at fixed body points (the surface-velocity track's elements, the roller
+  chain's rollers, the wheels' axles), so the belt element over each is known, and its pair
+  friction is set to mu (1 - exp(-j/K)) (eq. S1 of :mod:`mjtrack.models.shear`), j the shear
+  displacement (S2) of the belt element over it in the steady turn of the body's present twist:
+  exact in a steady turn, quasi-steady in a transient. The surfacevel model's step loop does so
+  before every step (:class:`ShearFriction`, the twist low-passed over ``TWIST_FILTER_S``); the
+  roller chain and the wheels, which run through ``mujoco.rollout``, before every chunk of
+  ``SHEAR_UPDATE_S``, each rollout on its own model copy (:class:`ShearChunks`; a wheel's pair
+  takes the mean over its tyre's contact patch, S3).
 """
 
 from __future__ import annotations
@@ -44,7 +48,7 @@ import numpy as np
 
 from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
-from mjtrack.models.shear import shear_displacement, shear_factor
+from mjtrack.models.shear import DEFAULT_PATCH_LENGTH, PATCH_POINTS, shear_displacement, shear_factor
 from mjtrack.sim.chassis import element_positions, suspension_stiffness
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.scene import SIDES
@@ -56,6 +60,16 @@ TWIST_FILTER_S = 0.02
 #: friction floor of a contact whose shear has not built up, as a share of mu (a zero friction
 #: coefficient on a condim-3 pair is a degenerate cone)
 FRICTION_FLOOR = 1e-4
+#: [s] how often the roller chain's and the wheels' shear ground sets its friction again: each
+#: rollout runs in chunks this long (:class:`ShearChunks`; the surfacevel step loop: every step)
+SHEAR_UPDATE_S = 0.02
+#: [m/s] a side of the roller chain or the wheels slower than this is stopped (S2: its elements
+#: have slid for ever, full friction). Its drive holds it near, not at, 0 (measured: 1 mm/s in a
+#: pivot about it, with excursions beyond); at such speeds an element stays under the body for
+#: tens of seconds, and its steady-turn displacement (S2) is a chord of a circle it went round
+#: many times, set by the exact speed, not by the ground (the reference has no steady state
+#: there for K = 0.1 m between 0.1 and 1 mm/s)
+STOPPED_SPEED = 1e-2
 
 
 def load_shares(robot: Robot, roller_x: np.ndarray) -> np.ndarray:
@@ -66,12 +80,8 @@ def load_shares(robot: Robot, roller_x: np.ndarray) -> np.ndarray:
 
 def require_supported(robot: Robot, config: SimConfig) -> None:
     """Refuse a ground model that the chosen track model does not realise (surfacevel: coulomb and
-    shear; the roller chain: all but shear)."""
+    shear; the roller chain and the wheels: all)."""
     if robot.ground.model == "shear":
-        if config.track_model != "surfacevel" or robot.traction == "wheels":
-            raise InputError("robot: ground model 'shear' is built for the surfacevel track model of a tracked "
-                             "robot only (simulator track_model \"surfacevel\"); its reference is "
-                             "mjtrack.models.shear")
         return
     if config.track_model != "rollers" and not robot.ground.is_default:
         raise InputError(f"robot: ground model {robot.ground.model!r} is built for the roller chain only "
@@ -152,6 +162,113 @@ class ShearFriction:
                                                self.K), FRICTION_FLOOR)
         self.model.pair_friction[self.pairs, 0] = mu
         self.model.pair_friction[self.pairs, 1] = mu
+
+
+class ShearChunks:
+    """The shear ground on the roller chain or the wheels, for batched rollouts: before each chunk
+    of :data:`SHEAR_UPDATE_S`, each rollout's own model copy gets pair friction mu_side (1 -
+    exp(-j/K)) (at least ``FRICTION_FLOOR`` mu_side), j the shear displacement (S2 of
+    :mod:`mjtrack.models.shear`) in the steady turn of that rollout's present body twist and side
+    speeds: quasi-steady, updated every chunk. A roller is a point of the track at its x (the track's
+    ends its entry points); a wheel's pair takes the mean over its tyre's contact patch
+    (``DEFAULT_PATCH_LENGTH`` centred under the axle, entered at its front), as the reference's (S3).
+
+    ``model``: the compiled robot (or a variant: its pair friction is the Coulomb mu_side);
+    ``shear_modulus``: K [m] (default the robot's ground parameter).
+    """
+
+    def __init__(self, model: mujoco.MjModel, robot: Robot, shear_modulus: float | None = None) -> None:
+        n = sum(model.pair(i).name.startswith("contact_left_") for i in range(model.npair))  # elements a side
+        self.K = float(robot.ground["shear_modulus"] if shear_modulus is None else shear_modulus)
+        self.every = max(1, int(round(SHEAR_UPDATE_S / model.opt.timestep)))
+        self.pairs = np.array([model.pair(f"contact_{s}_{i}").id for s in SIDES for i in range(n)])
+        self.mu = model.pair_friction[self.pairs, 1].copy()  # the longitudinal (isotropic) Coulomb mu
+        x = np.concatenate([element_positions(robot, n)] * 2)
+        left = np.arange(2 * n) < n
+        if robot.traction == "wheels":
+            lp = DEFAULT_PATCH_LENGTH
+            s = ((np.arange(PATCH_POINTS) + 0.5) / PATCH_POINTS - 0.5) * lp
+            self.x = (x[:, None] + s[None]).ravel()
+            self.x_entry = np.stack([np.repeat(x + lp / 2, PATCH_POINTS), np.repeat(x - lp / 2, PATCH_POINTS)], -1)
+            self.points = PATCH_POINTS
+        else:
+            L = robot.track_length
+            self.x, self.x_entry, self.points = x, np.tile([L / 2, -L / 2], (2 * n, 1)), 1
+        self.left = np.repeat(left, self.points)
+        self.y = np.where(self.left, robot.track_gauge / 2, -robot.track_gauge / 2)
+        root = model.joint("root")
+        q0, v0 = 1, 1 + model.nq  # qpos and qvel in an mjSTATE_FULLPHYSICS state (after the time)
+        self.quat = q0 + int(root.qposadr[0]) + 3 + np.arange(4)
+        self.lin = v0 + int(root.dofadr[0]) + np.arange(2)
+        self.wz = v0 + int(root.dofadr[0]) + 5
+        self.spin = [v0 + np.array([int(model.joint(f"roll_{s}_{i}").dofadr[0]) for i in range(n)]) for s in SIDES]
+        element = "wheel" if robot.traction == "wheels" else "roller"
+        self.radius = float(model.geom(f"{element}_left_0").size[0])  # the roller's (wheel's) radius
+
+    def friction(self, states: np.ndarray) -> np.ndarray:
+        """(M, npairs) the pairs' friction for rollouts at ``states`` (M, nstate)."""
+        q = states[:, self.quat]
+        yaw = np.arctan2(2 * (q[:, 0] * q[:, 3] + q[:, 1] * q[:, 2]), 1 - 2 * (q[:, 2] ** 2 + q[:, 3] ** 2))
+        c, s = np.cos(yaw), np.sin(yaw)
+        vw = states[:, self.lin]
+        vx, vy = c * vw[:, 0] + s * vw[:, 1], -s * vw[:, 0] + c * vw[:, 1]
+        wz = states[:, self.wz]
+        side = np.stack([states[:, d].mean(axis=1) for d in self.spin], -1) * self.radius  # (M, 2)
+        side = np.where(np.abs(side) < STOPPED_SPEED, 0.0, side)
+        V = np.where(self.left[None], side[:, :1], side[:, 1:])
+        j = shear_displacement(self.x, self.y, self.x_entry, V, (vx[:, None], vy[:, None], wz[:, None]))
+        build = shear_factor(j, self.K).reshape(len(states), -1, self.points).mean(axis=2)
+        return self.mu[None] * np.maximum(build, FRICTION_FLOOR)
+
+    def apply(self, models, states: np.ndarray) -> None:
+        """Set each of ``models`` (one per rollout, copies) to the friction of its state."""
+        mu = self.friction(states)
+        for m, row in zip(models, mu):
+            m.pair_friction[self.pairs, 0] = row
+            m.pair_friction[self.pairs, 1] = row
+
+
+class _Grounds:
+    """Per-rollout grounds of a batch as one: each group of rollouts that shares a ground is set by it."""
+
+    def __init__(self, grounds: list) -> None:
+        self.groups: list[tuple[ShearChunks, list[int]]] = []
+        for k, g in enumerate(grounds):
+            if g is None:
+                continue
+            for have, idx in self.groups:
+                if have is g:
+                    idx.append(k)
+                    break
+            else:
+                self.groups.append((g, [k]))
+        self.every = min(g.every for g, _ in self.groups)
+
+    def apply(self, models, states: np.ndarray) -> None:
+        for g, idx in self.groups:
+            g.apply([models[k] for k in idx], states[idx])
+
+
+def batch_ground(grounds, nbatch: int):
+    """What a batch of ``nbatch`` rollouts sets before each chunk (:func:`mjtrack.sim.rollout.aligned_rollout`):
+    ``grounds`` one per rollout, or one for all (each None or a :class:`ShearChunks`); None when none is."""
+    grounds = list(grounds) if isinstance(grounds, (list, tuple)) else [grounds]
+    if len(grounds) == 1:
+        grounds = grounds * nbatch
+    if len(grounds) != nbatch:
+        raise ValueError(f"batch_ground: {len(grounds)} grounds for {nbatch} rollouts")
+    return _Grounds(grounds) if any(g is not None for g in grounds) else None
+
+
+def chunk_ground(model: mujoco.MjModel, robot: Robot, config: SimConfig,
+                 shear_modulus: float | None = None) -> ShearChunks | None:
+    """The roller chain's or the wheels' per-chunk ground update of ``model`` (None: nothing to set):
+    the shear ground of the robot, or of a variant's ``shear_modulus`` K > 0 (K = 0: Coulomb)."""
+    if config.track_model != "rollers":
+        return None
+    if shear_modulus is None:
+        return ShearChunks(model, robot) if robot.ground.model == "shear" else None
+    return ShearChunks(model, robot, shear_modulus) if shear_modulus > 0 else None
 
 
 def ground_stepper(model: mujoco.MjModel, robot: Robot, config: SimConfig) -> ShearFriction | None:

@@ -27,6 +27,7 @@ between two chunks; the chunks give the bytes of one call.
 from __future__ import annotations
 
 import contextlib
+import copy
 import logging
 from dataclasses import dataclass
 
@@ -40,7 +41,7 @@ from mjtrack.sim.builder import build_model, control_matrix
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import drive_commands
 from mjtrack.sim.scene import ELEMENT_KINDS
-from mjtrack.sim.ground import ground_stepper
+from mjtrack.sim.ground import batch_ground, chunk_ground, ground_stepper
 from mjtrack.sim.surfacevel import TrackDrive
 from mjtrack.sim.terrain import Terrain, timestep_for
 
@@ -160,6 +161,7 @@ def run_batch(
     state0: np.ndarray | None = None,
     nthread: int = 1,
     keep_states: bool = True,
+    grounds=None,
 ) -> tuple[np.ndarray | None, np.ndarray]:
     """Roll out track-speed commands on a batch of models (same size signature).
 
@@ -170,6 +172,8 @@ def run_batch(
         nthread: threads for ``mujoco.rollout`` (results do not depend on it).
         keep_states: return the state after every step (else None in its place: a long rollout
             then keeps only its sensors).
+        grounds: each model's per-chunk ground (:func:`mjtrack.sim.ground.chunk_ground`, None for
+            none), one per model (or one, tiled).
     Returns:
         state (nbatch, nstep, nstate) after each step (or None), sensordata (nbatch, nstep, nsensordata).
     Raises:
@@ -188,16 +192,19 @@ def run_batch(
     nbatch = max(len(models), control.shape[0], state0.shape[0])
     model_arg = models if len(models) > 1 else models[0]
     datas = [mujoco.MjData(models[0]) for _ in range(max(1, nthread))]
+    if grounds is not None:
+        grounds = list(grounds)
+        grounds = grounds * (nbatch // len(grounds)) if len(grounds) == len(models) else grounds
     state, sensordata = aligned_rollout(model_arg, datas if nthread > 1 else datas[0],
                                         np.repeat(state0, nbatch // state0.shape[0], axis=0),
                                         np.repeat(control, nbatch // control.shape[0], axis=0),
-                                        keep_states=keep_states)
+                                        keep_states=keep_states, ground=grounds)
     _check(state, sensordata)
     return state, sensordata
 
 
 def aligned_rollout(model_arg, data_arg, state0: np.ndarray, control: np.ndarray, *, keep_states: bool = True,
-                    chunk_steps: int = CHUNK_STEPS) -> tuple[np.ndarray | None, np.ndarray]:
+                    chunk_steps: int = CHUNK_STEPS, ground=None) -> tuple[np.ndarray | None, np.ndarray]:
     """``mujoco.rollout.rollout`` with each step's sensors read at the state that step reached.
 
     ``mj_step`` evaluates the sensors in its forward pass, *before* it integrates, so the
@@ -216,12 +223,19 @@ def aligned_rollout(model_arg, data_arg, state0: np.ndarray, control: np.ndarray
         keep_states: return the states (else None in their place).
         chunk_steps: a single rollout (nbatch 1) longer than this runs in chunks of this many
             steps (module docstring; the bytes do not depend on it).
+        ground: what sets each rollout's model before each of its chunks (the shear ground:
+            :func:`mjtrack.sim.ground.chunk_ground`), one for all rollouts or one per rollout (None:
+            nothing); every rollout then runs on its own copy of its model, in chunks of the
+            ground's ``every`` steps.
     Returns:
         state (nbatch, nstep, nstate) after each step (or None); sensordata (nbatch, nstep,
         nsensordata) of those states.
     """
     control = np.asarray(control, dtype=float)
     extended = np.concatenate([control, control[:, -1:]], axis=1)
+    grounds = None if ground is None else batch_ground(ground, control.shape[0])
+    if grounds is not None:
+        return _ground_rollout(model_arg, data_arg, np.atleast_2d(state0), extended, grounds, keep_states)
     if control.shape[0] > 1 or extended.shape[1] <= chunk_steps:
         # a batch runs in one call: the solver's warm start of each case is not returned, so a
         # batch cannot be cut in time without changing its bytes (batches are short: windows, steady cases)
@@ -247,6 +261,31 @@ def aligned_rollout(model_arg, data_arg, state0: np.ndarray, control: np.ndarray
         sensordata[:, first - 1:hi - 1] = sd[:, first - lo:]
         start, warm = st[:, -1], data.qacc_warmstart.copy()[None]
     return states, sensordata
+
+
+def _ground_rollout(model_arg, data_arg, state0: np.ndarray, extended: np.ndarray, grounds,
+                    keep_states: bool) -> tuple[np.ndarray | None, np.ndarray]:
+    """:func:`aligned_rollout` of ``extended`` controls (the last step repeated) with a ground that
+    sets each rollout's own model copy before each chunk of ``grounds.every`` steps (the solver's
+    warm start of a batch is not returned, so each chunk starts cold: part of this ground's model)."""
+    nbatch, total = extended.shape[:2]
+    models = model_arg if isinstance(model_arg, (list, tuple)) else [model_arg]
+    models = [copy.copy(m) for m in (models * nbatch if len(models) == 1 else models)]
+    pooled = isinstance(data_arg, (list, tuple)) and len(data_arg) > 1
+    nstate = mujoco.mj_stateSize(models[0], STATE_SPEC)
+    states = np.empty((nbatch, total, nstate)) if keep_states else None
+    sensordata = np.empty((nbatch, total, models[0].nsensordata))
+    start = np.repeat(state0, nbatch // state0.shape[0], axis=0)
+    for lo in range(0, total, grounds.every):
+        hi = min(total, lo + grounds.every)
+        grounds.apply(models, start)
+        st, sd = mj_rollout.rollout(models, data_arg, start, np.ascontiguousarray(extended[:, lo:hi]),
+                                    persistent_pool=pooled)
+        if states is not None:
+            states[:, lo:hi] = st
+        sensordata[:, lo:hi] = sd
+        start = st[:, -1]
+    return (states[:, :-1] if keep_states else None), sensordata[:, 1:]
 
 
 def _check(state: np.ndarray | None, sensordata: np.ndarray) -> None:
@@ -374,7 +413,8 @@ def simulate(
     stride = steps_per_sample(model.opt.timestep, log_rate)
     s0 = settled_state(model)
     driven = drive_commands(robot, commands, model.opt.timestep)  # speed scale and dead time
-    _, sensordata = run_batch([model], driven[None], state0=s0[None], keep_states=False)
+    _, sensordata = run_batch([model], driven[None], state0=s0[None], keep_states=False,
+                              grounds=[chunk_ground(model, robot, config)])
     cols = log_columns(sensordata[0], commands, SensorMap.of(model), timestep=model.opt.timestep, stride=stride)
     first = _rest_row(model, s0)
     out = {k: np.concatenate([[first[k]], v]) for k, v in cols.items()}

@@ -33,7 +33,7 @@ from mjtrack.io.robot import Robot
 from mjtrack.sim.builder import build_model
 from mjtrack.sim.config import MAX_STEP_DIVISIONS, SimConfig
 from mjtrack.sim.drivetrain import drive_commands
-from mjtrack.sim.ground import ground_stepper
+from mjtrack.sim.ground import chunk_ground, ground_stepper
 from mjtrack.sim.surfacevel import run_steady
 from mjtrack.sim.terrain import Terrain, timestep_for
 from mjtrack.sim.rollout import MAX_STEPS, SensorMap, run_batch, settled_state
@@ -172,7 +172,8 @@ def _steady_rollout(robots: Sequence[Robot], commands: np.ndarray, config: SimCo
     s0 = np.stack([settled_state(m) for m in models])
     ctrl = np.stack([drive_commands(r, np.repeat(c[None], n_settle + n_window, axis=0), dt)
                      for r, c in zip(robots, commands)])  # each robot's speed scale and dead time
-    _, sensordata = run_batch(models, ctrl, state0=s0, nthread=nthread, keep_states=False)
+    _, sensordata = run_batch(models, ctrl, state0=s0, nthread=nthread, keep_states=False,
+                              grounds=[chunk_ground(m, r, config) for m, r in zip(models, robots)])
     smap = SensorMap.of(models[0])
     return [_stats(sensordata[i], commands[i], smap, n_settle, robots[i].track_gauge / 2)
             for i in range(len(models))]

@@ -45,6 +45,7 @@ from mjtrack.sim.chassis import (chassis_mass_properties, resistance_forces, set
                                  set_rest_springs)
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import controller_stages
+from mjtrack.sim.ground import chunk_ground
 from mjtrack.sim.rollout import STATE_SPEC, SensorMap, aligned_rollout, collected_mujoco_warnings, settled_state, yaw_of
 from mjtrack.windows.define import WindowSet, start_speeds, start_twists, window_errors
 from mjtrack.windows.params import WINDOW_PARAMS, drive_params, geometry_robot, robot_params, slope_of
@@ -252,14 +253,14 @@ class WindowSim:
 
 def warm_states(sim: WindowSim, model: mujoco.MjModel, log: DriveLog, ws: WindowSet, rest: np.ndarray,
                 state0: np.ndarray, twists: np.ndarray, warmup_s: float, *, delay: float, scale: float,
-                datas: list) -> np.ndarray:
+                datas: list, ground=None) -> np.ndarray:
     """Start states (M, nstate) whose hidden states come from the log's own past: each window's
     robot is started ``warmup_s`` earlier (at most from its segment's start) from the logged state
     there, driven by the logged commands up to the window's start, and then moved to the logged
     pose and twist (:meth:`WindowSim.pinned`). The states a log does not hold -- suspension
     deflections under load transfer, each roller's and belt's speed, the drives' filter -- are then
     those the robot's recent history gives, not those of a robot at rest. Windows at a segment's
-    start keep ``state0``."""
+    start keep ``state0``. ``ground``: the model's per-chunk ground (:func:`chunk_ground`), or None."""
     out = state0.copy()
     slices = log.segment_slices()
     first = np.array([slices[k].start for k in ws.segment])
@@ -274,7 +275,8 @@ def warm_states(sim: WindowSim, model: mujoco.MjModel, log: DriveLog, ws: Window
         st = sim.initial_states(model, rest, p0, start_twists(log, wws), sp0)
         cmds = window_commands(log, wws, sim.dt, int(n), delay=delay, scale=scale, before=sp0)
         cmds = controller_stages(sim.robot, cmds, sim.dt, sp0)  # the robot's own speed controller
-        states, _ = aligned_rollout([model] * g.size, datas if len(datas) > 1 else datas[0], st, cmds @ sim.B.T)
+        states, _ = aligned_rollout([model] * g.size, datas if len(datas) > 1 else datas[0], st, cmds @ sim.B.T,
+                                    ground=ground)
         scratch = mujoco.MjData(model)
         for i, j in enumerate(g):
             end = states[i, -1]
@@ -416,9 +418,10 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
             delay = float(params.get("drive_delay") or 0.0)
             if delay < 0 or not scale > 0:
                 raise InputError(f"windows: drive_delay must be >= 0 and track_speed_scale > 0, got {delay!r}, {scale!r}")
+            ground = chunk_ground(model, vsim.robot, vsim.config)  # the shear ground's friction, set per chunk
             if warmup_s > 0:
                 state0 = warm_states(vsim, model, log, ws, rest, state0, twists, warmup_s, delay=delay, scale=scale,
-                                     datas=datas)
+                                     datas=datas, ground=ground)
             cmds = side_delayed_commands(vsim.robot, params, log, ws, sim.dt, nstep, delay=delay, scale=scale,
                                          before=speeds0)
             cmds = controller_stages(vsim.robot, cmds, sim.dt, speeds0)  # the robot's own speed controller
@@ -426,7 +429,7 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
             for lo in range(0, M, CHUNK):
                 hi = min(M, lo + CHUNK)
                 _, sens = aligned_rollout([model] * (hi - lo), datas if nthread > 1 else datas[0],
-                                          state0[lo:hi], control[lo:hi])
+                                          state0[lo:hi], control[lo:hi], ground=ground)
                 bad = ~np.all(np.isfinite(sens), axis=(1, 2))
                 lin = sens[:, :, sim.smap.linvel]
                 bad |= np.nanmax(np.abs(np.nan_to_num(lin, nan=np.inf)), axis=(1, 2)) > DIVERGED_SPEED
