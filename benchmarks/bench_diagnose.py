@@ -2,8 +2,9 @@
 
     python benchmarks/bench_diagnose.py [--effect cg_offset_x] [--minutes 10] [--no-speeds]
                                          [--marmotte PATH.csv] [--horizon S]
-    nice -n 10 python benchmarks/bench_diagnose.py --case mujoco60 [--old-tree DIR] [--repeats N]
+    nice -n 10 python benchmarks/bench_diagnose.py --case mujoco60 [--old-tree DIR] [--repeats N] [--change TEXT]
     nice -n 10 python benchmarks/bench_diagnose.py --case mujoco60 --profile-only
+    nice -n 10 python benchmarks/bench_diagnose.py --case mujoco60 --noslip N
 
 The synthetic log comes from the tests' independent generator (mjtrack/testing/diagnose_physics.py: its
 own rigid-body Coulomb simulation, pose noise); the budget is 30 s for the whole diagnosis on
@@ -18,7 +19,9 @@ that both see the same load. Each run reports its wall and CPU time, its stage t
 it simulated and the cause it named. Writes benchmarks/results/bench_diagnose_mujoco60.json; the
 budget is 60 s. ``--case mujoco60 --profile-only``: one more run of the code now under cProfile, the
 seconds of its parts (:data:`PROFILE_PARTS`; cProfile slows the Python around the rollouts, not
-the rollouts) added to the stored file under ``profile``.
+the rollouts) added to the stored file under ``profile``. ``--case mujoco60 --noslip N``: one more run
+of the code now with MuJoCo's noslip friction pass capped at N iterations (the robot is built with SimConfig.noslip_iterations), added under
+``noslip_cap`` with its cause and estimate: whether a cheaper step is where the time is.
 """
 
 from __future__ import annotations
@@ -99,15 +102,20 @@ def _profile_parts(stats) -> dict:
     return out
 
 
-def _mujoco60_child(data: str, profile: bool = False) -> None:
+def _mujoco60_child(data: str, profile: bool = False, noslip: int | None = None) -> None:
     """One ``diagnose --baseline mujoco`` of the held-out log with the ``mjtrack`` on the path; one JSON
-    line (with ``profile``: run under cProfile, its parts in the line)."""
+    line (with ``profile``: run under cProfile, its parts in the line; with ``noslip``: the MuJoCo
+    baseline's noslip pass capped at that many iterations, the finding's estimate in the line)."""
     import json
 
     import mjtrack.sim.windows as sim_windows
     from mjtrack.io import read_log_with_robot, read_robot
 
     import mjtrack.diagnose.mujoco_baseline as baseline_mod
+
+    if noslip is not None:
+        settings = baseline_mod.sim_config
+        baseline_mod.sim_config = lambda *a, **k: settings(*a, **k).replace(noslip_iterations=noslip)
 
     count = {"windows": 0}
     original = sim_windows.simulate_windows
@@ -137,28 +145,56 @@ def _mujoco60_child(data: str, profile: bool = False) -> None:
 
         prof.disable()
         parts = {"profile_s": _profile_parts(pstats.Stats(prof))}
+    findings = d.to_json()["findings"]
     print(json.dumps({"wall_s": wall, "cpu_s": cpu, "load_before": load0, "load_after": os.getloadavg(),
                       "windows": count["windows"], "timings_s": {k: float(v) for k, v in d.timings.items()},
-                      "cause": d.cause, "findings": [f["effect"] for f in d.to_json()["findings"]], **parts}))
+                      "cause": d.cause, "findings": [f["effect"] for f in findings],
+                      "estimates": [{"estimate": f["estimate"], "interval": f["interval"]} for f in findings],
+                      **parts}))
 
 
-def mujoco60_profile() -> int:
-    """One profiled run of the code now added to the stored result file (``--profile-only``)."""
+def _one_run(*flags: str) -> dict:
+    """One child run of the code now on freshly simulated logs (its JSON line)."""
     import json
     import subprocess
 
     from bench_calibrate import _simulate_logs
 
-    out = RESULTS / "bench_diagnose_mujoco60.json"
-    stored = json.loads(out.read_text())
     with tempfile.TemporaryDirectory() as tmp:
         _simulate_logs(Path(tmp))
         env = {**os.environ, "PYTHONPATH": str(ROOT), "MUJOCO_GL": "egl"}
-        res = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--mujoco60-child", tmp, "--profile"],
+        res = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--mujoco60-child", tmp, *flags],
                              env=env, capture_output=True, text=True, check=False, cwd=str(ROOT))
         if res.returncode != 0:
             raise SystemExit(f"diagnose failed:\n{res.stderr[-3000:]}")
-        r = json.loads(res.stdout.strip().splitlines()[-1])
+        return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def mujoco60_noslip(iterations: int) -> int:
+    """One run of the code now with the noslip pass capped at ``iterations`` (``--noslip N``), added to
+    the stored result file beside the runs as built: what the per-step friction pass costs the diagnosis."""
+    import json
+
+    out = RESULTS / "bench_diagnose_mujoco60.json"
+    stored = json.loads(out.read_text())
+    r = _one_run("--noslip", str(int(iterations)))
+    stored["noslip_cap"] = {"command": f"python benchmarks/bench_diagnose.py --case mujoco60 --noslip {iterations}",
+                            "noslip_iterations": int(iterations), "wall_s": r["wall_s"], "cpu_s": r["cpu_s"],
+                            "windows": r["windows"], "cause": r["cause"], "estimates": r["estimates"],
+                            "load_before": r["load_before"], "load_after": r["load_after"]}
+    print(f"noslip capped at {iterations}: wall {r['wall_s']:.1f} s, CPU {r['cpu_s']:.1f} s, cause {r['cause']}, "
+          f"{r['estimates']}, load {r['load_before'][0]:.2f} -> {r['load_after'][0]:.2f}")
+    out.write_text(json.dumps(stored, indent=1) + "\n")
+    return 0
+
+
+def mujoco60_profile() -> int:
+    """One profiled run of the code now added to the stored result file (``--profile-only``)."""
+    import json
+
+    out = RESULTS / "bench_diagnose_mujoco60.json"
+    stored = json.loads(out.read_text())
+    r = _one_run("--profile")
     stored["profile"] = {"command": "python benchmarks/bench_diagnose.py --case mujoco60 --profile-only",
                          "wall_s": r["wall_s"], "load_before": r["load_before"], "load_after": r["load_after"],
                          "windows": r["windows"], "parts_s": r["profile_s"]}
@@ -169,7 +205,7 @@ def mujoco60_profile() -> int:
     return 0
 
 
-def mujoco60(old_tree: Path | None, repeats: int) -> int:
+def mujoco60(old_tree: Path | None, repeats: int, change: str | None = None) -> int:
     """The mujoco60 case (module docstring): old and new alternating; writes its result file."""
     import json
     import statistics
@@ -198,10 +234,11 @@ def mujoco60(old_tree: Path | None, repeats: int) -> int:
         med["ratio_old_over_new"] = {k: med["old"][k] / max(med["new"][k], 1e-9) for k in ("wall_s", "cpu_s", "windows")}
         print("medians old / new: " + ", ".join(f"{k} {v:.2f}" for k, v in med["ratio_old_over_new"].items()))
     command = " ".join(["python benchmarks/bench_diagnose.py --case mujoco60 --repeats", str(repeats)]
-                       + (["--old-tree DIR"] if old_tree else []))
+                       + (["--old-tree DIR"] if old_tree else []) + ([f'--change "{change}"'] if change else []))
     out = RESULTS / "bench_diagnose_mujoco60.json"
     out.write_text(json.dumps({"command": command, "case": "mujoco60", "cpus": os.cpu_count(),
-                               "target_wall_s": MUJOCO60_BUDGET_S, "medians": med, "runs": runs}, indent=1) + "\n")
+                               "target_wall_s": MUJOCO60_BUDGET_S, "change": change, "medians": med, "runs": runs},
+                              indent=1) + "\n")
     print(f"wrote {out.relative_to(ROOT)}")
     return 0 if med["new"]["wall_s"] <= MUJOCO60_BUDGET_S else 1
 
@@ -217,18 +254,24 @@ def main() -> int:
                     help="mujoco60: diagnose --baseline mujoco on a 60 s simulated log, old against new")
     ap.add_argument("--old-tree", type=Path, help="mujoco60: a checkout of the code to compare against")
     ap.add_argument("--repeats", type=int, default=1, help="mujoco60: runs of each (alternating; default 1)")
+    ap.add_argument("--change", help="mujoco60 with --old-tree: what the new code changes, in words (stored, "
+                                     "and shown on the results page)")
     ap.add_argument("--profile-only", action="store_true",
                     help="mujoco60: one run under cProfile, its parts added to the stored result file")
+    ap.add_argument("--noslip", type=int, help="mujoco60: one more run of the code now with MuJoCo's noslip pass "
+                                                "capped at N iterations, added to the stored result file")
     ap.add_argument("--mujoco60-child", help=argparse.SUPPRESS)
     ap.add_argument("--profile", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.mujoco60_child:
-        _mujoco60_child(args.mujoco60_child, args.profile)
+        _mujoco60_child(args.mujoco60_child, args.profile, args.noslip)
         return 0
+    if args.case == "mujoco60" and args.noslip is not None:
+        return mujoco60_noslip(args.noslip)
     if args.case == "mujoco60" and args.profile_only:
         return mujoco60_profile()
     if args.case == "mujoco60":
-        return mujoco60(args.old_tree, args.repeats)
+        return mujoco60(args.old_tree, args.repeats, args.change)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         t0 = time.perf_counter()
