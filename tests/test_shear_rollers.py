@@ -88,3 +88,66 @@ def test_the_control_plant_sets_the_shear_friction_as_a_rollout_does():
     assert plant.pose()[2] == pytest.approx(log["yaw"][-1], abs=2e-3)
     coulomb = simulate(WHEELED, np.tile([0.2, 0.6], (400, 1)), log_rate=20.0)
     assert abs(coulomb["yaw"][-1] - log["yaw"][-1]) > 0.05  # the shear changes the turn
+
+
+def _wheeled_logs(truth, seconds=(30.0, 20.0)):
+    from mjtrack.api import simulate_log
+
+    return [simulate_log(truth, scenario="random_steps", duration=d, seed=s, log_rate=20.0)
+            for d, s in zip(seconds, (1, 2))]
+
+
+def test_calibrate_finds_a_shear_ground_from_a_coulomb_description():
+    # the shear modulus as a candidate of a robot described on the Coulomb ground (K = 0): the fit
+    # starts it off 0 (the error is flat in K there), the interval covers the hidden K, the calibrated
+    # robot's ground is shear, and the cause says so
+    from mjtrack.calibrate.run import calibrate
+
+    train, test = _wheeled_logs(_shear(WHEELED, 0.05))
+    cal = calibrate(train, WHEELED, test=test, names=["mu", "shear_modulus"])
+    lo, hi = cal.verdicts["shear_modulus"].interval
+    assert lo <= 0.05 <= hi and hi - lo < 0.01
+    assert cal.changed == ["shear_modulus"]
+    assert cal.calibrated.ground.model == "shear"
+    assert cal.calibrated.ground["shear_modulus"] == pytest.approx(0.05, abs=1e-3)
+    assert "shear ground" in cal.sentence
+    assert cal.test_after.rms < 0.01 * cal.test_before.rms
+
+
+def test_calibrate_leaves_a_coulomb_ground_coulomb():
+    from mjtrack.calibrate.run import calibrate
+
+    train, test = _wheeled_logs(WHEELED)
+    cal = calibrate(train, WHEELED, test=test, names=["mu", "shear_modulus"])
+    assert "shear_modulus" not in cal.changed and cal.calibrated.ground.model == "coulomb"
+
+
+def test_shear_modulus_is_refused_on_other_grounds_and_below_zero():
+    from mjtrack.calibrate.params import parse_names
+    from mjtrack.errors import InputError
+    from mjtrack.sim.windows import WindowSim, simulate_windows
+    from mjtrack.windows import make_windows
+
+    with pytest.raises(InputError, match="belongs to the 'shear' ground"):
+        parse_names("mu,shear_modulus", Robot(ground={"model": "anisotropic", "lateral_ratio": 0.5}))
+    assert parse_names("mu,shear_modulus", Robot()) == ["mu", "shear_modulus"]
+    lg = _wheeled_logs(WHEELED, (6.0,))[0]
+    with pytest.raises(InputError, match="shear_modulus must be a number >= 0"):
+        simulate_windows(WindowSim(WHEELED), lg, make_windows(lg, 2.0), [{"shear_modulus": -0.1}])
+
+
+def test_diagnose_names_a_hidden_shear_ground():
+    # the MuJoCo diagnosis of a wheeled robot described on the Coulomb ground, its log from the
+    # shear ground: the shear modulus is named (asked for: on a Coulomb robot it is not a default
+    # effect) ahead of a friction change, its interval covers the truth, and the extended robot
+    # stands on the shear ground
+    from mjtrack.diagnose import diagnose
+    from mjtrack.diagnose.result import extended_robot
+
+    train, test = _wheeled_logs(_shear(WHEELED, 0.05), (40.0, 20.0))
+    d = diagnose(train, WHEELED, baseline="mujoco", effects=["shear_modulus", "friction_scale"], test_log=test)
+    assert d.cause == "shear_modulus", d.summary()
+    (lo, hi), = d.findings[0].interval
+    assert lo <= 0.05 <= hi
+    robot, rest = extended_robot(WHEELED, "shear_modulus", {"shear_modulus": float(d.findings[0].estimate[0])})
+    assert robot.ground.model == "shear" and not rest

@@ -206,6 +206,9 @@ def phrase(name: str, value: float, described: float, *, wheels: bool = False, m
     if name == "rolling_resistance":
         return (f"its ground holds each side back with {value:.{n2}g} of the weight it carries (described "
                 f"{described:.{n2}g}): in turns the robot falls behind its {runner}")
+    if name == "shear_modulus":
+        return (f"its ground's friction builds up with slip as a shear ground's of modulus {value:.{n}g} m (described "
+                f"{described:.{n}g} m{', Coulomb' if described == 0 else ''}): its slip depends on the turn")
     if name in ("concentration", "span"):
         return f"its load sits on its road wheels differently ({name} {value:.{n}g}, described {described:.{n}g})"
     return f"{name} is {value:.{n4}g}, not {described:.{n4}g}"

@@ -81,12 +81,18 @@ def _specs(robot: Robot) -> dict[str, ParamSpec]:
         ParamSpec("slope_x", -0.5, 0.5, 0.02, 0.01, "–", "terrain", "sin(slope) x uphill direction's x (log frame)"),
         ParamSpec("slope_y", -0.5, 0.5, 0.02, 0.01, "–", "terrain", "sin(slope) x uphill direction's y (log frame)"),
         ParamSpec("lateral_ratio", 0.05, 1.0, 0.1, 0.05, "–", "ground", "lateral / longitudinal friction (anisotropic ground)"),
+        # resolution 5 mm: at K = 0.05 m it moves a four-wheeler's steady ICR y by about 1 % of T/2
+        ParamSpec("shear_modulus", 0.0, 0.5, 0.02, 0.005, "m", "ground",
+                  "shear modulus K of the shear ground: friction builds up as mu (1 - exp(-j/K)); 0: Coulomb"),
         ParamSpec("concentration", 0.0, 0.95, 0.1, 0.05, "–", "ground", "share of the load on the road wheels (road_wheels ground)"),
         ParamSpec("span", 0.05, 1.0, 0.1, 0.05, "–", "ground", "road-wheel span / contact length (road_wheels ground)"),
     )}
 
 
-GROUND_PARAMS = {"anisotropic": ("lateral_ratio",), "road_wheels": ("concentration", "span"), "coulomb": ()}
+GROUND_PARAMS = {"anisotropic": ("lateral_ratio",), "road_wheels": ("concentration", "span"), "coulomb": (),
+                 "shear": ("shear_modulus",)}
+#: ground parameters a robot of another ground may fit too (named in --params): K = 0 is the Coulomb ground
+EXTENDS_COULOMB = {"shear_modulus": "coulomb"}
 #: every cause a user meets on a drive log, fitted unless --params names others; identifiability,
 #: not this list, decides what stays (:mod:`mjtrack.calibrate.identify`). Plus the ground model's
 #: parameters, and the slope where the log's poses share one world frame.
@@ -97,6 +103,9 @@ SLOPE_PARAMS = ("slope_x", "slope_y")
 DRIVE_START = {"drive_lag": 0.05, "drive_delay": 0.02, "track_speed_scale": 1.0}
 #: first value of a motion resistance the robot file lacks (0 is a bound)
 RESISTANCE_START = 0.02
+#: [m] first value of a shear modulus fitted on a Coulomb ground: at K = 0 the friction's
+#: build-up 1 - exp(-j/K) and its derivative in K vanish, so no fit leaves it
+SHEAR_START = 0.02
 
 
 def chain_specs() -> dict[str, ParamSpec]:
@@ -171,7 +180,7 @@ def parse_names(text: str | None, robot: Robot, log: DriveLog | None = None) -> 
             raise InputError(f"params: {n!r} is not the contact length of a robot on {robot.traction}; "
                              f"fit {geometry_name(robot)!r}")
         for model, ps in GROUND_PARAMS.items():
-            if n in ps and robot.ground.model != model:
+            if n in ps and robot.ground.model != model and robot.ground.model != EXTENDS_COULOMB.get(n):
                 raise InputError(f"params: {n!r} belongs to the {model!r} ground; the robot's ground is "
                                  f"{robot.ground.model!r} (set robot key ground: {{\"model\": \"{model}\"}})")
     if len(set(names)) != len(names):
@@ -200,6 +209,8 @@ def described_values(robot: Robot, names: list[str], config: SimConfig) -> dict[
             from mjtrack.sim.drivetrain import drive_of
 
             v = current.get(n) or drive_of(robot, config).force_limit
+        elif n == "shear_modulus":
+            v = current.get(n) or 0.0  # a Coulomb ground: K = 0
         else:
             v = current.get(n)
         out[n] = float(v)
@@ -219,6 +230,8 @@ def start_values(robot: Robot, names: list[str], config: SimConfig) -> dict[str,
             v = DRIVE_START[n]
         if n == "rolling_resistance" and (not given or v == 0.0):
             v = RESISTANCE_START
+        if n == "shear_modulus" and v == 0.0:  # K = 0 is a bound where the error is flat in K
+            v = SHEAR_START
         s = specs[n]
         if n == "drive_force_limit" and (drive_params(robot).get(n) is None or not given) and v > s.hi:
             # the simulator's default limit (a torque over the sprocket radius) is beyond 5 times a

@@ -99,6 +99,9 @@ def calibrated_robot(robot: Robot, values: dict[str, float], config: SimConfig,
     if "lateral_ratio" in wp:
         fields["ground"] = type(r.ground)(r.ground.model, tuple({**dict(r.ground.params),
                                                                   "lateral_ratio": wp["lateral_ratio"]}.items()))
+    if "shear_modulus" in wp:  # K > 0: the shear ground (from a Coulomb one too); 0: Coulomb
+        K = float(wp["shear_modulus"])
+        fields["ground"] = type(r.ground)("shear", (("shear_modulus", K),)) if K > 0 else type(r.ground)("coulomb")
     r = r.replace(**fields)
     extra = dict(r.extra)
     for k in DRIVE_DEFAULTS:

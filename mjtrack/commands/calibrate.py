@@ -19,7 +19,9 @@ Parameters (--params, comma separated): mu, mu_ratio (left / right friction), cg
 track_length, drive_lag, drive_delay, track_speed_scale, rolling_resistance, slope_x, slope_y (sin of the slope times
 the uphill direction in the log's frame), drive_force_limit, mu_left, mu_right (instead of mu and
 mu_ratio); with robot key ground {"model": "anisotropic"}: lateral_ratio; with
-{"model": "road_wheels"}: concentration, span. Default: mu, mu_ratio, cg_x, cg_y, track_length,
+{"model": "road_wheels"}: concentration, span; with {"model": "shear"} or the default Coulomb
+ground: shear_modulus (K of the shear ground, 0 is Coulomb; a robot calibrated to K > 0 stands on
+the shear ground). Default: mu, mu_ratio, cg_x, cg_y, track_length,
 drive_lag, drive_delay, track_speed_scale, plus slope_x, slope_y when the log's segments share one
 world frame, plus the ground model's parameters, plus rolling_resistance (the ground holding each
 side back by a share of its weight). A long log is fitted on --fit-windows windows spread over it.

@@ -74,6 +74,11 @@ def _force_limit(r: Robot) -> float:
     return drive_of(r, sim_config(None, robot=r)).force_limit
 
 
+def _own_shear(r: Robot) -> float:
+    """The robot's shear modulus K [m] (0: its ground is another)."""
+    return float(r.ground["shear_modulus"]) if r.ground.model == "shear" else 0.0
+
+
 def _own(r: Robot, key: str, default: float) -> float:
     """The robot's own drivetrain value (``drive_lag``, ``drive_delay``, ``track_speed_scale``)."""
     v = drive_params(r)[key]
@@ -101,6 +106,8 @@ CHANGES = {
     "track_length": "a track's contact length: the robot rebuilt",
     "wheelbase": "a wheeled robot's wheelbase: the robot rebuilt",
     "rolling_resistance": "a force holding each side back by this share of its weight (model actuators)",
+    "shear_modulus": "the shear ground: each contact pair's friction set before every 20 ms of the rollout to mu "
+                     "(1 - exp(-j/K)) of its state (mjtrack.sim.ground.ShearChunks)",
 }
 UNTESTABLE = {"icr_spread": "not a physical parameter of the MuJoCo robot"}
 # effects that are the robot's own speed controller (:func:`mjtrack.models.drivetrain.twist`, ``ramp``):
@@ -126,6 +133,7 @@ NOMINAL: dict[str, Callable[[Robot, DriveLog], float]] = {
     "track_length": lambda r, lg: r.contact_length,
     "wheelbase": lambda r, lg: r.contact_length,
     "rolling_resistance": lambda r, lg: r.rolling_resistance,
+    "shear_modulus": lambda r, lg: _own_shear(r),
 }
 # the fit's grid of each one-parameter effect (module docstring)
 GRIDS: dict[str, Callable[[Robot, DriveLog], np.ndarray]] = {
@@ -152,6 +160,10 @@ GRIDS: dict[str, Callable[[Robot, DriveLog], np.ndarray]] = {
     "track_length": lambda r, lg: r.contact_length * np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4]),
     "wheelbase": lambda r, lg: r.contact_length * np.array([0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4]),
     "rolling_resistance": lambda r, lg: r.rolling_resistance + np.array([0.0, 0.02, 0.05, 0.08, 0.12, 0.18, 0.25]),
+    # from Coulomb (K = 0) up, the step growing with K (what K does to a turn flattens as it grows);
+    # a robot on the shear ground: around its own K, down to Coulomb
+    "shear_modulus": lambda r, lg: (np.array([0.0, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2]) if _own_shear(r) == 0.0
+                                    else _own_shear(r) * np.array([0.0, 0.25, 0.5, 1.0, 1.5, 2.0, 3.0])),
 }
 _SIM_OF = {"ground_anisotropy": "aniso", "road_wheels": "wheels"}
 GEOMETRIC = ("drive_accel_limit", "drive_force_limit")  # grids over decades, fitted in log values
@@ -217,7 +229,7 @@ def _spec(robot: Robot, parts) -> tuple[str, dict, float | None]:
         else:
             variant[{"cg_x": "cg_x", "cg_y": "cg_y", "track_speed_scale": "track_speed_scale",
                      "drive_lag": "drive_lag", "drive_delay": "drive_delay", "drive_force_limit": "drive_force_limit",
-                     "rolling_resistance": "rolling_resistance"}[name]] = v
+                     "rolling_resistance": "rolling_resistance", "shear_modulus": "shear_modulus"}[name]] = v
     if scale is not None or ratio is not None:
         s = 1.0 if scale is None else scale
         left = robot.friction_left if ratio is None else robot.friction_right * ratio
@@ -346,6 +358,12 @@ class MujocoBaseline(Baseline):
         if effect.name == "slope":
             return np.zeros(2)
         return np.array([NOMINAL[effect.name](self.robot, self.log)])
+
+    def default_effects(self) -> list[str]:
+        """The vocabulary's effects, the shear modulus only for a robot on the shear ground (on another
+        ground it is tested when named: its grid is a sixteenth more rollouts)."""
+        out = super().default_effects()
+        return out if self.robot.ground.model == "shear" else [n for n in out if n != "shear_modulus"]
 
     def simulator_warnings(self) -> list[dict]:
         return list(self.warnings)

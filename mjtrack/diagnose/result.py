@@ -298,4 +298,7 @@ def extended_robot(robot: Robot, effect: str, estimate: dict[str, float]) -> tup
                              mu_right=None if robot.mu_right is None else robot.mu_right * s), {}
     if effect == "mu_ratio":
         return robot.replace(mu_left=robot.friction_right * e["mu_ratio"], mu_right=robot.friction_right), {}
+    if effect == "shear_modulus":
+        K = e["shear_modulus"]
+        return robot.replace(ground={"model": "shear", "shear_modulus": K} if K > 0 else {"model": "coulomb"}), {}
     return robot, e

@@ -105,6 +105,11 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "motion resistance: each side held back by this share of its weight [-]",
            "the body lags its tracks in every motion, more on the loaded side: speed ratio below one even "
            "straight, turns slowed"),
+    Effect("shear_modulus", ("shear_modulus",), "ground",
+           "shear modulus K of the ground [m]: friction builds up as mu (1 - exp(-j/K)) with the shear "
+           "displacement j of each contact (Janosi-Hanamoto); 0 is Coulomb",
+           "the yaw ratio depends on the turn: Coulomb's is nearly the same in every turn, the log's changes "
+           "from gentle to sharp turns"),
 )}
 
 #: old effect / parameter name -> the name it has now

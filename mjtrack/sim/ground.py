@@ -266,6 +266,8 @@ def chunk_ground(model: mujoco.MjModel, robot: Robot, config: SimConfig,
     the shear ground of the robot, or of a variant's ``shear_modulus`` K > 0 (K = 0: Coulomb)."""
     if config.track_model != "rollers":
         return None
+    if shear_modulus is not None and not (math.isfinite(shear_modulus) and shear_modulus >= 0.0):
+        raise InputError(f"windows: shear_modulus must be a number >= 0 [m], got {shear_modulus!r}")
     if shear_modulus is None:
         return ShearChunks(model, robot) if robot.ground.model == "shear" else None
     return ShearChunks(model, robot, shear_modulus) if shear_modulus > 0 else None

@@ -418,7 +418,8 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
             delay = float(params.get("drive_delay") or 0.0)
             if delay < 0 or not scale > 0:
                 raise InputError(f"windows: drive_delay must be >= 0 and track_speed_scale > 0, got {delay!r}, {scale!r}")
-            ground = chunk_ground(model, vsim.robot, vsim.config)  # the shear ground's friction, set per chunk
+            # the shear ground's friction, set per chunk (the robot's own, or the variant's K; 0: Coulomb)
+            ground = chunk_ground(model, vsim.robot, vsim.config, params.get("shear_modulus"))
             if warmup_s > 0:
                 state0 = warm_states(vsim, model, log, ws, rest, state0, twists, warmup_s, delay=delay, scale=scale,
                                      datas=datas, ground=ground)
