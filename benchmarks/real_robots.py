@@ -56,7 +56,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mjtrack.calibrate.params import specs_for
+from mjtrack.calibrate.params import default_names, specs_for
 from mjtrack.calibrate.result import write_outputs
 from mjtrack.calibrate.run import calibrate
 from mjtrack.io import read_log_with_robot
@@ -239,14 +239,22 @@ def context_of_stored(name: str, spec: dict, *, rollers: int, worst: int = 10) -
             "with_left_out": with_left_out}
 
 
-def run_robot(name: str, spec: dict, *, rollers: int) -> dict:
+def run_robot(name: str, spec: dict, *, rollers: int, coulomb: bool = False) -> dict:
     log, base = read_log_with_robot(spec["log"])
     train, test = split(log, *spec["split"])
     robot = starting_robot(base, spec["public"])
     t0 = time.time()
     drive_input = spec.get("drive_input", "commanded")
+    # --coulomb: calibrate's default candidates (those of its drive input) less the shear ground's modulus
+    names = None
+    if coulomb:
+        from mjtrack.calibrate.run import COMMAND_PARAMS, MEASURED_PARAMS
+
+        names = [n for n in default_names(robot, train) if n != "shear_modulus"]
+        if drive_input != "commanded":
+            names = [n for n in names if n not in COMMAND_PARAMS] + list(MEASURED_PARAMS)
     cal = calibrate(train, robot, test=test, n_rollers=rollers, quiet=not sys.stderr.isatty(), drive_input=drive_input,
-                    fit_windows=FIT_WINDOWS,
+                    fit_windows=FIT_WINDOWS, names=names,
                     train_path=f"{spec['log'].name} (first {100 * spec['split'][0]:.0f} %)",
                     test_path=f"{spec['log'].name} (next {100 * spec['split'][1]:.0f} %)")
     wall = time.time() - t0
@@ -372,11 +380,17 @@ def main(argv=None) -> int:
     ap.add_argument("--rounds", type=int, default=None,
                     help="--starts: calibrate's rounds (default: its own); more let a fit that has not settled reach "
                          "what the log points at")
+    ap.add_argument("--coulomb", action="store_true",
+                    help="the reference calibrations without the shear ground's modulus among the candidates (a "
+                         "wheeled robot's default); written to real_robots_coulomb.json and real_robots_coulomb/NAME/")
     ap.add_argument("--starts", action="store_true",
                     help="calibrate each robot from its shipped description and from the public one; write "
                          "start_independence.json (module docstring)")
     args = ap.parse_args(argv)
     load0 = os.getloadavg()
+    if args.coulomb:
+        global RESULT, OUTPUTS
+        RESULT, OUTPUTS = RESULT.with_name("real_robots_coulomb.json"), OUTPUTS.with_name("real_robots_coulomb")
     if args.starts and args.agreement_only:
         return _agreement_only(args)
     if args.starts:
@@ -403,7 +417,7 @@ def main(argv=None) -> int:
         if args.diagnose_only:
             r = robots[name]
         else:
-            r = run_robot(name, spec, rollers=args.rollers)
+            r = run_robot(name, spec, rollers=args.rollers, coulomb=args.coulomb)
         if args.diagnose or args.diagnose_only:
             r["diagnose"] = diagnose_robot(name, spec)
             print(f"== {name}: diagnose --baseline mujoco on the test part against the calibrated robot: "

@@ -376,7 +376,7 @@ def test_the_calibrated_robot_file_carries_every_fitted_value(robot):
 
     fitted = {"mu": 0.6, "mu_ratio": 1.2, "cg_x": 0.02, "cg_y": -0.01, "track_length": 0.45, "wheelbase": 0.6,
               "drive_lag": 0.1, "drive_delay": 0.05, "track_speed_scale": 0.95, "rolling_resistance": 0.07,
-              "lateral_ratio": 0.5}
+              "lateral_ratio": 0.5, "shear_modulus": 0.03}
     names = default_names(robot)
     assert "rolling_resistance" in names
     values = {n: fitted[n] for n in names}

@@ -151,3 +151,12 @@ def test_diagnose_names_a_hidden_shear_ground():
     assert lo <= 0.05 <= hi
     robot, rest = extended_robot(WHEELED, "shear_modulus", {"shear_modulus": float(d.findings[0].estimate[0])})
     assert robot.ground.model == "shear" and not rest
+
+
+def test_a_wheeled_robot_fits_the_shear_modulus_by_default_a_tracked_one_when_named():
+    from mjtrack.calibrate.params import default_names
+
+    assert "shear_modulus" in default_names(WHEELED)
+    assert "shear_modulus" not in default_names(Robot())
+    assert default_names(_shear(Robot(), 0.05)).count("shear_modulus") == 1  # its ground's own parameter
+    assert default_names(_shear(WHEELED, 0.05)).count("shear_modulus") == 1

@@ -879,8 +879,15 @@ def _calibration() -> Page:
         "the windows of measured minus calibrated (how far the class's few windows alone move the gap).",
         ["robot", "|turn ratio| from", "to", "windows", "measured", "described robot", "calibrated",
          "gap interval, low", "gap interval, high"])
-    for name in real.data["robots"]:
-        path = real.path.parent / "real_robots" / name / "calibration.json"
+    coulomb_path = RESULTS / "real_robots_coulomb.json"
+    coulomb = Source(coulomb_path) if coulomb_path.exists() else None
+    runs = [(name, real.path.parent / "real_robots" / name / "calibration.json") for name in real.data["robots"]]
+    if coulomb is not None:
+        runs += [(f"{name}, without shear_modulus", real.path.parent / "real_robots_coulomb" / name / "calibration.json")
+                 for name in coulomb.data["robots"]]
+        written += [real.path.parent / "real_robots_coulomb" / name / f for name in coulomb.data["robots"]
+                    for f in ("robot.json", "calibration.json", "report.html")]
+    for name, path in runs:
         if not path.exists():
             continue
         cal = Source(path)
@@ -894,15 +901,37 @@ def _calibration() -> Page:
                     number(cal, q + "/measured"), number(cal, q + "/simulated_before"),
                     number(cal, q + "/simulated_after"), number(cal, q + "/gap_after_interval/0"),
                     number(cal, q + "/gap_after_interval/1"))
+    shear_tables = []
+    if coulomb is not None:
+        t = Table("What the shear ground buys the wheeled robots: their reference calibrations above fit the shear "
+                  "ground's modulus `shear_modulus` (a wheeled robot's default candidate; K = 0 is the Coulomb ground "
+                  "they are described on); the same calibrations without it (`--coulomb`), on the same split: the "
+                  "held-out position error at the window's end [m] before and after each, and K with its interval "
+                  "where the log determines it.",
+                  ["robot", "held-out before", "after, with shear_modulus", "after, without", "K [m]",
+                   "K interval, low", "K interval, high", "K determined", "seconds with", "seconds without"])
+        for name, r in real.data["robots"].items():
+            if "shear_modulus" not in r["parameters"] or name not in coulomb.data["robots"]:
+                continue
+            q = f"/robots/{name}"
+            iv = r["intervals"].get("shear_modulus")
+            t.add(name, number(real, q + "/test/before"), number(real, q + "/test/after"),
+                  number(coulomb, q + "/test/after"), number(real, q + "/parameters/shear_modulus"),
+                  number(real, q + "/intervals/shear_modulus/0") if iv else "–",
+                  number(real, q + "/intervals/shear_modulus/1") if iv else "–",
+                  "yes" if r["determined"]["shear_modulus"]["determined"] else "no",
+                  number(real, q + "/seconds"), number(coulomb, q + "/seconds"))
+        shear_tables.append(t)
     return Page(
         "calibration", "Calibration",
         "What `mjtrack calibrate` finds on logs whose truth is known (the MuJoCo robot's own logs, one change each), "
         "and on three real robots: Marmotte (tracked), Husky and Warthog (wheeled skid-steer), from the DRIVE data. "
         "A parameter the log does not determine keeps its described value and is marked so; intervals carry the "
         "correlation of a log's windows and the measured model-form error of simulating a window from a logged "
-        "state.", [bat, *([noisy] if noisy is not None else []), real,
+        "state.", [bat, *([noisy] if noisy is not None else []), real, *([coulomb] if coulomb is not None else []),
                    *([Source(starts_path)] if starts_path.exists() else []), *yaw_sources],
-        [*battery, robots, context, speed, params, summaries, *([yaw] if yaw_sources else []), *starts_tables],
+        [*battery, robots, context, speed, params, summaries, *shear_tables, *([yaw] if yaw_sources else []),
+         *starts_tables],
         written=[p for p in written if p.exists()])
 
 

@@ -99,6 +99,11 @@ EXTENDS_COULOMB = {"shear_modulus": "coulomb"}
 DEFAULT_PARAMS = ("mu", "mu_ratio", "cg_x", "cg_y", "track_length", "drive_lag", "drive_delay", "track_speed_scale",
                   "rolling_resistance")
 SLOPE_PARAMS = ("slope_x", "slope_y")
+#: a wheeled robot on the Coulomb ground also fits ``shear_modulus`` by default: on the shared
+#: Warthog log the calibration determines K = 0.02 m and the held-out error and every turn class's
+#: yaw ratio improve; on the Husky's it determines K at the Coulomb value
+#: (benchmarks/real_robots.py, results page "Calibration"). A tracked robot fits it when named.
+WHEELED_DEFAULTS = ("shear_modulus",)
 #: first values of drivetrain keys that the robot file lacks (a value on a bound stalls the fit)
 DRIVE_START = {"drive_lag": 0.05, "drive_delay": 0.02, "track_speed_scale": 1.0}
 #: first value of a motion resistance the robot file lacks (0 is a bound)
@@ -162,6 +167,8 @@ def default_names(robot: Robot, log: DriveLog | None = None) -> list[str]:
     if log is not None and one_frame(log):
         names.extend(SLOPE_PARAMS)
     names.extend(GROUND_PARAMS.get(robot.ground.model, ()))
+    if robot.traction == "wheels" and robot.ground.model == "coulomb":
+        names.extend(WHEELED_DEFAULTS)
     return names
 
 

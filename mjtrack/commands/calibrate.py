@@ -24,7 +24,8 @@ ground: shear_modulus (K of the shear ground, 0 is Coulomb; a robot calibrated t
 the shear ground). Default: mu, mu_ratio, cg_x, cg_y, track_length,
 drive_lag, drive_delay, track_speed_scale, plus slope_x, slope_y when the log's segments share one
 world frame, plus the ground model's parameters, plus rolling_resistance (the ground holding each
-side back by a share of its weight). A long log is fitted on --fit-windows windows spread over it.
+side back by a share of its weight), plus shear_modulus for a wheeled robot on the Coulomb ground
+(its tyres' shear: 0 keeps it Coulomb). A long log is fitted on --fit-windows windows spread over it.
 Windows the ground cannot explain are left out of the fit and of every score unless
 --keep-contradicting is given: poses that move against the tracks (a jumped localisation, a speed of
 the wrong sign), and a robot held still while a track runs under it (an obstacle, a rut).
