@@ -448,39 +448,22 @@ def test_the_calibrated_robot_file_records_the_drive_input(tmp_path):
     assert "drive_input" not in robot_sim_settings(calibrated_robot(Robot(), {"cg_x": 0.02}, SimConfig()))
 
 
-class _TTY:
-    """A terminal that keeps what is drawn on it."""
-
-    def __init__(self) -> None:
-        self.text = ""
-
-    def write(self, s: str) -> int:
-        self.text += s
-        return len(s)
-
-    def flush(self) -> None:
-        pass
-
-    def isatty(self) -> bool:
-        return True
-
-
-def test_progress_says_the_expected_time_then_each_stage_and_ends_its_line(monkeypatch):
+def test_progress_says_the_expected_time_then_each_stage_and_ends_its_line(monkeypatch, terminal):
     import sys
 
-    tty = _TTY()
+    tty = terminal()
     monkeypatch.setattr(sys, "stderr", tty)
     lg = _log(Robot(cg_x=0.04), 6.0, 3, lag=0.0)
     cal = calibrate(lg, Robot(), names="cg_x", max_iter=2, quiet=False)
-    lines = tty.text.split("\n")
+    lines = tty.getvalue().split("\n")
     said = [ln.split("\r")[-1] for ln in lines if "windows simulated in" in ln]
     assert len(said) == 1 and said[0].startswith("calibrate ") and " more" in said[0], said
-    frames = [f for f in tty.text.replace("\n", "\r").split("\r") if f.startswith("calibrate: ")]
+    frames = [f for f in tty.getvalue().replace("\n", "\r").split("\r") if f.startswith("calibrate: ")]
     stages = [f.split("  ")[0].removeprefix("calibrate: ") for f in frames]
     for stage in ("as described", "fit", "round 1", "guard", "causes"):
         assert stage in stages, (stage, sorted(set(stages)))
     assert "left" in " ".join(frames)  # an estimate of the time left while it runs
-    assert tty.text.endswith("\n")
+    assert tty.getvalue().endswith("\n")
     assert cal.changed == ["cg_x"]
 
 

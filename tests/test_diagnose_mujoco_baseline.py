@@ -398,24 +398,7 @@ def test_a_simulation_asked_for_again_is_not_run_again(monkeypatch):
     assert np.array_equal(first[0], model.errors(problem, w)[0], equal_nan=True)
 
 
-class _TTY:
-    """A terminal that keeps what is drawn on it."""
-
-    def __init__(self) -> None:
-        self.text = ""
-
-    def write(self, s: str) -> int:
-        self.text += s
-        return len(s)
-
-    def flush(self) -> None:
-        pass
-
-    def isatty(self) -> bool:
-        return True
-
-
-def test_the_time_a_step_takes_is_said_as_it_starts(monkeypatch):
+def test_the_time_a_step_takes_is_said_as_it_starts(monkeypatch, terminal):
     # on a terminal, unless quiet: the windows a step will simulate and the time that takes at the rate
     # of the baseline's own pass, said once per step; the count is what the step then simulates, less
     # the fold estimates that land on a grid value
@@ -432,11 +415,11 @@ def test_the_time_a_step_takes_is_said_as_it_starts(monkeypatch):
         return original(sim, log, ws, variants, **kw)
 
     monkeypatch.setattr(mb, "simulate_windows", counted)
-    tty = _TTY()
+    tty = terminal()
     monkeypatch.setattr(sys, "stderr", tty)
     d = diagnose(lg, NOMINAL, baseline="mujoco", effects=["drive_delay"], n_folds=3, quiet=False)
-    said = [ln.split("\r")[-1] for ln in tty.text.split("\n") if " more: about " in ln]
-    assert len(said) == len(d.steps) == 1, tty.text
+    said = [ln.split("\r")[-1] for ln in tty.getvalue().split("\n") if " more: about " in ln]
+    assert len(said) == len(d.steps) == 1, tty.getvalue()
     m = len(d.starts)
     assert said[0].startswith(f"diagnose {lg.source or 'drive log'}: {m} windows simulated at ")
     more = int(said[0].split(" take about ")[1].split(" more")[0])
@@ -444,7 +427,7 @@ def test_the_time_a_step_takes_is_said_as_it_starts(monkeypatch):
     assert more == (grid.size - 1) * m + m  # the delay's own 0 is the baseline's simulation
     step = sum(simulated[1:])  # after the baseline's pass
     assert (grid.size - 1) * m <= step <= more
-    quiet = _TTY()
+    quiet = terminal()
     monkeypatch.setattr(sys, "stderr", quiet)
     diagnose(lg, NOMINAL, baseline="mujoco", effects=["drive_delay"], n_folds=3, quiet=True)
-    assert quiet.text == ""
+    assert quiet.getvalue() == ""

@@ -160,3 +160,17 @@ def test_a_wheeled_robot_fits_the_shear_modulus_by_default_a_tracked_one_when_na
     assert "shear_modulus" not in default_names(Robot())
     assert default_names(_shear(Robot(), 0.05)).count("shear_modulus") == 1  # its ground's own parameter
     assert default_names(_shear(WHEELED, 0.05)).count("shear_modulus") == 1
+
+
+def test_the_steady_turn_does_not_hang_on_how_often_the_friction_is_set(monkeypatch):
+    # the chunk's first state stands for its SHEAR_UPDATE_S: in a steady turn the ICRs are those of
+    # a friction set every step (docs/theory/shear.md, "In MuJoCo")
+    import mjtrack.sim.ground as ground
+
+    robot = _shear(WHEELED, 0.1)
+    icr = {}
+    for every in (0.005, ground.SHEAR_UPDATE_S, 0.05):
+        monkeypatch.setattr(ground, "SHEAR_UPDATE_S", every)
+        icr[every] = _icr(robot, 0.5, 0.7)
+    for got in icr.values():
+        assert np.abs(got - icr[0.005]).max() <= 1e-3 * robot.track_gauge / 2

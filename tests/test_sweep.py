@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import csv
-import io
 import json
 import math
 import os
@@ -120,7 +119,7 @@ def test_sweep_numbers_are_those_of_steady(swept, capsys):
         assert float(row[k]) == steady[k], k  # bit-identical: same model, same state, same steps
 
 
-def test_sweep_resumes_from_a_cut_file(swept, cluster, capsys):
+def test_sweep_resumes_from_a_cut_file(swept, cluster, capsys, terminal):
     """A sweep killed after 5 rows, the 6th half written: the rerun runs only the 7 missing cases."""
     full = (swept / "a" / "sweep.csv").read_text()
     lines = full.splitlines(keepends=True)
@@ -131,11 +130,7 @@ def test_sweep_resumes_from_a_cut_file(swept, cluster, capsys):
     (out / "sweep.partial.csv").write_text(lines[0] + "".join(lines[1 + k] for k in (7, 2, 9, 0, 11)) + lines[5][:30])
     capsys.readouterr()
 
-    class Terminal(io.StringIO):
-        def isatty(self):
-            return True
-
-    tty = Terminal()
+    tty = terminal()
     with contextlib.redirect_stderr(tty):  # a terminal: the progress bar is drawn
         assert main(["sweep", "--grid", str(swept / "g.json"), "--out", str(out), "--scheduler",
                      cluster.scheduler_address, *SHORT]) == 0

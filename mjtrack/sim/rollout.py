@@ -192,9 +192,6 @@ def run_batch(
     nbatch = max(len(models), control.shape[0], state0.shape[0])
     model_arg = models if len(models) > 1 else models[0]
     datas = [mujoco.MjData(models[0]) for _ in range(max(1, nthread))]
-    if grounds is not None:
-        grounds = list(grounds)
-        grounds = grounds * (nbatch // len(grounds)) if len(grounds) == len(models) else grounds
     state, sensordata = aligned_rollout(model_arg, datas if nthread > 1 else datas[0],
                                         np.repeat(state0, nbatch // state0.shape[0], axis=0),
                                         np.repeat(control, nbatch // control.shape[0], axis=0),
