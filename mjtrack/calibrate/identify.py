@@ -24,6 +24,14 @@ ones, the parameter whose described value lies deepest inside its interval goes 
 value (the others follow the linearised least-squares optimum), until every remaining parameter
 differs from its description by more than its half-width: a log on which nothing needs to change
 changes nothing.
+
+Defaults are not information. A parameter the log does not determine goes back to its described
+value, and the others' intervals are then conditional on it. Where the description gives that
+value, the condition is the user's own statement. Where it does not, the value is a default and the
+condition an assumption, so :func:`final_verdicts` gives the kept parameters the wider of their
+conditional half-widths and those with the defaulted parameters fitted too (marginal over what the
+log allows them). Two descriptions that differ only in such defaults then give intervals that
+allow for each other's answer.
 """
 
 from __future__ import annotations
@@ -38,6 +46,7 @@ from mjtrack.stats import cluster_sandwich, gram_inverse, t_quantile
 
 TIE = 0.9  # |correlation| above which a parameter removed as undetermined trades with the other
 EIG_FLOOR = 1e-12  # eigenvalues of A below this share of the largest count as zero (infinite variance)
+WIDER = 1e-3  # a half-width that allowing for held defaults widens by less than this share is kept as it was
 CLUSTER_WINDOWS = 3  # consecutive windows per cluster (fewer when the log has few windows per parameter)
 
 
@@ -168,6 +177,9 @@ class Verdict:
     #: the fit's rounds ran out while its last decision would send this fitted parameter back to its
     #: described value: the value is the last fit's, which the decisions did not settle on
     unsettled: bool = False
+    #: parameters held at a default (not in the description, not determined by the log) that the
+    #: interval allows for (:func:`final_verdicts`)
+    allows_for: list[str] = field(default_factory=list)
 
     def to_json(self) -> dict:
         out = {"determined": bool(self.determined), "changed": bool(self.changed), "reason": self.reason}
@@ -177,6 +189,8 @@ class Verdict:
             out["points_at"] = float(self.points_at)
         if self.unsettled:
             out["unsettled"] = True
+        if self.allows_for:
+            out["allows_for"] = list(self.allows_for)
         return out
 
 
@@ -282,11 +296,14 @@ def select(lin: Linearised, described: dict[str, float]) -> Selection:
                      verdicts=verdicts, ties={k: v for k, v in ties.items() if k in free})
 
 
-def final_verdicts(lin: Linearised, described: dict[str, float], ties: dict[str, list[str]]
+def final_verdicts(lin: Linearised, described: dict[str, float], ties: dict[str, list[str]],
+                   allow_for: tuple[list[str], np.ndarray] | None = None
                    ) -> tuple[dict[str, Verdict], Uncertainty, np.ndarray]:
     """Verdicts of the parameters still fitted, at the final fit (``lin``), and their uncertainty.
     Where the optimiser stopped short of the linearised optimum, the remaining step is added to
-    each half-width (returned, physical units, as the third value)."""
+    each half-width (returned, physical units, as the third value). ``allow_for``: parameters held
+    at a default the log does not confirm, and the half-widths (physical) of ``lin``'s parameters
+    with those fitted too; a half-width is the wider of the two (module docstring)."""
     u = lin.uncertainty(list(range(len(lin.names))))
     rest = np.abs(lin.step()) * lin.scales
     out = {}
@@ -294,6 +311,9 @@ def final_verdicts(lin: Linearised, described: dict[str, float], ties: dict[str,
         spec = lin.specs[name]
         v = float(lin.theta[k] * spec.scale)
         half = float(u.half[k] + rest[k])
+        widened = allow_for is not None and allow_for[1][k] > u.half[k] * (1 + WIDER)
+        if widened:
+            half = float(allow_for[1][k] + rest[k])
         lo, hi = max(spec.lo, v - half), min(spec.hi, v + half)
         tied = ties.get(name, [])
         changed = has_changed(v, described[name])
@@ -312,13 +332,17 @@ def final_verdicts(lin: Linearised, described: dict[str, float], ties: dict[str,
                       f"+-{fmt_value(u.shift[k], spec.unit)}, optimiser +-{fmt_value(rest[k], spec.unit)})")
             if not changed:
                 reason += "; equal to the description"
+        if widened:
+            reason += (f"; the interval allows for {', '.join(allow_for[0])}, which the description does not give and "
+                       f"the log does not determine (+-{fmt_value(u.half[k], spec.unit)} with "
+                       f"{'them' if len(allow_for[0]) > 1 else 'it'} held at the default)")
         edge = spec.hi if v >= spec.hi - 1e-9 * max(1.0, abs(spec.hi)) else (
             spec.lo if v <= spec.lo + 1e-9 * max(1.0, abs(spec.lo)) else None)
         if edge is not None:  # the fit stopped at the range searched: the log may want more, the interval is cut
             reason += (f"; at the edge of the range searched ({fmt_value(edge, spec.unit)}): the log may point "
                        "beyond it, and the interval stops there")
         out[name] = Verdict(name, bool(not tied and half <= allow), changed, v, described[name], (lo, hi),
-                            reason, tied)
+                            reason, tied, allows_for=list(allow_for[0]) if widened else [])
     return out, u, rest
 
 

@@ -142,6 +142,8 @@ class Fitter:
     warmup_s: float
     meter: Meter
     rounds: int = MAX_ROUNDS
+    #: candidates whose value the description does not give (a default stands in for it)
+    undescribed: tuple[str, ...] = ()
     specs: dict = field(init=False)
     floors: dict[str, float] = field(init=False)
 
@@ -324,7 +326,7 @@ def settle_verdicts(fx: Fitter, obj, sel, cur: Linearisation, theta: np.ndarray,
     kidx = [names.index(n) for n in kept]
     klin = fx.linearised(obj, theta[kidx], cur.jac[:, kidx], cur.resid,
                          [ModelFormSource(m.name, m.g[kidx]) for m in sources], names=kept)
-    final, u, rest = final_verdicts(klin, described, ties)
+    final, u, rest = final_verdicts(klin, described, ties, allow_for=allowed_for(fx, obj, sel, cur, theta, sources, kept))
     for n in kept:  # the rounds ran out while the last decision would send it back: said, not hidden
         if n not in sel.free and final[n].changed:
             final[n].reason += (f"; the fit's last decision would send it back to its described value, but its "
@@ -336,6 +338,23 @@ def settle_verdicts(fx: Fitter, obj, sel, cur: Linearisation, theta: np.ndarray,
                   "shift": {src_: {n: float(v) for n, v in zip(kept, sh)} for src_, sh in u.shifts.items()},
                   "optimiser": {n: float(v) for n, v in zip(kept, rest)}}
     return verdicts, values, model_form, u, klin, ties
+
+
+def allowed_for(fx: Fitter, obj, sel, cur: Linearisation, theta: np.ndarray, sources, kept: list[str]
+                ) -> tuple[list[str], np.ndarray] | None:
+    """The candidates the kept ones' intervals must allow for, and the kept ones' half-widths
+    (physical) with them fitted too: those the log does not determine (sent back on their own, not
+    traded with another) whose value the description does not give. Held at a default, such a
+    parameter is an assumption, not information, and what the kept ones could be with it anywhere
+    the log allows belongs in their intervals (identify's module docstring). None when there are none."""
+    extra = [n for n in fx.undescribed if n in sel.verdicts and n not in kept and not sel.verdicts[n].determined
+             and sel.verdicts[n].interval is None and not sel.verdicts[n].tied_with]
+    if not extra or not kept:
+        return None
+    idx = [fx.names.index(n) for n in kept + extra]
+    wide = fx.linearised(obj, theta[idx], cur.jac[:, idx], cur.resid,
+                         [ModelFormSource(m.name, m.g[idx]) for m in sources], names=kept + extra)
+    return extra, wide.uncertainty(list(range(len(idx)))).half[:len(kept)]
 
 
 def fit_attempt(fx: Fitter, fws: WindowSet, start_at: dict[str, float], only: list[str] | None = None) -> Fitted:

@@ -83,6 +83,15 @@ def assumed_values(robot: Robot, names: list[str]) -> dict[str, str]:
     return out
 
 
+def undescribed(robot: Robot, names: list[str]) -> tuple[str, ...]:
+    """The candidates among ``names`` that are robot keys the description does not give (a
+    default stands in for each; none when the robot was built in full, in code)."""
+    if robot.provided is None:
+        return ()
+    keys = set(DESCRIBED) | set(DRIVE_DEFAULTS) | {geometry_name(robot)}
+    return tuple(n for n in names if n in keys and n not in robot.provided)
+
+
 def calibrated_robot(robot: Robot, values: dict[str, float], config: SimConfig,
                      drive_input: str = "commanded") -> Robot:
     """The robot with calibrated values written into its description (friction per side, centre
@@ -579,7 +588,8 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
                       keep_contradicting=keep_contradicting, src=src, test_src=test_src)
         sim = WindowSim(robot, pb.config, resisted="rolling_resistance" in pb.names)
     fx = Fitter(sim=sim, train=train, names=pb.names, described=pb.described, config=pb.config, max_iter=max_iter,
-                 nthread=nthread, warmup_s=warmup_s, meter=meter, rounds=rounds)
+                 nthread=nthread, warmup_s=warmup_s, meter=meter, rounds=rounds,
+                 undescribed=undescribed(robot, pb.names))
     n_fit = len(fit_index_of(pb.ws, fit_windows))
     n_test = 0 if pb.tws is None else len(pb.tws)
     starts = multistart_passes(len(start_points(pb.names, fx.specs, np.zeros(len(pb.names)))), n_fit)
