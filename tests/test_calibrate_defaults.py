@@ -142,3 +142,14 @@ def test_a_described_parameter_is_the_users_statement_and_changes_nothing():
     assert v.allows_for == [] and "allows_for" not in v.to_json() and "allows for" not in v.reason
     again = _attempt(3, ())
     assert again.verdicts["cg_x"].interval == v.interval
+
+
+def test_the_undescribed_candidates_are_the_robot_keys_the_file_leaves_out():
+    from mjtrack.calibrate.run import undescribed
+
+    names = ["mu", "mu_ratio", "cg_x", "track_length", "drive_lag", "slope_x"]
+    robot = Robot.from_dict({"track_gauge": 0.5, "mu": 0.7, "track_length": 0.6})
+    # mu and the length are given; mu_ratio and a slope are not robot keys (the ratio follows the
+    # sides' friction, a slope is the log's ground)
+    assert undescribed(robot, names) == ("cg_x", "drive_lag")
+    assert undescribed(Robot(), names) == ()  # built in full, in code: every value is stated

@@ -841,9 +841,12 @@ def _calibration() -> Page:
                       "value lies in the other's interval (a value beyond the other description's search range, "
                       "which follows its geometry, compared with the nearest end of that range), and the weaker "
                       "reading: whether their difference lies within its own interval (the two half-widths added in "
-                      "quadrature).",
+                      "quadrature). An interval that allows for parameters held at a default the description does "
+                      "not give and the log does not determine names them (the concepts page, \"Defaults are not "
+                      "information\").",
                       ["robot", "parameter", "from shipped", "from public", "determined in both",
-                       "each in the other's interval", "difference within its interval", "compared"])
+                       "each in the other's interval", "difference within its interval", "compared",
+                       "interval allows for (shipped; public)"])
         errs = Table("The two calibrations of the table above: held-out position error [m] at the window's end "
                      "before and after, the wall time of the calibration [s] (the load is in the result file) and "
                      "the causes each names, largest share first (not plausible: said as something no candidate "
@@ -861,7 +864,9 @@ def _calibration() -> Page:
                           if "difference_within_its_interval" in r["agreement"][n] else "–",
                           ("per kg of each description's mass" if "per_kg" in r["agreement"][n] else "as fitted")
                           + ("; beyond the other's range: compared with its end"
-                             if r["agreement"][n].get("beyond_the_other_range") else ""))
+                             if r["agreement"][n].get("beyond_the_other_range") else ""),
+                          "; ".join(", ".join(r["starts"][s_]["determined"].get(n, {}).get("allows_for", [])) or "–"
+                                    for s_ in ("shipped", "public")))
             for start, x in r["starts"].items():
                 named = ["+".join(g["parameters"]) + ("" if g.get("plausible", True) else " (not plausible)")
                          for g in x["causes"]]
