@@ -153,3 +153,19 @@ def test_the_undescribed_candidates_are_the_robot_keys_the_file_leaves_out():
     # sides' friction, a slope is the log's ground)
     assert undescribed(robot, names) == ("cg_x", "drive_lag")
     assert undescribed(Robot(), names) == ()  # built in full, in code: every value is stated
+
+
+@pytest.mark.parametrize("names, words", [([], "no parameter named"), (["bogus"], "unknown parameter 'bogus'"),
+                                          (["cg_x", "cg_x"], "named twice")])
+def test_a_list_of_candidates_is_checked_as_params_is(names, words):
+    """The Python API's list of candidates goes through the checks of --params: an empty list or
+    an unknown name is refused in words before anything is simulated, not a crash deep in the fit."""
+    from mjtrack.calibrate.run import calibrate
+    from mjtrack.errors import InputError
+    from mjtrack.io.logs import DriveLog
+
+    t = np.arange(0.0, 6.0, 0.05)
+    z = np.zeros_like(t)
+    log = DriveLog(t=t, x=0.3 * t, y=z, yaw=z, v_left_cmd=z + 0.3, v_right_cmd=z + 0.3)
+    with pytest.raises(InputError, match=words):
+        calibrate(log, Robot.from_dict({"track_gauge": 0.4}), names=names, quiet=True)

@@ -342,8 +342,8 @@ def _prepare(train: DriveLog, robot: Robot, test: DriveLog | None, names, *, hor
                          "mujoco.rollout, which drives actuators (the rollers track model)")
     if n_rollers is not None:
         config = config.replace(n_rollers=int(n_rollers))
-    if isinstance(names, str) or names is None:
-        names = parse_names(names, robot, train)
+    # a list is checked as --params is: an empty one or an unknown name is the caller's error, not a crash
+    names = parse_names(names if isinstance(names, str) or names is None else ",".join(names), robot, train)
     ws = make_windows(train, horizon_s)
     if len(ws) == 0:
         longest = max(float(train.t[s][-1] - train.t[s][0]) for s in train.segment_slices())
