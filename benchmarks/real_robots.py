@@ -4,6 +4,7 @@
     python benchmarks/real_robots.py [--robots marmotte,husky,warthog] [--rollers 6] [--diagnose]
     python benchmarks/real_robots.py --diagnose-only        # diagnose the stored calibrated robots
     python benchmarks/real_robots.py --starts --robots marmotte [--rounds 8]  # two starting descriptions, one answer?
+    python benchmarks/real_robots.py --shear-scan 0,0.05,0.1,0.2 --robots husky,warthog  # the shear ground alone
 
 For each robot: its log's description plus the public specification of what the log does not give
 (every such value named, with its source, under ``assumed`` in calibration.json), calibrated with
@@ -42,6 +43,15 @@ quadrature; the causes, summaries
 and held-out errors of both. Writes
 benchmarks/results/start_independence.json; ``--starts --agreement-only`` recomputes the
 agreement of the stored file with the rule now.
+
+``--shear-scan K,K,...``: what the shear ground alone does to a real robot, with nothing fitted to
+its poses. For each modulus K (0: Coulomb) the starting robot above on the shear ground of modulus
+K, scored on the test part of the reference split as calibrate scores a description before it fits
+anything ("before": the drives, with ``drive_input="fitted"``, fitted to the measured track speeds,
+the contact as described): the held-out 2 s position error, and per turn class the steady yaw
+ratio and the forward speed ratio, measured and simulated. The scores are calibrate's "before" of
+a calibration of ``cg_y`` alone, which does not depend on what the calibration then fits. Writes
+benchmarks/results/shear_scan.json.
 """
 
 from __future__ import annotations
@@ -67,6 +77,7 @@ HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[1] / "shared" / "data"
 RESULT = HERE / "results" / "real_robots.json"
 STARTS_RESULT = HERE / "results" / "start_independence.json"
+SCAN_RESULT = HERE / "results" / "shear_scan.json"
 STARTS_SPLIT = (0.7, 0.3)  # the held-out split of --starts, the same for every robot
 OUTPUTS = HERE / "results" / "real_robots"
 
@@ -346,6 +357,45 @@ def agreement(a: dict, b: dict) -> dict:
     return {"agreement": agree, "agree": all(v["each_in_the_other_interval"] is not False for v in agree.values())}
 
 
+def shear_scan_robot(name: str, spec: dict, moduli: list[float]) -> dict:
+    """The starting robot on the shear ground of each modulus, scored without a fit (module docstring)."""
+    log, base = read_log_with_robot(spec["log"])
+    train, test = split(log, *spec["split"])
+    robot = starting_robot(base, spec["public"])
+    out = {"split": list(spec["split"]), "drive_input": spec.get("drive_input", "commanded"), "moduli": {}}
+    for K in moduli:
+        t0 = time.time()
+        r = robot.replace(ground={"model": "shear", "shear_modulus": K} if K > 0 else {"model": "coulomb"})
+        cj = calibrate(train, r, test=test, names=["cg_y"], quiet=True, drive_input=out["drive_input"],
+                       fit_windows=FIT_WINDOWS).to_json()
+        classes = {f["what"]: {"measured": f["measured"], "simulated": f["simulated_before"], "windows": f["windows"]}
+                   for f in cj["findings"] if f["part"] == "test" and f["measured"] is not None
+                   and f["what"].startswith(("yaw ratio (", "forward speed ratio ("))}
+        out["moduli"][f"{K:g}"] = {"shear_modulus": K, "test_error": cj["test"]["before"], "windows": cj["test"]["windows"],
+                                   "classes": classes, "seconds": time.time() - t0}
+        print(f"  {name} K = {K:g} m: held-out {cj['test']['before']:.4f} m; "
+              + "; ".join(f"{w} {c['measured']:.3f} / {c['simulated']:.3f}" for w, c in classes.items()), flush=True)
+    return out
+
+
+def _shear_scan(args, load0) -> int:
+    stored = json.loads(SCAN_RESULT.read_text()) if SCAN_RESULT.exists() else {}
+    robots = stored.get("robots", {})
+    command = "python benchmarks/real_robots.py " + " ".join(sys.argv[1:])
+    moduli = [float(k) for k in args.shear_scan.split(",")]
+    for name in args.robots.split(","):
+        spec = ROBOTS[name]
+        if not spec["log"].exists():
+            print(f"{spec['log']} not found (the shared data); skipped")
+            continue
+        robots[name] = {**shear_scan_robot(name, spec, moduli), "command": command}
+        SCAN_RESULT.write_text(json.dumps({"command": "; ".join(sorted({r["command"] for r in robots.values()})),
+                                           "robots": robots, "load_before": load0, "load_after": os.getloadavg()},
+                                          indent=1, default=_plain) + "\n")
+    print(f"\nload average before {load0}, after {os.getloadavg()} ({os.cpu_count()} cores)")
+    return 0
+
+
 def diagnose_robot(name: str, spec: dict) -> dict:
     """``diagnose --baseline mujoco`` of the test part against the stored calibrated robot (its drives
     following what they followed in the calibration: the commands, or the measured track speeds)."""
@@ -386,8 +436,13 @@ def main(argv=None) -> int:
     ap.add_argument("--starts", action="store_true",
                     help="calibrate each robot from its shipped description and from the public one; write "
                          "start_independence.json (module docstring)")
+    ap.add_argument("--shear-scan", metavar="K,K,...", default=None,
+                    help="score the starting robot on the shear ground of each modulus K [m] (0: Coulomb) without "
+                         "fitting its contact; write shear_scan.json (module docstring)")
     args = ap.parse_args(argv)
     load0 = os.getloadavg()
+    if args.shear_scan:
+        return _shear_scan(args, load0)
     if args.coulomb:
         global RESULT, OUTPUTS
         RESULT, OUTPUTS = RESULT.with_name("real_robots_coulomb.json"), OUTPUTS.with_name("real_robots_coulomb")

@@ -1136,11 +1136,41 @@ def _shear_ground() -> Page:
                    number(sel, f"/robots/{robot}/seconds"))
     runs.add("ground selection, last run: load before", number(sel, "/load_before/0"))
     runs.add("ground selection, last run: load after", number(sel, "/load_after/0"))
+    scan_path = RESULTS / "shear_scan.json"
+    extra = []
+    if scan_path.exists():
+        scan = Source(scan_path)
+        sources.append(scan)
+        from mjtrack.calibrate.measures import TURN_CLASSES
+
+        class_names = dict(zip((f"(|turn ratio| {lo:g} to {hi:g})" for lo, hi in TURN_CLASSES),
+                               ("straight", "turning", "sharp turns")))
+        scan_t = Table("The MuJoCo robot on the shear ground alone, nothing fitted to the poses (`python "
+                       "benchmarks/real_robots.py --shear-scan`, its docstring): the public starting robot on the "
+                       "shear ground of each modulus K (0: Coulomb), its drives fitted to the measured track speeds "
+                       "as calibrate fits them first, scored on the test part of the reference split: the held-out "
+                       "2 s position error, and per turn class of the test part's steady turns the yaw ratio and "
+                       "the forward speed ratio, measured / simulated (the classes of the calibration page: "
+                       "straight, turning, sharp turns by |turn ratio|).",
+                       ["robot", "K [m]", "held-out error [m]", "class", "windows", "measured", "simulated"])
+        for robot, r in scan.data["robots"].items():
+            for key, m in r["moduli"].items():
+                p = f"/robots/{robot}/moduli/{key}"
+                for what in m["classes"]:
+                    q = f"{p}/classes/{what.replace('~', '~0').replace('/', '~1')}"
+                    quantity, _, cls = what.partition(" (")
+                    scan_t.add(robot, number(scan, p + "/shear_modulus"), number(scan, p + "/test_error"),
+                               f"{quantity}, {class_names.get('(' + cls, cls)}",
+                               number(scan, q + "/windows"), number(scan, q + "/measured"),
+                               number(scan, q + "/simulated"))
+        runs.add("shear scan: load before", number(scan, "/load_before/0"))
+        runs.add("shear scan: load after", number(scan, "/load_after/0"))
+        extra = [scan_t]
     return Page(
         "shear_ground", "The shear-displacement ground",
         "The Janosi-Hanamoto shear ground (theory: the shear-displacement ground page): the MuJoCo robot against "
         "its reference and its Coulomb limit, and which ground the three real robots' steady turns select.",
-        sources, tables + [selection, chosen, runs])
+        sources, tables + [selection, chosen] + extra + [runs])
 
 
 PAGES: tuple[Callable[[], Page], ...] = (_fidelity, _diagnosis, _implementations, _filters, _speed, _wheeled,
