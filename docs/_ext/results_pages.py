@@ -118,6 +118,15 @@ class Page:
     written: list[Path] = field(default_factory=list)  # files the runs wrote beside the result files
 
 
+def _turn_class_names() -> dict[str, str]:
+    """The words for calibrate's turn classes, keyed by the suffix its findings carry
+    ("(|turn ratio| 0.15 to 0.5)" -> "turning")."""
+    from mjtrack.calibrate.measures import TURN_CLASSES
+
+    return dict(zip((f"(|turn ratio| {lo:g} to {hi:g})" for lo, hi in TURN_CLASSES),
+                    ("straight", "turning", "sharp turns")))
+
+
 def add_rows(table: Table, src: Source, rows: list[tuple[str, str]]) -> None:
     """One (label, number at pointer) row per pair, for a two-column quantity table."""
     for label, pointer in rows:
@@ -789,10 +798,7 @@ def _calibration() -> Page:
                    "whether the log determines it and whether calibration changed it.",
                    ["robot", "parameter", "described", "calibrated", "interval low", "interval high", "determined",
                     "changed"])
-    from mjtrack.calibrate.measures import TURN_CLASSES
-
-    class_names = dict(zip((f"(|turn ratio| {lo:g} to {hi:g})" for lo, hi in TURN_CLASSES),
-                           ("straight", "turning", "sharp turns")))
+    class_names = _turn_class_names()
     speed = Table("Forward speed over the mean track speed in steady windows of the test part, by turn class "
                   "of |turn ratio| = |v_R - v_L| / (|v_L| + |v_R|) (straight, turning, sharp turns: the classes of the "
                   "forward speed ratio findings in calibration.json), measured and simulated before and after calibration: "
@@ -1141,10 +1147,7 @@ def _shear_ground() -> Page:
     if scan_path.exists():
         scan = Source(scan_path)
         sources.append(scan)
-        from mjtrack.calibrate.measures import TURN_CLASSES
-
-        class_names = dict(zip((f"(|turn ratio| {lo:g} to {hi:g})" for lo, hi in TURN_CLASSES),
-                               ("straight", "turning", "sharp turns")))
+        class_names = _turn_class_names()
         scan_t = Table("The MuJoCo robot on the shear ground alone, nothing fitted to the poses (`python "
                        "benchmarks/real_robots.py --shear-scan`, its docstring): the public starting robot on the "
                        "shear ground of each modulus K (0: Coulomb), its drives fitted to the measured track speeds "
