@@ -50,6 +50,13 @@ wheeled robots (a small and a large four-wheeler); a wheel's case is also held a
 reference with the wheel touching at one point under its axle (``point_contact``), as MuJoCo's
 sphere does (docs/theory/shear.md, "In MuJoCo"). Writes
 benchmarks/results/shear_fidelity_rollers.json.
+
+``--fidelity --track-model rollers --lateral-shear-ratios 0.5,2``: the same grid with the shear
+modulus across the track or tyre that many times the one along it (``lateral_shear_ratio``, S6 of
+mjtrack.models.shear; the MuJoCo contacts on the track's tangent frames), each case against the
+reference with that ratio; the limit K = 1e-6 m against the MuJoCo robot on the Coulomb ground with
+the same contact frames (the anisotropic ground at lateral ratio 1). Writes
+benchmarks/results/shear_fidelity_lateral.json.
 """
 
 from __future__ import annotations
@@ -237,6 +244,10 @@ GEOMETRIES = {"default": Robot(), "long": Robot(track_gauge=0.6, track_length=0.
 SPEEDS = [(-0.5, 0.5), (0.0, 0.6), (0.2, 0.6), (0.6, 0.2), (0.5, 0.7), (1.0, 1.4)]
 MODULI = (0.01, 0.03, 0.1)  # [m]
 LIMIT_K = 1e-4  # [m]
+# [m] the limit of the run with lateral_shear_ratio values: a wheel's 0.1 m patch in a gentle turn
+# builds up a shear displacement of about 1e-4 m, so at K = 1e-4 m the modulus across (ratio x K) is not
+# yet the limit there (measured: the reference itself moves by up to 0.035 T/2 from Coulomb at ratio 3)
+LATERAL_LIMIT_K = 1e-6
 TOLERANCE = 0.02  # of T/2, against the reference
 LIMIT_TOLERANCE = 0.005  # of T/2, against the Coulomb robot
 
@@ -256,8 +267,9 @@ WHEELED = {"wheels_small": Robot(traction="wheels", track_gauge=0.55, wheelbase=
                                  mass=280.0, cg_z=0.4)}
 
 
-def fidelity(command: str, track_model: str = "surfacevel") -> int:
-    """The ``--fidelity`` run (module docstring); 0 when every case passes."""
+def fidelity(command: str, track_model: str = "surfacevel", ratios: tuple[float, ...] = (1.0,)) -> int:
+    """The ``--fidelity`` run (module docstring); 0 when every case passes. ``ratios``: the shear
+    ground's ``lateral_shear_ratio`` values (other than 1: the roller chain and the wheels only)."""
     from mjtrack.sim.config import SimConfig, surfacevel_config
 
     load0 = os.getloadavg()
@@ -268,19 +280,19 @@ def fidelity(command: str, track_model: str = "surfacevel") -> int:
     for geometry, base in geometries.items():
         half, L = base.track_gauge / 2, base.contact_length
         for vl, vr in SPEEDS:
-            for K in MODULI:
-                robot = base.replace(ground={"model": "shear", "shear_modulus": K})
+            for K, ratio in ((K, ratio) for K in MODULI for ratio in ratios):
+                robot = base.replace(ground={"model": "shear", "shear_modulus": K, "lateral_shear_ratio": ratio})
                 try:
                     ref = np.array(shear.steady_state(robot, vl, vr, n_points=config.n_rollers).icr)
                 except MjtrackError as e:  # the reference's own solve failed: no case, counted
                     no_reference.append({"geometry": geometry, "v_left": vl, "v_right": vr, "shear_modulus": K,
-                                         "why": str(e)})
+                                         "lateral_shear_ratio": ratio, "why": str(e)})
                     print(f"{geometry:8s} ({vl:+.1f}, {vr:+.1f}) K={K:<5g} no reference: {e}", flush=True)
                     continue
                 got = mujoco_icr(robot, vl, vr, config)
                 err = np.abs(got - ref)
                 case = {"geometry": geometry, "traction": base.traction, "v_left": vl, "v_right": vr,
-                        "shear_modulus": K, "mujoco": got.tolist(), "reference": ref.tolist(),
+                        "shear_modulus": K, "lateral_shear_ratio": ratio, "mujoco": got.tolist(), "reference": ref.tolist(),
                         "err_over_half_gauge": float(err.max() / half), "err_x_over_length": float(err[2] / L),
                         "passed": bool(err.max() <= TOLERANCE * half)}
                 if base.traction == "wheels":
@@ -289,17 +301,23 @@ def fidelity(command: str, track_model: str = "surfacevel") -> int:
                     case["err_point_over_half_gauge"] = float(np.abs(got - point).max() / half)
                     case["err_y_over_half_gauge"] = float(err[:2].max() / half)
                 cases.append(case)
-                print(f"{geometry:8s} ({vl:+.1f}, {vr:+.1f}) K={K:<5g} mujoco {np.round(got, 4)} reference "
+                print(f"{geometry:8s} ({vl:+.1f}, {vr:+.1f}) K={K:<5g} ratio {ratio:g} mujoco {np.round(got, 4)} reference "
                       f"{np.round(ref, 4)}  max err {err.max() / half:.4f} T/2", flush=True)
-            coulomb_robot = mujoco_icr(base, vl, vr, config)
-            near = mujoco_icr(base.replace(ground={"model": "shear", "shear_modulus": LIMIT_K}), vl, vr, config)
-            d = np.abs(near - coulomb_robot)
-            limit.append({"geometry": geometry, "v_left": vl, "v_right": vr, "shear_modulus": LIMIT_K,
-                          "shear": near.tolist(), "coulomb": coulomb_robot.tolist(),
-                          "diff_over_half_gauge": float(d.max() / half),
-                          "passed": bool(d.max() <= LIMIT_TOLERANCE * half)})
-            print(f"{geometry:8s} ({vl:+.1f}, {vr:+.1f}) K={LIMIT_K:g} vs the Coulomb robot: {d.max() / half:.5f} T/2",
-                  flush=True)
+            # the Coulomb robot with the same contacts: a ratio other than 1 puts them on the track's frames
+            framed = ratios != (1.0,)
+            coulomb_robot = mujoco_icr(base.replace(ground={"model": "anisotropic", "lateral_ratio": 1.0}) if framed
+                                       else base, vl, vr, config)
+            limit_k = LIMIT_K if ratios == (1.0,) else LATERAL_LIMIT_K
+            for ratio in ratios:
+                near = mujoco_icr(base.replace(ground={"model": "shear", "shear_modulus": limit_k,
+                                                       "lateral_shear_ratio": ratio}), vl, vr, config)
+                d = np.abs(near - coulomb_robot)
+                limit.append({"geometry": geometry, "v_left": vl, "v_right": vr, "shear_modulus": limit_k,
+                              "lateral_shear_ratio": ratio, "shear": near.tolist(), "coulomb": coulomb_robot.tolist(),
+                              "diff_over_half_gauge": float(d.max() / half),
+                              "passed": bool(d.max() <= LIMIT_TOLERANCE * half)})
+                print(f"{geometry:8s} ({vl:+.1f}, {vr:+.1f}) K={limit_k:g} ratio {ratio:g} vs the Coulomb robot: "
+                      f"{d.max() / half:.5f} T/2", flush=True)
     summary = {"cases": len(cases), "passed": sum(c["passed"] for c in cases), "no_reference": len(no_reference),
                "max_err_over_half_gauge": max(c["err_over_half_gauge"] for c in cases),
                "max_err_x_over_length": max(c["err_x_over_length"] for c in cases),
@@ -317,10 +335,12 @@ def fidelity(command: str, track_model: str = "surfacevel") -> int:
                      "max_err_point_over_half_gauge": max(c["err_point_over_half_gauge"] for c in own),
                      "passed_point": sum(c["err_point_over_half_gauge"] <= TOLERANCE for c in own)}
         summary[traction] = part
-    out = FIDELITY_RESULT if track_model == "surfacevel" else FIDELITY_RESULT.with_name("shear_fidelity_rollers.json")
+    out = (FIDELITY_RESULT if track_model == "surfacevel" else
+           FIDELITY_RESULT.with_name("shear_fidelity_rollers.json" if ratios == (1.0,) else "shear_fidelity_lateral.json"))
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps({"command": command,
                                   "track_model": track_model, "n_elements": config.n_rollers,
+                                  "lateral_shear_ratios": list(ratios),
                                   "tolerance_over_half_gauge": TOLERANCE, "limit_tolerance_over_half_gauge": LIMIT_TOLERANCE,
                                   "summary": summary, "cases": cases, "limit": limit, "no_reference": no_reference, "elapsed_s": time.time() - t0,
                                   "load_before": load0, "load_after": os.getloadavg()}, indent=1) + "\n")
@@ -342,11 +362,17 @@ def main(argv=None) -> int:
     ap.add_argument("--track-model", choices=("surfacevel", "rollers"), default="surfacevel",
                     help="--fidelity: the track model (rollers: the roller chain and two wheeled robots, "
                          "benchmarks/results/shear_fidelity_rollers.json)")
+    ap.add_argument("--lateral-shear-ratios", default=None,
+                    help="--fidelity --track-model rollers: the shear ground's lateral_shear_ratio values, comma "
+                         "separated (benchmarks/results/shear_fidelity_lateral.json)")
     args = ap.parse_args(argv)
     load0 = os.getloadavg()
     command = "python benchmarks/ground_selection.py " + " ".join(sys.argv[1:] if argv is None else argv)
     if args.fidelity:
-        return fidelity(command.strip(), args.track_model)
+        ratios = (1.0,) if args.lateral_shear_ratios is None else tuple(float(v) for v in args.lateral_shear_ratios.split(","))
+        if ratios != (1.0,) and args.track_model != "rollers":
+            ap.error("--lateral-shear-ratios needs --track-model rollers (the surfacevel model has the isotropic shear ground)")
+        return fidelity(command.strip(), args.track_model, ratios)
     old = json.loads(RESULT.read_text()) if RESULT.exists() else {}
     robots = old.get("robots", {})
     for name in args.robots.split(","):

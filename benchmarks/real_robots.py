@@ -250,18 +250,20 @@ def context_of_stored(name: str, spec: dict, *, rollers: int, worst: int = 10) -
             "with_left_out": with_left_out}
 
 
-def run_robot(name: str, spec: dict, *, rollers: int, coulomb: bool = False) -> dict:
+def run_robot(name: str, spec: dict, *, rollers: int, coulomb: bool = False, lateral: bool = False) -> dict:
     log, base = read_log_with_robot(spec["log"])
     train, test = split(log, *spec["split"])
     robot = starting_robot(base, spec["public"])
     t0 = time.time()
     drive_input = spec.get("drive_input", "commanded")
-    # --coulomb: calibrate's default candidates (those of its drive input) less the shear ground's modulus
+    # --coulomb: calibrate's default candidates (those of its drive input) less the shear ground's moduli
+    # --lateral: those plus the shear ground's modulus across over the one along
     names = None
-    if coulomb:
+    if coulomb or lateral:
         from mjtrack.calibrate.run import COMMAND_PARAMS, MEASURED_PARAMS
 
-        names = [n for n in default_names(robot, train) if n != "shear_modulus"]
+        names = [n for n in default_names(robot, train) if not (coulomb and n == "shear_modulus")]
+        names += ["lateral_shear_ratio"] if lateral else []
         if drive_input != "commanded":
             names = [n for n in names if n not in COMMAND_PARAMS] + list(MEASURED_PARAMS)
     cal = calibrate(train, robot, test=test, n_rollers=rollers, quiet=not sys.stderr.isatty(), drive_input=drive_input,
@@ -433,6 +435,9 @@ def main(argv=None) -> int:
     ap.add_argument("--coulomb", action="store_true",
                     help="the reference calibrations without the shear ground's modulus among the candidates (a "
                          "wheeled robot's default); written to real_robots_coulomb.json and real_robots_coulomb/NAME/")
+    ap.add_argument("--lateral", action="store_true",
+                    help="the reference calibrations with the shear ground's lateral_shear_ratio among the candidates "
+                         "as well; written to real_robots_lateral.json and real_robots_lateral/NAME/")
     ap.add_argument("--starts", action="store_true",
                     help="calibrate each robot from its shipped description and from the public one; write "
                          "start_independence.json (module docstring)")
@@ -443,9 +448,12 @@ def main(argv=None) -> int:
     load0 = os.getloadavg()
     if args.shear_scan:
         return _shear_scan(args, load0)
-    if args.coulomb:
+    if args.coulomb and args.lateral:
+        ap.error("--coulomb and --lateral are two different variants of the reference calibrations: give one")
+    if args.coulomb or args.lateral:
         global RESULT, OUTPUTS
-        RESULT, OUTPUTS = RESULT.with_name("real_robots_coulomb.json"), OUTPUTS.with_name("real_robots_coulomb")
+        variant = "coulomb" if args.coulomb else "lateral"
+        RESULT, OUTPUTS = RESULT.with_name(f"real_robots_{variant}.json"), OUTPUTS.with_name(f"real_robots_{variant}")
     if args.starts and args.agreement_only:
         return _agreement_only(args)
     if args.starts:
@@ -472,7 +480,7 @@ def main(argv=None) -> int:
         if args.diagnose_only:
             r = robots[name]
         else:
-            r = run_robot(name, spec, rollers=args.rollers, coulomb=args.coulomb)
+            r = run_robot(name, spec, rollers=args.rollers, coulomb=args.coulomb, lateral=args.lateral)
         if args.diagnose or args.diagnose_only:
             r["diagnose"] = diagnose_robot(name, spec)
             print(f"== {name}: diagnose --baseline mujoco on the test part against the calibrated robot: "

@@ -71,6 +71,7 @@ QUANTITY = {
     "drive_turn_accel_limit": "largest rate of change the controller gives the half difference of the track speeds",
     # the shear-displacement ground
     "shear_modulus": "shear displacement over which the ground's shear stress builds up (Janosi-Hanamoto K)",
+    "lateral_shear_ratio": "the shear modulus across the track or tyre over the one along it",
     # simulation and logs
     "timestep": "simulation time step",
     "n_rollers": "rollers per track of the simulated chain",

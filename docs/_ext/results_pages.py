@@ -898,6 +898,13 @@ def _calibration() -> Page:
                  for name in coulomb.data["robots"]]
         written += [real.path.parent / "real_robots_coulomb" / name / f for name in coulomb.data["robots"]
                     for f in ("robot.json", "calibration.json", "report.html")]
+    lateral_path = RESULTS / "real_robots_lateral.json"
+    lateral = Source(lateral_path) if lateral_path.exists() else None
+    if lateral is not None:
+        runs += [(f"{name}, with lateral_shear_ratio", real.path.parent / "real_robots_lateral" / name / "calibration.json")
+                 for name in lateral.data["robots"]]
+        written += [real.path.parent / "real_robots_lateral" / name / f for name in lateral.data["robots"]
+                    for f in ("robot.json", "calibration.json", "report.html")]
     for name, path in runs:
         if not path.exists():
             continue
@@ -933,6 +940,26 @@ def _calibration() -> Page:
                   "yes" if r["determined"]["shear_modulus"]["determined"] else "no",
                   number(real, q + "/seconds"), number(coulomb, q + "/seconds"))
         shear_tables.append(t)
+    if lateral is not None:
+        t = Table("What different shear moduli along and across buy the wheeled robots: the reference calibrations "
+                  "with the shear ground's `lateral_shear_ratio` (the modulus across the tyre over the one along it) "
+                  "among the candidates as well (`--lateral`), on the same split: the held-out position error at the "
+                  "window's end [m] after, with and without it, the ratio and the modulus with their intervals where "
+                  "the log determines them.",
+                  ["robot", "after, without the ratio", "after, with it", "ratio", "ratio interval, low",
+                   "ratio interval, high", "ratio determined", "K [m] with it", "seconds with it"])
+        for name, r in lateral.data["robots"].items():
+            if name not in real.data["robots"]:
+                continue
+            q = f"/robots/{name}"
+            iv = r["intervals"].get("lateral_shear_ratio")
+            t.add(name, number(real, q + "/test/after"), number(lateral, q + "/test/after"),
+                  number(lateral, q + "/parameters/lateral_shear_ratio"),
+                  number(lateral, q + "/intervals/lateral_shear_ratio/0") if iv else "–",
+                  number(lateral, q + "/intervals/lateral_shear_ratio/1") if iv else "–",
+                  "yes" if r["determined"]["lateral_shear_ratio"]["determined"] else "no",
+                  number(lateral, q + "/parameters/shear_modulus"), number(lateral, q + "/seconds"))
+        shear_tables.append(t)
     return Page(
         "calibration", "Calibration",
         "What `mjtrack calibrate` finds on logs whose truth is known (the MuJoCo robot's own logs, one change each), "
@@ -940,6 +967,7 @@ def _calibration() -> Page:
         "A parameter the log does not determine keeps its described value and is marked so; intervals carry the "
         "correlation of a log's windows and the measured model-form error of simulating a window from a logged "
         "state.", [bat, *([noisy] if noisy is not None else []), real, *([coulomb] if coulomb is not None else []),
+                   *([lateral] if lateral is not None else []),
                    *([Source(starts_path)] if starts_path.exists() else []), *yaw_sources],
         [*battery, robots, context, speed, params, summaries, *shear_tables, *([yaw] if yaw_sources else []),
          *starts_tables],
@@ -1109,6 +1137,42 @@ def _shear_ground() -> Page:
                   number(rol, base + "/limit_max_diff_over_half_gauge"))
         t.add("all", "no steady state of the reference", number(rol, "/summary/no_reference"), "–", "–", "–")
         tables.append(t)
+    lateral_path = RESULTS / "shear_fidelity_lateral.json"
+    if lateral_path.exists():
+        lat = Source(lateral_path)
+        sources.append(lat)
+        ratios = ", ".join(f"{v:g}" for v in lat.data["lateral_shear_ratios"])
+        t = Table(f"Different moduli along and across: the same grid with the shear modulus across the track or tyre "
+                  f"{ratios} times the one along it (`lateral_shear_ratio`; MuJoCo's contacts on the track's tangent "
+                  f"frames), each case against the reference with that ratio, and at K = "
+                  f"{lat.data['limit'][0]['shear_modulus']:g} m against the robot on the Coulomb ground with the same "
+                  f"contacts. Errors over half the gauge T/2; cases the reference has no steady state for are left out "
+                  f"and counted.", ["robots", "check", "cases", "passed", "tolerance / (T/2)", "worst / (T/2)"])
+        for traction, label in (("tracks", "roller chain"), ("wheels", "wheels")):
+            if traction not in lat.data["summary"]:
+                continue
+            base = f"/summary/{traction}"
+            if traction == "wheels":
+                t.add(label, "against the one-point-contact reference", number(lat, base + "/cases"),
+                      number(lat, base + "/passed_point"), number(lat, "/tolerance_over_half_gauge"),
+                      number(lat, base + "/max_err_point_over_half_gauge"))
+            else:
+                t.add(label, "against the reference", number(lat, base + "/cases"), number(lat, base + "/passed"),
+                      number(lat, "/tolerance_over_half_gauge"), number(lat, base + "/max_err_over_half_gauge"))
+            t.add(label, "K -> 0 against the Coulomb robot", number(lat, base + "/limit_cases"),
+                  number(lat, base + "/limit_passed"), number(lat, "/limit_tolerance_over_half_gauge"),
+                  number(lat, base + "/limit_max_diff_over_half_gauge"))
+        t.add("all", "no steady state of the reference", number(lat, "/summary/no_reference"), "–", "–", "–")
+        worst = Table("The cases of that grid outside the tolerance (the wheels against the one-point-contact "
+                      "reference, the roller chain against its reference): where the two part.",
+                      ["robot", "v_left [m/s]", "v_right [m/s]", "K [m]", "ratio", "error / (T/2)"])
+        for i, c in enumerate(lat.data["cases"]):
+            key = "err_point_over_half_gauge" if c["traction"] == "wheels" else "err_over_half_gauge"
+            if c[key] > lat.data["tolerance_over_half_gauge"]:
+                q = f"/cases/{i}"
+                worst.add(c["geometry"], number(lat, q + "/v_left"), number(lat, q + "/v_right"),
+                          number(lat, q + "/shear_modulus"), number(lat, q + "/lateral_shear_ratio"), number(lat, q + "/" + key))
+        tables += [t, worst]
     runs = Table("The runs: seconds and the machine's one-minute load average before and after.", ["run", "value"])
     runs.add("fidelity grid: seconds", number(fid, "/elapsed_s"))
     runs.add("fidelity grid: load before", number(fid, "/load_before/0"))
@@ -1117,6 +1181,10 @@ def _shear_ground() -> Page:
         runs.add("roller-chain and wheels grid: seconds", number(rol, "/elapsed_s"))
         runs.add("roller-chain and wheels grid: load before", number(rol, "/load_before/0"))
         runs.add("roller-chain and wheels grid: load after", number(rol, "/load_after/0"))
+    if lateral_path.exists():
+        runs.add("grid with moduli along and across: seconds", number(lat, "/elapsed_s"))
+        runs.add("grid with moduli along and across: load before", number(lat, "/load_before/0"))
+        runs.add("grid with moduli along and across: load after", number(lat, "/load_after/0"))
     classes = sel.data["robots"][next(iter(sel.data["robots"]))]["turn_classes"]
     header = ["robot", "ground", "K [m]", "f_r", "length factor", "on a bound", "held-out class gap (RMS)"]
     for lo, hi in classes:

@@ -209,6 +209,10 @@ def phrase(name: str, value: float, described: float, *, wheels: bool = False, m
     if name == "shear_modulus":
         return (f"its ground's friction builds up with slip as a shear ground's of modulus {value:.{n}g} m (described "
                 f"{described:.{n}g} m{', Coulomb' if described == 0 else ''}): its slip depends on the turn")
+    if name == "lateral_shear_ratio":
+        return (f"the shear modulus across its {runner} is {value:.{n}g} times the one along them (described "
+                f"{described:.{n}g}): their sideways grip builds up {'more slowly' if value > 1 else 'faster'} with "
+                "slip than their forward grip")
     if name in ("concentration", "span"):
         return f"its load sits on its road wheels differently ({name} {value:.{n}g}, described {described:.{n}g})"
     return f"{name} is {value:.{n4}g}, not {described:.{n4}g}"

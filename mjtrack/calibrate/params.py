@@ -84,15 +84,21 @@ def _specs(robot: Robot) -> dict[str, ParamSpec]:
         # resolution 5 mm: at K = 0.05 m it moves a four-wheeler's steady ICR y by about 1 % of T/2
         ParamSpec("shear_modulus", 0.0, 0.5, 0.02, 0.005, "m", "ground",
                   "shear modulus K of the shear ground: friction builds up as mu (1 - exp(-j/K)); 0: Coulomb"),
+        # resolution 0.1: at K = 0.01 m it moves a four-wheeler's steady yaw ratio by about 0.01
+        ParamSpec("lateral_shear_ratio", 0.1, 10.0, 0.5, 0.1, "–", "ground",
+                  "shear ground: modulus across the track or tyre / modulus along it; 1: isotropic"),
         ParamSpec("concentration", 0.0, 0.95, 0.1, 0.05, "–", "ground", "share of the load on the road wheels (road_wheels ground)"),
         ParamSpec("span", 0.05, 1.0, 0.1, 0.05, "–", "ground", "road-wheel span / contact length (road_wheels ground)"),
     )}
 
 
 GROUND_PARAMS = {"anisotropic": ("lateral_ratio",), "road_wheels": ("concentration", "span"), "coulomb": (),
-                 "shear": ("shear_modulus",)}
+                 "shear": ("shear_modulus", "lateral_shear_ratio")}
 #: ground parameters a robot of another ground may fit too (named in --params): K = 0 is the Coulomb ground
-EXTENDS_COULOMB = {"shear_modulus": "coulomb"}
+EXTENDS_COULOMB = {"shear_modulus": "coulomb", "lateral_shear_ratio": "coulomb"}
+#: candidates that need the window simulator built with the track's contact frames
+#: (:func:`mjtrack.sim.ground.framed_robot`)
+FRAMED_PARAMS = ("lateral_shear_ratio",)
 #: every cause a user meets on a drive log, fitted unless --params names others; identifiability,
 #: not this list, decides what stays (:mod:`mjtrack.calibrate.identify`). Plus the ground model's
 #: parameters, and the slope where the log's poses share one world frame.
@@ -103,6 +109,8 @@ SLOPE_PARAMS = ("slope_x", "slope_y")
 #: Warthog log the calibration determines K = 0.02 m and the held-out error and every turn class's
 #: yaw ratio improve; on the Husky's it determines K at the Coulomb value
 #: (benchmarks/real_robots.py, results page "Calibration"). A tracked robot fits it when named.
+#: ``lateral_shear_ratio`` is fitted when named (``benchmarks/real_robots.py --lateral`` measures what
+#: it buys the wheeled robots, the same page).
 WHEELED_DEFAULTS = ("shear_modulus",)
 #: first values of drivetrain keys that the robot file lacks (a value on a bound stalls the fit)
 DRIVE_START = {"drive_lag": 0.05, "drive_delay": 0.02, "track_speed_scale": 1.0}
@@ -166,9 +174,10 @@ def default_names(robot: Robot, log: DriveLog | None = None) -> list[str]:
     names = [geometry_name(robot) if n == "track_length" else n for n in DEFAULT_PARAMS]
     if log is not None and one_frame(log):
         names.extend(SLOPE_PARAMS)
-    names.extend(GROUND_PARAMS.get(robot.ground.model, ()))
-    if robot.traction == "wheels" and robot.ground.model == "coulomb":
-        names.extend(WHEELED_DEFAULTS)
+    ground = [n for n in GROUND_PARAMS.get(robot.ground.model, ()) if n not in FRAMED_PARAMS]
+    names.extend(ground)
+    if robot.traction == "wheels" and robot.ground.model in ("coulomb", "shear"):
+        names.extend(n for n in WHEELED_DEFAULTS if n not in ground)
     return names
 
 
@@ -218,6 +227,8 @@ def described_values(robot: Robot, names: list[str], config: SimConfig) -> dict[
             v = current.get(n) or drive_of(robot, config).force_limit
         elif n == "shear_modulus":
             v = current.get(n) or 0.0  # a Coulomb ground: K = 0
+        elif n == "lateral_shear_ratio":
+            v = current.get(n) or 1.0  # a Coulomb ground: isotropic
         else:
             v = current.get(n)
         out[n] = float(v)

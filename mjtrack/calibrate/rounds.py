@@ -118,7 +118,8 @@ def model_form_sources(obj, values: dict[str, float], resid: np.ndarray, jac: np
     out, size = [], {}
     if refine:
         finer = config.replace(timestep=config.timestep / 2, n_rollers=max(config.n_rollers, SimConfig().n_rollers))
-        r_fine = obj.residuals_of([wp], one=True, sim=WindowSim(robot, finer, resisted=obj.sim.resisted))
+        r_fine = obj.residuals_of([wp], one=True, sim=WindowSim(robot, finer, resisted=obj.sim.resisted,
+                                                                       framed=obj.sim.framed))
         out.append(ModelFormSource("simulator", jac.T @ (r_fine - resid)))
         size["simulator"] = float(np.sqrt(np.sum((r_fine - resid) ** 2)))
     if obj.warmup_s > 0:

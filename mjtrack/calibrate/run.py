@@ -34,8 +34,8 @@ from mjtrack.calibrate.causes import (Cause, find_causes, implausibility, on_bou
                                      traction_limit)
 from mjtrack.calibrate.drivetrain import chain_robot, fit_chain, has_measured_speeds, predicted_drive_log
 from mjtrack.calibrate.identify import fmt_value
-from mjtrack.calibrate.params import (described_values, geometry_name, parse_names, specs_for, start_values,
-                                     window_params)
+from mjtrack.calibrate.params import (FRAMED_PARAMS, described_values, geometry_name, parse_names, specs_for,
+                                     start_values, window_params)
 from mjtrack.calibrate.start import suggested_length
 from mjtrack.errors import InputError
 from mjtrack.io.jsonfile import json_value
@@ -108,9 +108,13 @@ def calibrated_robot(robot: Robot, values: dict[str, float], config: SimConfig,
     if "lateral_ratio" in wp:
         fields["ground"] = type(r.ground)(r.ground.model, tuple({**dict(r.ground.params),
                                                                   "lateral_ratio": wp["lateral_ratio"]}.items()))
-    if "shear_modulus" in wp:  # K > 0: the shear ground (from a Coulomb one too); 0: Coulomb
-        K = float(wp["shear_modulus"])
-        fields["ground"] = type(r.ground)("shear", (("shear_modulus", K),)) if K > 0 else type(r.ground)("coulomb")
+    if "shear_modulus" in wp or "lateral_shear_ratio" in wp:
+        # K > 0: the shear ground (from a Coulomb one too), with its ratio; K = 0: Coulomb, any ratio
+        own = dict(r.ground.params) if r.ground.model == "shear" else {"shear_modulus": 0.0, "lateral_shear_ratio": 1.0}
+        K = float(wp.get("shear_modulus", own["shear_modulus"]))
+        ratio = float(wp.get("lateral_shear_ratio", own["lateral_shear_ratio"]))
+        fields["ground"] = (type(r.ground)("shear", (("lateral_shear_ratio", ratio), ("shear_modulus", K))) if K > 0
+                            else type(r.ground)("coulomb"))
     r = r.replace(**fields)
     extra = dict(r.extra)
     for k in DRIVE_DEFAULTS:
@@ -586,7 +590,8 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
     with clock.stage("prepare"):
         pb = _prepare(train, robot, test, names, horizon_s=horizon_s, n_rollers=n_rollers,
                       keep_contradicting=keep_contradicting, src=src, test_src=test_src)
-        sim = WindowSim(robot, pb.config, resisted="rolling_resistance" in pb.names)
+        sim = WindowSim(robot, pb.config, resisted="rolling_resistance" in pb.names,
+                        framed=any(n in FRAMED_PARAMS for n in pb.names))
     fx = Fitter(sim=sim, train=train, names=pb.names, described=pb.described, config=pb.config, max_iter=max_iter,
                  nthread=nthread, warmup_s=warmup_s, meter=meter, rounds=rounds,
                  undescribed=undescribed(robot, pb.names))

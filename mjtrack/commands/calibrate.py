@@ -21,11 +21,12 @@ the uphill direction in the log's frame), drive_force_limit, mu_left, mu_right (
 mu_ratio); with robot key ground {"model": "anisotropic"}: lateral_ratio; with
 {"model": "road_wheels"}: concentration, span; with {"model": "shear"} or the default Coulomb
 ground: shear_modulus (K of the shear ground, 0 is Coulomb; a robot calibrated to K > 0 stands on
-the shear ground). Default: mu, mu_ratio, cg_x, cg_y, track_length,
+the shear ground), lateral_shear_ratio (the shear modulus across the tracks or tyres over the one
+along them; 1 is isotropic). Default: mu, mu_ratio, cg_x, cg_y, track_length,
 drive_lag, drive_delay, track_speed_scale, plus slope_x, slope_y when the log's segments share one
-world frame, plus the ground model's parameters, plus rolling_resistance (the ground holding each
-side back by a share of its weight), plus shear_modulus for a wheeled robot on the Coulomb ground
-(its tyres' shear: 0 keeps it Coulomb). A long log is fitted on --fit-windows windows spread over it.
+world frame, plus the ground model's parameters (on the shear ground: shear_modulus), plus
+rolling_resistance (the ground holding each side back by a share of its weight), plus shear_modulus
+for a wheeled robot on the Coulomb ground (its tyres' shear: 0 keeps it Coulomb). A long log is fitted on --fit-windows windows spread over it.
 Windows the ground cannot explain are left out of the fit and of every score unless
 --keep-contradicting is given: poses that move against the tracks (a jumped localisation, a speed of
 the wrong sign), and a robot held still while a track runs under it (an obstacle, a rut).

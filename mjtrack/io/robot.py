@@ -107,8 +107,9 @@ GROUND_MODELS: dict[str, dict[str, tuple[float, float, float]]] = {
     # friction anisotropic in the track's frame: lateral / longitudinal coefficient (mu is longitudinal)
     "anisotropic": {"lateral_ratio": (0.5, 0.05, 1.0)},
     # Janosi-Hanamoto shear: friction builds up as mu (1 - exp(-j/K)) with the shear displacement j
-    # [m]; shear_modulus K [m], 0 = coulomb (docs/theory/shear.md)
-    "shear": {"shear_modulus": (0.01, 0.0, 0.5)},
+    # [m]; shear_modulus K [m], 0 = coulomb; lateral_shear_ratio: the modulus across the track or
+    # tyre over the one along it (1: isotropic; docs/theory/shear.md, "Different moduli along and across")
+    "shear": {"shear_modulus": (0.01, 0.0, 0.5), "lateral_shear_ratio": (1.0, 0.1, 10.0)},
 }
 
 

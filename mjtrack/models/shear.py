@@ -24,6 +24,14 @@ A stopped track (V_s = 0) has slid forever: saturated (Coulomb) where it slides.
 Wheels (S3). A wheel's tyre is a short track: its load is spread evenly over a contact patch of
 ``patch_length`` centred under the axle, the elements entering at the patch's front.
 
+Moduli along and across (S6). A tyre's tread or a track's grousers may shear at a different rate
+along the belt than across it (a tyre's longitudinal and cornering stiffness differ). With the
+robot's ground key ``lateral_shear_ratio`` rho_K the friction builds up with modulus K along x and
+rho_K K across (the same displacement j): the limit surface is the ellipse of semi-axes
+mu N b_x, mu N b_y, b_x = 1 - exp(-j/K), b_y = 1 - exp(-j/(rho_K K)), and the force the maximum-
+dissipation one on it, f = -mu N (b_x^2 u_x, b_y^2 u_y) / |(b_x u_x, b_y u_y)| (the MuJoCo robot's
+elliptic cone on the track's tangent frame). rho_K = 1 is (S1); K -> 0 is Coulomb for any rho_K.
+
 Motion resistance (S5). The robot key ``rolling_resistance`` f_r adds, per side, a force
 -f_r W_s tanh(v_s / eps) along x at the middle of the side's contact (0, +-T/2), W_s the weight
 the side carries at rest and v_s that point's velocity along x (a regularised sign, eps =
@@ -103,27 +111,34 @@ class ShearContacts:
         return shear_displacement(self.x, self.y, self.x_entry, V, (vx, vy, wz))
 
     def wrench(self, vx: float, vy: float, wz: float, v_left: float, v_right: float, N: np.ndarray,
-               shear_modulus: float) -> np.ndarray:
-        """(Fx, Fy, Mz) [N, N, N m] about the geometric centre of the shear forces (S1)."""
+               shear_modulus: float, lateral_shear_ratio: float = 1.0) -> np.ndarray:
+        """(Fx, Fy, Mz) [N, N, N m] about the geometric centre of the shear forces (S1, S6)."""
         V = np.where(self.left, v_left, v_right)
         ux, uy = vx - wz * self.y - V, vy + wz * self.x_slide
         nrm = np.hypot(ux, uy)
-        return self._forces(ux, uy, nrm, self.displacement(vx, vy, wz, v_left, v_right), N, shear_modulus)
+        return self._forces(ux, uy, nrm, self.displacement(vx, vy, wz, v_left, v_right), N, shear_modulus,
+                            lateral_shear_ratio)
 
     def wrench_icr(self, wz: float, y_l: float, y_r: float, x_c: float, v_left: float, v_right: float,
-                   N: np.ndarray, shear_modulus: float) -> np.ndarray:
+                   N: np.ndarray, shear_modulus: float, lateral_shear_ratio: float = 1.0) -> np.ndarray:
         """The same wrench written with the ICRs (u_i = wz (y_side - y_i, x_i - x_c)), free of the
         cancellation vx - V_side at nearly equal track speeds."""
         ux = wz * (np.where(self.left, y_l, y_r) - self.y)
         uy = wz * (self.x_slide - x_c)
         vx = v_left + wz * y_l
         return self._forces(ux, uy, np.hypot(ux, uy), self.displacement(vx, -wz * x_c, wz, v_left, v_right),
-                            N, shear_modulus)
+                            N, shear_modulus, lateral_shear_ratio)
 
-    def _forces(self, ux, uy, nrm, j, N, K: float) -> np.ndarray:
+    def _forces(self, ux, uy, nrm, j, N, K: float, ratio: float = 1.0) -> np.ndarray:
         build = shear_factor(j, K)
-        k = np.where(nrm > 0.0, self.mu * N * build / np.where(nrm > 0.0, nrm, 1.0), 0.0)
-        fx, fy = -k * ux, -k * uy
+        if ratio == 1.0:  # (S1)
+            k = np.where(nrm > 0.0, self.mu * N * build / np.where(nrm > 0.0, nrm, 1.0), 0.0)
+            fx, fy = -k * ux, -k * uy
+        else:  # (S6): the maximum-dissipation force on the ellipse of semi-axes mu N (b_x, b_y)
+            across = shear_factor(j, ratio * K)
+            den = np.hypot(build * ux, across * uy)
+            k = np.where(den > 0.0, self.mu * N / np.where(den > 0.0, den, 1.0), 0.0)
+            fx, fy = -k * build ** 2 * ux, -k * across ** 2 * uy
         return np.array([fx.sum(), fy.sum(), np.sum(self.x_slide * fy - self.y * fx)])
 
 
@@ -169,21 +184,35 @@ def shear_modulus_of(robot: Robot, shear_modulus: float | None) -> float:
     return K
 
 
+def lateral_shear_ratio_of(robot: Robot, lateral_shear_ratio: float | None) -> float:
+    """rho_K of (S6): the argument, else the robot's shear ground's ``lateral_shear_ratio`` (1 on
+    another ground)."""
+    if lateral_shear_ratio is None:
+        return float(robot.ground["lateral_shear_ratio"]) if robot.ground.model == "shear" else 1.0
+    r = float(lateral_shear_ratio)
+    if not (np.isfinite(r) and r > 0.0):
+        raise InputError(f"shear: lateral_shear_ratio must be a number > 0, got {lateral_shear_ratio!r}")
+    return r
+
+
 def contact_wrench(robot: Robot, vx: float, vy: float, wz: float, v_left: float, v_right: float, *,
                    shear_modulus: float | None = None, n_points: int = DEFAULT_N_POINTS,
-                   patch_length: float | None = None, accel=(0.0, 0.0)) -> np.ndarray:
+                   patch_length: float | None = None, accel=(0.0, 0.0),
+                   lateral_shear_ratio: float | None = None) -> np.ndarray:
     """Body-frame shear wrench (Fx [N], Fy [N], Mz [N m] about the geometric centre), shape (3,),
     at the twist (vx, vy, wz) in a steady turn (the shear displacements (S2) assume it), with the
     loads of the CoM acceleration ``accel`` [m/s^2]."""
     K = shear_modulus_of(robot, shear_modulus)
     c = ShearContacts(robot, n_points=n_points, patch_length=patch_length)
-    return c.wrench(vx, vy, wz, float(v_left), float(v_right), c.loads(accel), K)
+    return c.wrench(vx, vy, wz, float(v_left), float(v_right), c.loads(accel), K,
+                    lateral_shear_ratio_of(robot, lateral_shear_ratio))
 
 
 def steady_state(robot: Robot, v_left: float, v_right: float, *, shear_modulus: float | None = None,
                  inertial: bool = True, load_transfer: bool = True, n_points: int = DEFAULT_N_POINTS,
                  patch_length: float | None = None, start: SteadyState | None = None,
-                 tol: float = 1e-12, point_contact: bool = False) -> SteadyState:
+                 tol: float = 1e-12, point_contact: bool = False,
+                 lateral_shear_ratio: float | None = None) -> SteadyState:
     """Steady twist and ICRs for constant track speeds v_left, v_right [m/s] on the shear ground (S4).
 
     ``shear_modulus`` K [m] (default: the robot's ground parameter); K = 0 is the Coulomb
@@ -194,9 +223,11 @@ def steady_state(robot: Robot, v_left: float, v_right: float, *, shear_modulus: 
     the same speeds to start from (default: the Coulomb reference's, solved here). ``point_contact``
     (wheels): each wheel touches at one point under its axle, as MuJoCo's sphere does: every point
     of its patch slides as that point and its force acts there, with the shear the patch built up
-    (docs/theory/shear.md, "In MuJoCo").
+    (docs/theory/shear.md, "In MuJoCo"). ``lateral_shear_ratio``: rho_K of (S6) (default the
+    robot's ground parameter, 1 on another ground).
     """
     K = shear_modulus_of(robot, shear_modulus)
+    rho = lateral_shear_ratio_of(robot, lateral_shear_ratio)
     vl, vr = float(v_left), float(v_right)
     if not (np.isfinite(vl) and np.isfinite(vr)):
         raise InputError(f"shear: track speeds must be finite, got {v_left!r}, {v_right!r}")
@@ -220,7 +251,7 @@ def steady_state(robot: Robot, v_left: float, v_right: float, *, shear_modulus: 
         cx, cy = robot.cg_x, robot.cg_y
         acc = np.array([-wz * (vy + wz * cx), wz * (vx - wz * cy)]) if m > 0 else np.zeros(2)
         N = c.loads(acc) if (load_transfer and m > 0) else N_static
-        Fx, Fy, Mz = c.wrench_icr(wz, *(q * T), vl, vr, N, k)
+        Fx, Fy, Mz = c.wrench_icr(wz, *(q * T), vl, vr, N, k, rho)
         if resist.any():  # (S5): at (0, y_s), against that point's velocity along x, v_s + wz (y_icr_s - y_s)
             ground_v = np.array([vl, vr]) + wz * (q[:2] * T - side_y)
             fx = -resist * np.tanh(ground_v / RESISTANCE_EPS)

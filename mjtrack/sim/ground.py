@@ -36,7 +36,11 @@ measurements: ``assets/README.md`` ("Ground models").
   before every step (:class:`ShearFriction`, the twist low-passed over ``TWIST_FILTER_S``); the
   roller chain and the wheels, which run through ``mujoco.rollout``, before every chunk of
   ``SHEAR_UPDATE_S``, each rollout on its own model copy (:class:`ShearChunks`; a wheel's pair
-  takes the mean over its tyre's contact patch, S3).
+  takes the mean over its tyre's contact patch, S3). With ``lateral_shear_ratio`` rho_K != 1 the
+  friction builds up with modulus K along the track or tyre and rho_K K across it (S6): each pair
+  gets (mu (1 - exp(-j/(rho_K K))), mu (1 - exp(-j/K))) on the tangent frame of the anisotropic
+  ground's capsules (:func:`track_frames`), whose elliptic cone gives the maximum-dissipation
+  force on that ellipse.
 """
 
 from __future__ import annotations
@@ -80,8 +84,11 @@ def load_shares(robot: Robot, roller_x: np.ndarray) -> np.ndarray:
 
 def require_supported(robot: Robot, config: SimConfig) -> None:
     """Refuse a ground model that the chosen track model does not realise (surfacevel: coulomb and
-    shear; the roller chain and the wheels: all)."""
+    isotropic shear; the roller chain and the wheels: all)."""
     if robot.ground.model == "shear":
+        if config.track_model != "rollers" and robot.ground["lateral_shear_ratio"] != 1.0:
+            raise InputError(f"robot: the shear ground's lateral_shear_ratio != 1 is built for the roller chain and the "
+                             f"wheels only (track model {config.track_model!r} has the isotropic shear ground)")
         return
     if config.track_model != "rollers" and not robot.ground.is_default:
         raise InputError(f"robot: ground model {robot.ground.model!r} is built for the roller chain only "
@@ -98,7 +105,42 @@ def apply_ground(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> mujoco
         _road_wheels(spec, robot, config)
     elif model == "anisotropic":
         _anisotropic(spec, robot, config)
+    elif model == "shear" and framed(robot):
+        track_frames(spec, robot, config)
     return spec
+
+
+def framed(robot: Robot) -> bool:
+    """Whether the robot's contact pairs need the track's tangent frame (:func:`track_frames`):
+    an anisotropic ground, or a shear ground whose moduli differ along and across."""
+    g = robot.ground
+    return g.model == "anisotropic" or (g.model == "shear" and g["lateral_shear_ratio"] != 1.0)
+
+
+def track_frames(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> None:
+    """Turn each roller (wheel) into a capsule of the same radius along its spin axis, so that its
+    pair's first tangent is across the track (module docstring, ``anisotropic``)."""
+    r = config.roller_radius  # (the wheel radius on a wheeled robot: its configured SimConfig)
+    element = "wheel" if robot.traction == "wheels" else "roller"
+    for side in SIDES:
+        for i in range(config.n_rollers):
+            geom = spec.geom(f"{element}_{side}_{i}")
+            geom.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+            geom.size = [r, CAPSULE_HALF, 0.0]
+            geom.quat = [math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0]  # capsule z-axis -> body y
+
+
+def framed_robot(robot: Robot) -> Robot:
+    """The robot to compile when variants may set a ``lateral_shear_ratio``: on a shear ground of
+    its own K (Coulomb: K = 0) with the track's contact frames (a ratio marks it; each variant's
+    friction is set per chunk by :class:`ShearChunks`, which reads its ratio from the variant or
+    from the robot itself, never from this build)."""
+    if framed(robot):
+        return robot
+    if robot.ground.model not in ("shear", "coulomb"):
+        raise InputError(f"robot: a lateral_shear_ratio needs the shear or the Coulomb ground, not {robot.ground.model!r}")
+    K = robot.ground["shear_modulus"] if robot.ground.model == "shear" else 0.0
+    return robot.replace(ground={"model": "shear", "shear_modulus": K, "lateral_shear_ratio": 2.0})
 
 
 def _road_wheels(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> None:
@@ -116,14 +158,9 @@ def _road_wheels(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> None:
 
 def _anisotropic(spec: mujoco.MjSpec, robot: Robot, config: SimConfig) -> None:
     rho = robot.ground["lateral_ratio"]
-    r = config.roller_radius  # (the wheel radius on a wheeled robot: its configured SimConfig)
-    element = "wheel" if robot.traction == "wheels" else "roller"
+    track_frames(spec, robot, config)
     for side, mu in (("left", robot.friction_left), ("right", robot.friction_right)):
         for i in range(config.n_rollers):
-            geom = spec.geom(f"{element}_{side}_{i}")
-            geom.type = mujoco.mjtGeom.mjGEOM_CAPSULE
-            geom.size = [r, CAPSULE_HALF, 0.0]
-            geom.quat = [math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0]  # capsule z-axis -> body y
             pair = spec.pair(f"contact_{side}_{i}")
             pair.friction = [rho * mu, mu, 0.0, 0.0, 0.0]
 
@@ -174,12 +211,24 @@ class ShearChunks:
     (``DEFAULT_PATCH_LENGTH`` centred under the axle, entered at its front), as the reference's (S3).
 
     ``model``: the compiled robot (or a variant: its pair friction is the Coulomb mu_side);
-    ``shear_modulus``: K [m] (default the robot's ground parameter).
+    ``shear_modulus``: K [m] (default the robot's ground parameter); ``lateral_shear_ratio``: the
+    modulus across over the one along (default the robot's ground parameter, 1 on another ground);
+    other than 1 it needs a model with the track's contact frames (:func:`framed_robot`).
     """
 
-    def __init__(self, model: mujoco.MjModel, robot: Robot, shear_modulus: float | None = None) -> None:
+    def __init__(self, model: mujoco.MjModel, robot: Robot, shear_modulus: float | None = None,
+                 lateral_shear_ratio: float | None = None) -> None:
         n = sum(model.pair(i).name.startswith("contact_left_") for i in range(model.npair))  # elements a side
         self.K = float(robot.ground["shear_modulus"] if shear_modulus is None else shear_modulus)
+        if lateral_shear_ratio is None:
+            lateral_shear_ratio = robot.ground["lateral_shear_ratio"] if robot.ground.model == "shear" else 1.0
+        self.ratio = float(lateral_shear_ratio)
+        if not (math.isfinite(self.ratio) and self.ratio > 0):
+            raise InputError(f"windows: lateral_shear_ratio must be a number > 0, got {lateral_shear_ratio!r}")
+        element = "wheel" if robot.traction == "wheels" else "roller"
+        if self.ratio != 1.0 and model.geom(f"{element}_left_0").type != mujoco.mjtGeom.mjGEOM_CAPSULE:
+            raise InputError("windows: a lateral_shear_ratio other than 1 needs a robot built with the track's "
+                             "contact frames (mjtrack.sim.ground.framed_robot)")
         self.every = max(1, int(round(SHEAR_UPDATE_S / model.opt.timestep)))
         self.pairs = np.array([model.pair(f"contact_{s}_{i}").id for s in SIDES for i in range(n)])
         self.mu = model.pair_friction[self.pairs, 1].copy()  # the longitudinal (isotropic) Coulomb mu
@@ -205,8 +254,9 @@ class ShearChunks:
         element = "wheel" if robot.traction == "wheels" else "roller"
         self.radius = float(model.geom(f"{element}_left_0").size[0])  # the roller's (wheel's) radius
 
-    def friction(self, states: np.ndarray) -> np.ndarray:
-        """(M, npairs) the pairs' friction for rollouts at ``states`` (M, nstate)."""
+    def friction(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(M, npairs) the pairs' friction across and along the track for rollouts at ``states`` (M,
+        nstate) (the same array twice when the moduli are equal)."""
         q = states[:, self.quat]
         yaw = np.arctan2(2 * (q[:, 0] * q[:, 3] + q[:, 1] * q[:, 2]), 1 - 2 * (q[:, 2] ** 2 + q[:, 3] ** 2))
         c, s = np.cos(yaw), np.sin(yaw)
@@ -217,15 +267,21 @@ class ShearChunks:
         side = np.where(np.abs(side) < STOPPED_SPEED, 0.0, side)
         V = np.where(self.left[None], side[:, :1], side[:, 1:])
         j = shear_displacement(self.x, self.y, self.x_entry, V, (vx[:, None], vy[:, None], wz[:, None]))
-        build = shear_factor(j, self.K).reshape(len(states), -1, self.points).mean(axis=2)
-        return self.mu[None] * np.maximum(build, FRICTION_FLOOR)
+
+        def mu_of(K):
+            build = shear_factor(j, K).reshape(len(states), -1, self.points).mean(axis=2)
+            return self.mu[None] * np.maximum(build, FRICTION_FLOOR)
+
+        along = mu_of(self.K)
+        return (along if self.ratio == 1.0 else mu_of(self.ratio * self.K)), along
 
     def apply(self, models, states: np.ndarray) -> None:
-        """Set each of ``models`` (one per rollout, copies) to the friction of its state."""
-        mu = self.friction(states)
-        for m, row in zip(models, mu):
-            m.pair_friction[self.pairs, 0] = row
-            m.pair_friction[self.pairs, 1] = row
+        """Set each of ``models`` (one per rollout, copies) to the friction of its state (first
+        tangent: across the track on the capsules of :func:`track_frames`; equal on a sphere)."""
+        across, along = self.friction(states)
+        for m, a, b in zip(models, across, along):
+            m.pair_friction[self.pairs, 0] = a
+            m.pair_friction[self.pairs, 1] = b
 
 
 class _Grounds:
@@ -261,16 +317,17 @@ def batch_ground(grounds, nbatch: int):
 
 
 def chunk_ground(model: mujoco.MjModel, robot: Robot, config: SimConfig,
-                 shear_modulus: float | None = None) -> ShearChunks | None:
+                 shear_modulus: float | None = None, lateral_shear_ratio: float | None = None) -> ShearChunks | None:
     """The roller chain's or the wheels' per-chunk ground update of ``model`` (None: nothing to set):
-    the shear ground of the robot, or of a variant's ``shear_modulus`` K > 0 (K = 0: Coulomb)."""
+    the shear ground of the robot, or of a variant's ``shear_modulus`` K > 0 (K = 0: Coulomb), with
+    the variant's ``lateral_shear_ratio`` (default the robot's)."""
     if config.track_model != "rollers":
         return None
     if shear_modulus is not None and not (math.isfinite(shear_modulus) and shear_modulus >= 0.0):
         raise InputError(f"windows: shear_modulus must be a number >= 0 [m], got {shear_modulus!r}")
     if shear_modulus is None:
-        return ShearChunks(model, robot) if robot.ground.model == "shear" else None
-    return ShearChunks(model, robot, shear_modulus) if shear_modulus > 0 else None
+        return ShearChunks(model, robot, None, lateral_shear_ratio) if robot.ground.model == "shear" else None
+    return ShearChunks(model, robot, shear_modulus, lateral_shear_ratio) if shear_modulus > 0 else None
 
 
 def ground_stepper(model: mujoco.MjModel, robot: Robot, config: SimConfig) -> ShearFriction | None:

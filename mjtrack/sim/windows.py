@@ -45,7 +45,7 @@ from mjtrack.sim.chassis import (chassis_mass_properties, resistance_forces, set
                                  set_rest_springs)
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import controller_stages
-from mjtrack.sim.ground import chunk_ground
+from mjtrack.sim.ground import chunk_ground, framed_robot
 from mjtrack.sim.rollout import STATE_SPEC, SensorMap, aligned_rollout, collected_mujoco_warnings, settled_state, yaw_of
 from mjtrack.windows.define import WindowSet, start_speeds, start_twists, window_errors
 from mjtrack.windows.params import WINDOW_PARAMS, drive_params, geometry_robot, robot_params, slope_of
@@ -65,10 +65,12 @@ class WindowSim:
     that variants may set one (a lag of 0 is then simulated as :data:`MIN_LAG`).
     ``resisted``: compile the motion resistance's actuators even if the robot has none, so that
     variants may set ``rolling_resistance`` (at 0 they apply no force).
+    ``framed``: compile the contacts with the track's tangent frames
+    (:func:`mjtrack.sim.ground.framed_robot`), so that variants may set ``lateral_shear_ratio``.
     """
 
     def __init__(self, robot: Robot, config: SimConfig | None = None, *, lagged: bool = True,
-                 resisted: bool = False) -> None:
+                 resisted: bool = False, framed: bool = False) -> None:
         config = config or SimConfig()
         if config.track_model != "rollers":
             raise InputError("windows: only the 'rollers' track model can be batched through mujoco.rollout "
@@ -81,9 +83,12 @@ class WindowSim:
         built = self.tracks.configure(robot, config)  # the settings the model is built with
         self.built_config = built
         resisted = resisted or robot.rolling_resistance > 0
-        # built with some resistance so that the actuators exist; every variant sets its own
-        self.model = build_model(robot.replace(rolling_resistance=max(robot.rolling_resistance, 0.1))
-                                 if resisted else robot, config)
+        # built with some resistance so that the actuators exist; every variant sets its own (and
+        # framed: with the track's contact frames; each variant's shear friction is set per chunk)
+        built_robot = framed_robot(robot) if framed else robot
+        self.model = build_model(built_robot.replace(rolling_resistance=max(robot.rolling_resistance, 0.1))
+                                 if resisted else built_robot, config)
+        self.framed = framed
         m = self.model
         self.dt = float(m.opt.timestep)
         self.smap = SensorMap.of(m)
@@ -119,7 +124,8 @@ class WindowSim:
         if key not in self._builds:
             if len(self._builds) >= 24:
                 self._builds.pop(next(iter(self._builds)))
-            self._builds[key] = WindowSim(robot, self.config, lagged=self._lagged, resisted=self.resisted)
+            self._builds[key] = WindowSim(robot, self.config, lagged=self._lagged, resisted=self.resisted,
+                                          framed=self.framed)
         return self._builds[key]
 
     # -- variants ---------------------------------------------------------------------------------
@@ -419,7 +425,8 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
             if delay < 0 or not scale > 0:
                 raise InputError(f"windows: drive_delay must be >= 0 and track_speed_scale > 0, got {delay!r}, {scale!r}")
             # the shear ground's friction, set per chunk (the robot's own, or the variant's K; 0: Coulomb)
-            ground = chunk_ground(model, vsim.robot, vsim.config, params.get("shear_modulus"))
+            ground = chunk_ground(model, vsim.robot, vsim.config, params.get("shear_modulus"),
+                                  params.get("lateral_shear_ratio"))
             if warmup_s > 0:
                 state0 = warm_states(vsim, model, log, ws, rest, state0, twists, warmup_s, delay=delay, scale=scale,
                                      datas=datas, ground=ground)

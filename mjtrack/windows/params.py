@@ -19,9 +19,11 @@ from mjtrack.io.robot import Robot
 #: ``slope_x``, ``slope_y``: an inclined ground as the gravity of the plane, a = sin(slope) times
 #: the uphill unit vector in the log's world frame, the log's x, y read as in-plane coordinates;
 #: ``shear_modulus``: the shear ground's K, its friction set before each chunk of a rollout by
-#: :class:`mjtrack.sim.ground.ShearChunks`, 0 the Coulomb ground, on a robot of either ground)
+#: :class:`mjtrack.sim.ground.ShearChunks`, 0 the Coulomb ground, on a robot of either ground;
+#: ``lateral_shear_ratio``: its modulus across over the one along, on a robot built with the
+#: track's contact frames, :func:`mjtrack.sim.ground.framed_robot`)
 MODEL_PARAMS = ("mu", "mu_left", "mu_right", "cg_x", "cg_y", "drive_lag", "drive_force_limit", "lateral_ratio",
-                "slope_x", "slope_y", "rolling_resistance", "shear_modulus")
+                "slope_x", "slope_y", "rolling_resistance", "shear_modulus", "lateral_shear_ratio")
 #: parameters applied to the commands
 COMMAND_PARAMS = ("drive_delay", "track_speed_scale")
 #: parameters that change the model's structure: a robot rebuilt per distinct value (contact
@@ -52,7 +54,7 @@ def robot_params(robot: Robot) -> dict[str, float | None]:
             "cg_x": robot.cg_x, "cg_y": robot.cg_y, **drive_params(robot), "track_length": robot.track_length,
             "wheelbase": robot.wheelbase, "lateral_ratio": g.get("lateral_ratio"), "concentration": g.get("concentration"),
             "span": g.get("span"), "slope_x": 0.0, "slope_y": 0.0, "rolling_resistance": robot.rolling_resistance,
-            "shear_modulus": g.get("shear_modulus")}
+            "shear_modulus": g.get("shear_modulus"), "lateral_shear_ratio": g.get("lateral_shear_ratio")}
 
 
 def slope_of(params: Mapping[str, float | None]) -> tuple[float, float]:
