@@ -109,8 +109,9 @@ SLOPE_PARAMS = ("slope_x", "slope_y")
 #: Warthog log the calibration determines K = 0.02 m and the held-out error and every turn class's
 #: yaw ratio improve; on the Husky's it determines K at the Coulomb value
 #: (benchmarks/real_robots.py, results page "Calibration"). A tracked robot fits it when named.
-#: ``lateral_shear_ratio`` is fitted when named (``benchmarks/real_robots.py --lateral`` measures what
-#: it buys the wheeled robots, the same page).
+#: ``lateral_shear_ratio`` is fitted when named: the Warthog's log determines it and its held-out
+#: error falls a little, the Husky's leaves it undetermined and its gentle turns further off
+#: (``benchmarks/real_robots.py --lateral``, the same page).
 WHEELED_DEFAULTS = ("shear_modulus",)
 #: first values of drivetrain keys that the robot file lacks (a value on a bound stalls the fit)
 DRIVE_START = {"drive_lag": 0.05, "drive_delay": 0.02, "track_speed_scale": 1.0}
