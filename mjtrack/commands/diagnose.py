@@ -3,7 +3,8 @@
 friction_scale, mu_ratio, track_speed_scale, drive_lag, drive_delay, drive_speed_limit, slope,
 icr_spread, drive_turn_limit, drive_accel_limit, and with the MuJoCo baseline ground_anisotropy,
 road_wheels, track_length or wheelbase, rolling_resistance, drive_force_limit, shear_modulus (by default on a
-robot of the shear ground, named with --effects on another) -- or "none"), its estimate with an
+robot of the shear ground, named with --effects on another), lateral_shear_ratio (named with --effects) --
+or "none"), its estimate with an
 interval and the prediction error it removes on held-out data. Writes DIR/diagnosis.json and DIR/report.html.
 
 The robot is LOG.json beside the log unless --robot FILE is given; the other robot options

@@ -79,6 +79,10 @@ def _own_shear(r: Robot) -> float:
     return float(r.ground["shear_modulus"]) if r.ground.model == "shear" else 0.0
 
 
+def _own_ratio(r: Robot) -> float:
+    return float(r.ground["lateral_shear_ratio"]) if r.ground.model == "shear" else 1.0
+
+
 def _own(r: Robot, key: str, default: float) -> float:
     """The robot's own drivetrain value (``drive_lag``, ``drive_delay``, ``track_speed_scale``)."""
     v = drive_params(r)[key]
@@ -108,6 +112,8 @@ CHANGES = {
     "rolling_resistance": "a force holding each side back by this share of its weight (model actuators)",
     "shear_modulus": "the shear ground: each contact pair's friction set before every 20 ms of the rollout to mu "
                      "(1 - exp(-j/K)) of its state (mjtrack.sim.ground.ShearChunks)",
+    "lateral_shear_ratio": "the shear ground's modulus across = ratio x the one along: each pair's friction across and "
+                           "along set per chunk on capsule contacts (the track's frame)",
 }
 UNTESTABLE = {"icr_spread": "not a physical parameter of the MuJoCo robot"}
 # effects that are the robot's own speed controller (:func:`mjtrack.models.drivetrain.twist`, ``ramp``):
@@ -134,6 +140,7 @@ NOMINAL: dict[str, Callable[[Robot, DriveLog], float]] = {
     "wheelbase": lambda r, lg: r.contact_length,
     "rolling_resistance": lambda r, lg: r.rolling_resistance,
     "shear_modulus": lambda r, lg: _own_shear(r),
+    "lateral_shear_ratio": lambda r, lg: _own_ratio(r),
 }
 # the fit's grid of each one-parameter effect (module docstring)
 GRIDS: dict[str, Callable[[Robot, DriveLog], np.ndarray]] = {
@@ -164,9 +171,12 @@ GRIDS: dict[str, Callable[[Robot, DriveLog], np.ndarray]] = {
     # a robot on the shear ground: around its own K, down to Coulomb
     "shear_modulus": lambda r, lg: (np.array([0.0, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2]) if _own_shear(r) == 0.0
                                     else _own_shear(r) * np.array([0.0, 0.25, 0.5, 1.0, 1.5, 2.0, 3.0])),
+    # around the robot's own ratio, a factor 4 each way, geometric (within the robot file's bounds)
+    "lateral_shear_ratio": lambda r, lg: np.clip(_own_ratio(r) * np.geomspace(0.25, 4.0, 7), 0.1, 10.0),
 }
-_SIM_OF = {"ground_anisotropy": "aniso", "road_wheels": "wheels"}
-GEOMETRIC = ("drive_accel_limit", "drive_force_limit")  # grids over decades, fitted in log values
+_SIM_OF = {"ground_anisotropy": "aniso", "road_wheels": "wheels", "lateral_shear_ratio": "framed"}
+# grids over decades, fitted in log values
+GEOMETRIC = ("drive_accel_limit", "drive_force_limit", "lateral_shear_ratio")
 
 
 def can_build(robot: Robot) -> tuple[bool, str]:
@@ -213,7 +223,7 @@ def _spec(robot: Robot, parts) -> tuple[str, dict, float | None]:
             if kind not in ("base", _SIM_OF[name]):
                 raise InputError("diagnose: the anisotropic ground and road wheels cannot be combined in one MuJoCo robot")
             kind = _SIM_OF[name]
-            variant["lateral_ratio" if name == "ground_anisotropy" else "span"] = v
+            variant[{"ground_anisotropy": "lateral_ratio", "road_wheels": "span"}.get(name, name)] = v
         elif name == "drive_speed_limit":
             clip = v if clip is None else min(clip, v)
         elif name in CONTROLLER:
@@ -298,6 +308,10 @@ class MujocoBaseline(Baseline):
         if robot.traction == "wheels":  # the road-wheel ground spreads a track's load; a wheel's is at its axle
             self.untestable = {**UNTESTABLE, "road_wheels": "a wheeled robot carries its load at its axles"}
             del self.vocabulary["road_wheels"]
+        if robot.ground.model not in ("shear", "coulomb"):  # (on the Coulomb ground: beside shear_modulus)
+            self.untestable = {**self.untestable, "lateral_shear_ratio": "the ratio of moduli belongs to the shear "
+                                                                         f"ground, not the {robot.ground.model} one"}
+            del self.vocabulary["lateral_shear_ratio"]
         self.config = config or sim_config(None, robot=robot)
         self.nthread, self.seed = nthread, seed
         # windows the ground cannot explain (poses against the tracks, a robot held still by something the
@@ -361,8 +375,9 @@ class MujocoBaseline(Baseline):
 
     def default_effects(self) -> list[str]:
         """The vocabulary's effects, the shear modulus only for a robot on the shear ground (on another
-        ground it is tested when named: its grid is a sixteenth more rollouts)."""
-        out = super().default_effects()
+        ground it is tested when named: its grid is a sixteenth more rollouts); the ratio of the shear
+        ground's moduli only when named (its contacts on the track's frames are another simulator)."""
+        out = [n for n in super().default_effects() if n != "lateral_shear_ratio"]  # named only (calibrate's too)
         return out if self.robot.ground.model == "shear" else [n for n in out if n != "shear_modulus"]
 
     def simulator_warnings(self) -> list[dict]:
@@ -385,6 +400,8 @@ class MujocoBaseline(Baseline):
             if ground == "aniso":
                 g = r.ground if r.ground.model == "anisotropic" else {"model": "anisotropic", "lateral_ratio": 1.0}
                 self._sims[kind] = WindowSim(r.replace(ground=g), self.config, resisted=True)
+            elif ground == "framed":  # the contacts on the track's frames: each variant sets its ratio
+                self._sims[kind] = WindowSim(r, self.config, resisted=True, framed=True)
             elif ground == "wheels":
                 self._sims[kind] = WindowSim(r.replace(ground={"model": "road_wheels", "wheels": 4,
                                                                "concentration": 0.95, "span": 1.0}), self.config,

@@ -298,7 +298,11 @@ def extended_robot(robot: Robot, effect: str, estimate: dict[str, float]) -> tup
                              mu_right=None if robot.mu_right is None else robot.mu_right * s), {}
     if effect == "mu_ratio":
         return robot.replace(mu_left=robot.friction_right * e["mu_ratio"], mu_right=robot.friction_right), {}
-    if effect == "shear_modulus":
+    if effect == "shear_modulus":  # (a shear ground keeps its ratio of moduli)
         K = e["shear_modulus"]
-        return robot.replace(ground={"model": "shear", "shear_modulus": K} if K > 0 else {"model": "coulomb"}), {}
+        ratio = robot.ground["lateral_shear_ratio"] if robot.ground.model == "shear" else 1.0
+        return robot.replace(ground={"model": "shear", "shear_modulus": K, "lateral_shear_ratio": ratio} if K > 0
+                             else {"model": "coulomb"}), {}
+    if effect == "lateral_shear_ratio" and robot.ground.model == "shear":
+        return robot.replace(ground={**robot.ground.to_dict(), "lateral_shear_ratio": e["lateral_shear_ratio"]}), {}
     return robot, e

@@ -110,6 +110,10 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "displacement j of each contact (Janosi-Hanamoto); 0 is Coulomb",
            "the yaw ratio depends on the turn: Coulomb's is nearly the same in every turn, the log's changes "
            "from gentle to sharp turns"),
+    Effect("lateral_shear_ratio", ("lateral_shear_ratio",), "ground",
+           "the shear ground's modulus across the track or tyre over the one along it [-]; 1 is isotropic",
+           "on a shear ground, the robot turns more easily (ratio above 1) or less than its forward grip "
+           "implies, most in gentle turns"),
 )}
 
 #: old effect / parameter name -> the name it has now
