@@ -560,7 +560,9 @@ class MujocoBaseline(Baseline):
         est = solve(np.flatnonzero(train))
         if not covariance:
             return est
-        boots = np.array([solve(idx) for idx in self._draws(problem, train)])
+        # a draw that took no training block (a short log of few blocks) has no fit: left out, not the
+        # grid's first value that an all-NaN curve's minimiser would give
+        boots = np.array([solve(idx) for idx in self._draws(problem, train) if idx.size])
         dev = boots - est
         return est, np.diag(np.mean(dev ** 2, axis=0))  # bootstrap variance around the estimate
 
