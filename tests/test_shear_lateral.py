@@ -113,7 +113,11 @@ def test_calibrate_fits_the_ratio_of_a_wheeled_robot_and_writes_it():
     # named only: a wheeled robot's defaults and a shear-ground robot's keep the isotropic ground
     assert "lateral_shear_ratio" not in default_names(WHEELED)
     assert "lateral_shear_ratio" not in default_names(Robot().replace(ground={"model": "shear"}))
-    assert parse_names("lateral_shear_ratio", Robot()) == ["lateral_shear_ratio"]
+    # on the Coulomb ground the ratio does nothing unless the modulus is fitted beside it: said, not fitted
+    assert parse_names("shear_modulus,lateral_shear_ratio", Robot()) == ["shear_modulus", "lateral_shear_ratio"]
+    with pytest.raises(InputError, match="acts only on a shear ground"):
+        parse_names("lateral_shear_ratio", Robot())
+    assert parse_names("lateral_shear_ratio", _ground(Robot(), 0.02, 1.0)) == ["lateral_shear_ratio"]
     with pytest.raises(InputError, match="belongs to the 'shear' ground"):
         parse_names("lateral_shear_ratio", Robot().replace(ground={"model": "anisotropic"}))
     out = calibrated_robot(WHEELED, {"shear_modulus": 0.01, "lateral_shear_ratio": 2.0}, SimConfig())

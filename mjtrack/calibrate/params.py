@@ -202,6 +202,11 @@ def parse_names(text: str | None, robot: Robot, log: DriveLog | None = None) -> 
                                  f"{robot.ground.model!r} (set robot key ground: {{\"model\": \"{model}\"}})")
     if len(set(names)) != len(names):
         raise InputError(f"params: a parameter is named twice: {text!r}")
+    if ("lateral_shear_ratio" in names and "shear_modulus" not in names
+            and not (robot.ground.model == "shear" and robot.ground["shear_modulus"] > 0)):
+        raise InputError("params: 'lateral_shear_ratio' acts only on a shear ground of modulus above 0: name "
+                         "shear_modulus too, or describe the robot on the shear ground (robot key ground: "
+                         "{\"model\": \"shear\", \"shear_modulus\": K})")
     if ({"mu", "mu_ratio"} & set(names)) and ({"mu_left", "mu_right"} & set(names)):
         raise InputError("params: fit friction either as 'mu'/'mu_ratio' or as 'mu_left'/'mu_right', not both")
     return names

@@ -22,7 +22,7 @@ mu_ratio); with robot key ground {"model": "anisotropic"}: lateral_ratio; with
 {"model": "road_wheels"}: concentration, span; with {"model": "shear"} or the default Coulomb
 ground: shear_modulus (K of the shear ground, 0 is Coulomb; a robot calibrated to K > 0 stands on
 the shear ground), lateral_shear_ratio (the shear modulus across the tracks or tyres over the one
-along them; 1 is isotropic). Default: mu, mu_ratio, cg_x, cg_y, track_length,
+along them; 1 is isotropic; named beside shear_modulus or on a shear ground of K > 0). Default: mu, mu_ratio, cg_x, cg_y, track_length,
 drive_lag, drive_delay, track_speed_scale, plus slope_x, slope_y when the log's segments share one
 world frame, plus the ground model's parameters (on the shear ground: shear_modulus), plus
 rolling_resistance (the ground holding each side back by a share of its weight), plus shear_modulus
