@@ -197,6 +197,40 @@ def kinematic_model(train, train_ws, test, test_ws, gauge: float) -> dict:
             "fitted_on_train": scored(fitted(train, train_ws)), "fitted_on_test": scored(fitted(test, test_ws))}
 
 
+#: |turn ratio| classes of :func:`yaw_by_sample` (calibrate's sharp class split at 0.75: a pivot apart)
+SAMPLE_CLASSES = ((0.15, 0.5), (0.5, 0.75), (0.75, 1.0))
+SAMPLE_MIN_WZ = 0.3  # [rad/s] ideal yaw rate below which a sample is not counted (calibrate's steady-turn floor)
+
+
+def yaw_by_sample(lg, ws, gauge: float, measured: tuple, simulated: tuple) -> list[dict]:
+    """The yaw ratio over every sample of the windows, not only their steady turns: per |turn ratio|
+    class (of the measured track speeds, so that both count the same samples) the least-squares gain
+    of the yaw rate on the ideal one, (v_R - v_L) / T, each of its own speeds -- measured (poses,
+    speeds) and simulated (poses, speeds), arrays (M, K, 3) and (M, K, 2) of the windows."""
+    cols = {"measured": ([], []), "simulated": ([], [])}
+    rho_all = []
+    for j in range(len(ws)):
+        n = int(ws.ends[j] - ws.starts[j]) + 1
+        t = lg.t[ws.starts[j]:ws.ends[j] + 1]
+        vm = measured[1][j, :n]
+        rho_all.append((vm[:, 1] - vm[:, 0]) / np.maximum(np.abs(vm).sum(axis=1), 1e-9))
+        for key, (poses, speeds) in (("measured", measured), ("simulated", simulated)):
+            cols[key][0].append(np.gradient(poses[j, :n, 2], t))
+            cols[key][1].append((speeds[j, :n, 1] - speeds[j, :n, 0]) / gauge)
+    rho = np.abs(np.concatenate(rho_all))
+    w = {k: (np.concatenate(a), np.concatenate(b)) for k, (a, b) in cols.items()}
+    out = []
+    for lo, hi in SAMPLE_CLASSES:
+        m = (rho >= lo) & ((rho < hi) | (hi >= 1.0)) & (np.abs(w["measured"][1]) >= SAMPLE_MIN_WZ)
+        for key in w:
+            m &= np.isfinite(w[key][0]) & np.isfinite(w[key][1])
+        row = {"turn_class": [lo, hi], "samples": int(m.sum())}
+        for key, (wz, ideal) in w.items():
+            row[key] = float(wz[m] @ ideal[m] / (ideal[m] @ ideal[m])) if m.any() else None
+        out.append(row)
+    return out
+
+
 def context_of_stored(name: str, spec: dict, *, rollers: int, worst: int = 10) -> dict:
     """What puts a stored calibration's test error in context, on the windows it scored (the same
     split, the same windows left out): ``kinematic`` (:func:`kinematic_model`); ``start_at_rest``: the
@@ -205,7 +239,9 @@ def context_of_stored(name: str, spec: dict, *, rollers: int, worst: int = 10) -
     ``concentration``: the share of the calibrated robot's squared test error carried by its
     ``worst`` worst windows, with their start times; ``with_left_out``: the described and the calibrated
     robot's test error over every test window, the windows the ground cannot explain included (what
-    leaving them out does to the comparison)."""
+    leaving them out does to the comparison); ``yaw_by_sample``: the measured and the calibrated
+    robot's yaw ratio over every sample of the test windows per |turn ratio| class
+    (:func:`yaw_by_sample`), beside the steady turns alone that calibrate reports."""
     from mjtrack.sim.config import robot_sim_settings, sim_config
     from mjtrack.sim.windows import WindowSim, simulate_windows
     from mjtrack.windows import WARMUP_S, make_windows, measured_drive_log, without_contradicting
@@ -223,17 +259,25 @@ def context_of_stored(name: str, spec: dict, *, rollers: int, worst: int = 10) -
     if spec.get("drive_input") == "measured":
         test = measured_drive_log(test, f"{spec['log'].name} (test part)")
 
-    def errors(robot, lg, twists=None, ws=tws, variant=None):
+    def errors(robot, lg, twists=None, ws=tws, variant=None, keep=None):
         config = sim_config(None, robot=robot)
         if robot.traction != "wheels" and "n_rollers" not in robot_sim_settings(robot):  # as the calibration ran
             config = config.replace(n_rollers=rollers)
         res = simulate_windows(WindowSim(robot, config, resisted=True), lg, ws, [variant or {}], warmup_s=WARMUP_S,
                                twists=twists)
+        if keep is not None:
+            keep.append(res)
         return np.hypot(res.errors[0][:, 0], res.errors[0][:, 1])
 
     described, calibrated = starting_robot(base, spec["public"]), read_robot(OUTPUTS / name / "robot.json")
     e_rest = errors(described, test, twists=np.zeros((len(tws), 3)))
-    e_cal = errors(calibrated, test, variant=ground)
+    kept = []
+    e_cal = errors(calibrated, test, variant=ground, keep=kept)
+    from mjtrack.calibrate.measures import measured_speeds
+    from mjtrack.windows.define import measured_window_poses
+
+    by_sample = yaw_by_sample(test, tws, base.track_gauge, (measured_window_poses(test, tws), measured_speeds(test, tws)),
+                              (kept[0].poses[0], kept[0].speeds[0]))
     order = np.argsort(e_cal)[::-1][:worst]
 
     def rms(e):
@@ -247,7 +291,7 @@ def context_of_stored(name: str, spec: dict, *, rollers: int, worst: int = 10) -
             "concentration": {"worst": worst, "share": float(np.sum(e_cal[order] ** 2) / np.sum(e_cal ** 2)),
                               "median_m": float(np.median(e_cal)), "rms_m": rms(e_cal),
                               "t0": [float(test.t[tws.starts[j]]) for j in order]},
-            "with_left_out": with_left_out}
+            "with_left_out": with_left_out, "yaw_by_sample": by_sample}
 
 
 def run_robot(name: str, spec: dict, *, rollers: int, coulomb: bool = False, lateral: bool = False) -> dict:

@@ -805,6 +805,13 @@ def _calibration() -> Page:
                   "1 when the body keeps up with its tracks (Coulomb contact alone); real robots fall behind in turns "
                   "when the ground resists their motion (robot key `rolling_resistance`).",
                   ["robot", "turn class", "windows", "measured", "simulated before", "simulated after"])
+    by_sample = Table("The yaw ratio over every sample of the test windows, not only their steady turns: per |turn "
+                      "ratio| class of the measured track speeds, the least-squares gain of the yaw rate on the ideal one "
+                      "((v_R - v_L) / T, each of its own track speeds; samples below the steady-turn floor of ideal yaw "
+                      "rate left out), measured and by the calibrated robot on the same samples (`yaw_by_sample` of "
+                      "benchmarks/real_robots.py). Beside the steady turns' classes above: what the poses of every "
+                      "window ask of the robot.",
+                      ["robot", "|turn ratio| from", "to", "samples", "measured", "calibrated"])
     summaries = Table("The causes each calibration names (parameter groups, largest first), how its simulated drives "
                       "were driven, and what `diagnose --baseline mujoco` still finds on the test part against the "
                       "calibrated robot.", ["robot", "causes named", "drives follow", "diagnosis of the calibrated robot"])
@@ -823,6 +830,11 @@ def _calibration() -> Page:
                         number(real, q + "/concentration/share"),
                         *(number(real, q + f"/with_left_out/{k}") if "with_left_out" in r else "not computed"
                           for k in ("before", "after", "relative")))
+        for k, row in enumerate(r.get("yaw_by_sample", [])):
+            p = f"{q}/yaw_by_sample/{k}"
+            by_sample.add(name, number(real, p + "/turn_class/0"), number(real, p + "/turn_class/1"),
+                          number(real, p + "/samples"),
+                          *(number(real, p + f"/{key}") if row[key] is not None else "–" for key in ("measured", "simulated")))
         for cls in r.get("speed_ratio", {}):
             p = f"{q}/speed_ratio/{cls.replace('~', '~0').replace('/', '~1')}"
             speed.add(name, class_names.get(cls, cls), number(real, p + "/windows"), number(real, p + "/measured"),
@@ -970,6 +982,7 @@ def _calibration() -> Page:
                    *([lateral] if lateral is not None else []),
                    *([Source(starts_path)] if starts_path.exists() else []), *yaw_sources],
         [*battery, robots, context, speed, params, summaries, *shear_tables, *([yaw] if yaw_sources else []),
+         *([by_sample] if by_sample.rows else []),
          *starts_tables],
         written=[p for p in written if p.exists()])
 
