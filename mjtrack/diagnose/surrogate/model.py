@@ -354,7 +354,10 @@ def _lag(data: DriveData, v: np.ndarray, tau: float, init: np.ndarray, *, instan
         u[i, : hi - lo] = v[lo:hi]
         h_tau[i, : hi - lo] = dt[lo:hi] / tau
     alpha = -np.expm1(-h_tau)
-    y = np.empty_like(u)
+    # zeros, not empty: the long-segment filter below writes each segment's own samples only, and the
+    # padding beyond a shorter segment's end (discarded) must not hold whatever was in memory (an inf
+    # there made numpy warn in the mean-speed step below)
+    y = np.zeros_like(u)
     y[:, 0] = init[[lo for lo, _ in bounds]]
     if length <= _LOOP_MAX:  # short segments: exact recursion, vectorised across segments
         for k in range(1, length):
