@@ -307,7 +307,7 @@ def fidelity(command: str, track_model: str = "surfacevel", ratios: tuple[float,
             framed = ratios != (1.0,)
             coulomb_robot = mujoco_icr(base.replace(ground={"model": "anisotropic", "lateral_ratio": 1.0}) if framed
                                        else base, vl, vr, config)
-            limit_k = LIMIT_K if ratios == (1.0,) else LATERAL_LIMIT_K
+            limit_k = LATERAL_LIMIT_K if framed else LIMIT_K
             for ratio in ratios:
                 near = mujoco_icr(base.replace(ground={"model": "shear", "shear_modulus": limit_k,
                                                        "lateral_shear_ratio": ratio}), vl, vr, config)
@@ -369,7 +369,11 @@ def main(argv=None) -> int:
     load0 = os.getloadavg()
     command = "python benchmarks/ground_selection.py " + " ".join(sys.argv[1:] if argv is None else argv)
     if args.fidelity:
-        ratios = (1.0,) if args.lateral_shear_ratios is None else tuple(float(v) for v in args.lateral_shear_ratios.split(","))
+        try:
+            ratios = (1.0,) if args.lateral_shear_ratios is None else tuple(
+                float(v) for v in args.lateral_shear_ratios.split(","))
+        except ValueError:
+            ap.error(f"--lateral-shear-ratios: numbers separated by commas, got {args.lateral_shear_ratios!r}")
         if ratios != (1.0,) and args.track_model != "rollers":
             ap.error("--lateral-shear-ratios needs --track-model rollers (the surfacevel model has the isotropic shear ground)")
         return fidelity(command.strip(), args.track_model, ratios)

@@ -175,10 +175,9 @@ def default_names(robot: Robot, log: DriveLog | None = None) -> list[str]:
     names = [geometry_name(robot) if n == "track_length" else n for n in DEFAULT_PARAMS]
     if log is not None and one_frame(log):
         names.extend(SLOPE_PARAMS)
-    ground = [n for n in GROUND_PARAMS.get(robot.ground.model, ()) if n not in FRAMED_PARAMS]
-    names.extend(ground)
-    if robot.traction == "wheels" and robot.ground.model in ("coulomb", "shear"):
-        names.extend(n for n in WHEELED_DEFAULTS if n not in ground)
+    names.extend(n for n in GROUND_PARAMS.get(robot.ground.model, ()) if n not in FRAMED_PARAMS)  # (named only)
+    if robot.traction == "wheels" and robot.ground.model == "coulomb":
+        names.extend(WHEELED_DEFAULTS)
     return names
 
 
