@@ -431,3 +431,32 @@ def test_the_time_a_step_takes_is_said_as_it_starts(monkeypatch, terminal):
     monkeypatch.setattr(sys, "stderr", quiet)
     diagnose(lg, NOMINAL, baseline="mujoco", effects=["drive_delay"], n_folds=3, quiet=True)
     assert quiet.getvalue() == ""
+
+
+def test_a_value_the_robot_leaves_unset_is_the_same_simulation_as_that_value_set():
+    # the simulation key names an unset friction, drive lag and force limit by the simulator's own value,
+    # and a clip at the largest command as none: the model fields (and so the windows) must be equal
+    import mjtrack.diagnose.mujoco_baseline as mb
+
+    lg, _ = make_log(None, seed=4, duration=12.0)
+    for robot in (ROBOT, Robot(traction="wheels", track_gauge=0.55, wheelbase=0.5, mass=50.0)):
+        bl = MujocoBaseline(robot, lg)
+        sim = bl._sim("base")
+        own = {"mu_left": robot.friction_left, "mu_right": robot.friction_right, "drive_lag": 0.0,
+               "drive_force_limit": mb._force_limit(robot)}
+        a, b = sim.variant_model({}), sim.variant_model(own)
+        for field in ("pair_friction", "actuator_dynprm", "actuator_forcerange", "body_ipos", "actuator_gainprm"):
+            assert np.array_equal(getattr(a, field), getattr(b, field)), (robot.traction, field)
+        key = bl._simulation_key(("base", {}, None))
+        assert bl._simulation_key(("base", own, mb._vmax(lg))) == key
+        assert bl._simulation_key(("base", {"drive_lag": 0.05}, None)) != key
+        assert bl._simulation_key(("base", {}, 0.99 * mb._vmax(lg))) != key
+    # and a simulation named so is the one simulated: the windows' errors are the same bytes
+    bl = MujocoBaseline(ROBOT, lg)
+    problem = bl.problem(2)
+    w = np.arange(problem.starts.size)
+    fresh = MujocoBaseline(ROBOT, lg)
+    fresh.problem(2)
+    fresh._done.clear()  # nothing to reuse: the lag of 0 simulated as such
+    assert np.array_equal(bl.errors(problem, w, EFFECTS["drive_lag"], [[0.0]]),
+                          fresh.errors(problem, w, EFFECTS["drive_lag"], [[0.0]]), equal_nan=True)

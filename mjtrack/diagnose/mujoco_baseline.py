@@ -483,7 +483,17 @@ class MujocoBaseline(Baseline):
         command clip. Two specs with one key simulate every window alike (a grid value equal to
         the robot's own, a fold's estimate on a grid value), so a window is simulated once."""
         kind, variant, clip = spec
-        merged = {**robot_params(self._sim(kind).robot), **variant}
+        sim_robot = self._sim(kind).robot
+        # a parameter the robot leaves unset is the simulator's own value: named as that value, so that
+        # a variant which sets it to that value is the same simulation (the model fields are equal:
+        # tests/test_diagnose_mujoco_baseline.py), and so is a clip at or above every command (np.clip
+        # returns the commands unchanged)
+        own = {"mu_left": sim_robot.friction_left, "mu_right": sim_robot.friction_right, "drive_lag": 0.0,
+               "drive_force_limit": _force_limit(sim_robot)}
+        merged = {**robot_params(sim_robot), **variant}
+        merged = {k: own[k] if v is None and k in own else v for k, v in merged.items()}
+        if clip is not None and clip >= _vmax(self.log):
+            clip = None
         return kind, tuple(sorted((k, None if v is None else float(v)) for k, v in merged.items())), clip
 
     def _locate(self, kind: str, lg: DriveLog, windows: np.ndarray, variants: list) -> list[tuple[int, int, str]]:
