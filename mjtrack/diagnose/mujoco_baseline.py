@@ -39,6 +39,7 @@ from mjtrack.diagnose.residuals import DriveData
 from mjtrack.errors import InputError
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import G, Robot
+from mjtrack.models.shear import lateral_shear_ratio_of
 from mjtrack.sim.config import SimConfig, sim_config
 from mjtrack.sim.drivetrain import drive_of
 from mjtrack.sim.rollout import collected_mujoco_warnings
@@ -77,10 +78,6 @@ def _force_limit(r: Robot) -> float:
 def _own_shear(r: Robot) -> float:
     """The robot's shear modulus K [m] (0: its ground is another)."""
     return float(r.ground["shear_modulus"]) if r.ground.model == "shear" else 0.0
-
-
-def _own_ratio(r: Robot) -> float:
-    return float(r.ground["lateral_shear_ratio"]) if r.ground.model == "shear" else 1.0
 
 
 def _own(r: Robot, key: str, default: float) -> float:
@@ -140,7 +137,7 @@ NOMINAL: dict[str, Callable[[Robot, DriveLog], float]] = {
     "wheelbase": lambda r, lg: r.contact_length,
     "rolling_resistance": lambda r, lg: r.rolling_resistance,
     "shear_modulus": lambda r, lg: _own_shear(r),
-    "lateral_shear_ratio": lambda r, lg: _own_ratio(r),
+    "lateral_shear_ratio": lambda r, lg: lateral_shear_ratio_of(r, None),
 }
 # the fit's grid of each one-parameter effect (module docstring)
 GRIDS: dict[str, Callable[[Robot, DriveLog], np.ndarray]] = {
@@ -172,7 +169,7 @@ GRIDS: dict[str, Callable[[Robot, DriveLog], np.ndarray]] = {
     "shear_modulus": lambda r, lg: (np.array([0.0, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2]) if _own_shear(r) == 0.0
                                     else _own_shear(r) * np.array([0.0, 0.25, 0.5, 1.0, 1.5, 2.0, 3.0])),
     # around the robot's own ratio, a factor 4 each way, geometric (within the robot file's bounds)
-    "lateral_shear_ratio": lambda r, lg: np.clip(_own_ratio(r) * np.geomspace(0.25, 4.0, 7), 0.1, 10.0),
+    "lateral_shear_ratio": lambda r, lg: np.clip(lateral_shear_ratio_of(r, None) * np.geomspace(0.25, 4.0, 7), 0.1, 10.0),
 }
 _SIM_OF = {"ground_anisotropy": "aniso", "road_wheels": "wheels", "lateral_shear_ratio": "framed"}
 # grids over decades, fitted in log values

@@ -17,6 +17,7 @@ from mjtrack.diagnose.baseline import Baseline
 from mjtrack.diagnose.select import CandidateResult, Step, all_findings
 from mjtrack.diagnose.vocabulary import slope_angle
 from mjtrack.io.robot import Robot
+from mjtrack.models.shear import lateral_shear_ratio_of
 
 # what each baseline is, for the report's headings
 TITLES = {"mujoco": "the MuJoCo robot as described", "coulomb": "the Coulomb surrogate of the robot as described",
@@ -300,7 +301,7 @@ def extended_robot(robot: Robot, effect: str, estimate: dict[str, float]) -> tup
         return robot.replace(mu_left=robot.friction_right * e["mu_ratio"], mu_right=robot.friction_right), {}
     if effect == "shear_modulus":  # (a shear ground keeps its ratio of moduli)
         K = e["shear_modulus"]
-        ratio = robot.ground["lateral_shear_ratio"] if robot.ground.model == "shear" else 1.0
+        ratio = lateral_shear_ratio_of(robot, None)
         return robot.replace(ground={"model": "shear", "shear_modulus": K, "lateral_shear_ratio": ratio} if K > 0
                              else {"model": "coulomb"}), {}
     if effect == "lateral_shear_ratio" and robot.ground.model == "shear":

@@ -52,7 +52,8 @@ import numpy as np
 
 from mjtrack.errors import InputError
 from mjtrack.io.robot import G, Robot
-from mjtrack.models.shear import DEFAULT_PATCH_LENGTH, PATCH_POINTS, shear_displacement, shear_factor
+from mjtrack.models.shear import (DEFAULT_PATCH_LENGTH, PATCH_POINTS, lateral_shear_ratio_of, shear_displacement,
+                                  shear_factor)
 from mjtrack.sim.chassis import element_positions, suspension_stiffness
 from mjtrack.sim.config import SimConfig
 from mjtrack.sim.scene import SIDES
@@ -220,11 +221,7 @@ class ShearChunks:
                  lateral_shear_ratio: float | None = None) -> None:
         n = sum(model.pair(i).name.startswith("contact_left_") for i in range(model.npair))  # elements a side
         self.K = float(robot.ground["shear_modulus"] if shear_modulus is None else shear_modulus)
-        if lateral_shear_ratio is None:
-            lateral_shear_ratio = robot.ground["lateral_shear_ratio"] if robot.ground.model == "shear" else 1.0
-        self.ratio = float(lateral_shear_ratio)
-        if not (math.isfinite(self.ratio) and self.ratio > 0):
-            raise InputError(f"windows: lateral_shear_ratio must be a number > 0, got {lateral_shear_ratio!r}")
+        self.ratio = lateral_shear_ratio_of(robot, lateral_shear_ratio)
         element = "wheel" if robot.traction == "wheels" else "roller"
         if self.ratio != 1.0 and model.geom(f"{element}_left_0").type != mujoco.mjtGeom.mjGEOM_CAPSULE:
             raise InputError("windows: a lateral_shear_ratio other than 1 needs a robot built with the track's "
@@ -251,7 +248,6 @@ class ShearChunks:
         self.lin = v0 + int(root.dofadr[0]) + np.arange(2)
         self.wz = v0 + int(root.dofadr[0]) + 5
         self.spin = [v0 + np.array([int(model.joint(f"roll_{s}_{i}").dofadr[0]) for i in range(n)]) for s in SIDES]
-        element = "wheel" if robot.traction == "wheels" else "roller"
         self.radius = float(model.geom(f"{element}_left_0").size[0])  # the roller's (wheel's) radius
 
     def friction(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
