@@ -625,7 +625,31 @@ class MujocoBaseline(Baseline):
         # grid's first value that an all-NaN curve's minimiser would give
         boots = np.array([solve(idx) for idx in self._draws(problem, train) if idx.size])
         dev = boots - est
-        return est, np.diag(np.mean(dev ** 2, axis=0))  # bootstrap variance around the estimate
+        var = np.mean(dev ** 2, axis=0)  # bootstrap variance around the estimate
+        if effect.name != "slope":
+            var = np.maximum(var, self._unexplored(problem, effect, train, float(est[0])) ** 2)
+        return est, np.diag(var)
+
+    def _unexplored(self, problem: Problem, effect: Effect, train: np.ndarray, est: float) -> float:
+        """A standard error that reaches across a grid step the fit could not enter: where the estimate
+        stops at a step in which some window cannot be interpolated (a simulation on the grid value
+        beyond diverged), the log has not ruled out the values up to that grid value; half the step
+        over 1.96, so that the 95 % interval reaches it (0 where no such step borders the estimate)."""
+        x, sq = self._fine(problem, effect)
+        curve = np.mean(sq[:, np.flatnonzero(train)], axis=1)
+        v = math.log(est) if effect.name in GEOMETRIC else est
+        k = int(np.argmin(np.abs(x - v)))
+        nodes = self._grid_errors(problem, effect)[0]
+        back = math.exp if effect.name in GEOMETRIC else float
+        se = 0.0
+        for side in (-1, 1):
+            j = k + side
+            if 0 <= j < x.size and not np.isfinite(curve[j]):
+                beyond = nodes[nodes > v] if side > 0 else nodes[nodes < v]
+                if beyond.size:
+                    edge = beyond.min() if side > 0 else beyond.max()
+                    se = max(se, abs(back(edge) - est) / 1.96)
+        return se
 
     def _curves(self, problem: Problem, effect: Effect) -> tuple[np.ndarray, np.ndarray]:
         """The effect's grid (G,) and the squared position errors (G, M) of the fit windows at each
