@@ -113,11 +113,12 @@ def test_force_limited_drives_are_named_or_tied_never_a_friction_alone():
         assert "cannot be told apart" in top["evidence"] and len(js["findings"]) == 2
     else:
         assert d.cause == "drive_force_limit"
-        # the estimate is biased high, its interval misses the truth: measured 1753 N [1397, 2109]
-        # for 1000 N, the same with logged track speeds (so not the start states); the error curve
-        # is flat above the limit that binds and the grid steps by a factor 2.95. The order of
-        # magnitude is the claim
-        assert 700.0 < top["estimate"]["drive_force_limit"] < 3000.0
+        # fitted on the windows' interpolated errors: measured 1140 N [604, 1676] for 1000 N. (A parabola
+        # through three values of the mean curve, which is flat above the limit that binds, put it at
+        # 1753 N [1397, 2109] on 7 grid values and higher on 5: the interval missed the truth)
+        lo, hi = top["interval"]["drive_force_limit"]
+        assert lo <= 1000.0 <= hi
+        assert 700.0 < top["estimate"]["drive_force_limit"] < 1500.0
 
 
 def test_surrogate_ramp_moves_each_track_at_most_the_limit_per_second():

@@ -400,8 +400,7 @@ def test_a_simulation_asked_for_again_is_not_run_again(monkeypatch):
 
 def test_the_time_a_step_takes_is_said_as_it_starts(monkeypatch, terminal):
     # on a terminal, unless quiet: the windows a step will simulate and the time that takes at the rate
-    # of the baseline's own pass, said once per step; the count is what the step then simulates, less
-    # the fold estimates that land on a grid value
+    # of the baseline's own pass, said once per step; the count is what the step then simulates
     import sys
 
     import mjtrack.diagnose.mujoco_baseline as mb
@@ -424,9 +423,10 @@ def test_the_time_a_step_takes_is_said_as_it_starts(monkeypatch, terminal):
     assert said[0].startswith(f"diagnose {lg.source or 'drive log'}: {m} windows simulated at ")
     more = int(said[0].split(" take about ")[1].split(" more")[0])
     grid = GRIDS["drive_delay"](NOMINAL, lg)
-    assert more == (grid.size - 1) * m + m  # the delay's own 0 is the baseline's simulation
+    # the delay's own 0 is the baseline's simulation; its folds' estimates are read off the grid
+    assert more == (grid.size - 1) * m
     step = sum(simulated[1:])  # after the baseline's pass
-    assert (grid.size - 1) * m <= step <= more
+    assert step == more
     quiet = terminal()
     monkeypatch.setattr(sys, "stderr", quiet)
     diagnose(lg, NOMINAL, baseline="mujoco", effects=["drive_delay"], n_folds=3, quiet=True)
@@ -460,3 +460,96 @@ def test_a_value_the_robot_leaves_unset_is_the_same_simulation_as_that_value_set
     fresh._done.clear()  # nothing to reuse: the lag of 0 simulated as such
     assert np.array_equal(bl.errors(problem, w, EFFECTS["drive_lag"], [[0.0]]),
                           fresh.errors(problem, w, EFFECTS["drive_lag"], [[0.0]]), equal_nan=True)
+
+
+def test_window_errors_are_interpolated_exactly_where_they_are_parabolas():
+    # each window's error components a known parabola in the parameter (written out here): the
+    # interpolation between grid values gives them at any value, and takes the other triple around a
+    # value where a grid simulation diverged
+    from mjtrack.diagnose.mujoco_baseline import interpolated_errors, window_curves
+
+    rng = np.random.default_rng(3)
+    x = np.array([0.0, 0.05, 0.15, 0.3, 0.6])
+    a, b, c = (rng.normal(size=(6, 3)) for _ in range(3))
+
+    def truth(v):
+        return a + b * v + c * v * v
+
+    err = np.stack([truth(v) for v in x])
+    for v in (0.0, 0.01, 0.1, 0.15, 0.29, 0.45, 0.6):
+        assert np.allclose(interpolated_errors(x, err, v), truth(v), atol=1e-12)
+    bad = err.copy()
+    bad[4, 2] = np.nan  # window 2 diverged at 0.6: between 0.15 and 0.3 it takes 0.05, 0.15, 0.3
+    got = interpolated_errors(x, bad, 0.25)
+    assert np.allclose(got, truth(0.25), atol=1e-12)
+    bad[1, 2] = np.nan  # and at 0.05 too: no triple around 0.25 without a diverged value
+    got = interpolated_errors(x, bad, 0.25)
+    assert np.isnan(got[2]).all() and np.allclose(np.delete(got, 2, 0), np.delete(truth(0.25), 2, 0))
+    # errors linear in the parameter: the mean squared position error is a parabola whose minimum is
+    # known in closed form; the fine curve's minimiser finds it, where a parabola through three of the
+    # five mean values need not
+    lin = np.stack([a[:, :2] * 0 + b[:, :2] * (v - 0.2) + 0.01 * a[:, :2] for v in x])
+    lin = np.concatenate([lin, np.zeros((x.size, 6, 1))], axis=2)
+    fine, sq = window_curves(x, lin, np.ones(6, bool))
+    curve = sq.mean(axis=1)
+    slope, off = b[:, :2], 0.01 * a[:, :2] - 0.2 * b[:, :2]
+    best = -np.sum(slope * off) / np.sum(slope * slope)
+    from mjtrack.diagnose.mujoco_baseline import _vertex
+
+    assert _vertex(fine, curve) == pytest.approx(best, abs=1e-6)
+
+
+def test_an_estimate_next_to_a_step_the_fit_could_not_enter_has_an_interval_reaching_across_it():
+    # the fine curve is infinite beyond the grid value 0.3 (a window diverged at 0.6): an estimate that
+    # stops next to it has not ruled out the values up to 0.6, so its 95 % interval reaches 0.6; an
+    # estimate with finite curve on both sides gets no floor
+    from mjtrack.diagnose.mujoco_baseline import unexplored_se
+
+    nodes = np.array([0.0, 0.05, 0.15, 0.3, 0.6])
+    x = np.linspace(0.0, 0.6, 161)
+    curve = (x - 0.2) ** 2
+    assert unexplored_se(x, curve, nodes, 0.2, geometric=False) == 0.0
+    curve[x > 0.3] = np.inf
+    est = float(x[x <= 0.3].max())
+    assert est + 1.96 * unexplored_se(x, curve, nodes, est, geometric=False) == pytest.approx(0.6)
+    assert unexplored_se(x, curve, nodes, 0.1, geometric=False) == 0.0  # far from the step
+    # on a geometric grid, in log values: the interval reaches the grid value below, 10
+    gnodes = np.log(np.array([10.0, 20.0, 40.0, 80.0, 160.0]))
+    gx = np.linspace(gnodes[0], gnodes[-1], 161)
+    gcurve = np.where(gx < np.log(20.0), np.inf, 1.0)
+    gest = float(np.exp(gx[gx >= np.log(20.0)].min()))
+    assert gest - 1.96 * unexplored_se(gx, gcurve, gnodes, gest, geometric=True) == pytest.approx(10.0)
+
+
+@pytest.mark.parametrize("hidden", ["cg_offset_x", "track_speed_scale"])
+def test_held_out_errors_read_off_the_grid_are_those_simulated(hidden):
+    # the effects of READ_OFF_GRID: at the midpoints between grid values (the farthest an estimate can be
+    # from the grid), the held-out RMS read off the grid within 4 % of the one simulated there. Measured
+    # over four 24 s logs (these two, friction_asymmetry, actuator_lag) at every midpoint: at most 3.4 %
+    # (the drive lag between 0.3 and 0.6 s above the robot's own, the centre of mass y), most below 1 %.
+    # 4 % is that worst case rounded up, not a bound derived; what it does to the decisions is what the
+    # batteries check (benchmarks/diagnose_mujoco_baseline.py). The friction ratio and the limits were
+    # several times further off: simulated at the estimate, not listed
+    import mjtrack.diagnose.mujoco_baseline as mb
+
+    lg, _ = make_log(hidden, seed=1, duration=24.0)
+    bl = MujocoBaseline(NOMINAL, lg)
+    problem = bl.problem(3)
+    w = np.arange(problem.starts.size)
+    worst = 0.0
+    for name in mb.READ_OFF_GRID:
+        if name not in bl.vocabulary:  # a tracked robot: no wheelbase
+            continue
+        eff = EFFECTS[name]
+        grid = bl._curves(problem, eff)[0]
+        x = np.log(grid) if name in mb.GEOMETRIC else grid
+        mids = (x[1:] + x[:-1]) / 2
+        for v in np.exp(mids) if name in mb.GEOMETRIC else mids:
+            read = bl.held_out_errors(problem, w, eff, np.array([v]))
+            sim = bl.errors(problem, w, eff, [np.array([v])])[0]
+            rms_read, rms_sim = (np.sqrt(np.nanmean(e[:, 0] ** 2 + e[:, 1] ** 2)) for e in (read, sim))
+            worst = max(worst, abs(rms_read / rms_sim - 1))
+            assert rms_read == pytest.approx(rms_sim, rel=0.04), (name, v)
+        on = bl.held_out_errors(problem, w, eff, grid[1:2])  # a grid value: its own simulation
+        assert np.array_equal(on, bl.errors(problem, w, eff, [grid[1:2]])[0], equal_nan=True)
+    assert worst > 0  # it interpolates (a parabola through three values is not a grid lookup)

@@ -138,6 +138,11 @@ class Baseline(abc.ABC):
         among ``parts`` ((Effect, theta) pairs), or None when it does not model them apart."""
         return None
 
+    def held_out_errors(self, problem: Problem, windows: np.ndarray, effect: Effect, theta) -> np.ndarray:
+        """Window errors (W, 3) of the held-out windows ``windows`` under the effect at a fold's
+        estimate ``theta`` (P,): by default :meth:`errors` at that value."""
+        return self.errors(problem, windows, effect, [theta])[0]
+
     def speed_residuals(self, problem: Problem, effect: Effect, theta, samples: np.ndarray) -> np.ndarray:
         """Predicted minus measured track speed [m/s] on ``samples`` (boolean (N,)), flattened, under
         the input effects of ``problem.base`` and ``effect`` at ``theta`` (a model of the speeds

@@ -130,7 +130,7 @@ def score(bl: Baseline, problem: Problem, eff: Effect, *, n_folds: int, min_gain
         p = full if problem.score_folds is not None else bl.fit(problem, eff, folds[folds != k], start=full)
         ests.append(p)
         w = allw[problem.fold == k]
-        after_err[w] = bl.errors(problem, w, eff, [p])[0]
+        after_err[w] = bl.held_out_errors(problem, w, eff, p)
         if speeds:
             sm = (problem.sample_fold == k) & problem.speed_ok
             r = bl.speed_residuals(problem, eff, p, sm).reshape(-1, 2)
