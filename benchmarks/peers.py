@@ -124,8 +124,10 @@ def reproduction(log, gauge: float, name: str) -> dict:
 
 
 def yaw_ratios(lg, ws, robot, a: dict, poses: dict) -> dict:
-    """Steady-turn yaw ratio (calibrate's definition: turn_measures) per turn class of the measured
-    track speeds, measured and for every model's predicted poses (None where no steady turn counts)."""
+    """Steady-turn yaw ratio (calibrate's turn_measures) per turn class of the measured track speeds,
+    measured and for every model's predicted poses (None where no steady turn counts), every model's
+    over the measured track speeds: what it predicts of the turn, its drives' error included (calibrate
+    divides a simulation's yaw rate by the simulation's own track speeds)."""
     def ratio(ws_, p, m=slice(None)):
         r = turn_measures(lg, ws_, robot, p[m], a["meas"][m])
         return (None if not np.isfinite(r["yaw_ratio"]) else r["yaw_ratio"]), r["yaw_windows"]

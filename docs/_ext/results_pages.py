@@ -485,6 +485,8 @@ def _diagnose_ab(diag: Source) -> Table:
     table = Table("`diagnose --baseline mujoco` of the one-minute held-out log of the calibration above against "
                   f"the description without the hidden change, on its defaults: {runs}.", ["quantity"] + labels)
     first = {k: diag.data["runs"][k][0] for k in labels}
+    if "target_wall_s" in diag.data:
+        table.add("target wall time [s]", *(number(diag, "/target_wall_s") for _ in labels))
     table.add("wall time, median [s]", *(number(diag, f"/medians/{k}/wall_s") for k in labels))
     table.add("CPU time (both threads), median [s]", *(number(diag, f"/medians/{k}/cpu_s") for k in labels))
     table.add("windows simulated, median", *(number(diag, f"/medians/{k}/windows") for k in labels))
@@ -1019,12 +1021,15 @@ def _peers() -> Page:
     models = Table("Every model on the same held-out windows, each started from the window's measured pose: "
                    "end-of-window position error RMS [m], the mean over windows of the position distance averaged over "
                    "the window (the authors' metric) [m], end-of-window yaw error RMS [rad], and the steady-turn yaw "
-                   "ratio (yaw rate over (v_R - v_L)/T of the measured track speeds; calibrate's definition) of the "
-                   "model and of the measurement.",
+                   "ratio (yaw rate over (v_R - v_L)/T of the measured track speeds, for every model: what it predicts of "
+                   "the turn, its drives' error included) of the model and of the measurement. The calibration "
+                   "page's yaw ratio of a simulation divides by the simulation's own track speeds (the contact "
+                   "alone), so the two differ for the calibrated robot where its drives miss the measured speeds.",
                    ["robot", "model", "windows", "end RMS", "mean distance", "yaw RMS", "yaw ratio", "yaw ratio measured"])
     turns = Table("The steady-turn yaw ratio per class of |turn ratio| = |v_R - v_L| / (|v_L| + |v_R|) of the measured "
                   "track speeds (straight, turning, sharp turns: calibrate's classes of the forward speed ratio): "
-                  "measured and per model; n/a where the class has no steady turn fast enough to count.",
+                  "measured and per model, each over the measured track speeds as above; n/a where the class has no "
+                  "steady turn fast enough to count.",
                   ["robot", "turn class", "steady turns", "measured", "model", "model's yaw ratio"])
     regions = Table("Prediction regions for the end position at the level shown, per model: fitted on the scatter of "
                     "its training windows' end errors (per turn class of the commands, growing with the commanded "

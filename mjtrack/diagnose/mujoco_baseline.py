@@ -16,7 +16,11 @@ gravity tilted as well), except the two ground models with each other.
 
 The folds, the finding test, ties, order and intervals are those of every baseline
 (:mod:`mjtrack.diagnose.select`); what is MuJoCo's own is the fit, because every parameter value
-costs a pass over the windows:
+costs a pass over the windows: each one-parameter effect is simulated on a grid of 5 values
+(:data:`GRIDS`), each window's errors are interpolated between them (:func:`interpolated_errors`)
+and the fit minimises their mean on a fine grid (:func:`window_curves`); the held-out windows of
+each fold are read off the same interpolation where it follows them (:data:`READ_OFF_GRID`),
+else simulated at the fold's estimate.
 
 Derivation and measurements: docs/theory/diagnosis.md, "The MuJoCo baseline".
 """
@@ -745,4 +749,4 @@ def _base_key(problem: Problem) -> tuple:
 
 
 __all__ = ["CHANGES", "GRIDS", "MODEL_REL", "MujocoBaseline", "N_BOOT", "NOMINAL", "READ_OFF_GRID",
-           "can_build", "choose_simulator", "interpolated_errors", "window_curves"]
+           "can_build", "choose_simulator", "interpolated_errors", "unexplored_se", "window_curves"]
