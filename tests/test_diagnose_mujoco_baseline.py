@@ -541,8 +541,8 @@ def test_held_out_errors_read_off_the_grid_are_those_simulated(hidden):
         if name not in bl.vocabulary:  # a tracked robot: no wheelbase
             continue
         eff = EFFECTS[name]
-        grid = bl._curves(problem, eff)[0]
-        x = np.log(grid) if name in mb.GEOMETRIC else grid
+        x = bl._grid_errors(problem, eff)[0]  # the grid simulated, in the values it is fitted in
+        grid = np.exp(x) if name in mb.GEOMETRIC else x
         mids = (x[1:] + x[:-1]) / 2
         for v in np.exp(mids) if name in mb.GEOMETRIC else mids:
             read = bl.held_out_errors(problem, w, eff, np.array([v]))

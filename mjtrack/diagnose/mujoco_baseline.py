@@ -664,26 +664,19 @@ class MujocoBaseline(Baseline):
         nodes = self._grid_errors(problem, effect)[0]
         return unexplored_se(x, curve, nodes, est, geometric=effect.name in GEOMETRIC)
 
-    def _curves(self, problem: Problem, effect: Effect) -> tuple[np.ndarray, np.ndarray]:
-        """The effect's grid (G,) and the squared position errors (G, M) of the fit windows at each
-        grid value (a diverged simulation of a valid window: infinitely bad; other windows NaN)."""
-        key = ("curves", effect.name, _base_key(problem))
+    def _grid_errors(self, problem: Problem, effect: Effect) -> tuple[np.ndarray, np.ndarray]:
+        """The effect's grid (:data:`GRIDS`) in the values it is fitted in (log values on a geometric
+        grid; a grid clipped at a bound loses its repeated end) and the fit windows' errors at each
+        grid value (G, M, 3; NaN for the other windows and for a diverged simulation), simulated once."""
+        key = ("grid errors", effect.name, _base_key(problem))
         if key not in self._cache:
             grid = np.asarray(GRIDS[effect.name](self.robot, self.log), float)
-            err = np.full((grid.size, problem.starts.size, 3), np.nan)
+            x, first = np.unique(np.log(grid) if effect.name in GEOMETRIC else grid, return_index=True)
+            err = np.full((x.size, problem.starts.size, 3), np.nan)
             w = problem.fit_windows
-            err[:, w] = self.errors(problem, w, effect, grid[:, None])
-            sq = np.where(np.isfinite(_sq(err)) | ~problem.valid_mask, _sq(err), np.inf)
-            self._cache[key] = (grid, sq)
-            self._cache[("grid errors",) + key[1:]] = err
+            err[:, w] = self.errors(problem, w, effect, grid[first][:, None])
+            self._cache[key] = (x, err)
         return self._cache[key]
-
-    def _grid_errors(self, problem: Problem, effect: Effect) -> tuple[np.ndarray, np.ndarray]:
-        """The effect's grid in the values it is fitted in (log values on a geometric grid; a grid
-        clipped at a bound loses its repeated end) and every window's errors there (G, M, 3)."""
-        grid = self._curves(problem, effect)[0]
-        x, first = np.unique(np.log(grid) if effect.name in GEOMETRIC else grid, return_index=True)
-        return x, self._cache[("grid errors", effect.name, _base_key(problem))][first]
 
     def _fine(self, problem: Problem, effect: Effect) -> tuple[np.ndarray, np.ndarray]:
         """The fine curves of the effect's windows (:func:`window_curves`), cached."""
@@ -701,7 +694,7 @@ class MujocoBaseline(Baseline):
         triples around the estimate) and the windows of a test log (never on the grid) are
         simulated at the estimate."""
         windows = np.asarray(windows)
-        if (effect.name not in READ_OFF_GRID or ("curves", effect.name, _base_key(problem)) not in self._cache
+        if (effect.name not in READ_OFF_GRID or ("grid errors", effect.name, _base_key(problem)) not in self._cache
                 or not np.isin(windows, problem.fit_windows).all()):
             return super().held_out_errors(problem, windows, effect, theta)
         x, err = self._grid_errors(problem, effect)
