@@ -21,7 +21,7 @@ import pytest
 from mjtrack.errors import InputError
 from mjtrack.io.robot import Robot
 from mjtrack.sim import SimConfig, drive_log
-from mjtrack.sim.windows import WindowSim, simulate_windows, window_commands
+from mjtrack.sim.windows import WindowSim, drive_setpoints, simulate_windows, window_commands
 from mjtrack.windows import make_windows, start_speeds, start_twists
 
 TABLE = (np.array([0.0, 1.3, 3.0, 4.65, 6.1]),
@@ -137,10 +137,36 @@ def test_variants_batch_and_change_the_errors(log, sim):
 def test_delay_and_scale_transform_the_commands(log, sim):
     ws = make_windows(log, 2.0)
     before = start_speeds(log, ws)
-    plain = window_commands(log, ws, sim.dt, 400, delay=0.0, scale=1.0, before=before)
-    late = window_commands(log, ws, sim.dt, 400, delay=0.25, scale=0.5, before=before)
+    plain = window_commands(log, ws, sim.dt, 400, scale=1.0)
+    late = drive_setpoints(sim.robot, log, ws, sim.dt, 400, delays=(0.25, 0.25), scale=0.5, start=before)
     np.testing.assert_allclose(late[:, 50:], 0.5 * plain[:, :-50])
-    np.testing.assert_allclose(late[0, :50], 0.5 * before[0][None].repeat(50, 0))
+    # until the dead time has passed the drive keeps the speed its track had: not scaled
+    np.testing.assert_allclose(late[0, :50], before[0][None].repeat(50, 0))
+    sided = drive_setpoints(sim.robot, log, ws, sim.dt, 400, delays=(0.1, 0.25), scale=1.0, start=before)
+    np.testing.assert_allclose(sided[:, 20:, 0], plain[:, :-20, 0])
+    np.testing.assert_allclose(sided[:, 50:, 1], plain[:, :-50, 1])
+
+
+def test_a_window_starts_at_the_set_point_its_tracks_ran_at():
+    """A robot whose own controller halves its commands' difference and scales them, started in a
+    steady turn at the speeds that controller gives its constant commands, is set those speeds from
+    the first step on: during the dead time the drive keeps what the tracks ran at, and the
+    controller's output after it is the same. (Holding the start speeds as a *command* through the
+    dead time would pass them through the scale and the controller: here set-points of 1.27 and
+    1.66 m/s instead of 0.71 and 1.24 for the first 0.2 s, a jolt at every window's start.)"""
+    from mjtrack.io.logs import DriveLog
+
+    t = np.arange(41) * 0.05
+    c = np.ones_like(t)
+    cmd_l, cmd_r = 0.3 * c, 1.0 * c  # scale 1.5: mean 0.975, half difference 0.525 x 0.5 = 0.2625
+    want = np.array([0.975 - 0.2625, 0.975 + 0.2625])
+    lg = DriveLog(t=t, v_left_cmd=cmd_l, v_right_cmd=cmd_r, x=0 * t, y=0 * t, yaw=0 * t,
+                  v_left=want[0] * c, v_right=want[1] * c)
+    r = Robot(track_speed_scale=1.5, drive_turn_scale=0.5, drive_delay=0.2)
+    ws = make_windows(lg, 2.0)
+    u = drive_setpoints(r, lg, ws, 0.005, 400, delays=r.delay_per_side, scale=r.track_speed_scale,
+                        start=start_speeds(lg, ws))
+    np.testing.assert_allclose(u[0], np.broadcast_to(want, (400, 2)), atol=1e-12)
 
 
 def test_unknown_parameter_and_empty_windows_are_refused(log, sim):
@@ -171,7 +197,7 @@ def test_delayed_commands_are_continuous_in_the_delay(log, sim):
     ws = make_windows(log, 2.0)
     before = start_speeds(log, ws)
     d = np.linspace(0.1, 0.12, 41)
-    c = np.array([window_commands(log, ws, sim.dt, 400, delay=x, scale=1.0, before=before) for x in d])
+    c = np.array([drive_setpoints(sim.robot, log, ws, sim.dt, 400, delays=(x, x), scale=1.0, start=before) for x in d])
     jumps = np.abs(np.diff(c, axis=0)).max()
     # 0.5 ms of delay moves a command step by a tenth of a 5 ms step: at most 10 % of the step
     # size (plain holding would jump by the whole step)

@@ -14,8 +14,9 @@ simulated over short windows of the log (default 2 s), each one:
   lagged drive's set-point starts there too;
 * **driven by the logged commands** (zero-order hold: a row's command is in force until the
   next row), transformed by the drivetrain parameters that are not model fields
-  (``track_speed_scale`` multiplies them, ``drive_delay`` shifts them; before the segment's
-  first row a delayed drive still follows the speed the track had at the start);
+  (``track_speed_scale`` multiplies them, the robot's own controller stages reshape them, and
+  ``drive_delay`` shifts what comes out; until the dead time has passed, a delayed drive keeps
+  the speed its track had at the start, whatever the scale and the controller);
 * **kept inside one segment** (``window`` column): a window never crosses a segment boundary;
   a segment shorter than the horizon but at least ``min_fraction`` of it still gives one window
   that ends at its last sample (the Marmotte log is 432 segments of 1.90-2.06 s).
@@ -258,7 +259,7 @@ class WindowSim:
 
 
 def warm_states(sim: WindowSim, model: mujoco.MjModel, log: DriveLog, ws: WindowSet, rest: np.ndarray,
-                state0: np.ndarray, twists: np.ndarray, warmup_s: float, *, delay: float, scale: float,
+                state0: np.ndarray, twists: np.ndarray, warmup_s: float, *, delays: tuple[float, float], scale: float,
                 datas: list, ground=None) -> np.ndarray:
     """Start states (M, nstate) whose hidden states come from the log's own past: each window's
     robot is started ``warmup_s`` earlier (at most from its segment's start) from the logged state
@@ -279,8 +280,7 @@ def warm_states(sim: WindowSim, model: mujoco.MjModel, log: DriveLog, ws: Window
         p0 = np.stack([log.x[wws.starts], log.y[wws.starts], log.yaw[wws.starts]], -1).astype(float)
         sp0 = start_speeds(log, wws)
         st = sim.initial_states(model, rest, p0, start_twists(log, wws), sp0)
-        cmds = window_commands(log, wws, sim.dt, int(n), delay=delay, scale=scale, before=sp0)
-        cmds = controller_stages(sim.robot, cmds, sim.dt, sp0)  # the robot's own speed controller
+        cmds = drive_setpoints(sim.robot, log, wws, sim.dt, int(n), delays=delays, scale=scale, start=sp0)
         states, _ = aligned_rollout([model] * g.size, datas if len(datas) > 1 else datas[0], st, cmds @ sim.B.T,
                                     ground=ground)
         scratch = mujoco.MjData(model)
@@ -322,20 +322,14 @@ class WindowResult:
         return np.sqrt(np.mean(self.pos_err() ** 2, axis=1))
 
 
-def window_commands(log: DriveLog, ws: WindowSet, dt: float, nstep: int, *, delay: float, scale: float,
-                    before: np.ndarray) -> np.ndarray:
-    """Per-step track-speed commands (M, nstep, 2) of each window: the log's commands (zero-order
-    hold), delayed by ``delay`` [s] and scaled; before the segment's first row the delayed drive
-    follows ``before`` (M, 2) (the track speeds at the window's start).
-
-    Each step gets the mean of the delayed command over the step (exact integral of the held
-    commands), so the result is continuous in ``delay`` -- a finite-difference derivative with
-    respect to the delay is then not zero between step multiples -- and equals plain holding when
-    the log's rows and the delay fall on the step grid.
-    """
+def window_commands(log: DriveLog, ws: WindowSet, dt: float, nstep: int, *, scale: float) -> np.ndarray:
+    """Per-step track-speed commands (M, nstep, 2) of each window from its first row on, scaled:
+    each step gets the mean of the held command over the step (exact integral of the log's
+    zero-order hold), so that a row that does not fall on the step grid moves the steps
+    continuously. The dead time comes after the controller's stages (:func:`drive_setpoints`)."""
     slices = log.segment_slices()
     out = np.empty((len(ws), nstep, 2))
-    edges = np.arange(nstep + 1) * dt - delay  # step k covers [edges[k], edges[k+1]) in log time
+    edges = np.arange(nstep + 1) * dt  # step k covers [edges[k], edges[k+1]) in log time after the window's start
     for j, (s, k) in enumerate(zip(ws.starts, ws.segment)):
         sl = slices[k]
         t = np.asarray(log.t[sl], float) - log.t[s]
@@ -344,23 +338,48 @@ def window_commands(log: DriveLog, ws: WindowSet, dt: float, nstep: int, *, dela
         F_rows = np.concatenate([np.zeros((1, 2)), np.cumsum(cmd[:-1] * np.diff(t)[:, None], axis=0)])
         i = np.clip(np.searchsorted(t, edges, side="right") - 1, 0, t.size - 1)
         F = F_rows[i] + cmd[i] * (edges - t[i])[:, None]
-        pre = edges < t[0]
-        F[pre] = before[j][None] * (edges[pre] - t[0])[:, None]  # before the segment: ``before`` held
         out[j] = np.diff(F, axis=0) / dt
     return out * scale
 
 
-def side_delayed_commands(robot: Robot, params: Mapping[str, float | None], log: DriveLog, ws: WindowSet, dt: float,
-                          nstep: int, *, delay: float, scale: float, before: np.ndarray) -> np.ndarray:
-    """:func:`window_commands` with each side's own dead time: the robot's ``drive_delay_left`` /
-    ``drive_delay_right`` while the variant keeps the robot's ``drive_delay``; a variant that moves
-    ``drive_delay`` moves both sides to it (the fitted candidate is one dead time)."""
+def dead_time(u: np.ndarray, delays: tuple[float, float], dt: float, before: np.ndarray) -> np.ndarray:
+    """The per-step set-points ``u`` (M, nstep, 2) read ``delays`` (left, right) [s] later: step k
+    gets the mean over [k dt - d, (k+1) dt - d) of ``u`` held per step, ``before`` (M, 2) before the
+    window's start (the speeds the tracks had there: a drive that was running at them kept its
+    set-point there). Continuous in d, so that a finite-difference derivative with respect to the
+    delay is not zero between step multiples."""
+    out = np.empty_like(u)
+    nstep = u.shape[1]
+    for i, d in enumerate(delays):
+        whole = int(math.floor(d / dt + 1e-9))
+        frac = max(d / dt - whole, 0.0)
+        padded = np.concatenate([np.repeat(np.asarray(before, float)[:, None, i], whole + 1, axis=1), u[..., i]], axis=1)
+        out[..., i] = (1.0 - frac) * padded[:, 1:nstep + 1] + frac * padded[:, :nstep]
+    return out
+
+
+def side_delays(robot: Robot, params: Mapping[str, float | None], delay: float) -> tuple[float, float]:
+    """Each side's dead time [s]: the robot's ``drive_delay_left`` / ``drive_delay_right`` while the
+    variant keeps the robot's ``drive_delay``; a variant that moves ``drive_delay`` moves both sides
+    to it (the fitted candidate is one dead time)."""
     own = params.get("drive_delay") is None or float(params["drive_delay"]) == float(robot.drive_delay)
-    left, right = robot.delay_per_side if own else (delay, delay)
-    if left == right:
-        return window_commands(log, ws, dt, nstep, delay=left, scale=scale, before=before)
-    return np.stack([window_commands(log, ws, dt, nstep, delay=d, scale=scale, before=before)[..., i]
-                     for i, d in enumerate((left, right))], -1)
+    return tuple(robot.delay_per_side) if own else (delay, delay)
+
+
+def drive_setpoints(robot: Robot, log: DriveLog, ws: WindowSet, dt: float, nstep: int, *, delays: tuple[float, float],
+                    scale: float, start: np.ndarray) -> np.ndarray:
+    """The set-points (M, nstep, 2) the drives' lags follow in each window: the log's commands
+    (:func:`window_commands`, scaled), through the robot's own controller
+    (:func:`mjtrack.sim.drivetrain.controller_stages`, its ramps starting at ``start`` (M, 2), the
+    track speeds at the window's start), then each side's dead time (:func:`dead_time`), before
+    which the set-point is ``start`` itself. The dead time acts on the controller's output, as in
+    the drivetrain model the calibration fits (:func:`mjtrack.models.drivetrain.window_response`):
+    a measured speed held as a *command* before the start would pass through the speed scale and
+    the controller's stages, and a robot whose controller reshapes its commands (the Husky's halves
+    their difference) would start every window with a set-point its tracks were not running at."""
+    u = window_commands(log, ws, dt, nstep, scale=scale)
+    u = controller_stages(robot, u, dt, start)  # the robot's own speed controller
+    return dead_time(u, delays, dt, start)
 
 
 def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
@@ -428,11 +447,10 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
             ground = chunk_ground(model, vsim.robot, vsim.config, params.get("shear_modulus"),
                                   params.get("lateral_shear_ratio"))
             if warmup_s > 0:
-                state0 = warm_states(vsim, model, log, ws, rest, state0, twists, warmup_s, delay=delay, scale=scale,
-                                     datas=datas, ground=ground)
-            cmds = side_delayed_commands(vsim.robot, params, log, ws, sim.dt, nstep, delay=delay, scale=scale,
-                                         before=speeds0)
-            cmds = controller_stages(vsim.robot, cmds, sim.dt, speeds0)  # the robot's own speed controller
+                state0 = warm_states(vsim, model, log, ws, rest, state0, twists, warmup_s, delays=side_delays(
+                    vsim.robot, params, delay), scale=scale, datas=datas, ground=ground)
+            delays = side_delays(vsim.robot, params, delay)
+            cmds = drive_setpoints(vsim.robot, log, ws, sim.dt, nstep, delays=delays, scale=scale, start=speeds0)
             control = cmds @ sim.B.T
             for lo in range(0, M, CHUNK):
                 hi = min(M, lo + CHUNK)
@@ -463,5 +481,6 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
     return WindowResult(poses=poses, errors=errors, speeds=speeds, diverged=diverged)
 
 
-__all__ = ["MIN_LAG", "WindowResult", "WindowSim", "simulate_windows", "warm_states", "window_commands"]
+__all__ = ["MIN_LAG", "WindowResult", "WindowSim", "dead_time", "drive_setpoints", "simulate_windows", "warm_states",
+           "window_commands"]
 
