@@ -82,3 +82,35 @@ def test_class_gap_interval_on_known_samples():
         lo, hi = class_gap_interval((np.arange(30), a), (np.arange(30), b), n_boot=400, seed=trial)
         covered += lo <= 0.05 <= hi
     assert covered >= 85
+
+
+def test_class_gap_interval_draws_the_windows_of_one_command_together():
+    """Every window logged twice (two windows of one held command): drawn one by one, the copies
+    count as independent evidence and the interval narrows; drawn by command, the interval is that
+    of the single windows exactly (the median of a sample with every value doubled is its median,
+    and the draws of the labels are the same draws)."""
+    from mjtrack.calibrate.measures import class_gap_interval
+
+    rng = np.random.default_rng(3)
+    a, b = rng.normal(0.48, 0.05, 14), rng.normal(0.42, 0.05, 14)
+    single = class_gap_interval((np.arange(14), a), (np.arange(14), b))
+    idx2 = np.arange(28)
+    pairs = (idx2, np.repeat(a, 2)), (idx2, np.repeat(b, 2))
+    loose = class_gap_interval(*pairs)
+    grouped = class_gap_interval(*pairs, groups=idx2 // 2)
+    assert grouped == single
+    assert loose[1] - loose[0] < 0.85 * (single[1] - single[0])
+
+
+def test_command_runs_label_the_windows_of_one_held_command():
+    from mjtrack.calibrate.measures import command_runs
+    from mjtrack.io.logs import DriveLog
+    from mjtrack.windows import make_windows
+
+    t = np.arange(120) * 0.05
+    cmd_l = np.where(t < 4.0, 0.5, -0.3)
+    lg = DriveLog(t=t, v_left_cmd=cmd_l, v_right_cmd=np.full_like(t, 0.8), x=0 * t, y=0 * t, yaw=0 * t)
+    ws = make_windows(lg, 2.0, stride_s=2.0)
+    runs = command_runs(lg, ws)
+    starts = t[ws.starts]
+    assert np.array_equal(runs, (starts >= 4.0).astype(int)), (starts, runs)

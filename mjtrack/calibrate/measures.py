@@ -96,20 +96,37 @@ def turn_measures(lg: DriveLog, ws: WindowSet, robot: Robot, poses: np.ndarray, 
 GAP_BOOT = 2000  # bootstrap replicates of a class's yaw-ratio gap (:func:`class_gap_interval`)
 
 
+def command_runs(lg: DriveLog, ws: WindowSet) -> np.ndarray:
+    """A label (M,) per window: consecutive windows that start on the same logged command share one
+    (the windows of one held command step: the DRIVE protocol's logs hold each step for 6 s, two
+    or three 2 s windows, whose errors the same ground and the same drive state make alike)."""
+    cmd = commanded_log(lg)
+    c = np.stack([cmd.v_left_cmd[ws.starts], cmd.v_right_cmd[ws.starts]], -1).astype(float)
+    new = np.ones(len(ws), bool)
+    new[1:] = np.any(np.abs(np.diff(c, axis=0)) > 1e-9, axis=1)
+    return np.cumsum(new) - 1
+
+
 def class_gap_interval(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray], *,
-                       level: float = 0.95, n_boot: int = GAP_BOOT, seed: int = 0) -> tuple[float, float] | None:
+                       groups: np.ndarray | None = None, level: float = 0.95, n_boot: int = GAP_BOOT,
+                       seed: int = 0) -> tuple[float, float] | None:
     """Percentile bootstrap interval of median(a) - median(b), two per-window samples of one log's
     windows, each (window indices, values) as :func:`turn_measures` keeps them per class
     (``yaw_ratio_samples``): the windows of either are drawn with replacement, each draw keeping a
     window's value in both where it has one, so that the gap's interval holds how much the class's few
-    windows alone can move it. None when either sample is empty."""
+    windows alone can move it. ``groups``: a label per window index of the log (e.g.
+    :func:`command_runs`); windows of one label are drawn together, as one, so that windows that are
+    not independent do not count as independent evidence. None when either sample is empty."""
     (ia, va), (ib, vb) = a, b
     if len(ia) == 0 or len(ib) == 0:
         return None
     windows = np.union1d(ia, ib)
-    ka, kb = np.searchsorted(windows, ia), np.searchsorted(windows, ib)
+    label = np.arange(windows.size) if groups is None else np.unique(np.asarray(groups)[windows],
+                                                                    return_inverse=True)[1].ravel()
+    n_groups = int(label.max()) + 1
+    ka, kb = label[np.searchsorted(windows, ia)], label[np.searchsorted(windows, ib)]
     rng = np.random.default_rng(seed)
-    counts = rng.multinomial(len(windows), np.full(len(windows), 1.0 / len(windows)), size=n_boot)
+    counts = rng.multinomial(n_groups, np.full(n_groups, 1.0 / n_groups), size=n_boot)
     gaps = []
     for c in counts:
         ra, rb = np.repeat(va, c[ka]), np.repeat(vb, c[kb])

@@ -49,7 +49,7 @@ from mjtrack.windows import (DRIVE_DEFAULTS, WARMUP_S, WindowSet, geometry_robot
 if TYPE_CHECKING:  # MuJoCo is loaded by the functions that simulate, not by importing calibrate
     from mjtrack.sim.windows import WindowSim
 
-from mjtrack.calibrate.measures import class_gap_interval, measured_speeds, turn_measures
+from mjtrack.calibrate.measures import class_gap_interval, command_runs, measured_speeds, turn_measures
 from mjtrack.calibrate.result import Calibration, Scored, write_outputs
 
 from mjtrack.calibrate.rounds import MAX_ROUNDS, MAX_ROUNDS_LIMIT, Fitted, Fitter, Meter, expected_passes, fit_attempt
@@ -493,17 +493,19 @@ def _turn_findings(pb: _Problem, scope) -> tuple[list[dict], dict]:
                          "simulated_before": tb["yaw_ratio"], "simulated_after": ta["yaw_ratio"],
                          "windows": meas["yaw_windows"],
                          "definition": "median over steady windows of yaw rate / ((v_R - v_L) / T), mean track speeds"})
+        runs = command_runs(lg, w)  # the windows of one held command are drawn together
         for (lo, hi), (value, count) in meas["yaw_ratio_by_class"].items():
-            gap = (class_gap_interval(meas["yaw_ratio_samples"][(lo, hi)], ta["yaw_ratio_samples"][(lo, hi)])
-                   if (lo, hi) in ta["yaw_ratio_samples"] else None)
+            gap = (class_gap_interval(meas["yaw_ratio_samples"][(lo, hi)], ta["yaw_ratio_samples"][(lo, hi)],
+                                      groups=runs) if (lo, hi) in ta["yaw_ratio_samples"] else None)
             findings.append({"what": f"yaw ratio (|turn ratio| {lo:g} to {hi:g})", "part": label, "measured": value,
                              "simulated_before": tb["yaw_ratio_by_class"].get((lo, hi), (float("nan"),))[0],
                              "simulated_after": ta["yaw_ratio_by_class"].get((lo, hi), (float("nan"),))[0],
                              "windows": count, "turn_class": [lo, hi],
                              "gap_after_interval": None if gap is None else list(gap),
                              "definition": "the yaw ratio over the steady windows of this |turn ratio| class; "
-                                           "gap_after_interval: 95 % bootstrap interval over the windows of measured "
-                                           "minus calibrated (how far the class's few windows alone move it)"})
+                                           "gap_after_interval: 95 % bootstrap interval of measured minus calibrated over "
+                                           "the windows, those of one held command drawn together (how far the "
+                                           "class's few windows alone move it)"})
         for (lo, hi), (value, count) in meas["speed_ratio"].items():
             findings.append({"what": f"forward speed ratio (|turn ratio| {lo:g} to {hi:g})", "part": label,
                              "measured": value, "simulated_before": tb["speed_ratio"].get((lo, hi), (float("nan"),))[0],
