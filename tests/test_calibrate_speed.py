@@ -210,3 +210,33 @@ def test_a_fitted_value_the_last_decision_would_send_back_is_said_unsettled():
     assert verdicts["mu"].unsettled and verdicts["mu"].to_json()["unsettled"] is True
     assert "last decision would send it back to its described value, but its 0 rounds ran out" in verdicts["mu"].reason
     assert not verdicts["cg_x"].unsettled and "unsettled" not in verdicts["cg_x"].to_json()
+
+
+def test_a_window_that_blows_up_near_the_point_holds_no_slope():
+    """A window whose simulation blows up a step away from the point (every component
+    DIVERGED_RESIDUAL there) gets a zero row in the Jacobian; the other windows' rows are those of
+    the analytic objective. Left in, its row is the jump across the stable range's edge: here
+    over thirty times the largest real entry."""
+    from mjtrack.calibrate.fit import DIVERGED_RESIDUAL, central_jacobian
+
+    fx = _fitter()
+    plain = Analytic(NAMES)
+    _, jac = central_jacobian(plain, fx.scaled(DESCRIBED))
+
+    class OneBlowsUp(Analytic):
+        def residuals(self, Z):
+            out = super().residuals(Z)
+            Z = np.asarray(Z, float)
+            if Z.ndim == 2:  # window 3 leaves the stable range above the described cg_x
+                up = np.flatnonzero(Z[1] > fx.scaled(DESCRIBED)[1] + 1e-12)
+                out[3 * ROWS:4 * ROWS, up] = DIVERGED_RESIDUAL / np.sqrt(len(self.windows))
+            return out
+
+    resid, jac2 = central_jacobian(OneBlowsUp(NAMES), fx.scaled(DESCRIBED))
+    assert np.all(jac2[3 * ROWS:4 * ROWS] == 0.0)
+    keep = np.ones(M * ROWS, bool)
+    keep[3 * ROWS:4 * ROWS] = False
+    np.testing.assert_allclose(jac2[keep], jac[keep])
+    # what the row would have been: the jump, against the largest real entry
+    jump = DIVERGED_RESIDUAL / np.sqrt(M) / (2 * fx.specs["cg_x"].resolution / fx.specs["cg_x"].scale)
+    assert jump > 30 * np.abs(jac[keep]).max()

@@ -426,3 +426,17 @@ def test_the_window_layer_and_calibration_import_without_mujoco_or_diagnose():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
     # the last line shows that the probe sees MuJoCo where it is loaded: the window simulator needs it
     assert out.stdout.split("\n")[:3] == ["-", "-", "mujoco"]
+
+
+def test_a_window_that_blew_up_is_scored_with_the_fixed_error(log, sim):
+    """A robot that cannot stand (centre of mass at the edge of its support) diverges in every
+    window: each is scored with DIVERGED_ERROR in every component, whatever its blown-up poses
+    say, so that a score over windows does not carry the blow-up's own numbers."""
+    from mjtrack.windows.define import DIVERGED_ERROR
+
+    ws = make_windows(log, 2.0)
+    res = simulate_windows(sim, log, ws, [{"cg_y": 0.19}, {}])
+    assert res.diverged[0].all() and not res.diverged[1].any()
+    assert np.all(res.errors[0] == DIVERGED_ERROR)
+    assert np.all(np.abs(res.errors[1]) < 0.05)
+    np.testing.assert_allclose(res.rms()[0], np.hypot(DIVERGED_ERROR, DIVERGED_ERROR))

@@ -41,12 +41,12 @@ from mjtrack.calibrate.params import ParamSpec, specs_for, window_params
 from mjtrack.geometry import relative_pose
 from mjtrack.io.logs import DriveLog
 from mjtrack.sim.windows import WindowSim, simulate_windows
-from mjtrack.windows.define import WARMUP_S, WindowSet, measured_window_poses
+from mjtrack.windows.define import DIVERGED_ERROR, WARMUP_S, WindowSet, measured_window_poses
 
 log = logging.getLogger(__name__)
 
 CHECKPOINTS = (0.25, 0.5, 0.75, 1.0)  # fractions of a window at which the pose error counts
-DIVERGED_RESIDUAL = 3.0  # [m] residual of a window whose simulation blew up
+DIVERGED_RESIDUAL = DIVERGED_ERROR  # [m] residual of a window whose simulation blew up (its score's error)
 FD_EPS = 0.05  # finite-difference step in units of a parameter's typical change (ParamSpec.scale)
 # Levenberg-Marquardt damping after a rejected step (mujoco.minimize.least_squares). Its defaults
 # (mu from 0 to 1e-6, then x1.26 per rejection) suit cheap residuals; here one residual is a pass
@@ -359,7 +359,14 @@ def central_jacobian(obj: Objective, z: np.ndarray, central: np.ndarray | None =
     step of half a time step across a kink gave a 16 times too steep derivative and a gradient of
     the wrong sign); and a drive lag or a dead time well below the 5 ms step hardly shows (at
     lag 0.1 ms the residuals did not change at all, at 1 ms a thousandth of what 5 ms does), so a
-    derivative at zero calls a lag the log pins to a few milliseconds undetermined."""
+    derivative at zero calls a lag the log pins to a few milliseconds undetermined.
+
+    A window whose simulation blew up at any of the points (:data:`DIVERGED_RESIDUAL` in every
+    component there) gets a zero row: the difference of its residuals measures the step across the
+    simulator's stable range, not the log's slope. Left in, such a row (a window that diverged at the
+    fitted point and not a step away, or the other way round) dwarfed the real ones in its cluster's
+    score: on the Marmotte log, calibrated from its shipped description, the two windows the guard
+    added as diverged widened every interval past what matters, and nothing was kept."""
     n = z.size
     lo = np.array([obj.specs[k].lo for k in obj.names]) / obj.scales
     hi = np.array([obj.specs[k].hi for k in obj.names]) / obj.scales
@@ -383,6 +390,10 @@ def central_jacobian(obj: Objective, z: np.ndarray, central: np.ndarray | None =
         pairs.append((idx[0], idx[1], a - b))
     R = obj.residuals(np.stack(cols, -1))
     J = np.stack([(R[:, ia] - R[:, ib]) / max(d, 1e-300) for ia, ib, d in pairs], -1)
+    per = obj.rows_per_window
+    windows = R.reshape(-1, per, R.shape[1])
+    blew_up = np.any(np.all(windows == DIVERGED_RESIDUAL / np.sqrt(windows.shape[0]), axis=1), axis=1)
+    J[np.repeat(blew_up, per)] = 0.0
     return R[:, 0], J
 
 

@@ -48,7 +48,7 @@ from mjtrack.sim.config import SimConfig
 from mjtrack.sim.drivetrain import controller_stages
 from mjtrack.sim.ground import chunk_ground, framed_robot
 from mjtrack.sim.rollout import STATE_SPEC, SensorMap, aligned_rollout, collected_mujoco_warnings, settled_state, yaw_of
-from mjtrack.windows.define import WindowSet, start_speeds, start_twists, window_errors
+from mjtrack.windows.define import DIVERGED_ERROR, WindowSet, start_speeds, start_twists, window_errors
 from mjtrack.windows.params import WINDOW_PARAMS, drive_params, geometry_robot, robot_params, slope_of
 
 logger = logging.getLogger(__name__)
@@ -301,7 +301,8 @@ class WindowResult:
     along, across [m] and yaw [rad] error at each window's last sample in the frame of its
     measured start pose; ``speeds``: (P, M, K, 2) simulated track speeds at the same times;
     ``diverged``: (P, M) windows whose simulation blew up (body speed above
-    :data:`DIVERGED_SPEED`; their poses are kept, their errors are meaningless).
+    :data:`DIVERGED_SPEED`, or not finite; their poses are kept as they came out, their errors are
+    :data:`mjtrack.windows.define.DIVERGED_ERROR` in every component).
     """
 
     poses: np.ndarray
@@ -478,6 +479,7 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
         logger.debug("windows: %d of %d rollouts diverged (MuJoCo warned %d times, e.g. %r); scored as diverged",
                     int(diverged.sum()), P * M, len(warned), warned[0])
     errors = window_errors(log, ws, poses)
+    errors[diverged] = DIVERGED_ERROR
     return WindowResult(poses=poses, errors=errors, speeds=speeds, diverged=diverged)
 
 

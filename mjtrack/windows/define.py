@@ -26,6 +26,11 @@ from mjtrack.io.logs import DriveLog
 #: (:func:`mjtrack.sim.windows.warm_states`): on the simulator's own 60 s logs it takes the replay error at 2 s from
 #: 0.40 mm RMS (2 mm worst, a start mid-reversal) to 0.0003 mm; 1 s gains nothing more
 WARMUP_S = 0.5
+#: [m, m, rad] the error a window whose simulation blew up is scored with, in each of along, across
+#: and yaw: what its blown-up poses give is the blow-up's own (NaN, or thousands of metres, by chance),
+#: and a score that held it would say more of the instability than of the model; the fit's residual
+#: of such a window is the same (mjtrack.calibrate.fit)
+DIVERGED_ERROR = 3.0
 
 
 @dataclass(frozen=True)
