@@ -137,11 +137,15 @@ def test_variants_batch_and_change_the_errors(log, sim):
 def test_delay_and_scale_transform_the_commands(log, sim):
     ws = make_windows(log, 2.0)
     before = start_speeds(log, ws)
-    plain = window_commands(log, ws, sim.dt, 400, scale=1.0)
+    ext, pre = window_commands(log, ws, sim.dt, 400, scale=1.0, lead=50)  # from 0.25 s before each start
+    assert ws.starts[0] == 0 and pre[0, :50].min() == 1.0 and pre[0, 50:].max() == 0.0 and pre[1:].max() == 0.0
     late = drive_setpoints(sim.robot, log, ws, sim.dt, 400, delays=(0.25, 0.25), scale=0.5, start=before)
-    np.testing.assert_allclose(late[:, 50:], 0.5 * plain[:, :-50])
-    # until the dead time has passed the drive keeps the speed its track had: not scaled
+    # a window inside the log follows, within the dead time, the log's commands before it
+    np.testing.assert_allclose(late[1:], 0.5 * ext[1:, :400])
+    # the first starts with the log: within the dead time its drive keeps the speed its track had, not scaled
     np.testing.assert_allclose(late[0, :50], before[0][None].repeat(50, 0))
+    np.testing.assert_allclose(late[0, 50:], 0.5 * ext[0, 50:400])
+    plain = ext[:, 50:]
     sided = drive_setpoints(sim.robot, log, ws, sim.dt, 400, delays=(0.1, 0.25), scale=1.0, start=before)
     np.testing.assert_allclose(sided[:, 20:, 0], plain[:, :-20, 0])
     np.testing.assert_allclose(sided[:, 50:, 1], plain[:, :-50, 1])

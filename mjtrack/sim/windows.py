@@ -15,8 +15,9 @@ simulated over short windows of the log (default 2 s), each one:
 * **driven by the logged commands** (zero-order hold: a row's command is in force until the
   next row), transformed by the drivetrain parameters that are not model fields
   (``track_speed_scale`` multiplies them, the robot's own controller stages reshape them, and
-  ``drive_delay`` shifts what comes out; until the dead time has passed, a delayed drive keeps
-  the speed its track had at the start, whatever the scale and the controller);
+  ``drive_delay`` shifts what comes out: within the dead time a window's drive follows the log's
+  commands before it, and before its segment's first row it keeps the speed its track had at the
+  start, whatever the scale and the controller);
 * **kept inside one segment** (``window`` column): a window never crosses a segment boundary;
   a segment shorter than the horizon but at least ``min_fraction`` of it still gives one window
   that ends at its last sample (the Marmotte log is 432 segments of 1.90-2.06 s).
@@ -323,40 +324,30 @@ class WindowResult:
         return np.sqrt(np.mean(self.pos_err() ** 2, axis=1))
 
 
-def window_commands(log: DriveLog, ws: WindowSet, dt: float, nstep: int, *, scale: float) -> np.ndarray:
-    """Per-step track-speed commands (M, nstep, 2) of each window from its first row on, scaled:
-    each step gets the mean of the held command over the step (exact integral of the log's
-    zero-order hold), so that a row that does not fall on the step grid moves the steps
-    continuously. The dead time comes after the controller's stages (:func:`drive_setpoints`)."""
+def window_commands(log: DriveLog, ws: WindowSet, dt: float, nstep: int, *, scale: float,
+                    lead: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Per-step track-speed commands (M, lead + nstep, 2) of each window, scaled, from ``lead`` steps
+    before its start, and the share (M, lead + nstep) of each step that lies before its segment's
+    first row, where the log has no command (0 there). Each step gets the mean of the held command
+    over its part inside the segment (exact integral of the log's zero-order hold), so that a row
+    that does not fall on the step grid moves the steps continuously."""
     slices = log.segment_slices()
-    out = np.empty((len(ws), nstep, 2))
-    edges = np.arange(nstep + 1) * dt  # step k covers [edges[k], edges[k+1]) in log time after the window's start
+    out = np.zeros((len(ws), lead + nstep, 2))
+    pre = np.zeros((len(ws), lead + nstep))
+    edges = (np.arange(lead + nstep + 1) - lead) * dt  # step k covers [edges[k], edges[k+1]) after the window's start
     for j, (s, k) in enumerate(zip(ws.starts, ws.segment)):
         sl = slices[k]
         t = np.asarray(log.t[sl], float) - log.t[s]
         cmd = np.stack([log.v_left_cmd[sl], log.v_right_cmd[sl]], -1).astype(float)
-        # integral of the held command from t[0]: F(t_i) at the rows, linear in between
+        # integral of the held command from t[0]: F(t_i) at the rows, linear in between, 0 before t[0]
         F_rows = np.concatenate([np.zeros((1, 2)), np.cumsum(cmd[:-1] * np.diff(t)[:, None], axis=0)])
-        i = np.clip(np.searchsorted(t, edges, side="right") - 1, 0, t.size - 1)
-        F = F_rows[i] + cmd[i] * (edges - t[i])[:, None]
-        out[j] = np.diff(F, axis=0) / dt
-    return out * scale
-
-
-def dead_time(u: np.ndarray, delays: tuple[float, float], dt: float, before: np.ndarray) -> np.ndarray:
-    """The per-step set-points ``u`` (M, nstep, 2) read ``delays`` (left, right) [s] later: step k
-    gets the mean over [k dt - d, (k+1) dt - d) of ``u`` held per step, ``before`` (M, 2) before the
-    window's start (the speeds the tracks had there: a drive that was running at them kept its
-    set-point there). Continuous in d, so that a finite-difference derivative with respect to the
-    delay is not zero between step multiples."""
-    out = np.empty_like(u)
-    nstep = u.shape[1]
-    for i, d in enumerate(delays):
-        whole = int(math.floor(d / dt + 1e-9))
-        frac = max(d / dt - whole, 0.0)
-        padded = np.concatenate([np.repeat(np.asarray(before, float)[:, None, i], whole + 1, axis=1), u[..., i]], axis=1)
-        out[..., i] = (1.0 - frac) * padded[:, 1:nstep + 1] + frac * padded[:, :nstep]
-    return out
+        e = np.maximum(edges, t[0])
+        i = np.clip(np.searchsorted(t, e, side="right") - 1, 0, t.size - 1)
+        F = F_rows[i] + cmd[i] * (e - t[i])[:, None]
+        pre[j] = np.clip((t[0] - edges[:-1]) / dt, 0.0, 1.0)
+        inside = np.maximum((1.0 - pre[j]) * dt, 1e-300)
+        out[j] = np.diff(F, axis=0) / inside[:, None]
+    return out * scale, pre
 
 
 def side_delays(robot: Robot, params: Mapping[str, float | None], delay: float) -> tuple[float, float]:
@@ -372,15 +363,33 @@ def drive_setpoints(robot: Robot, log: DriveLog, ws: WindowSet, dt: float, nstep
     """The set-points (M, nstep, 2) the drives' lags follow in each window: the log's commands
     (:func:`window_commands`, scaled), through the robot's own controller
     (:func:`mjtrack.sim.drivetrain.controller_stages`, its ramps starting at ``start`` (M, 2), the
-    track speeds at the window's start), then each side's dead time (:func:`dead_time`), before
-    which the set-point is ``start`` itself. The dead time acts on the controller's output, as in
-    the drivetrain model the calibration fits (:func:`mjtrack.models.drivetrain.window_response`):
-    a measured speed held as a *command* before the start would pass through the speed scale and
-    the controller's stages, and a robot whose controller reshapes its commands (the Husky's halves
-    their difference) would start every window with a set-point its tracks were not running at."""
-    u = window_commands(log, ws, dt, nstep, scale=scale)
-    u = controller_stages(robot, u, dt, start)  # the robot's own speed controller
-    return dead_time(u, delays, dt, start)
+    track speeds at the window's start), then each side's dead time: step k gets the mean over
+    [k dt - d, (k+1) dt - d) of the controller's output, continuous in d (a finite-difference
+    derivative with respect to the delay is not zero between step multiples). Where that reaches
+    before the window's start the output comes from the log's commands there; before the segment's
+    first row, where the log has none, it is ``start`` itself: a drive that was running at those
+    speeds kept its set-point. The dead time acts on the controller's output, as in the drivetrain
+    model the calibration fits (:func:`mjtrack.models.drivetrain.window_response`): the start speeds
+    held as a *command* would pass through the speed scale and the controller's stages, and a robot
+    whose controller reshapes its commands (the Husky's halves their difference) would start every
+    window at a segment's start with a set-point its tracks were not running at."""
+    lead = int(math.ceil(max(delays) / dt - 1e-9)) + 1
+    u, pre = window_commands(log, ws, dt, nstep, scale=scale, lead=lead)
+    start = np.asarray(start, float)
+    first = np.sum(pre >= 1.0 - 1e-12, axis=1)  # steps wholly before the segment's first row lead the sequence
+    out = np.empty_like(u)
+    for f in np.unique(first):
+        g = first == f
+        out[g, :f] = start[g][:, None]
+        out[g, f:] = controller_stages(robot, u[g, f:], dt, start[g])  # the robot's own speed controller
+    out = pre[..., None] * start[:, None] + (1.0 - pre[..., None]) * out  # the step holding the segment's start
+    shifted = np.empty((len(ws), nstep, 2))
+    for i, d in enumerate(delays):
+        whole = int(math.floor(d / dt + 1e-9))
+        frac = max(d / dt - whole, 0.0)
+        k = lead + np.arange(nstep) - whole
+        shifted[..., i] = (1.0 - frac) * out[:, k, i] + frac * out[:, k - 1, i]
+    return shifted
 
 
 def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
@@ -483,6 +492,6 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
     return WindowResult(poses=poses, errors=errors, speeds=speeds, diverged=diverged)
 
 
-__all__ = ["MIN_LAG", "WindowResult", "WindowSim", "dead_time", "drive_setpoints", "simulate_windows", "warm_states",
+__all__ = ["MIN_LAG", "WindowResult", "WindowSim", "drive_setpoints", "simulate_windows", "warm_states",
            "window_commands"]
 
