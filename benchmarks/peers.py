@@ -17,6 +17,9 @@ For each shared DRIVE log (../shared/data/, BSD-3; see each folder's README):
   measured speeds and from the commands. Metrics per model: end-of-window RMS position error, the
   mean over windows of the mean position distance over the window, the end-of-window yaw RMS, and
   the steady-turn yaw ratio per turn class against the measured one;
+* **what the gyro says** (``gyro_evidence``), where the log has one: the steady-turn yaw ratio per
+  turn class from the poses and from the gyro, and, at command steps, how long before the ideal yaw
+  rate of the measured track speeds the gyro's rate gets half-way to its new value;
 * ``--calibrated ROBOT:DIR``: the calibration directory's robot.json simulated by MuJoCo on the same
   test windows (from each window's measured state, the commands as drive input unless the robot's
   ``simulator.drive_input`` says measured), one more row.
@@ -144,6 +147,62 @@ def yaw_ratios(lg, ws, robot, a: dict, poses: dict) -> dict:
         out[f"{lo:g}-{hi:g}"] = {"windows": n, "measured": measured, **{k: ratio(sub, p, m)[0] for k, p in poses.items()}}
     measured, n = ratio(ws, a["poses"])
     return {"all": {"windows": n, "measured": measured, **{k: ratio(ws, p)[0] for k, p in poses.items()}}, **out}
+
+
+#: |change| [rad/s] of a step window's yaw rate, from its first sample to its last half second, below
+#: which :func:`gyro_evidence` does not time the step (too small a change to find its half-way point)
+STEP_MIN_CHANGE = 0.4
+
+
+def _half_way(t: np.ndarray, x: np.ndarray) -> float:
+    """Time [s] at which ``x`` (one window) first gets half-way from its first sample to the mean of
+    its last half second, linearly between samples; NaN for a change under :data:`STEP_MIN_CHANGE`."""
+    ok = np.isfinite(t) & np.isfinite(x)
+    t, x = t[ok], x[ok]
+    end = x[t >= t[-1] - 0.5].mean()
+    if abs(end - x[0]) < STEP_MIN_CHANGE:
+        return float("nan")
+    f = (x - x[0]) / (end - x[0])
+    k = int(np.argmax(f >= 0.5))
+    if k == 0:
+        return float("nan")
+    return float(t[k - 1] + (0.5 - f[k - 1]) / (f[k] - f[k - 1]) * (t[k] - t[k - 1]))
+
+
+def gyro_evidence(lg, ws, robot, a: dict, sign: float) -> dict:
+    """What the log's gyro says beside its poses and its measured track speeds: per turn class
+    (calibrate's classes, of the measured track speeds) the steady-turn yaw ratio from the poses
+    (calibrate's turn_measures, as in the tables above) and from the gyro (the median over the same
+    steady turns of the window's mean gyro rate over (v_R - v_L)/T of its mean measured speeds);
+    and, over the windows that start with a command step, when the gyro's yaw rate gets half-way to
+    its new value against when the ideal yaw rate of the measured track speeds does (a body cannot
+    turn before its wheels: a gyro ahead says the measured speeds are dated late)."""
+    from mjtrack.calibrate.measures import STEADY_MIN_WZ, steady_mask
+    from mjtrack.windows import commanded_log
+
+    gauge = robot.track_gauge
+    last = a["last"]
+    v = np.array([np.nanmean(a["meas"][j, :last[j] + 1], axis=0) for j in range(len(ws))])
+    wnom = (v[:, 1] - v[:, 0]) / gauge
+    gyro = sign * np.array([np.nanmean(a["gyro"][j, :last[j] + 1]) for j in range(len(ws))])
+    use = steady_mask(commanded_log(lg), ws) & (np.abs(wnom) >= STEADY_MIN_WZ)
+    turn = np.abs(turn_ratio(v))
+    poses = turn_measures(lg, ws, robot, a["poses"], a["meas"])["yaw_ratio_by_class"]
+    classes = {}
+    for lo, hi in TURN_CLASSES:
+        m = use & (turn >= lo) & ((turn < hi) | (hi >= 1.0))
+        if m.sum() >= 3:
+            classes[f"{lo:g}-{hi:g}"] = {"windows": int(m.sum()), "poses": poses.get((lo, hi), (None,))[0],
+                                         "gyro": float(np.median(gyro[m] / wnom[m]))}
+    ideal = (a["meas"][..., 1] - a["meas"][..., 0]) / gauge
+    lead = np.array([_half_way(a["t"][j], ideal[j]) - _half_way(a["t"][j], sign * a["gyro"][j])
+                     for j in np.flatnonzero(a["step"])])
+    lead = lead[np.isfinite(lead)]
+    steps = {"windows": int(a["step"].sum()), "timed": int(lead.size), "min_change_rad_s": STEP_MIN_CHANGE}
+    if lead.size:
+        steps.update(zip(("gyro_lead_q25_s", "gyro_lead_median_s", "gyro_lead_q75_s"),
+                         (float(x) for x in np.percentile(lead, [25, 50, 75]))))
+    return {"yaw_ratio_by_class": classes, "steps": steps}
 
 
 def _speeds(a: dict) -> np.ndarray:
@@ -284,6 +343,8 @@ def calibrated_poses(directory: Path, part, tws, *, setting_only: bool = False):
     ground = {k: cal.get("parameters", {})[k] for k in ("slope_x", "slope_y") if k in cal.get("parameters", {})}
     res = simulate_windows(WindowSim(robot, sim_config(None, robot=robot), resisted=True), lg, tws, [ground],
                            warmup_s=WARMUP_S)
+    if res.diverged[0].any():  # said, not hidden: a blown-up window's poses are the blow-up's
+        print(f"  {directory.name}: {int(res.diverged[0].sum())} of {len(tws)} windows diverged", flush=True)
     return res.poses[0], drive_input
 
 
@@ -341,6 +402,9 @@ def run_robot(name: str, calibrated: dict[str, Path]) -> dict:
     })
     if np.isfinite(a["meas"]).any():
         out["wheel_speeds"] = wheel_speeds(parts[0], robot, a, drive)
+    if a["gyro"] is not None and np.isfinite(a["meas"]).any():
+        out["gyro_evidence"] = {label: gyro_evidence(lg, ws, robot, arr, sign)
+                                for label, lg, ws, arr in zip(("train", "test"), parts, kept, (train, test))}
     return out
 
 
@@ -388,6 +452,13 @@ def main(argv=None) -> int:
                   f"yaw RMS {m['yaw_rms_rad']:.3f} rad  yaw ratio {_f3(y[k])} (measured {_f3(y['measured'])})  "
                   f"90 % regions cover {g['coverage']:.3f} (train {g['train_coverage']:.3f}), "
                   f"mean area {g['mean_area_m2']:.3f} m2")
+        for part, ev in r.get("gyro_evidence", {}).items():
+            st = ev["steps"]
+            print(f"  gyro, {part}: steady yaw ratio poses / gyro "
+                  + "; ".join(f"{c} {_f3(v['poses'])} / {_f3(v['gyro'])} ({v['windows']})"
+                              for c, v in ev["yaw_ratio_by_class"].items())
+                  + (f"; gyro ahead of the measured speeds at {st['timed']} steps by {st['gyro_lead_median_s']:+.3f} s "
+                     f"(median)" if "gyro_lead_median_s" in st else ""))
         RESULT.parent.mkdir(parents=True, exist_ok=True)
         RESULT.write_text(json.dumps({"command": "python benchmarks/peers.py " + " ".join(sys.argv[1:] if argv is None
                                                                                           else argv),

@@ -1047,6 +1047,17 @@ def _peers() -> Page:
                    "the commanded half difference (small, medium, large: `half_difference_classes_m_s` in the result "
                    "file), in the RMS left column.",
                    ["robot", "model", "regime", "windows left", "windows right", "RMS left", "RMS right"])
+    gyro = Table("What the logs' gyros say beside their poses (`gyro_evidence` of benchmarks/peers.py), on each part "
+                 "of the split: the steady-turn yaw ratio per turn class from the poses (as above) and from the gyro "
+                 "(its mean rate over each steady turn over (v_R - v_L)/T of the measured track speeds; median over the "
+                 "same windows): two sensors on one quantity.",
+                 ["robot", "part", "turn class", "steady turns", "from the poses", "from the gyro"])
+    lead = Table("When the body turns against when its measured track speeds say it should (`gyro_evidence` of "
+                 "benchmarks/peers.py): over the windows of each part that start with a command step whose yaw rate "
+                 "changes by at least `min_change_rad_s`, how long before the ideal yaw rate of the measured track "
+                 "speeds, (v_R - v_L)/T, the gyro's rate gets half-way to its new value [s] (quartiles and median). "
+                 "Positive: the body turns first, which says the measured speeds are dated late against the gyro.",
+                 ["robot", "part", "step windows timed", "25 %", "median", "75 %"])
     theirs = Table("The authors' DRIVE on the last part of each run, which the shared folders do not hold (other "
                    "windows than ours): end-of-window RMS [m], mean distance over the window [m], windows.",
                    ["robot", "end RMS", "mean distance", "windows"])
@@ -1098,6 +1109,15 @@ def _peers() -> Page:
                     p = f"{w}/models/{m}/steady_by_commanded_half_difference/{cls}"
                     speeds.add(name, label, f"steady, {cls} turns: half-difference bias", number(src, p + "/windows"),
                                number(src, p + "/windows"), number(src, p + "/half_difference_bias"), "–")
+        for part, ev in r.get("gyro_evidence", {}).items():
+            e = f"{q}/gyro_evidence/{part}"
+            for cls in ev["yaw_ratio_by_class"]:
+                c = f"{e}/yaw_ratio_by_class/{cls}"
+                gyro.add(name, part, class_names.get(cls, cls), number(src, c + "/windows"), number(src, c + "/poses"),
+                         number(src, c + "/gyro"))
+            if "gyro_lead_median_s" in ev["steps"]:
+                lead.add(name, part, number(src, e + "/steps/timed"),
+                         *(number(src, f"{e}/steps/gyro_lead_{k}_s") for k in ("q25", "median", "q75")))
         theirs.add(name, number(src, q + "/authors_held_out/end_rms_m"), number(src, q + "/authors_held_out/mean_distance_m"),
                    number(src, q + "/authors_held_out/windows"))
     load = Table("The machine's load during the run.", ["what", "value"])
@@ -1112,7 +1132,7 @@ def _peers() -> Page:
         "training and the last part testing. DRIVE and the models driven by the commands predict what a planner can "
         "know; those driven by the measured speeds see the drives' response and score the contact alone. The "
         "derivation and what the reproduction shows: the theory page on the peers.",
-        [src], [rep, split, models, turns, regions, speeds, theirs, load])
+        [src], [rep, split, models, turns, gyro, lead, regions, speeds, theirs, load])
 
 
 def _shear_ground() -> Page:
