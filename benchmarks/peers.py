@@ -92,6 +92,12 @@ def window_arrays(log, ws) -> dict:
             "last": last, "dt": (log.t[ws.ends] - log.t[ws.starts]) / last, "step": ~steady}
 
 
+def window_nanmeans(x: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """Mean of each window's samples of the NaN-padded ``x`` (M, K, ...) up to its last sample,
+    missing samples left out: (M, ...)."""
+    return np.array([np.nanmean(x[j, :last[j] + 1], axis=0) for j in range(len(last))])
+
+
 def gyro_sign(a: dict) -> float:
     """+1 when the gyro turns the way the poses' yaw does, -1 when it is mounted the other way
     round (the sign of their correlation over every sample)."""
@@ -135,7 +141,7 @@ def yaw_ratios(lg, ws, robot, a: dict, poses: dict) -> dict:
         r = turn_measures(lg, ws_, robot, p[m], a["meas"][m])
         return (None if not np.isfinite(r["yaw_ratio"]) else r["yaw_ratio"]), r["yaw_windows"]
 
-    v = np.array([np.nanmean(a["meas"][j, :a["last"][j] + 1], axis=0) for j in range(len(ws))])
+    v = window_nanmeans(a["meas"], a["last"])
     turn = np.abs(turn_ratio(v))
     out = {}
     for lo, hi in TURN_CLASSES:
@@ -182,9 +188,9 @@ def gyro_evidence(lg, ws, robot, a: dict, sign: float) -> dict:
 
     gauge = robot.track_gauge
     last = a["last"]
-    v = np.array([np.nanmean(a["meas"][j, :last[j] + 1], axis=0) for j in range(len(ws))])
+    v = window_nanmeans(a["meas"], last)
     wnom = (v[:, 1] - v[:, 0]) / gauge
-    gyro = sign * np.array([np.nanmean(a["gyro"][j, :last[j] + 1]) for j in range(len(ws))])
+    gyro = sign * window_nanmeans(a["gyro"], last)
     use = steady_mask(commanded_log(lg), ws) & (np.abs(wnom) >= STEADY_MIN_WZ)
     turn = np.abs(turn_ratio(v))
     poses = turn_measures(lg, ws, robot, a["poses"], a["meas"])["yaw_ratio_by_class"]
@@ -304,7 +310,7 @@ def wheel_speeds(train_log, robot, a: dict, drive: peers.Drive) -> dict:
 def region_scale_groups(a: dict) -> tuple[np.ndarray, np.ndarray]:
     """Each window's length scale [m] (the path of its mean commanded track speed: what a planner
     knows) and turn class (index into calibrate's classes of |turn ratio| of its mean commands)."""
-    c = np.array([np.mean(a["cmd"][j, :a["last"][j] + 1], axis=0) for j in range(len(a["last"]))])
+    c = window_nanmeans(a["cmd"], a["last"])
     scale = 0.5 * (np.abs(c[:, 0]) + np.abs(c[:, 1])) * a["dt"] * a["last"]
     turn = np.abs(turn_ratio(c))
     groups = np.array([next(i for i, (lo, hi) in enumerate(TURN_CLASSES) if t < hi or hi >= 1.0) for t in turn])

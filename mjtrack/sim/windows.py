@@ -456,10 +456,10 @@ def simulate_windows(sim: WindowSim, log: DriveLog, ws: WindowSet,
             # the shear ground's friction, set per chunk (the robot's own, or the variant's K; 0: Coulomb)
             ground = chunk_ground(model, vsim.robot, vsim.config, params.get("shear_modulus"),
                                   params.get("lateral_shear_ratio"))
-            if warmup_s > 0:
-                state0 = warm_states(vsim, model, log, ws, rest, state0, twists, warmup_s, delays=side_delays(
-                    vsim.robot, params, delay), scale=scale, datas=datas, ground=ground)
             delays = side_delays(vsim.robot, params, delay)
+            if warmup_s > 0:
+                state0 = warm_states(vsim, model, log, ws, rest, state0, twists, warmup_s, delays=delays, scale=scale,
+                                     datas=datas, ground=ground)
             cmds = drive_setpoints(vsim.robot, log, ws, sim.dt, nstep, delays=delays, scale=scale, start=speeds0)
             control = cmds @ sim.B.T
             for lo in range(0, M, CHUNK):
