@@ -187,7 +187,7 @@ def _yaw_row(part, lo, hi, measured, after, windows):
             "simulated_before": 0.5, "simulated_after": after, "windows": windows, "turn_class": [lo, hi]}
 
 
-def test_a_yaw_ratio_off_in_a_turn_class_is_said_as_what_no_candidate_describes():
+def test_a_yaw_ratio_off_in_a_turn_class_is_said():
     """Only classes with enough steady turns count, the test part when there is one, and only a gap
     beyond YAW_CLASS_GAP; a class the calibrated robot never turned steadily in (null) says nothing."""
     from mjtrack.calibrate.causes import YAW_CLASS_GAP, YAW_CLASS_MIN, yaw_class_gaps
@@ -199,7 +199,8 @@ def test_a_yaw_ratio_off_in_a_turn_class_is_said_as_what_no_candidate_describes(
             _yaw_row("test", 0.0, 0.15, 0.44, None, 40)]  # no steady turn simulated
     text = yaw_class_gaps(rows)
     assert "|turn ratio| 0.15 to 0.5: measured 0.620, calibrated 0.680 over 10 steady turns" in text
-    assert "0.5 to 1" not in text and "0 to 0.15" not in text and text.startswith("no candidate makes")
+    assert "0.5 to 1" not in text and "0 to 0.15" not in text
+    assert text.startswith("the calibrated robot turns unlike the log in a turn class")
     assert yaw_class_gaps(rows[:1]).count("train windows") == 1  # no test part: the training part's
     assert yaw_class_gaps(rows[2:]) == ""
 

@@ -431,7 +431,9 @@ def yaw_class_gaps(findings: list[dict]) -> str:
         return ""
     each = "; ".join(f"|turn ratio| {f['turn_class'][0]:g} to {f['turn_class'][1]:g}: measured {f['measured']:.3f}, "
                      f"calibrated {f['simulated_after']:.3f} over {f['windows']} steady turns" for f in off)
-    return (f"no candidate makes the simulated steady-turn yaw ratio follow the measured one in every turn class "
+    # not "no candidate can": the turn stage (mjtrack.calibrate.turns) may have found values that turn
+    # as the training windows do and been refused, or the test windows may turn otherwise
+    return (f"the calibrated robot turns unlike the log in a turn class "
             f"({part} windows; {each}; more than {YAW_CLASS_GAP:g} apart)")
 
 

@@ -54,7 +54,8 @@ def turn_measures(lg: DriveLog, ws: WindowSet, robot: Robot, poses: np.ndarray, 
     window's chord twist where |turn ratio| >= ICR_MIN_TURN, medians per turn direction; forward
     speed ratio: median of the chord's forward speed / the mean track speed per |turn ratio| class
     (:data:`TURN_CLASSES`), where |mean track speed| >= SPEED_MIN -- 1 without longitudinal slip; a
-    real robot falls behind its tracks in turns when the ground resists its motion.
+    real robot falls behind its tracks in turns when the ground resists its motion. Per class, the
+    windows and their values behind each median: ``yaw_ratio_samples``, ``speed_ratio_samples``.
     """
     n = ws.ends - ws.starts
     M = len(ws)
@@ -77,11 +78,12 @@ def turn_measures(lg: DriveLog, ws: WindowSet, robot: Robot, poses: np.ndarray, 
                          "y_r": float(np.median((tw[m, 0] - v[m, 1]) / wz)),
                          "x_c": float(np.median(-tw[m, 1] / wz)), "windows": int(m.sum())}
     vm = v.mean(axis=1)
-    fwd = {}
+    fwd, fwd_samples = {}, {}
     for lo, hi in TURN_CLASSES:
         m = steady & (np.abs(vm) >= SPEED_MIN) & (np.abs(turn) >= lo) & ((np.abs(turn) < hi) | (hi >= 1.0))
         if m.sum() >= 3:
             fwd[(lo, hi)] = (float(np.median(tw[m, 0] / vm[m])), int(m.sum()))
+            fwd_samples[(lo, hi)] = (np.flatnonzero(m), tw[m, 0] / vm[m])
     yaw_by_class, samples = {}, {}
     for lo, hi in TURN_CLASSES:
         m = use & (np.abs(turn) >= lo) & ((np.abs(turn) < hi) | (hi >= 1.0))
@@ -90,7 +92,7 @@ def turn_measures(lg: DriveLog, ws: WindowSet, robot: Robot, poses: np.ndarray, 
             yaw_by_class[(lo, hi)] = (float(np.median(values)), int(m.sum()))
             samples[(lo, hi)] = (np.flatnonzero(m), values)
     return {"yaw_ratio": ratio, "yaw_windows": int(use.sum()), "icr": icr, "speed_ratio": fwd,
-            "yaw_ratio_by_class": yaw_by_class, "yaw_ratio_samples": samples}
+            "yaw_ratio_by_class": yaw_by_class, "yaw_ratio_samples": samples, "speed_ratio_samples": fwd_samples}
 
 
 GAP_BOOT = 2000  # bootstrap replicates of a class's yaw-ratio gap (:func:`class_gap_interval`)

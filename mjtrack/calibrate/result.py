@@ -150,6 +150,9 @@ class Calibration:
     #: the fit started again from other friction levels because a changed value ended on a bound: one
     #: record per attempt ("mu_start", "train_rms_m", "on_bound", "kept"), the first the fit's own start
     restarts: list[dict] = field(default_factory=list)
+    #: the turn stage's record (:meth:`mjtrack.calibrate.turns.TurnMatch.to_json`) when it ran: the
+    #: pose fit's robot turned unlike the log in a class of the training part's steady turns
+    turns: dict | None = None
     #: windows simulated by the whole calibration: every stage and every attempt (a window's warm-up
     #: is part of its simulation); None: not counted (then the fit's own passes are reported)
     simulated_windows: int | None = None
@@ -228,7 +231,8 @@ class Calibration:
                      "(--drive-input fitted fits the drives to them).")
         yaw = yaw_class_gaps(self.findings) if self.changed else ""
         if yaw:
-            text += f" The log shows what no candidate here describes: {yaw}."
+            text += (f" {yaw[0].upper()}{yaw[1:]}: the end poses and the steady turns ask for different values of the "
+                     "candidates, or for something none of them describes.")
         worse = speeds_worse(self.simulated_wheel_speeds())
         if worse:
             text += f" Warning: {worse}."
@@ -254,6 +258,7 @@ class Calibration:
             "model_form": self.model_form,
             "start": self.fit.start, "starts_tried": [{"parameters": p, "cost": c} for p, c in self.fit.starts_tried],
             "method": {"optimizer": self.fit.method, "rounds": self.rounds, "friction_restarts": self.restarts,
+                       "turns": self.turns,
                        "fits": [{"parameters": f.names, "iterations": f.iterations, "cost_start": f.cost_start,
                                  "cost_final": f.cost_final} for f in fits],
                        "simulated_windows": (sum(f.evaluations for f in fits) * len(self.fitted_windows)

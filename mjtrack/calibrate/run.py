@@ -33,10 +33,11 @@ import numpy as np
 from mjtrack.calibrate.causes import (Cause, find_causes, implausibility, on_bound, summary, traction_defaults,
                                      traction_limit)
 from mjtrack.calibrate.drivetrain import chain_robot, fit_chain, has_measured_speeds, predicted_drive_log
-from mjtrack.calibrate.identify import fmt_value
+from mjtrack.calibrate.identify import Verdict, fmt_value
 from mjtrack.calibrate.params import (FRAMED_PARAMS, described_values, geometry_name, parse_names, specs_for,
                                      start_values, window_params)
 from mjtrack.calibrate.start import suggested_length
+from mjtrack.calibrate.turns import TurnMatch, match_turns, turn_candidates
 from mjtrack.errors import InputError
 from mjtrack.io.jsonfile import json_value
 from mjtrack.io.logs import DriveLog
@@ -615,16 +616,23 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
               f"the fit of {len(pb.names)} parameters takes about {passes} passes over {n_fit} windows: about "
               f"{clock_text((passes * n_fit + after_windows) / rate)} more")
     att, changed, wp, after, restarts = _guarded_fit(fx, pb, fit_windows, before, clock, kw)
+    fit_wp = wp
+    with clock.stage("turns"):
+        turns, sim, changed, wp, after = _turn_stage(fx, pb, sim, att, changed, wp, after, kw)
     with clock.stage("after"):
         meter.stage("causes", n_test + 2 * n_fit)
         test_after = None
         if test is not None:
             test_after = _score(sim, test, pb.tws, [wp], **kw)[0] if changed else test_before
+            if turns is not None and turns.accepted:  # the price of turning as the log does, on windows never fitted
+                turns.test_rms = (_score(sim, test, pb.tws, [fit_wp], **kw)[0].rms if fit_wp else test_before.rms,
+                                  test_after.rms)
         cal_robot = calibrated_robot(robot, {n: att.values[n] for n in changed}, pb.config, drive_input)
         corr = np.eye(len(changed))
-        if changed and att.u is not None:
-            cidx = [att.lin.names.index(n) for n in changed]
-            corr = att.u.corr[np.ix_(cidx, cidx)]
+        if changed and att.u is not None:  # a value the turn stage added has no correlation in the pose fit
+            inl = [i for i, n in enumerate(changed) if n in att.lin.names]
+            cidx = [att.lin.names.index(changed[i]) for i in inl]
+            corr[np.ix_(inl, inl)] = att.u.corr[np.ix_(cidx, cidx)]
 
         # the causes are measured on the windows the fit used (all of them up to ``fit_windows``): each
         # cause costs two passes, and on a long log a pass over every window was a sixth of the time
@@ -648,6 +656,7 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
         if test is not None:
             scope.append(("test", test, pb.tws, test_before, test_after))
         findings, sentence = _explain(pb, att, changed, causes, scope, restarts)
+        sentence += "" if turns is None else turns.sentence()
     names = pb.names
     return Calibration(
         train_path=str(train_path or train.source), test_path=None if test is None else str(test_path or test.source),
@@ -658,7 +667,57 @@ def _stages(train: DriveLog, robot: Robot, *, test, names, horizon_s, n_rollers,
         test_log=test, before=before, after=after, test_before=test_before, test_after=test_after,
         findings=json_value(findings), sentence=sentence, config=pb.config.to_dict(), timings=clock.total(),
         drive_input=drive_input, fit_windows=att.fws, left_out=pb.left_out, rounds=rounds, restarts=restarts,
-        simulated_windows=meter.simulated)
+        simulated_windows=meter.simulated, turns=None if turns is None else turns.to_json())
+
+
+def _turn_stage(fx: Fitter, pb: _Problem, sim: WindowSim, att: Fitted, changed: list[str], wp: dict, after: Scored,
+                kw: dict) -> tuple[TurnMatch | None, WindowSim, list[str], dict, Scored]:
+    """The turn stage (:mod:`mjtrack.calibrate.turns`) after the pose fit: when it is accepted, its
+    values replace the fit's in ``att`` (with their verdicts; a turn candidate the calibration did
+    not name is added to ``pb.names``) and the simulator, the changed parameters, their window
+    parameters and the training score are those of the turn-matched robot."""
+    from mjtrack.sim.windows import WindowSim
+
+    names = turn_candidates(pb.names, pb.robot)
+    if not names:
+        return None, sim, changed, wp, after
+    tsim = sim
+    if "lateral_shear_ratio" in names and not sim.framed:
+        tsim = WindowSim(pb.robot, pb.config, resisted=sim.resisted, framed=True)
+    scored: dict[str, Scored] = {}
+
+    def score(values: dict[str, float]) -> tuple[float, int]:
+        scored["last"] = _score(tsim, pb.train, pb.ws, [{**wp, **values}], **kw)[0]
+        return scored["last"].rms, scored["last"].diverged
+
+    fx.meter.stage("turns")
+    tm = match_turns(tsim, pb.train, pb.ws, pb.robot, wp, names, fx.specs, fitted_rms=after.rms,
+                     fitted_diverged=after.diverged, fitted_poses=after.poses, fitted_speeds=after.speeds,
+                     nthread=kw["nthread"], warmup_s=kw["warmup_s"], score=score, tie=RESTART_GAIN,
+                     progress=kw["progress"])
+    if tm is None or not tm.accepted:
+        return tm, sim, changed, wp, after
+    specs = fx.specs
+    for n in names:
+        if n not in pb.names:
+            pb.names.append(n)
+            pb.described[n] = described_values(pb.robot, [n], pb.config)[n]
+            pb.start[n] = tm.start[n]
+        lo, hi = tm.intervals.get(n, (None, None))
+        half = None if lo is None else (hi - lo) / 2
+        determined = half is not None and half < specs[n].resolution
+        span = ("no interval" if lo is None else f"95 % interval [{lo:.4g}, {hi:.4g}] {specs[n].unit}".rstrip(" –"))
+        others = [m for m in names if m != n]
+        reason = (f"set by the training part's steady turns ({span}; "
+                  + ("determined by them" if determined else
+                     f"wider than the +-{specs[n].resolution:g} that matters: the turns fix it together with "
+                     f"{', '.join(others)}, a change of one taken up by the others")
+                  + f"): {tm.why}")
+        att.values[n] = tm.values[n]
+        att.verdicts[n] = Verdict(n, determined, True, tm.values[n], pb.described[n],
+                                  None if lo is None else (lo, hi), reason)
+    changed = [n for n in pb.names if att.verdicts[n].changed]
+    return tm, tsim, changed, window_params({n: att.values[n] for n in changed}, pb.robot), scored["last"]
 
 
 def _without_contradicting(lg: DriveLog, ws: WindowSet, src: str, gauge: float) -> tuple[WindowSet, list[dict]]:

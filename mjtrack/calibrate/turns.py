@@ -1,0 +1,291 @@
+"""Turning as the log does: the steady turns set what the end poses leave free.
+
+The windowed fit (:mod:`mjtrack.calibrate.fit`) minimises the error of every window's poses. On a
+real log its answer can predict the end poses well and still turn unlike the robot: on the shared
+Husky log the pose fit's robot turns gently less than the log does, while a robot with another
+wheelbase, shear ground and motion resistance fits the training windows' end poses as well and
+turns as the log does in every class (the results page "Calibration"): the end poses leave that
+direction free; the steady turns do not.
+
+So when the fitted robot's steady-turn yaw ratio is more than
+:data:`mjtrack.calibrate.causes.YAW_CLASS_GAP` from the measured one in a turn class of the
+training windows (at least :data:`mjtrack.calibrate.causes.YAW_CLASS_MIN` steady turns), the
+*turn candidates* (:func:`turn_candidates`: the contact length or wheelbase, the motion resistance,
+the shear ground's modulus and its across / along ratio, those the calibration may move) are
+fitted by least squares to the training part's steady-turn measures -- the yaw ratio and the
+forward speed ratio of every class with enough steady turns
+(:func:`mjtrack.calibrate.measures.turn_measures`) -- from the fitted values, the other parameters
+held at theirs. The answer replaces the fitted values only when
+
+* it turns as the log does: every such class's yaw ratio within the gap;
+* it fits every training window's end pose as well: RMS within ``tie`` of the fit's (calibrate
+  passes :data:`mjtrack.calibrate.run.RESTART_GAIN`, the optimiser's tolerance: two answers closer
+  than that are one to the end poses);
+* no turn candidate ends on a bound of its range, and no more windows diverge.
+
+Otherwise the fitted values stand and the calibration says which condition failed: then the end
+poses and the steady turns ask for different robots, which is what the log shows that no candidate
+describes.
+
+With a test log, the record also holds both robots' error on it (never fitted): what turning as the
+log does costs or gains where the fit did not look.
+
+The 95 % interval of each turn candidate comes from how far the classes' few windows move the
+measures: the measured-minus-simulated class medians are bootstrapped over the windows (those of
+one held command drawn together, :func:`mjtrack.calibrate.measures.command_runs`), and their
+covariance is carried through the least-squares solution's Jacobian; added to it in quadrature, the
+optimiser's part (its stopping tolerance :data:`TURN_XTOL`, and how far the classes' mismatch left
+at the answer would move each value).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Callable
+
+import numpy as np
+
+from mjtrack.calibrate.causes import YAW_CLASS_GAP, YAW_CLASS_MIN
+from mjtrack.calibrate.measures import command_runs, measured_speeds, steady_mask, turn_measures
+from mjtrack.calibrate.params import EXTENDS_COULOMB, RESISTANCE_START, SHEAR_START, ParamSpec, geometry_name
+from mjtrack.io.logs import DriveLog
+from mjtrack.io.robot import Robot
+from mjtrack.windows import WindowSet, commanded_log, measured_window_poses
+
+if TYPE_CHECKING:  # MuJoCo is loaded by the functions that simulate, not by importing calibrate
+    from mjtrack.sim.windows import WindowSim
+
+#: least-squares evaluations of the turn fit, each one pass over the training part's steady windows
+TURN_EVALS = 40
+#: bootstrap replicates of the class medians behind the turn candidates' intervals
+TURN_BOOT = 400
+#: relative finite-difference step of the turn fit: the class medians move in steps as windows
+#: cross one another, so the step must span several of them
+TURN_STEP = 0.03
+#: the turn fit stops when a step moves no value by more than this share of it: each interval
+#: holds that much besides the classes' scatter (the optimiser's part)
+TURN_XTOL = 1e-3
+
+
+def turn_candidates(names: list[str], robot: Robot) -> list[str]:
+    """The parameters the turn stage may set: of ``names``, the contact length / wheelbase, the
+    motion resistance and the shear modulus, and with the modulus the shear ground's across / along
+    ratio (its second parameter: a ratio that only a named modulus lets act)."""
+    out = [n for n in (geometry_name(robot), "rolling_resistance", "shear_modulus") if n in names]
+    shear_ok = robot.ground.model in ("shear", EXTENDS_COULOMB["shear_modulus"])
+    if "shear_modulus" in out and shear_ok:
+        out.append("lateral_shear_ratio")
+    elif "shear_modulus" in out:
+        out.remove("shear_modulus")
+    return out
+
+
+@dataclass
+class TurnClasses:
+    """The steady-turn measures the turn stage fits: (kind, lo, hi) per class, ``kind`` "yaw" or
+    "forward", and the measured values of the training part."""
+
+    classes: list[tuple[str, float, float]]
+    measured: np.ndarray
+
+    @property
+    def labels(self) -> list[str]:
+        return [f"{'yaw ratio' if k == 'yaw' else 'forward speed ratio'} (|turn ratio| {lo:g} to {hi:g})"
+                for k, lo, hi in self.classes]
+
+    def yaw(self) -> np.ndarray:
+        return np.array([k == "yaw" for k, _, _ in self.classes])
+
+
+def _values(tm: dict, classes) -> tuple[np.ndarray, list]:
+    """The class medians of ``turn_measures`` output, and each class's (windows, values) samples."""
+    out, samples = [], []
+    for kind, lo, hi in classes:
+        got = tm["yaw_ratio_by_class" if kind == "yaw" else "speed_ratio"].get((lo, hi))
+        out.append(np.nan if got is None else got[0])
+        samples.append(tm["yaw_ratio_samples" if kind == "yaw" else "speed_ratio_samples"].get((lo, hi)))
+    return np.array(out, float), samples
+
+
+def turn_classes(lg: DriveLog, ws: WindowSet, robot: Robot) -> TurnClasses | None:
+    """The classes of ``ws`` with at least YAW_CLASS_MIN steady turns (yaw ratio) or steady windows
+    (forward speed ratio); None without one yaw class."""
+    tm = turn_measures(lg, ws, robot, measured_window_poses(lg, ws), measured_speeds(lg, ws))
+    classes = ([("yaw", lo, hi) for (lo, hi), (_, n) in tm["yaw_ratio_by_class"].items() if n >= YAW_CLASS_MIN]
+               + [("forward", lo, hi) for (lo, hi), (_, n) in tm["speed_ratio"].items() if n >= YAW_CLASS_MIN])
+    if not any(k == "yaw" for k, _, _ in classes):
+        return None
+    return TurnClasses(classes, _values(tm, classes)[0])
+
+
+@dataclass
+class TurnMatch:
+    """The turn stage's record (calibration.json ``turns``)."""
+
+    names: list[str]
+    labels: list[str]
+    measured: list[float]
+    fitted: list[float]  # the pose fit's robot
+    start: dict[str, float]
+    values: dict[str, float] = field(default_factory=dict)
+    matched: list[float] = field(default_factory=list)
+    intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
+    train_rms: tuple[float, float] | None = None  # (the pose fit's, the turn-matched robot's) [m]
+    test_rms: tuple[float, float] | None = None  # the same on the test log when there is one (never fitted)
+    on_bound: list[str] = field(default_factory=list)
+    evaluations: int = 0
+    accepted: bool = False
+    why: str = ""
+
+    def sentence(self) -> str:
+        """The turn stage in words, for the summary."""
+        off = "; ".join(f"{lab.removeprefix('yaw ratio (').removesuffix(')')}: measured {m:.3f}, fitted {f:.3f}"
+                        for lab, m, f in zip(self.labels, self.measured, self.fitted)
+                        if lab.startswith("yaw ratio") and not abs(m - f) <= YAW_CLASS_GAP)
+        head = (f" The fit's robot turned unlike the log in the training part's steady turns ({off}); the turn "
+                f"candidates ({', '.join(self.names)}) were fitted to its steady turns")
+        if not self.accepted:
+            return head + f", and the fit's values stand: {self.why}."
+        vals = ", ".join(f"{n} {self.values[n]:.3g}" for n in self.names)
+        price = ("" if self.test_rms is None else f" On the test windows, never fitted, the fit's robot erred "
+                 f"{self.test_rms[0]:.3g} m, the one that turns as the log does {self.test_rms[1]:.3g} m.")
+        return head + f": {vals}, which replace the fit's: {self.why}." + price
+
+    def to_json(self) -> dict:
+        return {"candidates": list(self.names), "classes": list(self.labels), "measured": list(self.measured),
+                "fitted": list(self.fitted), "start": dict(self.start), "values": dict(self.values),
+                "turn_matched": list(self.matched),
+                "intervals": {n: list(v) for n, v in self.intervals.items()},
+                "train_rms_m": None if self.train_rms is None else {"fitted": self.train_rms[0],
+                                                                    "turn_matched": self.train_rms[1]},
+                "test_rms_m": None if self.test_rms is None else {"fitted": self.test_rms[0],
+                                                                  "turn_matched": self.test_rms[1]},
+                "on_bound": list(self.on_bound), "evaluations": int(self.evaluations), "accepted": bool(self.accepted),
+                "why": self.why,
+                "definition": "the turn candidates fitted to the training part's steady-turn measures when the pose "
+                              "fit's robot turns unlike the log; accepted when it turns as the log does and fits the "
+                              "end poses as well (mjtrack.calibrate.turns)"}
+
+
+def _gap_cov(meas_samples, sim_samples, groups: np.ndarray, n_boot: int = TURN_BOOT, seed: int = 0) -> np.ndarray:
+    """Bootstrap covariance (C, C) of the classes' measured-minus-simulated medians, the windows of
+    one label drawn together."""
+    windows = np.unique(np.concatenate([s[0] for s in meas_samples + sim_samples if s is not None]))
+    label = np.unique(groups[windows], return_inverse=True)[1].ravel()
+    n = int(label.max()) + 1
+    rng = np.random.default_rng(seed)
+    counts = rng.multinomial(n, np.full(n, 1.0 / n), size=n_boot)
+    out = np.full((n_boot, len(meas_samples)), np.nan)
+    for c, (a, b) in enumerate(zip(meas_samples, sim_samples)):
+        if a is None or b is None:
+            continue
+        ka, kb = label[np.searchsorted(windows, a[0])], label[np.searchsorted(windows, b[0])]
+        for r in range(n_boot):
+            ra, rb = np.repeat(a[1], counts[r, ka]), np.repeat(b[1], counts[r, kb])
+            if ra.size and rb.size:
+                out[r, c] = np.median(ra) - np.median(rb)
+    ok = np.all(np.isfinite(out), axis=1)
+    return np.cov(out[ok].T) if ok.sum() > 2 else np.full((len(meas_samples),) * 2, np.nan)
+
+
+def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fitted: dict[str, float],
+                names: list[str], specs: dict[str, ParamSpec], *, fitted_rms: float, fitted_diverged: int,
+                fitted_poses: np.ndarray, fitted_speeds: np.ndarray, nthread: int, warmup_s: float,
+                score: Callable[[dict[str, float]], tuple[float, int]], tie: float,
+                progress: Callable[[int], None] | None = None) -> TurnMatch | None:
+    """The turn stage (module docstring) on the training windows ``ws`` of ``train``.
+
+    Args:
+        sim: the window simulator (built with the contact frames when ``lateral_shear_ratio`` is
+            among ``names``).
+        fitted: the pose fit's window parameters (:func:`mjtrack.calibrate.params.window_params`).
+        names: the turn candidates (:func:`turn_candidates`).
+        fitted_rms, fitted_diverged: the pose fit's RMS and diverged windows over every training window.
+        fitted_poses, fitted_speeds: its simulated poses and speeds of every training window.
+        score: window parameters -> (RMS over every training window [m], diverged windows).
+        tie: the share of ``fitted_rms`` within which an RMS fits the end poses as well.
+        progress: called with the windows simulated after each pass.
+
+    Returns None when no class has enough steady turns or the fitted robot already turns as the
+    log does in every class; else the record, ``accepted`` saying whether its values replace the fit's.
+    """
+    from scipy.optimize import least_squares
+
+    from mjtrack.sim.windows import simulate_windows
+
+    tc = turn_classes(train, ws, robot)
+    if tc is None or not names:
+        return None
+    fit_now, _ = _values(turn_measures(train, ws, robot, fitted_poses, fitted_speeds), tc.classes)
+    gaps = np.abs(fit_now - tc.measured)[tc.yaw()]
+    if np.all(np.isfinite(gaps) & (gaps <= YAW_CLASS_GAP)):
+        return None
+    steady = ws.subset(np.flatnonzero(steady_mask(commanded_log(train), ws)))
+    own = dict(robot.ground.params) if robot.ground.model == "shear" else {}
+    first = {n: fitted.get(n) for n in names}
+    first[geometry_name(robot)] = fitted.get(geometry_name(robot), getattr(robot, geometry_name(robot)))
+    if "rolling_resistance" in names:
+        first["rolling_resistance"] = max(fitted.get("rolling_resistance") or robot.rolling_resistance, RESISTANCE_START)
+    if "shear_modulus" in names:
+        first["shear_modulus"] = fitted.get("shear_modulus") or own.get("shear_modulus") or SHEAR_START
+        first["lateral_shear_ratio"] = fitted.get("lateral_shear_ratio") or own.get("lateral_shear_ratio", 1.0)
+    lo = np.array([specs[n].lo for n in names])
+    hi = np.array([specs[n].hi for n in names])
+    x0 = np.clip(np.array([float(first[n]) for n in names]), lo, hi)
+    rec = TurnMatch(names=list(names), labels=tc.labels, measured=[float(v) for v in tc.measured],
+                    fitted=[float(v) for v in fit_now], start=dict(zip(names, map(float, x0))))
+
+    def measures(x: np.ndarray) -> tuple[np.ndarray, list]:
+        res = simulate_windows(sim, train, steady, [{**fitted, **dict(zip(names, map(float, x)))}], nthread=nthread,
+                               warmup_s=warmup_s)
+        if progress is not None:
+            progress(len(steady))
+        return _values(turn_measures(train, steady, robot, res.poses[0], res.speeds[0]), tc.classes)
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        r = measures(x)[0] - tc.measured
+        return np.where(np.isfinite(r), r, 1.0)  # a class with no steady turn simulated: far off
+
+    sol = least_squares(residual, x0, bounds=(lo, hi), diff_step=TURN_STEP, x_scale="jac", max_nfev=TURN_EVALS,
+                        xtol=TURN_XTOL)
+    values = dict(zip(names, map(float, sol.x)))
+    matched, sim_samples = measures(sol.x)
+    rec.values, rec.matched, rec.evaluations = values, [float(v) for v in matched], int(sol.nfev)
+    rec.on_bound = [n for n in names if min(values[n] - specs[n].lo, specs[n].hi - values[n]) <= 1e-3 * specs[n].scale]
+    # intervals: the class medians' bootstrap covariance through the solution's Jacobian
+    meas_tm = turn_measures(train, steady, robot, measured_window_poses(train, steady), measured_speeds(train, steady))
+    _, meas_samples = _values(meas_tm, tc.classes)
+    cov = _gap_cov(meas_samples, sim_samples, command_runs(train, steady))
+    J = np.asarray(sol.jac, float)
+    if np.all(np.isfinite(cov)) and np.all(np.isfinite(J)):
+        P = np.linalg.pinv(J)
+        stat = 1.96 * np.sqrt(np.clip(np.diag(P @ cov @ P.T), 0.0, None))
+        # the optimiser's part: its stopping tolerance, and how far the mismatch left would move each value
+        opt = TURN_XTOL * np.abs(sol.x) + np.abs(P @ sol.fun)
+        half = np.hypot(stat, opt)
+        rec.intervals = {n: (max(values[n] - h, specs[n].lo), min(values[n] + h, specs[n].hi))
+                         for n, h in zip(names, half)}
+    rms, diverged = score(values)
+    rec.train_rms = (float(fitted_rms), float(rms))
+
+    yaw_ok = bool(np.all(np.isfinite(matched[tc.yaw()])
+                         & (np.abs(matched - tc.measured)[tc.yaw()] <= YAW_CLASS_GAP)))
+    if not yaw_ok:
+        rec.why = "no value of the turn candidates makes it turn as the log does in every class"
+    elif rec.on_bound:
+        rec.why = f"turning as the log does takes {', '.join(rec.on_bound)} to a bound of its range"
+    elif diverged > fitted_diverged:
+        rec.why = f"the robot that turns as the log does diverges in {diverged - fitted_diverged} more training windows"
+    elif not math.isfinite(rms) or rms > (1 + tie) * fitted_rms:
+        rec.why = (f"the robot that turns as the log does fits the training windows' end poses worse ({rms:.4g} m "
+                   f"against {fitted_rms:.4g} m)")
+    else:
+        rec.accepted = True
+        rec.why = (f"it turns as the log does and fits the training windows' end poses as well ({rms:.4g} m against "
+                   f"{fitted_rms:.4g} m: {'lower' if rms < fitted_rms else f'within {100 * tie:g} %'})")
+    return rec
+
+
+__all__ = ["TURN_BOOT", "TURN_EVALS", "TURN_STEP", "TURN_XTOL", "TurnClasses", "TurnMatch", "match_turns", "turn_candidates",
+           "turn_classes"]

@@ -1,0 +1,93 @@
+"""The turn stage (mjtrack.calibrate.turns): the steady turns set what the end poses leave free.
+
+The log is made by MuJoCo with a known robot (written here, not taken from the code under test);
+the stage must find the contact length and motion resistance that robot turns with, with intervals
+that cover them, and must neither run when the robot already turns as the log does nor replace a
+fit whose end poses it cannot match.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mjtrack.calibrate.params import specs_for
+from mjtrack.calibrate.turns import match_turns, turn_candidates
+from mjtrack.io.robot import Robot
+from mjtrack.sim import drive_log
+from mjtrack.windows import make_windows
+
+TRUE = {"track_length": 0.34, "rolling_resistance": 0.06}  # the log's robot; the description says otherwise
+GAUGE, MASS, MU = 0.4, 20.0, 0.8
+
+
+def _turns(duration: float, seed: int):
+    """Steady turns of both signs, gentle and sharp (turn ratio 0.3, 0.6, 1.0), each held 4 s, on
+    the 0.05 s grid."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, duration, 4.0)
+    v = rng.uniform(0.3, 0.8, len(t))
+    turn = rng.choice([-1.0, -0.6, -0.3, 0.3, 0.6, 1.0], len(t), p=[0.1, 0.15, 0.25, 0.25, 0.15, 0.1])
+    return t, v * (1 - turn), v * (1 + turn)
+
+
+@pytest.fixture(scope="module")
+def case():
+    from mjtrack.sim.windows import WindowSim, simulate_windows
+
+    truth = Robot(track_gauge=GAUGE, mass=MASS, mu=MU, **TRUE)
+    log = drive_log(truth, _turns(120.0, 5), duration=120.0, log_rate=20.0)
+    described = Robot(track_gauge=GAUGE, track_length=0.5, mass=MASS, mu=MU)
+    ws = make_windows(log, 2.0)
+    sim = WindowSim(described, resisted=True)
+
+    def score(values):
+        res = simulate_windows(sim, log, ws, [values], warmup_s=0.5)
+        return float(res.rms()[0]), int(res.diverged[0].sum()), res
+
+    return log, described, ws, sim, score
+
+
+def _run(case, fitted, *, score=None, tie=0.01):
+    log, described, ws, sim, own = case
+    rms, diverged, res = own(fitted)
+    return match_turns(sim, log, ws, described, fitted, ["track_length", "rolling_resistance"],
+                       specs_for(described), fitted_rms=rms, fitted_diverged=diverged, fitted_poses=res.poses[0],
+                       fitted_speeds=res.speeds[0], nthread=2, warmup_s=0.5,
+                       score=score or (lambda v: own({**fitted, **v})[:2]), tie=tie)
+
+
+def test_the_steady_turns_find_the_robots_contact_and_resistance(case):
+    fitted = {"track_length": 0.5, "rolling_resistance": 0.0}  # a fit that left both at the description
+    tm = _run(case, fitted)
+    assert tm is not None and tm.accepted, tm and tm.why
+    for n, truth in TRUE.items():
+        lo, hi = tm.intervals[n]
+        assert lo <= truth <= hi, (n, truth, tm.values[n], tm.intervals[n])
+    assert all(abs(m - s) <= 0.03 for lab, m, s in zip(tm.labels, tm.measured, tm.matched) if lab.startswith("yaw"))
+    assert tm.train_rms[1] < tm.train_rms[0]  # the truth fits the end poses better than the wrong length
+    assert "track_length" in tm.sentence() and "replace the fit's" in tm.sentence()
+
+
+def test_a_robot_that_already_turns_as_the_log_does_is_left_alone(case):
+    assert _run(case, dict(TRUE)) is None
+
+
+@pytest.mark.slow
+def test_turning_as_the_log_does_at_worse_end_poses_does_not_replace_the_fit(case):
+    fitted = {"track_length": 0.5, "rolling_resistance": 0.0}
+    tm = _run(case, fitted, score=lambda v: (1e3, 0))  # as if the turn-matched robot missed every end pose
+    assert tm is not None and not tm.accepted and "worse" in tm.why
+    assert "the fit's values stand" in tm.sentence()
+
+
+def test_turn_candidates_are_those_named_and_the_shear_grounds_ratio_with_its_modulus():
+    wheels = Robot(traction="wheels", track_gauge=0.55, wheelbase=0.5)
+    assert turn_candidates(["mu", "wheelbase", "rolling_resistance", "shear_modulus"], wheels) == [
+        "wheelbase", "rolling_resistance", "shear_modulus", "lateral_shear_ratio"]
+    tracks = Robot(track_gauge=0.4, track_length=0.5)
+    assert turn_candidates(["mu", "track_length", "rolling_resistance", "cg_x"], tracks) == [
+        "track_length", "rolling_resistance"]
+    assert turn_candidates(["mu", "cg_x"], tracks) == []
+    aniso = Robot(track_gauge=0.4, track_length=0.5, ground={"model": "anisotropic", "lateral_ratio": 0.5})
+    assert turn_candidates(["track_length", "shear_modulus"], aniso) == ["track_length"]
