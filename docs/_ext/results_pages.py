@@ -899,10 +899,12 @@ def _calibration() -> Page:
     written = [real.path.parent / "real_robots" / name / f for name in real.data["robots"]
                for f in ("robot.json", "calibration.json", "report.html")]
     yaw_sources, yaw = [], Table(
-        "Steady-turn yaw ratio per |turn ratio| class on the held-out windows of the calibrations above (each "
-        "robot's calibration.json, findings): measured, as described, calibrated, and the bootstrap interval over "
-        "the windows of measured minus calibrated (how far the class's few windows alone move the gap).",
-        ["robot", "|turn ratio| from", "to", "windows", "measured", "described robot", "calibrated",
+        "Steady-turn yaw ratio per |turn ratio| class on the training and the held-out windows of the calibrations "
+        "above (each robot's calibration.json, findings): measured, as described, calibrated, and the bootstrap "
+        "interval over the windows of measured minus calibrated (how far the class's few windows alone move the "
+        "gap). Where a class's measured ratio differs between the two parts, no calibration on the first can "
+        "follow the second.",
+        ["robot", "part", "|turn ratio| from", "to", "windows", "measured", "described robot", "calibrated",
          "gap interval, low", "gap interval, high"])
     coulomb_path = RESULTS / "real_robots_coulomb.json"
     coulomb = Source(coulomb_path) if coulomb_path.exists() else None
@@ -923,16 +925,18 @@ def _calibration() -> Page:
         if not path.exists():
             continue
         cal = Source(path)
-        rows = [(k, f) for k, f in enumerate(cal.data["findings"]) if f.get("turn_class") and f["part"] == "test"
-                and f.get("gap_after_interval")]
+        rows = [(k, f) for k, f in enumerate(cal.data["findings"]) if f.get("turn_class") and f.get("gap_after_interval")]
+        rows.sort(key=lambda kf: kf[1]["part"] != "train")  # training part first, as the fit saw it
         if rows:
             yaw_sources.append(cal)
         for k, f in rows:
             q = f"/findings/{k}"
-            yaw.add(name, number(cal, q + "/turn_class/0"), number(cal, q + "/turn_class/1"), number(cal, q + "/windows"),
+            yaw.add(name, f["part"], number(cal, q + "/turn_class/0"), number(cal, q + "/turn_class/1"), number(cal, q + "/windows"),
                     number(cal, q + "/measured"), number(cal, q + "/simulated_before"),
                     number(cal, q + "/simulated_after"), number(cal, q + "/gap_after_interval/0"),
                     number(cal, q + "/gap_after_interval/1"))
+    turn_tables, turn_sources = _turn_stage_tables(
+        [(name, real.path.parent / "real_robots" / name / "calibration.json") for name in real.data["robots"]])
     shear_tables = []
     if coulomb is not None:
         t = Table("What the shear ground buys the wheeled robots: their reference calibrations above fit the shear "
@@ -982,11 +986,55 @@ def _calibration() -> Page:
         "correlation of a log's windows and the measured model-form error of simulating a window from a logged "
         "state.", [bat, *([noisy] if noisy is not None else []), real, *([coulomb] if coulomb is not None else []),
                    *([lateral] if lateral is not None else []),
-                   *([Source(starts_path)] if starts_path.exists() else []), *yaw_sources],
-        [*battery, robots, context, speed, params, summaries, *shear_tables, *([yaw] if yaw_sources else []),
+                   *([Source(starts_path)] if starts_path.exists() else []), *yaw_sources,
+                   *[c for c in turn_sources if c.path not in {y.path for y in yaw_sources}]],
+        [*battery, robots, context, speed, params, summaries, *turn_tables, *shear_tables,
+         *([yaw] if yaw_sources else []),
          *([by_sample] if by_sample.rows else []),
          *starts_tables],
         written=[p for p in written if p.exists()])
+
+
+def _turn_stage_tables(runs: list[tuple[str, Path]]) -> tuple[list[Table], list[Source]]:
+    """The turn stage of each real-robot calibration (calibration.json ``method.turns``): its outcome,
+    and its classes measured / as fitted / turn-matched on the training part."""
+    outcome = Table("Turning as the log does (the concepts page, \"Turning as the log does\"): when the pose fit's "
+                    "robot turned unlike the training part's steady turns, the turn candidates fitted to them; whether "
+                    "their values replaced the fit's and why, the position error at the window's end [m] of both robots "
+                    "on every training window and on the test windows (never fitted), and the least-squares "
+                    "evaluations.",
+                    ["robot", "ran", "accepted", "train: fit's robot", "train: turn-matched", "test: fit's robot",
+                     "test: turn-matched", "evaluations", "why"])
+    classes = Table("The turn stage's classes on the training part (steady windows): measured, the pose fit's robot, "
+                    "the turn-matched robot; and the turn candidates' values with their 95 % intervals.",
+                    ["robot", "quantity", "measured / value", "fit's robot / interval low", "turn-matched / interval high"])
+    sources = []
+    for name, path in runs:
+        if not path.exists():
+            continue
+        cal = Source(path)
+        t = cal.data["method"].get("turns")
+        if t is None:
+            outcome.add(name, "no", "–", "–", "–", "–", "–", "–",
+                        "the fitted robot turns as the log does in every class with enough steady turns")
+            continue
+        sources.append(cal)
+        q = "/method/turns"
+        test = t.get("test_rms_m")
+        outcome.add(name, "yes", number(cal, q + "/accepted"), number(cal, q + "/train_rms_m/fitted"),
+                    number(cal, q + "/train_rms_m/turn_matched"),
+                    number(cal, q + "/test_rms_m/fitted") if test else "–",
+                    number(cal, q + "/test_rms_m/turn_matched") if test else "–",
+                    number(cal, q + "/evaluations"), t["why"])
+        for k, label in enumerate(t["classes"]):
+            classes.add(name, label, number(cal, f"{q}/measured/{k}"), number(cal, f"{q}/fitted/{k}"),
+                        number(cal, f"{q}/turn_matched/{k}"))
+        for n in t["candidates"]:
+            iv = t["intervals"].get(n)
+            classes.add(name, n, number(cal, f"{q}/values/{n}"),
+                        number(cal, f"{q}/intervals/{n}/0") if iv else "–",
+                        number(cal, f"{q}/intervals/{n}/1") if iv else "–")
+    return [outcome] + ([classes] if classes.rows else []), sources
 
 
 #: the peer models of benchmarks/peers.py, in the order and words of the page
