@@ -5,6 +5,7 @@
     python benchmarks/real_robots.py --diagnose-only        # diagnose the stored calibrated robots
     python benchmarks/real_robots.py --starts --robots marmotte [--rounds 8]  # two starting descriptions, one answer?
     python benchmarks/real_robots.py --shear-scan 0,0.05,0.1,0.2 --robots husky,warthog  # the shear ground alone
+    python benchmarks/real_robots.py --class-scatter --robots marmotte,husky,warthog  # a class median's own scatter
 
 For each robot: its log's description plus the public specification of what the log does not give
 (every such value named, with its source, under ``assumed`` in calibration.json), calibrated with
@@ -52,6 +53,14 @@ the contact as described): the held-out 2 s position error, and per turn class t
 ratio and the forward speed ratio, measured and simulated. The scores are calibrate's "before" of
 a calibration of ``cg_y`` alone, which does not depend on what the calibration then fits. Writes
 benchmarks/results/shear_scan.json.
+
+``--class-scatter``: how far a turn class's measured steady yaw ratio moves from one stretch of a
+log to the next, with nothing simulated. Each log cut into ``SCATTER_PARTS`` consecutive parts
+of equal segment counts; per part and class the median yaw ratio of its steady turns and their
+number (:func:`mjtrack.calibrate.measures.turn_measures`, the windows calibrate scores), and per
+class the standard deviation of the medians of the parts with at least ``SCATTER_MIN`` such turns:
+the scatter a class median of that many turns has on this log before any model is asked to follow
+it. Writes benchmarks/results/yaw_class_scatter.json.
 """
 
 from __future__ import annotations
@@ -78,6 +87,9 @@ DATA = HERE.parents[1] / "shared" / "data"
 RESULT = HERE / "results" / "real_robots.json"
 STARTS_RESULT = HERE / "results" / "start_independence.json"
 SCAN_RESULT = HERE / "results" / "shear_scan.json"
+SCATTER_RESULT = HERE / "results" / "yaw_class_scatter.json"
+SCATTER_PARTS = 10  # consecutive parts of each log (--class-scatter)
+SCATTER_MIN = 10  # steady turns a part's class needs to count in the scatter
 STARTS_SPLIT = (0.7, 0.3)  # the held-out split of --starts, the same for every robot
 OUTPUTS = HERE / "results" / "real_robots"
 
@@ -442,6 +454,56 @@ def _shear_scan(args, load0) -> int:
     return 0
 
 
+def class_scatter_robot(name: str, spec: dict) -> dict:
+    """Per consecutive part of the log and turn class, the measured steady yaw ratio's median and
+    count; per class the standard deviation of the parts' medians (module docstring)."""
+    from mjtrack.calibrate.measures import measured_speeds, turn_measures
+    from mjtrack.windows import make_windows, measured_window_poses, without_contradicting
+
+    log, base = read_log_with_robot(spec["log"])
+    robot = starting_robot(base, spec["public"])
+    sl = log.segment_slices()
+    n = len(sl)
+    parts, by_class = [], {}
+    for k in range(SCATTER_PARTS):
+        a, b = int(round(k * n / SCATTER_PARTS)), int(round((k + 1) * n / SCATTER_PARTS))
+        lg = log.slice(sl[a].start, sl[b - 1].stop)
+        ws, _ = without_contradicting(lg, make_windows(lg, 2.0), robot.track_gauge)
+        m = turn_measures(lg, ws, robot, measured_window_poses(lg, ws), measured_speeds(lg, ws))
+        row = {f"{lo:g}-{hi:g}": {"median": v, "turns": c} for (lo, hi), (v, c) in m["yaw_ratio_by_class"].items()}
+        parts.append({"segments": [a, b], "classes": row})
+        for cls, x in row.items():
+            if x["turns"] >= SCATTER_MIN:
+                by_class.setdefault(cls, []).append(x)
+    classes = {cls: {"parts": len(xs), "median_turns": float(np.median([x["turns"] for x in xs])),
+                     "sd_of_medians": float(np.std([x["median"] for x in xs], ddof=1)) if len(xs) > 1 else None,
+                     "lowest": float(min(x["median"] for x in xs)), "highest": float(max(x["median"] for x in xs))}
+               for cls, xs in by_class.items()}
+    for cls, c in classes.items():
+        print(f"== {name} |turn ratio| {cls}: {c['parts']} parts of about {c['median_turns']:.0f} steady turns, "
+              f"medians {c['lowest']:.3f} to {c['highest']:.3f}, standard deviation "
+              + ("n/a" if c["sd_of_medians"] is None else f"{c['sd_of_medians']:.3f}"))
+    return {"parts": parts, "classes": classes, "segments": n}
+
+
+def _class_scatter(args, load0) -> int:
+    stored = json.loads(SCATTER_RESULT.read_text()) if SCATTER_RESULT.exists() else {}
+    robots = stored.get("robots", {})
+    command = "python benchmarks/real_robots.py " + " ".join(sys.argv[1:])
+    for name in args.robots.split(","):
+        spec = ROBOTS[name]
+        if not spec["log"].exists():
+            print(f"{spec['log']} not found (the shared data); skipped")
+            continue
+        robots[name] = {**class_scatter_robot(name, spec), "command": command}
+    SCATTER_RESULT.write_text(json.dumps({"command": "; ".join(sorted({r["command"] for r in robots.values()})),
+                                          "parts": SCATTER_PARTS, "min_turns": SCATTER_MIN, "robots": robots,
+                                          "load_before": load0, "load_after": os.getloadavg()},
+                                         indent=1, default=_plain) + "\n")
+    print(f"\nload average before {load0}, after {os.getloadavg()} ({os.cpu_count()} cores)")
+    return 0
+
+
 def diagnose_robot(name: str, spec: dict) -> dict:
     """``diagnose --baseline mujoco`` of the test part against the stored calibrated robot (its drives
     following what they followed in the calibration: the commands, or the measured track speeds)."""
@@ -488,10 +550,15 @@ def main(argv=None) -> int:
     ap.add_argument("--shear-scan", metavar="K,K,...", default=None,
                     help="score the starting robot on the shear ground of each modulus K [m] (0: Coulomb) without "
                          "fitting its contact; write shear_scan.json (module docstring)")
+    ap.add_argument("--class-scatter", action="store_true",
+                    help="the measured steady yaw ratio per turn class over consecutive parts of each log, nothing "
+                         "simulated; write yaw_class_scatter.json (module docstring)")
     args = ap.parse_args(argv)
     load0 = os.getloadavg()
     if args.shear_scan:
         return _shear_scan(args, load0)
+    if args.class_scatter:
+        return _class_scatter(args, load0)
     if args.coulomb and args.lateral:
         ap.error("--coulomb and --lateral are two different variants of the reference calibrations: give one")
     if args.coulomb or args.lateral:

@@ -935,6 +935,25 @@ def _calibration() -> Page:
                     number(cal, q + "/measured"), number(cal, q + "/simulated_before"),
                     number(cal, q + "/simulated_after"), number(cal, q + "/gap_after_interval/0"),
                     number(cal, q + "/gap_after_interval/1"))
+    scatter_path = RESULTS / "yaw_class_scatter.json"
+    scatter_tables, scatter_sources = [], []
+    if scatter_path.exists():
+        sc = Source(scatter_path)
+        scatter_sources.append(sc)
+        t = Table("How far a turn class's measured steady yaw ratio moves by itself along a log, nothing simulated "
+                  "(`python benchmarks/real_robots.py --class-scatter`, its docstring): each log cut into consecutive "
+                  "parts of equal segment counts; per class, the parts with enough steady turns, their typical "
+                  "number of turns, the lowest and highest part median and the standard deviation of the part "
+                  "medians. A calibrated robot cannot follow a class closer than its own measurement moves.",
+                  ["robot", "|turn ratio| class", "parts", "steady turns per part (median)", "lowest median",
+                   "highest median", "standard deviation"])
+        for name, r in sc.data["robots"].items():
+            for cls, c in r["classes"].items():
+                q = f"/robots/{name}/classes/{cls}"
+                t.add(name, cls, number(sc, q + "/parts"), number(sc, q + "/median_turns"), number(sc, q + "/lowest"),
+                      number(sc, q + "/highest"),
+                      number(sc, q + "/sd_of_medians") if c["sd_of_medians"] is not None else "–")
+        scatter_tables.append(t)
     turn_tables, turn_sources = _turn_stage_tables(
         [(name, real.path.parent / "real_robots" / name / "calibration.json") for name in real.data["robots"]])
     shear_tables = []
@@ -987,9 +1006,9 @@ def _calibration() -> Page:
         "state.", [bat, *([noisy] if noisy is not None else []), real, *([coulomb] if coulomb is not None else []),
                    *([lateral] if lateral is not None else []),
                    *([Source(starts_path)] if starts_path.exists() else []), *yaw_sources,
-                   *[c for c in turn_sources if c.path not in {y.path for y in yaw_sources}]],
+                   *[c for c in turn_sources if c.path not in {y.path for y in yaw_sources}], *scatter_sources],
         [*battery, robots, context, speed, params, summaries, *turn_tables, *shear_tables,
-         *([yaw] if yaw_sources else []),
+         *([yaw] if yaw_sources else []), *scatter_tables,
          *([by_sample] if by_sample.rows else []),
          *starts_tables],
         written=[p for p in written if p.exists()])
