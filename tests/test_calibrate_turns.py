@@ -60,7 +60,7 @@ def _run(case, fitted, *, score=None, tie=0.01):
 def test_the_steady_turns_find_the_robots_contact_and_resistance(case):
     fitted = {"track_length": 0.5, "rolling_resistance": 0.0}  # a fit that left both at the description
     tm = _run(case, fitted)
-    assert tm is not None and tm.accepted, tm and tm.why
+    assert tm is not None and tm.accepted and tm.refused_by is None, tm and tm.why
     for n, truth in TRUE.items():
         lo, hi = tm.intervals[n]
         assert lo <= truth <= hi, (n, truth, tm.values[n], tm.intervals[n])
@@ -77,7 +77,7 @@ def test_a_robot_that_already_turns_as_the_log_does_is_left_alone(case):
 def test_turning_as_the_log_does_at_worse_end_poses_does_not_replace_the_fit(case):
     fitted = {"track_length": 0.5, "rolling_resistance": 0.0}
     tm = _run(case, fitted, score=lambda v: (1e3, 0))  # as if the turn-matched robot missed every end pose
-    assert tm is not None and not tm.accepted and "worse" in tm.why
+    assert tm is not None and not tm.accepted and "worse" in tm.why and tm.refused_by == "end_poses"
     assert "the fit's values stand" in tm.sentence()
 
 

@@ -940,17 +940,19 @@ def _calibration() -> Page:
     if scatter_path.exists():
         sc = Source(scatter_path)
         scatter_sources.append(sc)
+        scatter_names = _turn_class_names()
         t = Table("How far a turn class's measured steady yaw ratio moves by itself along a log, nothing simulated "
                   "(`python benchmarks/real_robots.py --class-scatter`, its docstring): each log cut into consecutive "
                   "parts of equal segment counts; per class, the parts with enough steady turns, their typical "
                   "number of turns, the lowest and highest part median and the standard deviation of the part "
                   "medians. A calibrated robot cannot follow a class closer than its own measurement moves.",
-                  ["robot", "|turn ratio| class", "parts", "steady turns per part (median)", "lowest median",
+                  ["robot", "turn class", "parts", "steady turns per part (median)", "lowest median",
                    "highest median", "standard deviation"])
         for name, r in sc.data["robots"].items():
             for cls, c in r["classes"].items():
                 q = f"/robots/{name}/classes/{cls}"
-                t.add(name, cls, number(sc, q + "/parts"), number(sc, q + "/median_turns"), number(sc, q + "/lowest"),
+                lo, _, hi = cls.partition("-")
+                t.add(name, scatter_names.get(f"(|turn ratio| {lo} to {hi})", cls), number(sc, q + "/parts"), number(sc, q + "/median_turns"), number(sc, q + "/lowest"),
                       number(sc, q + "/highest"),
                       number(sc, q + "/sd_of_medians") if c["sd_of_medians"] is not None else "–")
         scatter_tables.append(t)
@@ -1014,6 +1016,14 @@ def _calibration() -> Page:
         written=[p for p in written if p.exists()])
 
 
+#: the turn stage's outcome (calibration.json ``method.turns.refused_by``) in the page's words
+TURN_REFUSALS = {None: "it turns as the log does and fits the training windows' end poses as well",
+                 "turns": "no value of the turn candidates turns as the log does in every class",
+                 "bound": "turning as the log does takes a candidate to a bound of its range",
+                 "diverges": "the robot that turns as the log does diverges in more training windows",
+                 "end_poses": "the robot that turns as the log does fits the training windows' end poses worse"}
+
+
 def _turn_stage_tables(runs: list[tuple[str, Path]]) -> tuple[list[Table], list[Source]]:
     """The turn stage of each real-robot calibration (calibration.json ``method.turns``): its outcome,
     and its classes measured / as fitted / turn-matched on the training part."""
@@ -1024,8 +1034,10 @@ def _turn_stage_tables(runs: list[tuple[str, Path]]) -> tuple[list[Table], list[
                     "evaluations.",
                     ["robot", "ran", "accepted", "train: fit's robot", "train: turn-matched", "test: fit's robot",
                      "test: turn-matched", "evaluations", "why"])
-    classes = Table("The turn stage's classes on the training part (steady windows): measured, the pose fit's robot, "
-                    "the turn-matched robot; and the turn candidates' values with their 95 % intervals.",
+    class_names = _turn_class_names()
+    classes = Table("The turn stage's classes on the training part (steady windows; the classes of the tables above: "
+                    "straight, turning, sharp turns by |turn ratio|): measured, the pose fit's robot, the turn-matched "
+                    "robot; and the turn candidates' values with their intervals (calibrate's level).",
                     ["robot", "quantity", "measured / value", "fit's robot / interval low", "turn-matched / interval high"])
     sources = []
     for name, path in runs:
@@ -1044,10 +1056,11 @@ def _turn_stage_tables(runs: list[tuple[str, Path]]) -> tuple[list[Table], list[
                     number(cal, q + "/train_rms_m/turn_matched"),
                     number(cal, q + "/test_rms_m/fitted") if test else "–",
                     number(cal, q + "/test_rms_m/turn_matched") if test else "–",
-                    number(cal, q + "/evaluations"), t["why"])
+                    number(cal, q + "/evaluations"), TURN_REFUSALS[t.get("refused_by")])
         for k, label in enumerate(t["classes"]):
-            classes.add(name, label, number(cal, f"{q}/measured/{k}"), number(cal, f"{q}/fitted/{k}"),
-                        number(cal, f"{q}/turn_matched/{k}"))
+            quantity, _, cls = label.partition(" (")
+            classes.add(name, f"{quantity}, {class_names.get('(' + cls, cls)}", number(cal, f"{q}/measured/{k}"),
+                        number(cal, f"{q}/fitted/{k}"), number(cal, f"{q}/turn_matched/{k}"))
         for n in t["candidates"]:
             iv = t["intervals"].get(n)
             classes.add(name, n, number(cal, f"{q}/values/{n}"),

@@ -137,6 +137,9 @@ class TurnMatch:
     evaluations: int = 0
     accepted: bool = False
     why: str = ""
+    #: the condition that refused it, in one word: "turns" (no value turns as the log does),
+    #: "bound", "diverges" or "end_poses"; None when accepted
+    refused_by: str | None = None
 
     def sentence(self) -> str:
         """The turn stage in words, for the summary."""
@@ -162,7 +165,7 @@ class TurnMatch:
                 "test_rms_m": None if self.test_rms is None else {"fitted": self.test_rms[0],
                                                                   "turn_matched": self.test_rms[1]},
                 "on_bound": list(self.on_bound), "evaluations": int(self.evaluations), "accepted": bool(self.accepted),
-                "why": self.why,
+                "why": self.why, "refused_by": self.refused_by,
                 "definition": "the turn candidates fitted to the training part's steady-turn measures when the pose "
                               "fit's robot turns unlike the log; accepted when it turns as the log does and fits the "
                               "end poses as well (mjtrack.calibrate.turns)"}
@@ -272,12 +275,16 @@ def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fi
     yaw_ok = bool(np.all(np.isfinite(matched[tc.yaw()])
                          & (np.abs(matched - tc.measured)[tc.yaw()] <= YAW_CLASS_GAP)))
     if not yaw_ok:
+        rec.refused_by = "turns"
         rec.why = "no value of the turn candidates makes it turn as the log does in every class"
     elif rec.on_bound:
+        rec.refused_by = "bound"
         rec.why = f"turning as the log does takes {', '.join(rec.on_bound)} to a bound of its range"
     elif diverged > fitted_diverged:
+        rec.refused_by = "diverges"
         rec.why = f"the robot that turns as the log does diverges in {diverged - fitted_diverged} more training windows"
     elif not math.isfinite(rms) or rms > (1 + tie) * fitted_rms:
+        rec.refused_by = "end_poses"
         rec.why = (f"the robot that turns as the log does fits the training windows' end poses worse ({rms:.4g} m "
                    f"against {fitted_rms:.4g} m)")
     else:
