@@ -48,13 +48,13 @@ def case():
     return log, described, ws, sim, score
 
 
-def _run(case, fitted, *, score=None, tie=0.01):
+def _run(case, fitted, *, score=None):
     log, described, ws, sim, own = case
-    rms, diverged, res = own(fitted)
+    _, diverged, res = own(fitted)
     return match_turns(sim, log, ws, described, fitted, ["track_length", "rolling_resistance"],
-                       specs_for(described), fitted_rms=rms, fitted_diverged=diverged, fitted_poses=res.poses[0],
-                       fitted_speeds=res.speeds[0], nthread=2, warmup_s=0.5,
-                       score=score or (lambda v: own({**fitted, **v})[:2]), tie=tie)
+                       specs_for(described), fitted_errors=res.pos_err()[0], fitted_diverged=diverged,
+                       fitted_poses=res.poses[0], fitted_speeds=res.speeds[0], nthread=2, warmup_s=0.5,
+                       score=score or (lambda v: (own({**fitted, **v})[2].pos_err()[0], 0)))
 
 
 def test_the_steady_turns_find_the_robots_contact_and_resistance(case):
@@ -76,8 +76,10 @@ def test_a_robot_that_already_turns_as_the_log_does_is_left_alone(case):
 @pytest.mark.slow
 def test_turning_as_the_log_does_at_worse_end_poses_does_not_replace_the_fit(case):
     fitted = {"track_length": 0.5, "rolling_resistance": 0.0}
-    tm = _run(case, fitted, score=lambda v: (1e3, 0))  # as if the turn-matched robot missed every end pose
-    assert tm is not None and not tm.accepted and "worse" in tm.why and tm.refused_by == "end_poses"
+    n = len(case[2])  # as if the turn-matched robot missed every end pose by a kilometre
+    tm = _run(case, fitted, score=lambda v: (np.full(n, 1e3), 0))
+    assert tm is not None and not tm.accepted and tm.refused_by == "end_poses"
+    assert "show the fit's robot better" in tm.why
     assert "the fit's values stand" in tm.sentence()
 
 
@@ -91,3 +93,18 @@ def test_turn_candidates_are_those_named_and_the_shear_grounds_ratio_with_its_mo
     assert turn_candidates(["mu", "cg_x"], tracks) == []
     aniso = Robot(track_gauge=0.4, track_length=0.5, ground={"model": "anisotropic", "lateral_ratio": 0.5})
     assert turn_candidates(["track_length", "shear_modulus"], aniso) == ["track_length"]
+
+
+def test_the_end_poses_gap_draws_a_held_commands_windows_together():
+    """The squared-error gap's interval: windows of one label are drawn as one (doubling every
+    window under its own label gives the single windows' interval), and a robot worse on every
+    window is shown worse."""
+    from mjtrack.calibrate.turns import _mse_gap_interval
+
+    rng = np.random.default_rng(0)
+    a, b = rng.uniform(0.1, 0.3, 40), rng.uniform(0.1, 0.3, 40)
+    one = _mse_gap_interval(a, b, np.arange(40))
+    two = _mse_gap_interval(np.repeat(a, 2), np.repeat(b, 2), np.repeat(np.arange(40), 2))
+    assert one == pytest.approx(two)
+    lo, hi = _mse_gap_interval(a + 0.1, a, np.arange(40))
+    assert lo > 0 and lo <= hi

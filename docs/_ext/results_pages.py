@@ -1017,11 +1017,12 @@ def _calibration() -> Page:
 
 
 #: the turn stage's outcome (calibration.json ``method.turns.refused_by``) in the page's words
-TURN_REFUSALS = {None: "it turns as the log does and fits the training windows' end poses as well",
+TURN_REFUSALS = {None: "it turns as the log does, and the training windows' end poses cannot tell it from the fit's "
+                       "robot or prefer it",
                  "turns": "no value of the turn candidates turns as the log does in every class",
                  "bound": "turning as the log does takes a candidate to a bound of its range",
                  "diverges": "the robot that turns as the log does diverges in more training windows",
-                 "end_poses": "the robot that turns as the log does fits the training windows' end poses worse"}
+                 "end_poses": "the training windows' end poses show the fit's robot better"}
 
 
 def _turn_stage_tables(runs: list[tuple[str, Path]]) -> tuple[list[Table], list[Source]]:

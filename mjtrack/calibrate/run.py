@@ -686,15 +686,15 @@ def _turn_stage(fx: Fitter, pb: _Problem, sim: WindowSim, att: Fitted, changed: 
         tsim = WindowSim(pb.robot, pb.config, resisted=sim.resisted, framed=True)
     scored: dict[str, Scored] = {}
 
-    def score(values: dict[str, float]) -> tuple[float, int]:
-        scored["last"] = _score(tsim, pb.train, pb.ws, [{**wp, **values}], **kw)[0]
-        return scored["last"].rms, scored["last"].diverged
+    def score(values: dict[str, float]) -> tuple[np.ndarray, int]:
+        scored["last"] = s = _score(tsim, pb.train, pb.ws, [{**wp, **values}], **kw)[0]
+        return np.hypot(s.errors[:, 0], s.errors[:, 1]), s.diverged
 
     fx.meter.stage("turns")
-    tm = match_turns(tsim, pb.train, pb.ws, pb.robot, wp, names, fx.specs, fitted_rms=after.rms,
-                     fitted_diverged=after.diverged, fitted_poses=after.poses, fitted_speeds=after.speeds,
-                     nthread=kw["nthread"], warmup_s=kw["warmup_s"], score=score, tie=RESTART_GAIN,
-                     progress=kw["progress"])
+    tm = match_turns(tsim, pb.train, pb.ws, pb.robot, wp, names, fx.specs,
+                     fitted_errors=np.hypot(after.errors[:, 0], after.errors[:, 1]), fitted_diverged=after.diverged,
+                     fitted_poses=after.poses, fitted_speeds=after.speeds, nthread=kw["nthread"],
+                     warmup_s=kw["warmup_s"], score=score, progress=kw["progress"])
     if tm is None or not tm.accepted:
         return tm, sim, changed, wp, after
     specs = fx.specs

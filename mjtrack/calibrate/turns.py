@@ -3,8 +3,8 @@
 The windowed fit (:mod:`mjtrack.calibrate.fit`) minimises the error of every window's poses. On a
 real log its answer can predict the end poses well and still turn unlike the robot: on the shared
 Husky log the pose fit's robot turns gently less than the log does, while a robot with another
-wheelbase, shear ground and motion resistance fits the training windows' end poses as well and
-turns as the log does in every class (the results page "Calibration"): the end poses leave that
+wheelbase, shear ground and motion resistance fits the training windows' end poses about as well
+and turns as the log does in every class (the results page "Calibration"): the end poses leave that
 direction free; the steady turns do not.
 
 So when the fitted robot's steady-turn yaw ratio is more than
@@ -18,9 +18,10 @@ forward speed ratio of every class with enough steady turns
 held at theirs. The answer replaces the fitted values only when
 
 * it turns as the log does: every such class's yaw ratio within the gap;
-* it fits every training window's end pose as well: RMS within ``tie`` of the fit's (calibrate
-  passes :data:`mjtrack.calibrate.run.RESTART_GAIN`, the optimiser's tolerance: two answers closer
-  than that are one to the end poses);
+* the training windows' end poses do not show the fit's robot better: the 95 % interval of the
+  mean over windows of (its squared end-position error minus the fit's), bootstrapped with the
+  windows of one held command drawn together, reaches zero or below (the end poses cannot tell
+  the two robots apart, or prefer the turn-matched one);
 * no turn candidate ends on a bound of its range, and no more windows diverge.
 
 Otherwise the fitted values stand and the calibration says which condition failed: then the end
@@ -133,6 +134,9 @@ class TurnMatch:
     intervals: dict[str, tuple[float, float]] = field(default_factory=dict)
     train_rms: tuple[float, float] | None = None  # (the pose fit's, the turn-matched robot's) [m]
     test_rms: tuple[float, float] | None = None  # the same on the test log when there is one (never fitted)
+    #: 95 % interval [m^2] of the mean over training windows of the turn-matched robot's squared end
+    #: error minus the fit's (windows of one held command drawn together)
+    mse_gap_interval: tuple[float, float] | None = None
     on_bound: list[str] = field(default_factory=list)
     evaluations: int = 0
     accepted: bool = False
@@ -162,13 +166,14 @@ class TurnMatch:
                 "intervals": {n: list(v) for n, v in self.intervals.items()},
                 "train_rms_m": None if self.train_rms is None else {"fitted": self.train_rms[0],
                                                                     "turn_matched": self.train_rms[1]},
+                "train_mse_gap_interval_m2": None if self.mse_gap_interval is None else list(self.mse_gap_interval),
                 "test_rms_m": None if self.test_rms is None else {"fitted": self.test_rms[0],
                                                                   "turn_matched": self.test_rms[1]},
                 "on_bound": list(self.on_bound), "evaluations": int(self.evaluations), "accepted": bool(self.accepted),
                 "why": self.why, "refused_by": self.refused_by,
                 "definition": "the turn candidates fitted to the training part's steady-turn measures when the pose "
-                              "fit's robot turns unlike the log; accepted when it turns as the log does and fits the "
-                              "end poses as well (mjtrack.calibrate.turns)"}
+                              "fit's robot turns unlike the log; accepted when it turns as the log does and the "
+                              "training end poses do not show the fit's robot better (mjtrack.calibrate.turns)"}
 
 
 def _gap_cov(meas_samples, sim_samples, groups: np.ndarray, n_boot: int = TURN_BOOT, seed: int = 0) -> np.ndarray:
@@ -192,10 +197,24 @@ def _gap_cov(meas_samples, sim_samples, groups: np.ndarray, n_boot: int = TURN_B
     return np.cov(out[ok].T) if ok.sum() > 2 else np.full((len(meas_samples),) * 2, np.nan)
 
 
+def _mse_gap_interval(a: np.ndarray, b: np.ndarray, groups: np.ndarray, level: float = 0.95,
+                      n_boot: int = TURN_BOOT, seed: int = 0) -> tuple[float, float]:
+    """Percentile bootstrap interval of mean(a^2 - b^2) over windows, two robots' end errors (M,) of
+    the same windows, the windows of one label of ``groups`` (M,) drawn together."""
+    d = a ** 2 - b ** 2
+    label = np.unique(np.asarray(groups), return_inverse=True)[1].ravel()
+    n = int(label.max()) + 1
+    sums, counts = np.bincount(label, d, n), np.bincount(label, minlength=n).astype(float)
+    draws = np.random.default_rng(seed).multinomial(n, np.full(n, 1.0 / n), size=n_boot)
+    means = (draws @ sums) / (draws @ counts)
+    lo, hi = np.percentile(means, [50 * (1 - level), 50 * (1 + level)])
+    return float(lo), float(hi)
+
+
 def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fitted: dict[str, float],
-                names: list[str], specs: dict[str, ParamSpec], *, fitted_rms: float, fitted_diverged: int,
+                names: list[str], specs: dict[str, ParamSpec], *, fitted_errors: np.ndarray, fitted_diverged: int,
                 fitted_poses: np.ndarray, fitted_speeds: np.ndarray, nthread: int, warmup_s: float,
-                score: Callable[[dict[str, float]], tuple[float, int]], tie: float,
+                score: Callable[[dict[str, float]], tuple[np.ndarray, int]],
                 progress: Callable[[int], None] | None = None) -> TurnMatch | None:
     """The turn stage (module docstring) on the training windows ``ws`` of ``train``.
 
@@ -204,10 +223,10 @@ def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fi
             among ``names``).
         fitted: the pose fit's window parameters (:func:`mjtrack.calibrate.params.window_params`).
         names: the turn candidates (:func:`turn_candidates`).
-        fitted_rms, fitted_diverged: the pose fit's RMS and diverged windows over every training window.
+        fitted_errors, fitted_diverged: the pose fit's end-position error [m] of every training
+            window (M,) and its diverged windows.
         fitted_poses, fitted_speeds: its simulated poses and speeds of every training window.
-        score: window parameters -> (RMS over every training window [m], diverged windows).
-        tie: the share of ``fitted_rms`` within which an RMS fits the end poses as well.
+        score: window parameters -> (end-position error of every training window (M,) [m], diverged windows).
         progress: called with the windows simulated after each pass.
 
     Returns None when no class has enough steady turns or the fitted robot already turns as the
@@ -269,8 +288,12 @@ def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fi
         half = np.hypot(stat, opt)
         rec.intervals = {n: (max(values[n] - h, specs[n].lo), min(values[n] + h, specs[n].hi))
                          for n, h in zip(names, half)}
-    rms, diverged = score(values)
-    rec.train_rms = (float(fitted_rms), float(rms))
+    errors, diverged = score(values)
+    fitted_errors = np.asarray(fitted_errors, float)
+    fitted_rms, rms = (float(np.sqrt(np.mean(e ** 2))) for e in (fitted_errors, np.asarray(errors, float)))
+    rec.train_rms = (fitted_rms, rms)
+    gap = _mse_gap_interval(np.asarray(errors, float), fitted_errors, command_runs(train, ws))
+    rec.mse_gap_interval = gap
 
     yaw_ok = bool(np.all(np.isfinite(matched[tc.yaw()])
                          & (np.abs(matched - tc.measured)[tc.yaw()] <= YAW_CLASS_GAP)))
@@ -283,14 +306,15 @@ def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fi
     elif diverged > fitted_diverged:
         rec.refused_by = "diverges"
         rec.why = f"the robot that turns as the log does diverges in {diverged - fitted_diverged} more training windows"
-    elif not math.isfinite(rms) or rms > (1 + tie) * fitted_rms:
+    elif not math.isfinite(rms) or not gap[0] <= 0.0:
         rec.refused_by = "end_poses"
-        rec.why = (f"the robot that turns as the log does fits the training windows' end poses worse ({rms:.4g} m "
-                   f"against {fitted_rms:.4g} m)")
+        rec.why = (f"the training windows' end poses show the fit's robot better ({fitted_rms:.4g} m against "
+                   f"{rms:.4g} m; the mean squared error's difference lies in [{gap[0]:.3g}, {gap[1]:.3g}] m^2)")
     else:
         rec.accepted = True
-        rec.why = (f"it turns as the log does and fits the training windows' end poses as well ({rms:.4g} m against "
-                   f"{fitted_rms:.4g} m: {'lower' if rms < fitted_rms else f'within {100 * tie:g} %'})")
+        rec.why = (f"it turns as the log does, and the training windows' end poses cannot tell it from the fit's "
+                   f"robot or prefer it ({rms:.4g} m against {fitted_rms:.4g} m; the mean squared error's difference "
+                   f"lies in [{gap[0]:.3g}, {gap[1]:.3g}] m^2)")
     return rec
 
 
