@@ -436,22 +436,30 @@ def shear_scan_robot(name: str, spec: dict, moduli: list[float]) -> dict:
     return out
 
 
-def _shear_scan(args, load0) -> int:
-    stored = json.loads(SCAN_RESULT.read_text()) if SCAN_RESULT.exists() else {}
+def _each_robot(args, path: Path, run, load0, **top) -> int:
+    """Run ``run(name, spec)`` for each robot of ``--robots`` whose log is there and write ``path``
+    after each (the robots already in it kept, each with the command that made it; ``top``: more
+    top-level keys), then print the load."""
+    stored = json.loads(path.read_text()) if path.exists() else {}
     robots = stored.get("robots", {})
     command = "python benchmarks/real_robots.py " + " ".join(sys.argv[1:])
-    moduli = [float(k) for k in args.shear_scan.split(",")]
     for name in args.robots.split(","):
         spec = ROBOTS[name]
         if not spec["log"].exists():
             print(f"{spec['log']} not found (the shared data); skipped")
             continue
-        robots[name] = {**shear_scan_robot(name, spec, moduli), "command": command}
-        SCAN_RESULT.write_text(json.dumps({"command": "; ".join(sorted({r["command"] for r in robots.values()})),
-                                           "robots": robots, "load_before": load0, "load_after": os.getloadavg()},
-                                          indent=1, default=_plain) + "\n")
+        robots[name] = {**run(name, spec), "command": command}
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps({"command": "; ".join(sorted({r["command"] for r in robots.values()})), **top,
+                                    "robots": robots, "load_before": load0, "load_after": os.getloadavg()},
+                                   indent=1, default=_plain) + "\n")
     print(f"\nload average before {load0}, after {os.getloadavg()} ({os.cpu_count()} cores)")
     return 0
+
+
+def _shear_scan(args, load0) -> int:
+    moduli = [float(k) for k in args.shear_scan.split(",")]
+    return _each_robot(args, SCAN_RESULT, lambda name, spec: shear_scan_robot(name, spec, moduli), load0)
 
 
 def class_scatter_robot(name: str, spec: dict) -> dict:
@@ -487,21 +495,7 @@ def class_scatter_robot(name: str, spec: dict) -> dict:
 
 
 def _class_scatter(args, load0) -> int:
-    stored = json.loads(SCATTER_RESULT.read_text()) if SCATTER_RESULT.exists() else {}
-    robots = stored.get("robots", {})
-    command = "python benchmarks/real_robots.py " + " ".join(sys.argv[1:])
-    for name in args.robots.split(","):
-        spec = ROBOTS[name]
-        if not spec["log"].exists():
-            print(f"{spec['log']} not found (the shared data); skipped")
-            continue
-        robots[name] = {**class_scatter_robot(name, spec), "command": command}
-    SCATTER_RESULT.write_text(json.dumps({"command": "; ".join(sorted({r["command"] for r in robots.values()})),
-                                          "parts": SCATTER_PARTS, "min_turns": SCATTER_MIN, "robots": robots,
-                                          "load_before": load0, "load_after": os.getloadavg()},
-                                         indent=1, default=_plain) + "\n")
-    print(f"\nload average before {load0}, after {os.getloadavg()} ({os.cpu_count()} cores)")
-    return 0
+    return _each_robot(args, SCATTER_RESULT, class_scatter_robot, load0, parts=SCATTER_PARTS, min_turns=SCATTER_MIN)
 
 
 def diagnose_robot(name: str, spec: dict) -> dict:
@@ -648,27 +642,17 @@ def _write(robots: dict, args, load0) -> None:
 
 
 def _starts(args, load0) -> int:
-    stored = json.loads(STARTS_RESULT.read_text()) if STARTS_RESULT.exists() else {}
-    robots = stored.get("robots", {})
-    command = "python benchmarks/real_robots.py " + " ".join(sys.argv[1:])
-    for name in args.robots.split(","):
-        spec = ROBOTS[name]
-        if not spec["log"].exists():
-            print(f"{spec['log']} not found (the shared data); skipped")
-            continue
-        robots[name] = {**starts_robot(name, spec, args.rounds), "command": command}
-        for n, v in robots[name]["agreement"].items():
+    def run(name: str, spec: dict) -> dict:
+        r = starts_robot(name, spec, args.rounds)
+        for n, v in r["agreement"].items():
             print(f"  {n:20s} shipped {v['shipped']:.4g}  public {v['public']:.4g}  "
                   + ("not determined in both" if not v["determined_in_both"]
                      else f"each in the other's interval: {v['each_in_the_other_interval']}"
                      + (" (a value beyond the other's range, compared with its end)"
                         if v.get("beyond_the_other_range") else "")))
-        STARTS_RESULT.parent.mkdir(parents=True, exist_ok=True)
-        commands = sorted({r["command"] for r in robots.values()})
-        STARTS_RESULT.write_text(json.dumps({"command": "; ".join(commands), "robots": robots, "load_before": load0,
-                                             "load_after": os.getloadavg()}, indent=1, default=_plain) + "\n")
-    print(f"\nload average before {load0}, after {os.getloadavg()} ({os.cpu_count()} cores)")
-    return 0
+        return r
+
+    return _each_robot(args, STARTS_RESULT, run, load0)
 
 
 def _agreement_only(args) -> int:

@@ -109,32 +109,44 @@ def command_runs(lg: DriveLog, ws: WindowSet) -> np.ndarray:
     return np.cumsum(new) - 1
 
 
+def gap_replicates(pairs, *, groups: np.ndarray | None = None, n_boot: int = GAP_BOOT, seed: int = 0) -> np.ndarray:
+    """Bootstrap replicates (n_boot, C) of median(a) - median(b) for each of C pairs (a, b) of
+    per-window samples of one log's windows, each (window indices, values) as :func:`turn_measures`
+    keeps them per class (None: a NaN column). Every replicate draws the windows of all the samples
+    at once, with replacement, a window keeping its value in every sample where it has one, so that
+    the columns' covariance is the classes' own; ``groups``: a label per window index of the log
+    (e.g. :func:`command_runs`), the windows of one label drawn together, as one. NaN where a draw
+    leaves a sample empty."""
+    windows = np.unique(np.concatenate([x[0] for pair in pairs for x in pair if x is not None]))
+    label = np.arange(windows.size) if groups is None else np.unique(np.asarray(groups)[windows],
+                                                                    return_inverse=True)[1].ravel()
+    n_groups = int(label.max()) + 1
+    rng = np.random.default_rng(seed)
+    counts = rng.multinomial(n_groups, np.full(n_groups, 1.0 / n_groups), size=n_boot)
+    out = np.full((n_boot, len(pairs)), np.nan)
+    for col, (a, b) in enumerate(pairs):
+        if a is None or b is None:
+            continue
+        ka, kb = label[np.searchsorted(windows, a[0])], label[np.searchsorted(windows, b[0])]
+        for r, c in enumerate(counts):
+            ra, rb = np.repeat(a[1], c[ka]), np.repeat(b[1], c[kb])
+            if ra.size and rb.size:
+                out[r, col] = np.median(ra) - np.median(rb)
+    return out
+
+
 def class_gap_interval(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray], *,
                        groups: np.ndarray | None = None, level: float = 0.95, n_boot: int = GAP_BOOT,
                        seed: int = 0) -> tuple[float, float] | None:
     """Percentile bootstrap interval of median(a) - median(b), two per-window samples of one log's
-    windows, each (window indices, values) as :func:`turn_measures` keeps them per class
-    (``yaw_ratio_samples``): the windows of either are drawn with replacement, each draw keeping a
-    window's value in both where it has one, so that the gap's interval holds how much the class's few
-    windows alone can move it. ``groups``: a label per window index of the log (e.g.
-    :func:`command_runs`); windows of one label are drawn together, as one, so that windows that are
-    not independent do not count as independent evidence. None when either sample is empty."""
-    (ia, va), (ib, vb) = a, b
-    if len(ia) == 0 or len(ib) == 0:
+    windows (:func:`gap_replicates`: how much the class's few windows alone can move the gap; the
+    windows of one label of ``groups`` drawn together, so that windows that are not independent do
+    not count as independent evidence). None when either sample is empty."""
+    if len(a[0]) == 0 or len(b[0]) == 0:
         return None
-    windows = np.union1d(ia, ib)
-    label = np.arange(windows.size) if groups is None else np.unique(np.asarray(groups)[windows],
-                                                                    return_inverse=True)[1].ravel()
-    n_groups = int(label.max()) + 1
-    ka, kb = label[np.searchsorted(windows, ia)], label[np.searchsorted(windows, ib)]
-    rng = np.random.default_rng(seed)
-    counts = rng.multinomial(n_groups, np.full(n_groups, 1.0 / n_groups), size=n_boot)
-    gaps = []
-    for c in counts:
-        ra, rb = np.repeat(va, c[ka]), np.repeat(vb, c[kb])
-        if ra.size and rb.size:
-            gaps.append(np.median(ra) - np.median(rb))
-    if not gaps:
+    gaps = gap_replicates([(a, b)], groups=groups, n_boot=n_boot, seed=seed)[:, 0]
+    gaps = gaps[np.isfinite(gaps)]
+    if not gaps.size:
         return None
     lo, hi = np.percentile(gaps, [50 * (1 - level), 50 * (1 + level)])
     return float(lo), float(hi)

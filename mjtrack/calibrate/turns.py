@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 from mjtrack.calibrate.causes import YAW_CLASS_GAP, YAW_CLASS_MIN
-from mjtrack.calibrate.measures import command_runs, measured_speeds, steady_mask, turn_measures
+from mjtrack.calibrate.measures import command_runs, gap_replicates, measured_speeds, steady_mask, turn_measures
 from mjtrack.calibrate.params import EXTENDS_COULOMB, RESISTANCE_START, SHEAR_START, ParamSpec, geometry_name
 from mjtrack.io.logs import DriveLog
 from mjtrack.io.robot import Robot
@@ -177,22 +177,9 @@ class TurnMatch:
 
 
 def _gap_cov(meas_samples, sim_samples, groups: np.ndarray, n_boot: int = TURN_BOOT, seed: int = 0) -> np.ndarray:
-    """Bootstrap covariance (C, C) of the classes' measured-minus-simulated medians, the windows of
-    one label drawn together."""
-    windows = np.unique(np.concatenate([s[0] for s in meas_samples + sim_samples if s is not None]))
-    label = np.unique(groups[windows], return_inverse=True)[1].ravel()
-    n = int(label.max()) + 1
-    rng = np.random.default_rng(seed)
-    counts = rng.multinomial(n, np.full(n, 1.0 / n), size=n_boot)
-    out = np.full((n_boot, len(meas_samples)), np.nan)
-    for c, (a, b) in enumerate(zip(meas_samples, sim_samples)):
-        if a is None or b is None:
-            continue
-        ka, kb = label[np.searchsorted(windows, a[0])], label[np.searchsorted(windows, b[0])]
-        for r in range(n_boot):
-            ra, rb = np.repeat(a[1], counts[r, ka]), np.repeat(b[1], counts[r, kb])
-            if ra.size and rb.size:
-                out[r, c] = np.median(ra) - np.median(rb)
+    """Bootstrap covariance (C, C) of the classes' measured-minus-simulated medians
+    (:func:`mjtrack.calibrate.measures.gap_replicates`, the windows of one label drawn together)."""
+    out = gap_replicates(list(zip(meas_samples, sim_samples)), groups=groups, n_boot=n_boot, seed=seed)
     ok = np.all(np.isfinite(out), axis=1)
     return np.cov(out[ok].T) if ok.sum() > 2 else np.full((len(meas_samples),) * 2, np.nan)
 
