@@ -48,13 +48,13 @@ def case():
     return log, described, ws, sim, score
 
 
-def _run(case, fitted, *, score=None):
+def _run(case, fitted, *, score=None, refit=None):
     log, described, ws, sim, own = case
     _, diverged, res = own(fitted)
     return match_turns(sim, log, ws, described, fitted, ["track_length", "rolling_resistance"],
                        specs_for(described), fitted_errors=res.pos_err()[0], fitted_diverged=diverged,
                        fitted_poses=res.poses[0], fitted_speeds=res.speeds[0], nthread=2, warmup_s=0.5,
-                       score=score or (lambda v: (own({**fitted, **v})[2].pos_err()[0], 0)))
+                       score=score or (lambda p: (own(p)[2].pos_err()[0], 0)), refit=refit)
 
 
 def test_the_steady_turns_find_the_robots_contact_and_resistance(case):
@@ -81,6 +81,73 @@ def test_turning_as_the_log_does_at_worse_end_poses_does_not_replace_the_fit(cas
     assert tm is not None and not tm.accepted and tm.refused_by == "end_poses"
     assert "show the fit's robot better" in tm.why
     assert "the fit's values stand" in tm.sentence()
+
+
+@pytest.mark.slow
+def test_the_robot_judged_is_the_one_whose_other_values_were_refitted_with_the_turns_held(case):
+    """A pose fit that left friction wrong (0.5; the log's robot has 0.8) with the contact length
+    and resistance at the description: the turn candidates are fitted, the refit (here one that
+    finds the log's friction, standing in for the pose fit with the turn values held) moves the
+    friction, and the turn candidates are fitted once more from there. The robot judged and kept is
+    the refitted one, its intervals cover the truth, and every robot scored held what it was given."""
+    fitted = {"track_length": 0.5, "rolling_resistance": 0.0, "mu": 0.5}
+    held, scored = [], []
+    own = case[4]
+
+    def refit(values):
+        held.append(dict(values))
+        return {"mu": MU}, []
+
+    def score(p):
+        scored.append(dict(p))
+        return own(p)[2].pos_err()[0], 0
+
+    tm = _run(case, fitted, score=score, refit=refit)
+    assert tm.accepted and tm.refit is not None and tm.refit["kept"], tm.why
+    assert held == [tm.refit["plain"]["values"]]  # the refit was handed the first turn fit's values
+    assert tm.refit["base"] == {"mu": MU} and tm.params == {"mu": MU, **tm.values}
+    assert [p["mu"] for p in scored] == [0.5, MU]  # the first turn-matched robot, the refitted one
+    for n, truth in TRUE.items():
+        lo, hi = tm.intervals[n]
+        assert lo <= truth <= hi, (n, truth, tm.values[n], tm.intervals[n])
+    assert tm.train_rms[1] <= tm.refit["plain"]["train_rms_m"]  # the refit's friction is the log's
+    assert "fitted again to the end poses" in tm.sentence() and "with the refitted values" in tm.sentence()
+
+
+@pytest.mark.parametrize("why", ["end_poses", "bound"])
+def test_a_refused_refit_leaves_the_first_turn_match_judged(case, why):
+    """When the robot with the others refitted is refused -- made to miss every end pose, or its
+    refit ended a value on a bound (then the turns are not fitted again) -- and the first
+    turn-matched robot is not, the first one is judged and the record says so."""
+    fitted = {"track_length": 0.5, "rolling_resistance": 0.0}
+    own, n = case[4], len(case[2])
+
+    def score(p):
+        return (np.full(n, 1e3), 0) if "mu" in p else (own(p)[2].pos_err()[0], 0)
+
+    # the refit finds the log's friction: its robot turns as the log does and is refused for the reason made here
+    tm = _run(case, fitted, score=score, refit=lambda values: ({"mu": MU}, ["mu"] if why == "bound" else []))
+    assert tm.accepted and tm.refused_by is None
+    assert tm.refit is not None and not tm.refit["kept"] and tm.refit["refused_by"] == why
+    assert "mu" not in tm.params and tm.values == tm.refit["plain"]["values"]
+    assert (tm.refit["values"] is None) == (why == "bound")
+    assert "that robot was refused" in tm.sentence()
+
+
+def test_objective_holds_what_it_is_told_to_hold(case):
+    """An objective of friction alone with the contact length held gives the residuals of the
+    objective of both at the same values."""
+    from mjtrack.calibrate.fit import objective
+
+    log, described, ws, sim, _ = case
+    sub = ws.subset(np.arange(6))
+    both = objective(sim, log, sub, ["mu", "track_length"], warmup_s=0.5)
+    one = objective(sim, log, sub, ["mu"], warmup_s=0.5, held={"track_length": 0.34})
+    r_both = both.residuals(np.array([0.7, 0.34]) / both.scales)
+    r_one = one.residuals(np.array([0.7]) / one.scales)
+    np.testing.assert_array_equal(r_one, r_both)
+    free = objective(sim, log, sub, ["mu"], warmup_s=0.5)  # the described length, 0.5 m
+    assert not np.allclose(free.residuals(np.array([0.7]) / free.scales), r_one)
 
 
 def test_turn_candidates_are_those_named_and_the_shear_grounds_ratio_with_its_modulus():

@@ -82,6 +82,9 @@ class Objective:
     warmup_s: float = WARMUP_S
     #: called with the number of windows just simulated (after each rollout chunk)
     progress: Callable[[int], None] | None = None
+    #: window parameters held at these values besides ``names`` (the turn stage's refit holds the
+    #: turn candidates it found)
+    held: dict[str, float] = field(default_factory=dict)
     evaluations: int = 0
     seconds: float = 0.0
     _meas: np.ndarray = field(init=False, repr=False)
@@ -118,7 +121,7 @@ class Objective:
         keys = [Z2[:, j].tobytes() for j in range(Z2.shape[1])]
         todo = [j for j, k in enumerate(keys) if k not in self._kept]
         if todo:
-            variants = [window_params(self.params_of(Z2[:, j]), self.sim.robot) for j in todo]
+            variants = [window_params({**self.params_of(Z2[:, j]), **self.held}, self.sim.robot) for j in todo]
             R = self.residuals_of(variants)
             for i, j in enumerate(todo):
                 self._kept[keys[j]] = R[:, i].copy()
@@ -398,12 +401,14 @@ def central_jacobian(obj: Objective, z: np.ndarray, central: np.ndarray | None =
 
 
 def objective(sim: WindowSim, log_: DriveLog, windows: WindowSet, names: list[str], *, nthread: int = 2,
-              warmup_s: float = WARMUP_S, progress: Callable[[int], None] | None = None) -> Objective:
+              warmup_s: float = WARMUP_S, progress: Callable[[int], None] | None = None,
+              held: dict[str, float] | None = None) -> Objective:
     """The objective of ``names`` on ``log_``'s windows for the robot of ``sim`` (``progress``:
-    called with the number of windows just simulated)."""
+    called with the number of windows just simulated; ``held``: parameters held at these values)."""
     robot = sim.robot
     return Objective(sim=sim, log=log_, windows=windows, names=list(names), specs=specs_for(robot),
-                     yaw_length=robot.track_gauge / 2, nthread=nthread, warmup_s=warmup_s, progress=progress)
+                     yaw_length=robot.track_gauge / 2, nthread=nthread, warmup_s=warmup_s, progress=progress,
+                     held=dict(held or {}))
 
 
 def windows_done(step: Callable[[int], None] | None) -> Callable[[int, int], None] | None:

@@ -114,7 +114,7 @@ def model_form_sources(obj, values: dict[str, float], resid: np.ndarray, jac: np
     from mjtrack.sim.windows import WindowSim
 
     robot = obj.sim.robot
-    wp = window_params(values, robot)
+    wp = window_params({**values, **obj.held}, robot)
     out, size = [], {}
     if refine:
         finer = config.replace(timestep=config.timestep / 2, n_rollers=max(config.n_rollers, SimConfig().n_rollers))
@@ -145,6 +145,8 @@ class Fitter:
     rounds: int = MAX_ROUNDS
     #: candidates whose value the description does not give (a default stands in for it)
     undescribed: tuple[str, ...] = ()
+    #: parameters held at these values besides ``names`` (:attr:`mjtrack.calibrate.fit.Objective.held`)
+    held: dict[str, float] = field(default_factory=dict)
     specs: dict = field(init=False)
     floors: dict[str, float] = field(init=False)
 
@@ -160,7 +162,7 @@ class Fitter:
         from mjtrack.calibrate.fit import objective
 
         return objective(self.sim, self.train, fws, names, nthread=self.nthread, warmup_s=self.warmup_s,
-                         progress=self.meter.windows)
+                         progress=self.meter.windows, held=self.held)
 
     def scaled(self, point: dict[str, float]) -> np.ndarray:
         return np.array([point[n] / self.specs[n].scale for n in self.names])
@@ -358,12 +360,14 @@ def allowed_for(fx: Fitter, obj, sel, cur: Linearisation, theta: np.ndarray, sou
     return extra, wide.uncertainty(list(range(len(idx)))).half[:len(kept)]
 
 
-def fit_attempt(fx: Fitter, fws: WindowSet, start_at: dict[str, float], only: list[str] | None = None) -> Fitted:
-    """One attempt: the first fit, the rounds of decisions, the verdicts (``only``: the guard's
-    second attempt, see :func:`_guarded_fit`)."""
+def fit_attempt(fx: Fitter, fws: WindowSet, start_at: dict[str, float], only: list[str] | None = None,
+                note: str = "guard refit") -> Fitted:
+    """One attempt: the first fit, the rounds of decisions, the verdicts (``only``: the parameters
+    fitted again from ``start_at`` in a second attempt -- the guard's, see :func:`_guarded_fit`, or
+    the turn stage's -- said as ``note`` in the progress)."""
     obj = fx.objective(fws, fx.names)
     rounds = fx.rounds if only is None else GUARD_ROUNDS
-    fx.meter.stage("fit" if only is None else "guard refit")
+    fx.meter.stage("fit" if only is None else note)
     result, cur = first_fit(fx, obj, fws, start_at, only, None)
     sel, cur, theta, sources, size, fits = decision_rounds(fx, obj, fws, cur, rounds, None)
     verdicts, values, model_form, u, lin, ties = settle_verdicts(fx, obj, sel, cur, theta, sources, size, rounds)

@@ -674,8 +674,10 @@ def _turn_stage(fx: Fitter, pb: _Problem, sim: WindowSim, att: Fitted, changed: 
                 kw: dict) -> tuple[TurnMatch | None, WindowSim, list[str], dict, Scored]:
     """The turn stage (:mod:`mjtrack.calibrate.turns`) after the pose fit: when it is accepted, its
     values replace the fit's in ``att`` (with their verdicts; a turn candidate the calibration did
-    not name is added to ``pb.names``) and the simulator, the changed parameters, their window
-    parameters and the training score are those of the turn-matched robot."""
+    not name is added to ``pb.names``; when the robot judged is the one whose other candidates were
+    fitted again with the turn candidates held, their values, verdicts and uncertainty too) and the
+    simulator, the changed parameters, their window parameters and the training score are those of
+    the turn-matched robot."""
     from mjtrack.sim.windows import WindowSim
 
     names = turn_candidates(pb.names, pb.robot)
@@ -684,20 +686,43 @@ def _turn_stage(fx: Fitter, pb: _Problem, sim: WindowSim, att: Fitted, changed: 
     tsim = sim
     if "lateral_shear_ratio" in names and not sim.framed:
         tsim = WindowSim(pb.robot, pb.config, resisted=sim.resisted, framed=True)
-    scored: dict[str, Scored] = {}
+    scored: dict[tuple, Scored] = {}
+    refits: dict[tuple, Fitted] = {}
+    others = [n for n in pb.names if n not in names]
 
-    def score(values: dict[str, float]) -> tuple[np.ndarray, int]:
-        scored["last"] = s = _score(tsim, pb.train, pb.ws, [{**wp, **values}], **kw)[0]
+    def score(params: dict[str, float]) -> tuple[np.ndarray, int]:
+        scored[_key(params)] = s = _score(tsim, pb.train, pb.ws, [params], **kw)[0]
         return np.hypot(s.errors[:, 0], s.errors[:, 1]), s.diverged
+
+    def refit(values: dict[str, float]) -> tuple[dict[str, float], list[str]] | None:
+        # the pose fit's other values were found with the turn candidates where the pose fit left them:
+        # before the two robots are compared, the others the pose fit changed are fitted again with the
+        # turn candidates held where the turns put them (as the guard refits: from where they are)
+        only = [n for n in changed if n in others]
+        if not only:
+            return None
+        fx2 = dataclasses.replace(fx, sim=tsim, names=list(others), described={n: pb.described[n] for n in others},
+                                  undescribed=tuple(n for n in fx.undescribed if n in others), held=dict(values))
+        att2 = fit_attempt(fx2, att.fws, {n: float(np.clip(att.values[n], fx.specs[n].lo, fx.specs[n].hi))
+                                           for n in others}, only, note="turns: refit")
+        now = [n for n in others if att2.verdicts[n].changed]
+        base = window_params({n: att2.values[n] for n in now}, pb.robot)
+        refits[_key(base)] = att2
+        return base, [n for n in on_bounds(att2.values, now, fx.specs) if n not in on_bounds(att.values, changed, fx.specs)]
 
     fx.meter.stage("turns")
     tm = match_turns(tsim, pb.train, pb.ws, pb.robot, wp, names, fx.specs,
                      fitted_errors=np.hypot(after.errors[:, 0], after.errors[:, 1]), fitted_diverged=after.diverged,
                      fitted_poses=after.poses, fitted_speeds=after.speeds, nthread=kw["nthread"],
-                     warmup_s=kw["warmup_s"], score=score, progress=kw["progress"])
+                     warmup_s=kw["warmup_s"], score=score, refit=refit if others else None, progress=kw["progress"])
     if tm is None or not tm.accepted:
         return tm, sim, changed, wp, after
     specs = fx.specs
+    if tm.refit is not None and tm.refit["kept"]:
+        att2 = refits[_key(tm.refit["base"])]
+        for n in others:
+            att.values[n], att.verdicts[n] = att2.values[n], att2.verdicts[n]
+        att.u, att.lin, att.ties, att.model_form = att2.u, att2.lin, att2.ties, att2.model_form
     for n in names:
         if n not in pb.names:
             pb.names.append(n)
@@ -707,17 +732,23 @@ def _turn_stage(fx: Fitter, pb: _Problem, sim: WindowSim, att: Fitted, changed: 
         half = None if lo is None else (hi - lo) / 2
         determined = half is not None and half < specs[n].resolution
         span = ("no interval" if lo is None else f"95 % interval [{lo:.4g}, {hi:.4g}] {specs[n].unit}".rstrip(" –"))
-        others = [m for m in names if m != n]
+        rest = [m for m in names if m != n]
         reason = (f"set by the training part's steady turns ({span}; "
                   + ("determined by them" if determined else
                      f"wider than the +-{specs[n].resolution:g} that matters: the turns fix it together with "
-                     f"{', '.join(others)}, a change of one taken up by the others")
+                     f"{', '.join(rest)}, a change of one taken up by the others")
                   + f"): {tm.why}")
         att.values[n] = tm.values[n]
         att.verdicts[n] = Verdict(n, determined, True, tm.values[n], pb.described[n],
                                   None if lo is None else (lo, hi), reason)
     changed = [n for n in pb.names if att.verdicts[n].changed]
-    return tm, tsim, changed, window_params({n: att.values[n] for n in changed}, pb.robot), scored["last"]
+    wp = window_params({n: att.values[n] for n in changed}, pb.robot)
+    return tm, tsim, changed, wp, scored[_key(tm.params)]
+
+
+def _key(params: dict[str, float]) -> tuple:
+    """A dict of window parameters as a key (the same values give the same key)."""
+    return tuple(sorted((k, float(v)) for k, v in params.items()))
 
 
 def _without_contradicting(lg: DriveLog, ws: WindowSet, src: str, gauge: float) -> tuple[WindowSet, list[dict]]:

@@ -15,7 +15,11 @@ the shear ground's modulus and its across / along ratio, those the calibration m
 fitted by least squares to the training part's steady-turn measures -- the yaw ratio and the
 forward speed ratio of every class with enough steady turns
 (:func:`mjtrack.calibrate.measures.turn_measures`) -- from the fitted values, the other parameters
-held at theirs. The answer replaces the fitted values only when
+held at theirs. Those other values were found for the contact the pose fit left; so, before the
+two robots are compared, the parameters the pose fit changed are fitted again to the end poses with
+the turn candidates held (the ``refit`` of :func:`match_turns`, from where they are), and the turn
+candidates once more from there. The robot judged is that one, or the first turn-matched robot when
+that one is refused and the first is not. The answer replaces the fitted values only when
 
 * it turns as the log does: every such class's yaw ratio within the gap;
 * the training windows' end poses do not show the fit's robot better: the 95 % interval of the
@@ -67,6 +71,9 @@ TURN_STEP = 0.03
 #: the turn fit stops when a step moves no value by more than this share of it: each interval
 #: holds that much besides the classes' scatter (the optimiser's part)
 TURN_XTOL = 1e-3
+#: each refusal of the turn stage in a few words
+REFUSED = {"turns": "it does not turn as the log does", "bound": "a turn candidate on a bound of its range",
+           "diverges": "more training windows diverge", "end_poses": "the end poses show the fit's robot better"}
 
 
 def turn_candidates(names: list[str], robot: Robot) -> list[str]:
@@ -144,6 +151,12 @@ class TurnMatch:
     #: the condition that refused it, in one word: "turns" (no value turns as the log does),
     #: "bound", "diverges" or "end_poses"; None when accepted
     refused_by: str | None = None
+    #: the other candidates fitted again to the end poses with the turn candidates held, and the
+    #: turn candidates fitted once more from there (None when that did not run); ``kept``: whether
+    #: that robot is the one judged above
+    refit: dict | None = None
+    #: the window parameters of the robot judged above (the fit's others, or the refitted ones)
+    params: dict = field(default_factory=dict, repr=False)
 
     def sentence(self) -> str:
         """The turn stage in words, for the summary."""
@@ -152,12 +165,18 @@ class TurnMatch:
                         if lab.startswith("yaw ratio") and not abs(m - f) <= YAW_CLASS_GAP)
         head = (f" The fit's robot turned unlike the log in the training part's steady turns ({off}); the turn "
                 f"candidates ({', '.join(self.names)}) were fitted to its steady turns")
+        if self.refit is not None:
+            head += (", the other candidates fitted again to the end poses with them held, and the turn candidates "
+                     "once more from there")
+            if not self.refit["kept"]:
+                head += f" (that robot was refused: {REFUSED[self.refit['refused_by']]}; the first one is judged)"
         if not self.accepted:
             return head + f", and the fit's values stand: {self.why}."
         vals = ", ".join(f"{n} {self.values[n]:.3g}" for n in self.names)
+        also = " with the refitted values of the others" if self.refit is not None and self.refit["kept"] else ""
         price = ("" if self.test_rms is None else f" On the test windows, never fitted, the fit's robot erred "
                  f"{self.test_rms[0]:.3g} m, the one that turns as the log does {self.test_rms[1]:.3g} m.")
-        return head + f": {vals}, which replace the fit's: {self.why}." + price
+        return head + f": {vals}, which replace the fit's{also}: {self.why}." + price
 
     def to_json(self) -> dict:
         return {"candidates": list(self.names), "classes": list(self.labels), "measured": list(self.measured),
@@ -170,7 +189,7 @@ class TurnMatch:
                 "test_rms_m": None if self.test_rms is None else {"fitted": self.test_rms[0],
                                                                   "turn_matched": self.test_rms[1]},
                 "on_bound": list(self.on_bound), "evaluations": int(self.evaluations), "accepted": bool(self.accepted),
-                "why": self.why, "refused_by": self.refused_by,
+                "why": self.why, "refused_by": self.refused_by, "refit": self.refit,
                 "definition": "the turn candidates fitted to the training part's steady-turn measures when the pose "
                               "fit's robot turns unlike the log; accepted when it turns as the log does and the "
                               "training end poses do not show the fit's robot better (mjtrack.calibrate.turns)"}
@@ -198,10 +217,33 @@ def _mse_gap_interval(a: np.ndarray, b: np.ndarray, groups: np.ndarray, level: f
     return float(lo), float(hi)
 
 
+@dataclass
+class _Outcome:
+    """One robot the turn stage tried: the window parameters it starts from (``base``), the turn
+    candidates' values fitted there, and how it fares (:func:`_judge`)."""
+
+    base: dict[str, float]
+    values: dict[str, float]
+    matched: np.ndarray
+    intervals: dict[str, tuple[float, float]]
+    on_bound: list[str]
+    evaluations: int
+    jac: np.ndarray | None = None  # of the class measures in the turn candidates, at the answer
+    train_rms: tuple[float, float] = (math.nan, math.nan)
+    gap: tuple[float, float] = (math.nan, math.nan)
+    refused_by: str | None = None
+    why: str = ""
+
+    @property
+    def params(self) -> dict[str, float]:
+        return {**self.base, **self.values}
+
+
 def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fitted: dict[str, float],
                 names: list[str], specs: dict[str, ParamSpec], *, fitted_errors: np.ndarray, fitted_diverged: int,
                 fitted_poses: np.ndarray, fitted_speeds: np.ndarray, nthread: int, warmup_s: float,
                 score: Callable[[dict[str, float]], tuple[np.ndarray, int]],
+                refit: Callable[[dict[str, float]], dict[str, float] | None] | None = None,
                 progress: Callable[[int], None] | None = None) -> TurnMatch | None:
     """The turn stage (module docstring) on the training windows ``ws`` of ``train``.
 
@@ -214,15 +256,15 @@ def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fi
             window (M,) and its diverged windows.
         fitted_poses, fitted_speeds: its simulated poses and speeds of every training window.
         score: window parameters -> (end-position error of every training window (M,) [m], diverged windows).
+        refit: the turn candidates' values -> (the window parameters of the other candidates fitted
+            again to the end poses with those held, the refitted values that ended on a bound of
+            their range where the fit's did not: that robot is then refused), or None when there is
+            nothing to refit; without it the other parameters stay at the pose fit's values.
         progress: called with the windows simulated after each pass.
 
     Returns None when no class has enough steady turns or the fitted robot already turns as the
     log does in every class; else the record, ``accepted`` saying whether its values replace the fit's.
     """
-    from scipy.optimize import least_squares
-
-    from mjtrack.sim.windows import simulate_windows
-
     tc = turn_classes(train, ws, robot)
     if tc is None or not names:
         return None
@@ -244,65 +286,114 @@ def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fi
     x0 = np.clip(np.array([float(first[n]) for n in names]), lo, hi)
     rec = TurnMatch(names=list(names), labels=tc.labels, measured=[float(v) for v in tc.measured],
                     fitted=[float(v) for v in fit_now], start=dict(zip(names, map(float, x0))))
-
-    def measures(x: np.ndarray) -> tuple[np.ndarray, list]:
-        res = simulate_windows(sim, train, steady, [{**fitted, **dict(zip(names, map(float, x)))}], nthread=nthread,
-                               warmup_s=warmup_s)
-        if progress is not None:
-            progress(len(steady))
-        return _values(turn_measures(train, steady, robot, res.poses[0], res.speeds[0]), tc.classes)
-
-    def residual(x: np.ndarray) -> np.ndarray:
-        r = measures(x)[0] - tc.measured
-        return np.where(np.isfinite(r), r, 1.0)  # a class with no steady turn simulated: far off
-
-    sol = least_squares(residual, x0, bounds=(lo, hi), diff_step=TURN_STEP, x_scale="jac", max_nfev=TURN_EVALS,
-                        xtol=TURN_XTOL)
-    values = dict(zip(names, map(float, sol.x)))
-    matched, sim_samples = measures(sol.x)
-    rec.values, rec.matched, rec.evaluations = values, [float(v) for v in matched], int(sol.nfev)
-    rec.on_bound = [n for n in names if min(values[n] - specs[n].lo, specs[n].hi - values[n]) <= 1e-3 * specs[n].scale]
-    # intervals: the class medians' bootstrap covariance through the solution's Jacobian
     meas_tm = turn_measures(train, steady, robot, measured_window_poses(train, steady), measured_speeds(train, steady))
-    _, meas_samples = _values(meas_tm, tc.classes)
-    cov = _gap_cov(meas_samples, sim_samples, command_runs(train, steady))
-    J = np.asarray(sol.jac, float)
-    if np.all(np.isfinite(cov)) and np.all(np.isfinite(J)):
-        P = np.linalg.pinv(J)
-        stat = 1.96 * np.sqrt(np.clip(np.diag(P @ cov @ P.T), 0.0, None))
-        # the optimiser's part: its stopping tolerance, and how far the mismatch left would move each value
-        opt = TURN_XTOL * np.abs(sol.x) + np.abs(P @ sol.fun)
-        half = np.hypot(stat, opt)
-        rec.intervals = {n: (max(values[n] - h, specs[n].lo), min(values[n] + h, specs[n].hi))
-                         for n, h in zip(names, half)}
-    errors, diverged = score(values)
+    meas_samples = _values(meas_tm, tc.classes)[1]
     fitted_errors = np.asarray(fitted_errors, float)
-    fitted_rms, rms = (float(np.sqrt(np.mean(e ** 2))) for e in (fitted_errors, np.asarray(errors, float)))
-    rec.train_rms = (fitted_rms, rms)
-    gap = _mse_gap_interval(np.asarray(errors, float), fitted_errors, command_runs(train, ws))
-    rec.mse_gap_interval = gap
+    runs = command_runs(train, ws)
 
-    yaw_ok = bool(np.all(np.isfinite(matched[tc.yaw()])
-                         & (np.abs(matched - tc.measured)[tc.yaw()] <= YAW_CLASS_GAP)))
+    def turn_fit(base: dict[str, float], x_start: np.ndarray, jac: np.ndarray | None = None) -> _Outcome:
+        """The turn candidates fitted to the steady turns from ``x_start``, the others at ``base``
+        (``jac``: the Jacobian to use throughout instead of finite differences)."""
+        from scipy.optimize import least_squares
+
+        from mjtrack.sim.windows import simulate_windows
+
+        seen: dict[bytes, tuple[np.ndarray, list]] = {}
+
+        def measures(x: np.ndarray) -> tuple[np.ndarray, list]:
+            key = np.asarray(x, float).tobytes()
+            if key not in seen:  # the optimiser's last point is measured again for its samples
+                res = simulate_windows(sim, train, steady, [{**base, **dict(zip(names, map(float, x)))}],
+                                       nthread=nthread, warmup_s=warmup_s)
+                if progress is not None:
+                    progress(len(steady))
+                if len(seen) >= 8:
+                    seen.pop(next(iter(seen)))
+                seen[key] = _values(turn_measures(train, steady, robot, res.poses[0], res.speeds[0]), tc.classes)
+            return seen[key]
+
+        def residual(x: np.ndarray) -> np.ndarray:
+            r = measures(x)[0] - tc.measured
+            return np.where(np.isfinite(r), r, 1.0)  # a class with no steady turn simulated: far off
+
+        how = dict(diff_step=TURN_STEP) if jac is None else dict(jac=lambda x: jac)
+        sol = least_squares(residual, x_start, bounds=(lo, hi), x_scale="jac", max_nfev=TURN_EVALS,
+                            xtol=TURN_XTOL, **how)
+        values = dict(zip(names, map(float, sol.x)))
+        matched, sim_samples = measures(sol.x)
+        out = _Outcome(base=dict(base), values=values, matched=matched, intervals={}, evaluations=int(sol.nfev),
+                       on_bound=[n for n in names
+                                 if min(values[n] - specs[n].lo, specs[n].hi - values[n]) <= 1e-3 * specs[n].scale])
+        # intervals: the class medians' bootstrap covariance through the solution's Jacobian
+        cov = _gap_cov(meas_samples, sim_samples, command_runs(train, steady))
+        J = out.jac = np.asarray(sol.jac, float)
+        if np.all(np.isfinite(cov)) and np.all(np.isfinite(J)):
+            P = np.linalg.pinv(J)
+            stat = 1.96 * np.sqrt(np.clip(np.diag(P @ cov @ P.T), 0.0, None))
+            # the optimiser's part: its stopping tolerance, and how far the mismatch left would move each value
+            opt = TURN_XTOL * np.abs(sol.x) + np.abs(P @ sol.fun)
+            half = np.hypot(stat, opt)
+            out.intervals = {n: (max(values[n] - h, specs[n].lo), min(values[n] + h, specs[n].hi))
+                             for n, h in zip(names, half)}
+        _judge(out, tc, score, fitted_errors, fitted_diverged, runs)
+        return out
+
+    plain = turn_fit(dict(fitted), x0)
+    chosen, again = plain, None
+    if refit is not None and plain.refused_by in (None, "end_poses"):
+        got = refit(plain.values)
+        if got is not None:
+            base, bound = got
+            rec.refit = {"base": {k: float(v) for k, v in base.items()}, "kept": False, "on_bound": list(bound),
+                         "values": None, "train_rms_m": None, "train_mse_gap_interval_m2": None, "refused_by": "bound",
+                         "plain": {"values": dict(plain.values), "train_rms_m": plain.train_rms[1],
+                                   "train_mse_gap_interval_m2": list(plain.gap), "refused_by": plain.refused_by}}
+        if got is not None and not bound:
+            # the turn candidates once more, from where they were; the others moved a little, so the
+            # first fit's Jacobian stands in for finite differences at every step
+            again = turn_fit(base, np.array([plain.values[n] for n in names]), jac=plain.jac if np.all(np.isfinite(plain.jac)) else None)
+            if again.refused_by is None or plain.refused_by is not None:
+                chosen = again
+            rec.refit.update({"kept": chosen is again, "values": dict(again.values),
+                              "train_rms_m": again.train_rms[1], "train_mse_gap_interval_m2": list(again.gap),
+                              "refused_by": again.refused_by})
+    rec.values, rec.matched, rec.intervals = chosen.values, [float(v) for v in chosen.matched], chosen.intervals
+    rec.on_bound, rec.train_rms, rec.mse_gap_interval = chosen.on_bound, chosen.train_rms, chosen.gap
+    rec.evaluations = plain.evaluations + (0 if again is None else again.evaluations)
+    rec.accepted, rec.refused_by, rec.why = chosen.refused_by is None, chosen.refused_by, chosen.why
+    rec.params = chosen.params
+    return rec
+
+
+def _judge(out: _Outcome, tc: TurnClasses, score, fitted_errors: np.ndarray, fitted_diverged: int,
+           runs: np.ndarray) -> None:
+    """Score the robot of ``out`` on every training window and decide (module docstring): it
+    replaces the fit's robot when it turns as the log does, no value is on a bound, no more windows
+    diverge and the end poses do not show the fit's robot better."""
+    errors, diverged = score(out.params)
+    errors = np.asarray(errors, float)
+    fitted_rms, rms = (float(np.sqrt(np.mean(e ** 2))) for e in (fitted_errors, errors))
+    out.train_rms = (fitted_rms, rms)
+    gap = out.gap = _mse_gap_interval(errors, fitted_errors, runs)
+    yaw_ok = bool(np.all(np.isfinite(out.matched[tc.yaw()])
+                         & (np.abs(out.matched - tc.measured)[tc.yaw()] <= YAW_CLASS_GAP)))
     if not yaw_ok:
-        rec.refused_by = "turns"
-        rec.why = "no value of the turn candidates makes it turn as the log does in every class"
-    elif rec.on_bound:
-        rec.refused_by = "bound"
-        rec.why = f"turning as the log does takes {', '.join(rec.on_bound)} to a bound of its range"
+        out.refused_by = "turns"
+        out.why = "no value of the turn candidates makes it turn as the log does in every class"
+    elif out.on_bound:
+        out.refused_by = "bound"
+        out.why = f"turning as the log does takes {', '.join(out.on_bound)} to a bound of its range"
     elif diverged > fitted_diverged:
-        rec.refused_by = "diverges"
-        rec.why = f"the robot that turns as the log does diverges in {diverged - fitted_diverged} more training windows"
+        out.refused_by = "diverges"
+        out.why = f"the robot that turns as the log does diverges in {diverged - fitted_diverged} more training windows"
     elif not math.isfinite(rms) or not gap[0] <= 0.0:
-        rec.refused_by = "end_poses"
-        rec.why = (f"the training windows' end poses show the fit's robot better ({fitted_rms:.4g} m against "
+        out.refused_by = "end_poses"
+        out.why = (f"the training windows' end poses show the fit's robot better ({fitted_rms:.4g} m against "
                    f"{rms:.4g} m; the mean squared error's difference lies in [{gap[0]:.3g}, {gap[1]:.3g}] m^2)")
     else:
-        rec.accepted = True
-        rec.why = (f"it turns as the log does, and the training windows' end poses cannot tell it from the fit's "
+        out.why = (f"it turns as the log does, and the training windows' end poses cannot tell it from the fit's "
                    f"robot or prefer it ({rms:.4g} m against {fitted_rms:.4g} m; the mean squared error's difference "
                    f"lies in [{gap[0]:.3g}, {gap[1]:.3g}] m^2)")
-    return rec
 
 
 __all__ = ["TURN_BOOT", "TURN_EVALS", "TURN_STEP", "TURN_XTOL", "TurnClasses", "TurnMatch", "match_turns", "turn_candidates",
