@@ -40,7 +40,9 @@ which the log does not determine: the log fixes how fast the drives can speed th
 the force; a value beyond the other description's search range, which follows its geometry, compared
 with the nearest end of that range, the closest the other fit could come), and the weaker reading
 beside it: whether their difference lies within its own 95 % interval, the half-widths added in
-quadrature; the causes, summaries
+quadrature; and, since the turn candidates are fixed together by the steady turns rather than one
+by one (their intervals wide), whether the two calibrated robots turn alike: per turn class with
+enough steady test windows, their yaw ratios within 0.03 of each other; the causes, summaries
 and held-out errors of both. Writes
 benchmarks/results/start_independence.json; ``--starts --agreement-only`` recomputes the
 agreement of the stored file with the rule now.
@@ -363,10 +365,49 @@ def starts_robot(name: str, spec: dict, rounds: int | None = None) -> dict:
                                 "intervals": cj["intervals"], "determined": cj["determined"],
                                 "described": cj["described"], "causes": cj["causes"], "summary": cj["summary"],
                                 "assumed": cj["assumed"], "drive_input": cj.get("drive_input_mode", "commanded"),
-                                "mass": robot.mass, "bounds": _bounds(robot)}
+                                "mass": robot.mass, "bounds": _bounds(robot),
+                                "yaw_by_class": yaw_by_class(cj, "test"), "turn_stage": turn_stage(cj)}
         print(f"  {name} from the {start} description: test {cj['test']['before']:.4f} -> {cj['test']['after']:.4f} m, "
               f"{time.time() - t0:.0f} s", flush=True)
     out.update(agreement(out["starts"]["shipped"], out["starts"]["public"]))
+    return out
+
+
+def yaw_by_class(cj: dict, part: str) -> list[dict]:
+    """The steady-turn yaw ratio per |turn ratio| class of ``part`` in a calibration.json: measured,
+    calibrated and the class's steady windows."""
+    return [{"class": f["turn_class"], "measured": f["measured"], "calibrated": f["simulated_after"],
+             "windows": f["windows"]}
+            for f in cj["findings"] if f["part"] == part and "turn_class" in f and f["what"].startswith("yaw ratio")]
+
+
+def turn_stage(cj: dict) -> dict:
+    """Whether calibrate's turn stage ran, its answer was taken, what refused it, and whether the
+    robot judged was the one with the others refitted."""
+    t = cj["method"].get("turns")
+    if t is None:
+        return {"ran": False}
+    return {"ran": True, "accepted": t["accepted"], "refused_by": t["refused_by"],
+            "refit_kept": None if t.get("refit") is None else t["refit"]["kept"]}
+
+
+def turning_agreement(a: dict, b: dict) -> dict | None:
+    """Whether two calibrations of one log turn alike: per |turn ratio| class with at least
+    YAW_CLASS_MIN steady test windows, both calibrated yaw ratios and whether they lie within
+    YAW_CLASS_GAP of each other (the criterion's own yardstick); None when a record lacks them."""
+    from mjtrack.calibrate.causes import YAW_CLASS_GAP, YAW_CLASS_MIN
+
+    if "yaw_by_class" not in a or "yaw_by_class" not in b:
+        return None
+    other = {tuple(c["class"]): c for c in b["yaw_by_class"]}
+    out = {}
+    for c in a["yaw_by_class"]:
+        d = other.get(tuple(c["class"]))
+        if d is None or c["windows"] < YAW_CLASS_MIN or c["calibrated"] is None or d["calibrated"] is None:
+            continue
+        out[f"{c['class'][0]:g} to {c['class'][1]:g}"] = {
+            "measured": c["measured"], "shipped": c["calibrated"], "public": d["calibrated"], "windows": c["windows"],
+            "within_gap": abs(c["calibrated"] - d["calibrated"]) <= YAW_CLASS_GAP}
     return out
 
 
@@ -382,8 +423,8 @@ PER_KG = ("drive_force_limit",)
 
 
 def agreement(a: dict, b: dict) -> dict:
-    """Whether two calibrations of one log agree: per parameter both values and, where both determine
-    it, whether each lies in the other's interval (a value kept at its description, which the log
+    """Whether two calibrations of one log agree: in their turning (:func:`turning_agreement`) and
+    per parameter: both values and, where both determine it, whether each lies in the other's interval (a value kept at its description, which the log
     confirms, has no interval: its own value stands for it); :data:`PER_KG` parameters per kilogram
     of each description's mass. A value beyond the other description's search range (a centre of
     mass's range follows the described geometry) is compared with the nearest end of that range, the
@@ -412,7 +453,11 @@ def agreement(a: dict, b: dict) -> dict:
                     "difference_within_its_interval": consistent if both else None,
                     **({"beyond_the_other_range": True} if both and (ca != va or cb != vb) else {}),
                     **({"per_kg": {"shipped": va, "public": vb}} if n in PER_KG else {})}
-    return {"agreement": agree, "agree": all(v["each_in_the_other_interval"] is not False for v in agree.values())}
+    turning = turning_agreement(a, b)
+    params = all(v["each_in_the_other_interval"] is not False for v in agree.values())
+    turns = None if turning is None else all(v["within_gap"] for v in turning.values())
+    return {"agreement": agree, "parameters_agree": params, "turning": turning, "turning_agrees": turns,
+            "agree": params and turns is not False}
 
 
 def shear_scan_robot(name: str, spec: dict, moduli: list[float]) -> dict:
@@ -650,6 +695,9 @@ def _starts(args, load0) -> int:
                      else f"each in the other's interval: {v['each_in_the_other_interval']}"
                      + (" (a value beyond the other's range, compared with its end)"
                         if v.get("beyond_the_other_range") else "")))
+        for c, v in (r["turning"] or {}).items():
+            print(f"  yaw ratio |turn ratio| {c:12s} measured {v['measured']:.3f}  shipped {v['shipped']:.3f}  "
+                  f"public {v['public']:.3f}  alike: {v['within_gap']}")
         return r
 
     return _each_robot(args, STARTS_RESULT, run, load0)

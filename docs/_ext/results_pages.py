@@ -873,8 +873,23 @@ def _calibration() -> Page:
                      "describes, never as a cause).",
                      ["robot", "start", "drive input", "rounds", "test before", "test after", "seconds",
                       "causes named"])
+        turning = Table("Do the two calibrations of the table above turn alike? Per turn class with enough steady "
+                        "windows of the test part (the classes of the yaw table above), the measured yaw ratio, "
+                        "each calibrated robot's, and whether the two lie within the criterion's gap of each other "
+                        "(the turn candidates are fixed together by the steady turns, not one by one, so their "
+                        "intervals are wide and the parameter table alone cannot tell); with whether calibrate's "
+                        "turn stage ran and was taken from each description.",
+                        ["robot", "class", "test windows", "measured", "from shipped", "from public", "alike",
+                         "turn stage (shipped; public)"])
+        words = {k.removeprefix("(|turn ratio| ").removesuffix(")"): v for k, v in _turn_class_names().items()}
         for name, r in st.data["robots"].items():
             q = f"/robots/{name}"
+            stage = "; ".join(_stage_words(r["starts"][s_].get("turn_stage")) for s_ in ("shipped", "public"))
+            for c in r.get("turning") or {}:
+                t = f"{q}/turning/{c}"
+                turning.add(name, words.get(c, c), number(st, t + "/windows"), number(st, t + "/measured"),
+                            number(st, t + "/shipped"), number(st, t + "/public"), number(st, t + "/within_gap"),
+                            stage)
             for n in r["agreement"]:
                 a = f"{q}/agreement/{n}"
                 agree.add(name, n, number(st, a + "/shipped"), number(st, a + "/public"),
@@ -895,7 +910,7 @@ def _calibration() -> Page:
                          number(st, f"{q}/starts/{start}/test/before"),
                          number(st, f"{q}/starts/{start}/test/after"), number(st, f"{q}/starts/{start}/seconds"),
                          "; ".join(named) or "none")
-        starts_tables = [agree, errs]
+        starts_tables = [agree, errs] + ([turning] if turning.rows else [])
     written = [real.path.parent / "real_robots" / name / f for name in real.data["robots"]
                for f in ("robot.json", "calibration.json", "report.html")]
     yaw_sources, yaw = [], Table(
@@ -1025,16 +1040,37 @@ TURN_REFUSALS = {None: "it turns as the log does, and the training windows' end 
                  "end_poses": "the training windows' end poses show the fit's robot better"}
 
 
+def _refit_words(refit: dict | None) -> str:
+    """The turn stage's refit of the other values (``method.turns.refit``) in words."""
+    if refit is None:
+        return "not run"
+    if refit["kept"]:
+        return "yes, that robot is judged"
+    return f"refused ({TURN_REFUSALS[refit['refused_by']]}): the first turn-matched robot is judged"
+
+
+def _stage_words(stage: dict | None) -> str:
+    """A start comparison's record of calibrate's turn stage in words."""
+    if stage is None:
+        return "not recorded"
+    if not stage["ran"]:
+        return "not run"
+    if stage["accepted"]:
+        return "taken" + (", others refitted" if stage.get("refit_kept") else "")
+    return f"refused ({TURN_REFUSALS[stage['refused_by']]})"
+
+
 def _turn_stage_tables(runs: list[tuple[str, Path]]) -> tuple[list[Table], list[Source]]:
     """The turn stage of each real-robot calibration (calibration.json ``method.turns``): its outcome,
     and its classes measured / as fitted / turn-matched on the training part."""
     outcome = Table("Turning as the log does (the concepts page, \"Turning as the log does\"): when the pose fit's "
                     "robot turned unlike the training part's steady turns, the turn candidates fitted to them; whether "
                     "their values replaced the fit's and why, the position error at the window's end [m] of both robots "
-                    "on every training window and on the test windows (never fitted), and the least-squares "
-                    "evaluations.",
+                    "on every training window and on the test windows (never fitted), the least-squares "
+                    "evaluations, and whether the robot judged is the one whose other changed values were fitted "
+                    "again to the end poses with the turn candidates held.",
                     ["robot", "ran", "accepted", "train: fit's robot", "train: turn-matched", "test: fit's robot",
-                     "test: turn-matched", "evaluations", "why"])
+                     "test: turn-matched", "evaluations", "others refitted", "why"])
     class_names = _turn_class_names()
     classes = Table("The turn stage's classes on the training part (steady windows; the classes of the tables above: "
                     "straight, turning, sharp turns by |turn ratio|): measured, the pose fit's robot, the turn-matched "
@@ -1047,7 +1083,7 @@ def _turn_stage_tables(runs: list[tuple[str, Path]]) -> tuple[list[Table], list[
         cal = Source(path)
         t = cal.data["method"].get("turns")
         if t is None:
-            outcome.add(name, "no", "–", "–", "–", "–", "–", "–",
+            outcome.add(name, "no", "–", "–", "–", "–", "–", "–", "–",
                         "the fitted robot turns as the log does in every class with enough steady turns")
             continue
         sources.append(cal)
@@ -1057,7 +1093,7 @@ def _turn_stage_tables(runs: list[tuple[str, Path]]) -> tuple[list[Table], list[
                     number(cal, q + "/train_rms_m/turn_matched"),
                     number(cal, q + "/test_rms_m/fitted") if test else "–",
                     number(cal, q + "/test_rms_m/turn_matched") if test else "–",
-                    number(cal, q + "/evaluations"), TURN_REFUSALS[t.get("refused_by")])
+                    number(cal, q + "/evaluations"), _refit_words(t.get("refit")), TURN_REFUSALS[t.get("refused_by")])
         for k, label in enumerate(t["classes"]):
             quantity, _, cls = label.partition(" (")
             classes.add(name, f"{quantity}, {class_names.get('(' + cls, cls)}", number(cal, f"{q}/measured/{k}"),
