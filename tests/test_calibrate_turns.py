@@ -132,6 +132,7 @@ def test_a_refused_refit_leaves_the_first_turn_match_judged(case, why):
     assert "mu" not in tm.params and tm.values == tm.refit["plain"]["values"]
     assert (tm.refit["values"] is None) == (why == "bound")
     assert "that robot was refused" in tm.sentence()
+    assert ("the refit put mu on a bound" in tm.sentence()) == (why == "bound")
 
 
 def test_objective_holds_what_it_is_told_to_hold(case):

@@ -1046,7 +1046,9 @@ def _refit_words(refit: dict | None) -> str:
         return "not run"
     if refit["kept"]:
         return "yes, that robot is judged"
-    return f"refused ({TURN_REFUSALS[refit['refused_by']]}): the first turn-matched robot is judged"
+    why = ("the refit puts a value on a bound of its range where the pose fit's did not" if refit.get("on_bound")
+           else TURN_REFUSALS[refit["refused_by"]])
+    return f"refused ({why}): the first turn-matched robot is judged"
 
 
 def _stage_words(stage: dict | None) -> str:

@@ -169,7 +169,9 @@ class TurnMatch:
             head += (", the other candidates fitted again to the end poses with them held, and the turn candidates "
                      "once more from there")
             if not self.refit["kept"]:
-                head += f" (that robot was refused: {REFUSED[self.refit['refused_by']]}; the first one is judged)"
+                why = (f"the refit put {', '.join(self.refit['on_bound'])} on a bound of its range"
+                       if self.refit["on_bound"] else REFUSED[self.refit["refused_by"]])
+                head += f" (that robot was refused: {why}; the first one is judged)"
         if not self.accepted:
             return head + f", and the fit's values stand: {self.why}."
         vals = ", ".join(f"{n} {self.values[n]:.3g}" for n in self.names)
