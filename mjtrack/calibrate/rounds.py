@@ -361,12 +361,14 @@ def allowed_for(fx: Fitter, obj, sel, cur: Linearisation, theta: np.ndarray, sou
 
 
 def fit_attempt(fx: Fitter, fws: WindowSet, start_at: dict[str, float], only: list[str] | None = None,
-                note: str = "guard refit") -> Fitted:
+                note: str = "guard refit", rounds: int | None = None) -> Fitted:
     """One attempt: the first fit, the rounds of decisions, the verdicts (``only``: the parameters
     fitted again from ``start_at`` in a second attempt -- the guard's, see :func:`_guarded_fit`, or
-    the turn stage's -- said as ``note`` in the progress)."""
+    the turn stage's -- said as ``note`` in the progress; ``rounds``: its rounds of decisions,
+    default GUARD_ROUNDS for a second attempt, the calibration's for a first)."""
     obj = fx.objective(fws, fx.names)
-    rounds = fx.rounds if only is None else GUARD_ROUNDS
+    if rounds is None:
+        rounds = fx.rounds if only is None else GUARD_ROUNDS
     fx.meter.stage("fit" if only is None else note)
     result, cur = first_fit(fx, obj, fws, start_at, only, None)
     sel, cur, theta, sources, size, fits = decision_rounds(fx, obj, fws, cur, rounds, None)

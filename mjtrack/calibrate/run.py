@@ -697,14 +697,16 @@ def _turn_stage(fx: Fitter, pb: _Problem, sim: WindowSim, att: Fitted, changed: 
     def refit(values: dict[str, float]) -> tuple[dict[str, float], list[str]] | None:
         # the pose fit's other values were found with the turn candidates where the pose fit left them:
         # before the two robots are compared, the others the pose fit changed are fitted again with the
-        # turn candidates held where the turns put them (as the guard refits: from where they are)
+        # turn candidates held where the turns put them (as the guard refits: from where they are), and the
+        # decisions made again with the calibration's rounds: one round leaves a value the pose fit had
+        # settled at its description with the log pointing elsewhere
         only = [n for n in changed if n in others]
         if not only:
             return None
         fx2 = dataclasses.replace(fx, sim=tsim, names=list(others), described={n: pb.described[n] for n in others},
                                   undescribed=tuple(n for n in fx.undescribed if n in others), held=dict(values))
         att2 = fit_attempt(fx2, att.fws, {n: float(np.clip(att.values[n], fx.specs[n].lo, fx.specs[n].hi))
-                                           for n in others}, only, note="turns: refit")
+                                           for n in others}, only, note="turns: refit", rounds=fx.rounds)
         now = [n for n in others if att2.verdicts[n].changed]
         base = window_params({n: att2.values[n] for n in now}, pb.robot)
         refits[_key(base)] = att2
