@@ -245,7 +245,7 @@ def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fi
                 names: list[str], specs: dict[str, ParamSpec], *, fitted_errors: np.ndarray, fitted_diverged: int,
                 fitted_poses: np.ndarray, fitted_speeds: np.ndarray, nthread: int, warmup_s: float,
                 score: Callable[[dict[str, float]], tuple[np.ndarray, int]],
-                refit: Callable[[dict[str, float]], dict[str, float] | None] | None = None,
+                refit: Callable[[dict[str, float]], tuple[dict[str, float], list[str]] | None] | None = None,
                 progress: Callable[[int], None] | None = None) -> TurnMatch | None:
     """The turn stage (module docstring) on the training windows ``ws`` of ``train``.
 
