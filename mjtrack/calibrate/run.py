@@ -687,7 +687,7 @@ def _turn_stage(fx: Fitter, pb: _Problem, sim: WindowSim, att: Fitted, changed: 
     if "lateral_shear_ratio" in names and not sim.framed:
         tsim = WindowSim(pb.robot, pb.config, resisted=sim.resisted, framed=True)
     scored: dict[tuple, Scored] = {}
-    refits: dict[tuple, Fitted] = {}
+    refitted: list[Fitted] = []  # the refit's attempt (it runs once at most)
     others = [n for n in pb.names if n not in names]
 
     def score(params: dict[str, float]) -> tuple[np.ndarray, int]:
@@ -709,7 +709,7 @@ def _turn_stage(fx: Fitter, pb: _Problem, sim: WindowSim, att: Fitted, changed: 
                                            for n in others}, only, note="turns: refit", rounds=fx.rounds)
         now = [n for n in others if att2.verdicts[n].changed]
         base = window_params({n: att2.values[n] for n in now}, pb.robot)
-        refits[_key(base)] = att2
+        refitted.append(att2)
         return base, [n for n in on_bounds(att2.values, now, fx.specs) if n not in on_bounds(att.values, changed, fx.specs)]
 
     fx.meter.stage("turns")
@@ -721,7 +721,7 @@ def _turn_stage(fx: Fitter, pb: _Problem, sim: WindowSim, att: Fitted, changed: 
         return tm, sim, changed, wp, after
     specs = fx.specs
     if tm.refit is not None and tm.refit["kept"]:
-        att2 = refits[_key(tm.refit["base"])]
+        att2 = refitted[-1]
         for n in others:
             att.values[n], att.verdicts[n] = att2.values[n], att2.verdicts[n]
         att.u, att.lin, att.ties, att.model_form = att2.u, att2.lin, att2.ties, att2.model_form

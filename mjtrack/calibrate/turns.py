@@ -240,6 +240,11 @@ class _Outcome:
     def params(self) -> dict[str, float]:
         return {**self.base, **self.values}
 
+    def record(self) -> dict:
+        """Its values and how it fared, as ``method.turns.refit`` holds them."""
+        return {"values": dict(self.values), "train_rms_m": self.train_rms[1],
+                "train_mse_gap_interval_m2": list(self.gap), "refused_by": self.refused_by}
+
 
 def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fitted: dict[str, float],
                 names: list[str], specs: dict[str, ParamSpec], *, fitted_errors: np.ndarray, fitted_diverged: int,
@@ -342,23 +347,20 @@ def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fi
 
     plain = turn_fit(dict(fitted), x0)
     chosen, again = plain, None
-    if refit is not None and plain.refused_by in (None, "end_poses"):
-        got = refit(plain.values)
-        if got is not None:
-            base, bound = got
-            rec.refit = {"base": {k: float(v) for k, v in base.items()}, "kept": False, "on_bound": list(bound),
-                         "values": None, "train_rms_m": None, "train_mse_gap_interval_m2": None, "refused_by": "bound",
-                         "plain": {"values": dict(plain.values), "train_rms_m": plain.train_rms[1],
-                                   "train_mse_gap_interval_m2": list(plain.gap), "refused_by": plain.refused_by}}
-        if got is not None and not bound:
+    got = refit(plain.values) if refit is not None and plain.refused_by in (None, "end_poses") else None
+    if got is not None:
+        base, bound = got
+        if not bound:
             # the turn candidates once more, from where they were; the others moved a little, so the
             # first fit's Jacobian stands in for finite differences at every step
-            again = turn_fit(base, np.array([plain.values[n] for n in names]), jac=plain.jac if np.all(np.isfinite(plain.jac)) else None)
+            again = turn_fit(base, np.array([plain.values[n] for n in names]),
+                             jac=plain.jac if np.all(np.isfinite(plain.jac)) else None)
             if again.refused_by is None or plain.refused_by is not None:
                 chosen = again
-            rec.refit.update({"kept": chosen is again, "values": dict(again.values),
-                              "train_rms_m": again.train_rms[1], "train_mse_gap_interval_m2": list(again.gap),
-                              "refused_by": again.refused_by})
+        mine = (again.record() if again is not None else  # refused for its bounds before the turns were fitted
+                {"values": None, "train_rms_m": None, "train_mse_gap_interval_m2": None, "refused_by": "bound"})
+        rec.refit = {"base": {k: float(v) for k, v in base.items()}, "kept": chosen is again, "on_bound": list(bound),
+                     **mine, "plain": plain.record()}
     rec.values, rec.matched, rec.intervals = chosen.values, [float(v) for v in chosen.matched], chosen.intervals
     rec.on_bound, rec.train_rms, rec.mse_gap_interval = chosen.on_bound, chosen.train_rms, chosen.gap
     rec.evaluations = plain.evaluations + (0 if again is None else again.evaluations)
