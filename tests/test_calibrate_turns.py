@@ -3,7 +3,7 @@
 The log is made by MuJoCo with a known robot (written here, not taken from the code under test);
 the stage must find the contact length and motion resistance that robot turns with, with intervals
 that cover them, and must neither run when the robot already turns as the log does nor replace a
-fit whose end poses it cannot match.
+fit whose end poses speak more strongly against it than the turns against the fit.
 """
 
 from __future__ import annotations
@@ -81,6 +81,43 @@ def test_turning_as_the_log_does_at_worse_end_poses_does_not_replace_the_fit(cas
     assert tm is not None and not tm.accepted and tm.refused_by == "end_poses"
     assert "show the fit's robot better" in tm.why
     assert "the fit's values stand" in tm.sentence()
+
+
+def test_a_turn_match_the_end_poses_show_slightly_worse_is_kept_when_the_turns_speak_louder(case):
+    """The end poses show the turn-matched robot worse by a little on every window (its squared
+    error 0.001 to 0.003 m^2 above the fit's), while the fit's robot, with the described contact
+    length, turns far from the log: the turns speak more strongly against the fit's robot, so the
+    turn-matched one is kept, and its record says the two kinds of evidence ask for different robots."""
+    fitted = {"track_length": 0.5, "rolling_resistance": 0.0}
+    own, n = case[4], len(case[2])
+    fit_err = own(fitted)[2].pos_err()[0]
+    extra = np.random.default_rng(3).uniform(0.001, 0.003, n)
+    tm = _run(case, fitted, score=lambda p: (np.sqrt(fit_err ** 2 + extra), 0))
+    assert tm is not None and tm.accepted and tm.refused_by is None, tm.why
+    assert tm.mse_gap_interval[0] > 0  # the end poses alone would refuse it
+    ev = tm.evidence
+    assert ev["end_poses_z"] > 2 and ev["chi2_turn_matched"] < ev["chi2_fit"]
+    assert ev["chi2_turn_matched"] == pytest.approx(ev["turns_wald_turn_matched"] + ev["end_poses_z"] ** 2)
+    assert ev["chi2_fit"] == ev["turns_wald_fit"]
+    assert "ask for different robots" in tm.why and "replace the fit's" in tm.sentence()
+
+
+def test_the_turns_wald_statistic_and_the_evidence_against_each_robot():
+    """The Wald statistic against the truth written out (independent classes: the sum of squared
+    z), classes that share windows through the pseudo-inverse, and the end poses counted against
+    the robot they show worse only."""
+    from mjtrack.calibrate.turns import _gap_z, evidence, turn_wald
+
+    gap, sd = np.array([0.04, -0.02]), np.array([0.01, 0.02])
+    assert turn_wald(gap, np.diag(sd ** 2)) == pytest.approx((0.04 / 0.01) ** 2 + (0.02 / 0.02) ** 2)
+    same = np.full((2, 2), 1e-4)  # two classes of the same windows: one piece of evidence, not two
+    assert turn_wald(np.array([0.03, 0.03]), same) == pytest.approx(0.03 ** 2 / 1e-4)
+    assert np.isnan(turn_wald(gap, np.full((2, 2), np.nan))) and np.isnan(turn_wald(np.array([]), np.zeros((0, 0))))
+    assert evidence(20.0, 1.0, 3.0) == (20.0, 10.0)  # the end poses show the turn-matched robot worse
+    assert evidence(20.0, 1.0, -2.0) == (24.0, 1.0)  # ... or the fit's robot
+    assert _gap_z(np.full(5, 0.01)) == np.inf and _gap_z(np.zeros(5)) == 0.0
+    draws = np.random.default_rng(1).normal(0.5, 0.25, 4000)
+    assert _gap_z(draws) == pytest.approx(2.0, rel=0.05)
 
 
 @pytest.mark.slow

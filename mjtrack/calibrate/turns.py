@@ -22,15 +22,21 @@ candidates once more from there. The robot judged is that one, or the first turn
 that one is refused and the first is not. The answer replaces the fitted values only when
 
 * it turns as the log does: every such class's yaw ratio within the gap;
-* the training windows' end poses do not show the fit's robot better: the 95 % interval of the
-  mean over windows of (its squared end-position error minus the fit's), bootstrapped with the
-  windows of one held command drawn together, reaches zero or below (the end poses cannot tell
-  the two robots apart, or prefer the turn-matched one);
-* no turn candidate ends on a bound of its range, and no more windows diverge.
+* no turn candidate ends on a bound of its range, and no more windows diverge;
+* the data speak less against it than against the fit's robot. Each robot is judged by both
+  kinds of evidence the training part holds, each in the units of its own scatter, and the two
+  added (:func:`evidence`): the steady turns, by the Wald statistic of its yaw classes' medians
+  against the measured ones (their bootstrap covariance, the windows of one held command drawn
+  together); the end poses, by the square of z, the mean over windows of (the turn-matched robot's
+  squared end-position error minus the fit's) over its bootstrap standard deviation, counted
+  against the robot it shows worse. Neither kind of evidence is preferred: a turn-matched robot
+  the end poses show slightly worse is kept when the turns show the fit's robot far more clearly
+  wrong, and refused when the end poses speak more strongly.
 
-Otherwise the fitted values stand and the calibration says which condition failed: then the end
-poses and the steady turns ask for different robots, which is what the log shows that no candidate
-describes.
+Otherwise the fitted values stand and the calibration says which condition failed. When both
+robots are shown wrong -- the end poses against the turn-matched robot, the turns against the
+fit's -- the end poses and the steady turns ask for different robots, which is what the log shows
+that no candidate describes; the summary says so whichever robot is kept.
 
 With a test log, the record also holds both robots' error on it (never fitted): what turning as the
 log does costs or gains where the fit did not look.
@@ -73,7 +79,8 @@ TURN_STEP = 0.03
 TURN_XTOL = 1e-3
 #: each refusal of the turn stage in a few words
 REFUSED = {"turns": "it does not turn as the log does", "bound": "a turn candidate on a bound of its range",
-           "diverges": "more training windows diverge", "end_poses": "the end poses show the fit's robot better"}
+           "diverges": "more training windows diverge",
+           "end_poses": "the end poses speak more against it than the steady turns against the fit's robot"}
 
 
 def turn_candidates(names: list[str], robot: Robot) -> list[str]:
@@ -155,6 +162,8 @@ class TurnMatch:
     #: turn candidates fitted once more from there (None when that did not run); ``kept``: whether
     #: that robot is the one judged above
     refit: dict | None = None
+    #: how strongly the data speak against each robot (:func:`evidence`; None when not weighed)
+    evidence: dict | None = None
     #: the window parameters of the robot judged above (the fit's others, or the refitted ones)
     params: dict = field(default_factory=dict, repr=False)
 
@@ -191,10 +200,11 @@ class TurnMatch:
                 "test_rms_m": None if self.test_rms is None else {"fitted": self.test_rms[0],
                                                                   "turn_matched": self.test_rms[1]},
                 "on_bound": list(self.on_bound), "evaluations": int(self.evaluations), "accepted": bool(self.accepted),
-                "why": self.why, "refused_by": self.refused_by, "refit": self.refit,
+                "why": self.why, "refused_by": self.refused_by, "refit": self.refit, "evidence": self.evidence,
                 "definition": "the turn candidates fitted to the training part's steady-turn measures when the pose "
                               "fit's robot turns unlike the log; accepted when it turns as the log does and the "
-                              "training end poses do not show the fit's robot better (mjtrack.calibrate.turns)"}
+                              "training part's steady turns and end poses together speak less against it than "
+                              "against the fit's robot (mjtrack.calibrate.turns)"}
 
 
 def _gap_cov(meas_samples, sim_samples, groups: np.ndarray, n_boot: int = TURN_BOOT, seed: int = 0) -> np.ndarray:
@@ -205,18 +215,51 @@ def _gap_cov(meas_samples, sim_samples, groups: np.ndarray, n_boot: int = TURN_B
     return np.cov(out[ok].T) if ok.sum() > 2 else np.full((len(meas_samples),) * 2, np.nan)
 
 
-def _mse_gap_interval(a: np.ndarray, b: np.ndarray, groups: np.ndarray, level: float = 0.95,
-                      n_boot: int = TURN_BOOT, seed: int = 0) -> tuple[float, float]:
-    """Percentile bootstrap interval of mean(a^2 - b^2) over windows, two robots' end errors (M,) of
-    the same windows, the windows of one label of ``groups`` (M,) drawn together."""
+def _mse_gap_means(a: np.ndarray, b: np.ndarray, groups: np.ndarray, n_boot: int = TURN_BOOT,
+                   seed: int = 0) -> np.ndarray:
+    """Bootstrap replicates (n_boot,) of mean(a^2 - b^2) over windows, two robots' end errors (M,)
+    of the same windows, the windows of one label of ``groups`` (M,) drawn together."""
     d = a ** 2 - b ** 2
     label = np.unique(np.asarray(groups), return_inverse=True)[1].ravel()
     n = int(label.max()) + 1
     sums, counts = np.bincount(label, d, n), np.bincount(label, minlength=n).astype(float)
     draws = np.random.default_rng(seed).multinomial(n, np.full(n, 1.0 / n), size=n_boot)
-    means = (draws @ sums) / (draws @ counts)
-    lo, hi = np.percentile(means, [50 * (1 - level), 50 * (1 + level)])
+    return (draws @ sums) / (draws @ counts)
+
+
+def _mse_gap_interval(a: np.ndarray, b: np.ndarray, groups: np.ndarray, level: float = 0.95,
+                      n_boot: int = TURN_BOOT, seed: int = 0) -> tuple[float, float]:
+    """Percentile bootstrap interval of mean(a^2 - b^2) over windows (:func:`_mse_gap_means`)."""
+    lo, hi = np.percentile(_mse_gap_means(a, b, groups, n_boot, seed), [50 * (1 - level), 50 * (1 + level)])
     return float(lo), float(hi)
+
+
+def turn_wald(gap: np.ndarray, cov: np.ndarray) -> float:
+    """How strongly the steady turns speak against a robot: gap' cov^-1 gap, its classes' measured
+    minus simulated medians ``gap`` (C,) with their covariance ``cov`` (C, C) (a pseudo-inverse where
+    classes share windows); NaN when either is not finite."""
+    gap, cov = np.asarray(gap, float), np.asarray(cov, float)
+    if gap.size == 0 or not (np.all(np.isfinite(gap)) and np.all(np.isfinite(cov))):
+        return math.nan
+    return float(gap @ np.linalg.pinv(cov) @ gap)
+
+
+def evidence(turns_fit: float, turns_matched: float, z: float) -> tuple[float, float]:
+    """The evidence against (the fit's robot, the turn-matched robot): each one's Wald statistic of
+    the steady turns plus z^2 of the end poses where they show it the worse one (``z``: the mean
+    squared end-error difference, turn-matched minus fit's, over its bootstrap standard deviation;
+    +inf when every draw shows the turn-matched robot worse by the same amount). Two statistics in
+    the units of their own scatter, added as independent chi-square terms: the steady windows are
+    among those whose end poses are scored, which this sum counts twice."""
+    return turns_fit + max(-z, 0.0) ** 2, turns_matched + max(z, 0.0) ** 2
+
+
+def _gap_z(means: np.ndarray) -> float:
+    """z of the bootstrap replicates of a mean difference: their mean over their standard deviation."""
+    m, sd = float(np.mean(means)), float(np.std(means, ddof=1))
+    if sd > 0.0:
+        return m / sd
+    return 0.0 if m == 0.0 else math.copysign(math.inf, m)
 
 
 @dataclass
@@ -233,6 +276,8 @@ class _Outcome:
     jac: np.ndarray | None = None  # of the class measures in the turn candidates, at the answer
     train_rms: tuple[float, float] = (math.nan, math.nan)
     gap: tuple[float, float] = (math.nan, math.nan)
+    wald: float = math.nan  # how strongly the steady turns speak against it (:func:`turn_wald`)
+    evidence: dict | None = None
     refused_by: str | None = None
     why: str = ""
 
@@ -243,7 +288,7 @@ class _Outcome:
     def record(self) -> dict:
         """Its values and how it fared, as ``method.turns.refit`` holds them."""
         return {"values": dict(self.values), "train_rms_m": self.train_rms[1],
-                "train_mse_gap_interval_m2": list(self.gap), "refused_by": self.refused_by}
+                "train_mse_gap_interval_m2": list(self.gap), "evidence": self.evidence, "refused_by": self.refused_by}
 
 
 def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fitted: dict[str, float],
@@ -297,6 +342,12 @@ def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fi
     meas_samples = _values(meas_tm, tc.classes)[1]
     fitted_errors = np.asarray(fitted_errors, float)
     runs = command_runs(train, ws)
+    # how strongly the steady turns speak against the fit's robot, on the same windows as the others'
+    idx, yaw = np.flatnonzero(steady_mask(commanded_log(train), ws)), tc.yaw()
+    fit_medians, fit_samples = _values(turn_measures(train, steady, robot, np.asarray(fitted_poses)[idx],
+                                                     np.asarray(fitted_speeds)[idx]), tc.classes)
+    fit_cov = _gap_cov(meas_samples, fit_samples, command_runs(train, steady))
+    fit_wald = turn_wald((tc.measured - fit_medians)[yaw], fit_cov[np.ix_(yaw, yaw)])
 
     def turn_fit(base: dict[str, float], x_start: np.ndarray, jac: np.ndarray | None = None) -> _Outcome:
         """The turn candidates fitted to the steady turns from ``x_start``, the others at ``base``
@@ -334,6 +385,7 @@ def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fi
         # intervals: the class medians' bootstrap covariance through the solution's Jacobian
         cov = _gap_cov(meas_samples, sim_samples, command_runs(train, steady))
         J = out.jac = np.asarray(sol.jac, float)
+        out.wald = turn_wald((tc.measured - matched)[yaw], cov[np.ix_(yaw, yaw)])
         if np.all(np.isfinite(cov)) and np.all(np.isfinite(J)):
             P = np.linalg.pinv(J)
             stat = 1.96 * np.sqrt(np.clip(np.diag(P @ cov @ P.T), 0.0, None))
@@ -342,7 +394,7 @@ def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fi
             half = np.hypot(stat, opt)
             out.intervals = {n: (max(values[n] - h, specs[n].lo), min(values[n] + h, specs[n].hi))
                              for n, h in zip(names, half)}
-        _judge(out, tc, score, fitted_errors, fitted_diverged, runs)
+        _judge(out, tc, score, fitted_errors, fitted_diverged, runs, fit_wald)
         return out
 
     plain = turn_fit(dict(fitted), x0)
@@ -365,20 +417,35 @@ def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fi
     rec.on_bound, rec.train_rms, rec.mse_gap_interval = chosen.on_bound, chosen.train_rms, chosen.gap
     rec.evaluations = plain.evaluations + (0 if again is None else again.evaluations)
     rec.accepted, rec.refused_by, rec.why = chosen.refused_by is None, chosen.refused_by, chosen.why
+    rec.evidence = chosen.evidence
     rec.params = chosen.params
     return rec
 
 
 def _judge(out: _Outcome, tc: TurnClasses, score, fitted_errors: np.ndarray, fitted_diverged: int,
-           runs: np.ndarray) -> None:
+           runs: np.ndarray, fit_wald: float) -> None:
     """Score the robot of ``out`` on every training window and decide (module docstring): it
     replaces the fit's robot when it turns as the log does, no value is on a bound, no more windows
-    diverge and the end poses do not show the fit's robot better."""
+    diverge and the data speak less against it than against the fit's robot (``fit_wald``: the
+    steady turns' Wald statistic of the fit's robot)."""
     errors, diverged = score(out.params)
     errors = np.asarray(errors, float)
     fitted_rms, rms = (float(np.sqrt(np.mean(e ** 2))) for e in (fitted_errors, errors))
     out.train_rms = (fitted_rms, rms)
+    means = _mse_gap_means(errors, fitted_errors, runs)
     gap = out.gap = _mse_gap_interval(errors, fitted_errors, runs)
+    z = _gap_z(means) if np.all(np.isfinite(means)) else math.inf
+    against = evidence(fit_wald, out.wald, z)
+    weighed = all(math.isfinite(v) for v in (fit_wald, out.wald))
+    if weighed:
+        out.evidence = {"chi2_fit": against[0], "chi2_turn_matched": against[1], "turns_wald_fit": fit_wald,
+                        "turns_wald_turn_matched": out.wald, "end_poses_z": z,
+                        "definition": "against each robot, the Wald statistic of its yaw classes' medians against "
+                                      "the measured ones plus z^2 of the end poses where they show it the worse "
+                                      "one (z: the turn-matched robot's mean squared end error minus the fit's over "
+                                      "its bootstrap standard deviation)"}
+    poses = (f"{rms:.4g} m against {fitted_rms:.4g} m; the mean squared error's difference lies in "
+             f"[{gap[0]:.3g}, {gap[1]:.3g}] m^2")
     yaw_ok = bool(np.all(np.isfinite(out.matched[tc.yaw()])
                          & (np.abs(out.matched - tc.measured)[tc.yaw()] <= YAW_CLASS_GAP)))
     if not yaw_ok:
@@ -390,15 +457,21 @@ def _judge(out: _Outcome, tc: TurnClasses, score, fitted_errors: np.ndarray, fit
     elif diverged > fitted_diverged:
         out.refused_by = "diverges"
         out.why = f"the robot that turns as the log does diverges in {diverged - fitted_diverged} more training windows"
-    elif not math.isfinite(rms) or not gap[0] <= 0.0:
+    elif not math.isfinite(rms) or (against[1] > against[0] if weighed else not gap[0] <= 0.0):
         out.refused_by = "end_poses"
-        out.why = (f"the training windows' end poses show the fit's robot better ({fitted_rms:.4g} m against "
-                   f"{rms:.4g} m; the mean squared error's difference lies in [{gap[0]:.3g}, {gap[1]:.3g}] m^2)")
-    else:
+        out.why = (f"the training windows' end poses show the fit's robot better ({poses})"
+                   + (f", and speak more strongly against the robot that turns as the log does than the steady "
+                      f"turns against the fit's (chi-square {against[1]:.3g} against {against[0]:.3g})"
+                      if weighed else ""))
+    elif not weighed or gap[0] <= 0.0:
         out.why = (f"it turns as the log does, and the training windows' end poses cannot tell it from the fit's "
-                   f"robot or prefer it ({rms:.4g} m against {fitted_rms:.4g} m; the mean squared error's difference "
-                   f"lies in [{gap[0]:.3g}, {gap[1]:.3g}] m^2)")
+                   f"robot or prefer it ({poses})")
+    else:
+        out.why = (f"it turns as the log does; the training windows' end poses show the fit's robot better "
+                   f"({poses}), but the steady turns speak more strongly against the fit's robot (chi-square "
+                   f"{against[0]:.3g} against {against[1]:.3g}): the end poses and the steady turns ask for "
+                   f"different robots, and the one the data speak less against is kept")
 
 
-__all__ = ["TURN_BOOT", "TURN_EVALS", "TURN_STEP", "TURN_XTOL", "TurnClasses", "TurnMatch", "match_turns", "turn_candidates",
-           "turn_classes"]
+__all__ = ["TURN_BOOT", "TURN_EVALS", "TURN_STEP", "TURN_XTOL", "TurnClasses", "TurnMatch", "evidence", "match_turns",
+           "turn_candidates", "turn_classes", "turn_wald"]

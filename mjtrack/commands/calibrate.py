@@ -8,8 +8,9 @@ keeps its described value and calibration.json says why (key "determined"); ever
 95 % interval that includes the fit simulator's own error; "causes" measures what each change
 explains. When the fitted robot turns unlike the log's steady turns (yaw ratio more than 0.03 off
 in a class of the training windows), the contact length, motion resistance and shear ground among
-the parameters are fitted to those turns and replace the fit's values when the end poses do not
-show the fit's robot better (calibration.json "method" "turns" says what happened and why). Writes DIR/robot.json (the calibrated robot with the simulator settings of the fit, usable
+the parameters are fitted to those turns and replace the fit's values when the training part's
+steady turns and end poses together speak less against that robot than against the fit's
+(calibration.json "method" "turns" says what happened and why). Writes DIR/robot.json (the calibrated robot with the simulator settings of the fit, usable
 with --robot by every command), DIR/calibration.json and DIR/report.html. With --test the gain is
 measured on a log the fit never saw.
 
