@@ -175,6 +175,33 @@ def _half_way(t: np.ndarray, x: np.ndarray) -> float:
     return float(t[k - 1] + (0.5 - f[k - 1]) / (f[k] - f[k - 1]) * (t[k] - t[k - 1]))
 
 
+#: the largest shift [samples] :func:`xcorr_lead` tries either way
+XCORR_SHIFT = 10
+
+
+def xcorr_lead(t: np.ndarray, x: np.ndarray, ref: np.ndarray, max_shift: int = XCORR_SHIFT) -> float:
+    """How far [s] the signal ``x`` runs ahead of ``ref`` (both (M, K), windows of one log on its
+    sample grid ``t`` (M, K)): the shift k of the highest correlation between x(t) and ref(t + k),
+    over every window's pairs at once (the windows' means removed), refined by a parabola through
+    the peak and its neighbours, times the median sample step. Positive: ``x`` changes first."""
+    def corr(k: int) -> float:
+        a, b = (x[:, :x.shape[1] - k], ref[:, k:]) if k >= 0 else (x[:, -k:], ref[:, :ref.shape[1] + k])
+        ok = np.isfinite(a) & np.isfinite(b)
+        a = np.where(ok, a - np.nanmean(np.where(ok, a, np.nan), axis=1, keepdims=True), 0.0)
+        b = np.where(ok, b - np.nanmean(np.where(ok, b, np.nan), axis=1, keepdims=True), 0.0)
+        a, b = np.nan_to_num(a), np.nan_to_num(b)
+        return float((a * b).sum() / np.sqrt((a * a).sum() * (b * b).sum()))
+
+    ks = np.arange(-max_shift, max_shift + 1)
+    c = np.array([corr(int(k)) for k in ks])
+    i = int(np.nanargmax(c))
+    frac = 0.0
+    if 0 < i < len(ks) - 1 and (c[i - 1] - 2 * c[i] + c[i + 1]) < 0:
+        frac = 0.5 * (c[i - 1] - c[i + 1]) / (c[i - 1] - 2 * c[i] + c[i + 1])
+    step = float(np.nanmedian(np.diff(t, axis=1)))
+    return float((ks[i] + frac) * step)
+
+
 def gyro_evidence(lg, ws, robot, a: dict, sign: float) -> dict:
     """What the log's gyro says beside its poses and its measured track speeds: per turn class
     (calibrate's classes, of the measured track speeds) the steady-turn yaw ratio from the poses
@@ -182,7 +209,10 @@ def gyro_evidence(lg, ws, robot, a: dict, sign: float) -> dict:
     steady turns of the window's mean gyro rate over (v_R - v_L)/T of its mean measured speeds);
     and, over the windows that start with a command step, when the gyro's yaw rate gets half-way to
     its new value against when the ideal yaw rate of the measured track speeds does (a body cannot
-    turn before its wheels: a gyro ahead says the measured speeds are dated late)."""
+    turn before its wheels: a gyro ahead says the measured speeds are dated late); and, over every
+    window, how far the gyro's yaw rate and the poses' (their yaw differentiated) run ahead of that
+    ideal rate (:func:`xcorr_lead`): the clocks of the three sensors against one another, the poses
+    being what calibrate fits."""
     from mjtrack.calibrate.measures import STEADY_MIN_WZ, steady_mask
     from mjtrack.windows import commanded_log
 
@@ -208,7 +238,10 @@ def gyro_evidence(lg, ws, robot, a: dict, sign: float) -> dict:
     if lead.size:
         steps.update(zip(("gyro_lead_q25_s", "gyro_lead_median_s", "gyro_lead_q75_s"),
                          (float(x) for x in np.percentile(lead, [25, 50, 75]))))
-    return {"yaw_ratio_by_class": classes, "steps": steps}
+    pose_rate = np.gradient(a["poses"][..., 2], axis=1) / np.maximum(np.gradient(a["t"], axis=1), 1e-9)
+    leads = {"gyro_ahead_s": xcorr_lead(a["t"], sign * a["gyro"], ideal),
+             "poses_ahead_s": xcorr_lead(a["t"], pose_rate, ideal), "max_shift_samples": XCORR_SHIFT}
+    return {"yaw_ratio_by_class": classes, "steps": steps, "xcorr": leads}
 
 
 def _speeds(a: dict) -> np.ndarray:
@@ -464,7 +497,9 @@ def main(argv=None) -> int:
                   + "; ".join(f"{c} {_f3(v['poses'])} / {_f3(v['gyro'])} ({v['windows']})"
                               for c, v in ev["yaw_ratio_by_class"].items())
                   + (f"; gyro ahead of the measured speeds at {st['timed']} steps by {st['gyro_lead_median_s']:+.3f} s "
-                     f"(median)" if "gyro_lead_median_s" in st else ""))
+                     f"(median)" if "gyro_lead_median_s" in st else "")
+                  + (f"; by cross-correlation gyro {ev['xcorr']['gyro_ahead_s']:+.3f} s, poses "
+                     f"{ev['xcorr']['poses_ahead_s']:+.3f} s ahead of the measured speeds" if "xcorr" in ev else ""))
         RESULT.parent.mkdir(parents=True, exist_ok=True)
         RESULT.write_text(json.dumps({"command": "python benchmarks/peers.py " + " ".join(sys.argv[1:] if argv is None
                                                                                           else argv),

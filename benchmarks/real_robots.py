@@ -47,6 +47,10 @@ and held-out errors of both. Writes
 benchmarks/results/start_independence.json; ``--starts --agreement-only`` recomputes the
 agreement of the stored file with the rule now.
 
+``--advance-speeds S``: the reference calibrations above with each log's measured track speeds taken
+S seconds later than logged (:func:`advance_speeds`), as if their clock had dated them S late: does
+setting the wheel speeds' clock by the gyro's (benchmarks/peers.py, ``gyro_evidence``) change what
+the contact fit finds? Written to real_robots_advanced.json and real_robots_advanced/NAME/.
 ``--shear-scan K,K,...``: what the shear ground alone does to a real robot, with nothing fitted to
 its poses. For each modulus K (0: Coulomb) the starting robot above on the shear ground of modulus
 K, scored on the test part of the reference split as calibrate scores a description before it fits
@@ -127,6 +131,29 @@ ROBOTS = {
             "mu": (0.5, "no public value: start value"),
         }},
 }
+
+
+#: --advance-speeds: the measured track speeds taken this many seconds later than logged (0: as logged)
+ADVANCE_S = 0.0
+
+
+def advance_speeds(log, seconds: float):
+    """``log`` with each measured track speed replaced by the one logged ``seconds`` later (rounded to
+    whole samples) in its segment, NaN where the segment has none: a log whose speeds were dated
+    that much late, dated right."""
+    k = int(round(seconds / float(np.median(np.diff(log.t)))))
+    seg = np.zeros(len(log.t), int) if log.window is None else np.asarray(log.window)
+    i = np.arange(len(log.t)) + k
+    ok = (i >= 0) & (i < len(log.t))
+    ok[ok] &= seg[i[ok]] == seg[ok]
+    j = np.clip(i, 0, len(log.t) - 1)
+    return log.replace(**{c: np.where(ok, getattr(log, c)[j], np.nan) for c in ("v_left", "v_right")})
+
+
+def read(spec: dict):
+    """The robot's log and description (:data:`ADVANCE_S` applied to its measured speeds)."""
+    log, base = read_log_with_robot(spec["log"])
+    return (advance_speeds(log, ADVANCE_S) if ADVANCE_S else log), base
 
 
 def split(log, first: float, second: float):
@@ -260,7 +287,7 @@ def context_of_stored(name: str, spec: dict, *, rollers: int, worst: int = 10) -
     from mjtrack.sim.windows import WindowSim, simulate_windows
     from mjtrack.windows import WARMUP_S, make_windows, measured_drive_log, without_contradicting
 
-    log, base = read_log_with_robot(spec["log"])
+    log, base = read(spec)
     parts = list(split(log, *spec["split"]))
     cj = json.loads((OUTPUTS / name / "calibration.json").read_text())
     horizon = cj["train"]["horizon_s"]
@@ -309,7 +336,7 @@ def context_of_stored(name: str, spec: dict, *, rollers: int, worst: int = 10) -
 
 
 def run_robot(name: str, spec: dict, *, rollers: int, coulomb: bool = False, lateral: bool = False) -> dict:
-    log, base = read_log_with_robot(spec["log"])
+    log, base = read(spec)
     train, test = split(log, *spec["split"])
     robot = starting_robot(base, spec["public"])
     t0 = time.time()
@@ -345,7 +372,7 @@ def run_robot(name: str, spec: dict, *, rollers: int, coulomb: bool = False, lat
             "parameters": cj["parameters"], "intervals": cj["intervals"], "determined": cj["determined"],
             "described": cj["described"], "causes": cj["causes"], "summary": cj["summary"],
             "assumed": cj["assumed"], "left_out": cj["left_out"],
-            "seconds": wall, **context_of_stored(name, spec, rollers=rollers)}
+            "seconds": wall, "advance_speeds_s": ADVANCE_S, **context_of_stored(name, spec, rollers=rollers)}
 
 
 def starts_robot(name: str, spec: dict, rounds: int | None = None) -> dict:
@@ -382,13 +409,15 @@ def yaw_by_class(cj: dict, part: str) -> list[dict]:
 
 
 def turn_stage(cj: dict) -> dict:
-    """Whether calibrate's turn stage ran, its answer was taken, what refused it, and whether the
-    robot judged was the one with the others refitted."""
+    """Whether calibrate's turn stage ran, its answer was taken, what refused it, whether the robot
+    judged was the one with the others refitted, the training end poses' gap interval and how
+    strongly the data spoke against each robot."""
     t = cj["method"].get("turns")
     if t is None:
         return {"ran": False}
     return {"ran": True, "accepted": t["accepted"], "refused_by": t["refused_by"],
-            "refit_kept": None if t.get("refit") is None else t["refit"]["kept"]}
+            "refit_kept": None if t.get("refit") is None else t["refit"]["kept"],
+            "train_mse_gap_interval_m2": t.get("train_mse_gap_interval_m2"), "evidence": t.get("evidence")}
 
 
 def turning_agreement(a: dict, b: dict) -> dict | None:
@@ -583,6 +612,10 @@ def main(argv=None) -> int:
     ap.add_argument("--lateral", action="store_true",
                     help="the reference calibrations with the shear ground's lateral_shear_ratio among the candidates "
                          "as well; written to real_robots_lateral.json and real_robots_lateral/NAME/")
+    ap.add_argument("--advance-speeds", type=float, default=0.0, metavar="S",
+                    help="the reference calibrations with each log's measured track speeds taken S seconds later "
+                         "than logged (a clock that dated them late, set right); written to real_robots_advanced.json "
+                         "and real_robots_advanced/NAME/")
     ap.add_argument("--starts", action="store_true",
                     help="calibrate each robot from its shipped description and from the public one; write "
                          "start_independence.json (module docstring)")
@@ -598,11 +631,13 @@ def main(argv=None) -> int:
         return _shear_scan(args, load0)
     if args.class_scatter:
         return _class_scatter(args, load0)
-    if args.coulomb and args.lateral:
-        ap.error("--coulomb and --lateral are two different variants of the reference calibrations: give one")
-    if args.coulomb or args.lateral:
-        global RESULT, OUTPUTS
-        variant = "coulomb" if args.coulomb else "lateral"
+    if sum(map(bool, (args.coulomb, args.lateral, args.advance_speeds))) > 1:
+        ap.error("--coulomb, --lateral and --advance-speeds are different variants of the reference calibrations: "
+                 "give one")
+    if args.coulomb or args.lateral or args.advance_speeds:
+        global RESULT, OUTPUTS, ADVANCE_S
+        ADVANCE_S = args.advance_speeds
+        variant = "coulomb" if args.coulomb else "lateral" if args.lateral else "advanced"
         RESULT, OUTPUTS = RESULT.with_name(f"real_robots_{variant}.json"), OUTPUTS.with_name(f"real_robots_{variant}")
     if args.starts and args.agreement_only:
         return _agreement_only(args)

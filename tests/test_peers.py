@@ -252,3 +252,55 @@ def _peers_benchmark():
 
     load_benchmark("real_robots")
     return load_benchmark("peers")
+
+
+def test_xcorr_lead_finds_a_known_shift_between_sensors():
+    """A signal that runs a known time ahead of its reference (written here: smooth random steps
+    through a first-order lag, sampled at 20 Hz) gives that lead, to a small part of a sample,
+    with either sign, and NaN padding of short windows does not move it."""
+    bench = _peers_benchmark()
+    rng = np.random.default_rng(4)
+    dt, M, K = 0.05, 60, 41
+    t = np.tile(np.arange(K) * dt, (M, 1))
+    full = np.arange(K + 40) * dt
+
+    def signal(shift):
+        out = np.empty((M, K))
+        for j in range(M):
+            levels = rng.uniform(-1, 1, 4)
+            u = levels[np.minimum((full / 0.8).astype(int), 3)]
+            x = np.zeros_like(full)
+            for i in range(1, len(full)):
+                x[i] = x[i - 1] + dt / 0.2 * (u[i - 1] - x[i - 1])
+            out[j] = np.interp(t[j] + 0.5 + shift, full, x)  # x(t + shift): ahead by shift
+        return out
+
+    state = rng.bit_generator.state
+    ref = signal(0.0)
+    rng.bit_generator.state = state
+    ahead = signal(0.15)
+    assert bench.xcorr_lead(t, ahead, ref) == pytest.approx(0.15, abs=0.01)
+    assert bench.xcorr_lead(t, ref, ahead) == pytest.approx(-0.15, abs=0.01)
+    ahead[::3, 30:] = np.nan
+    assert bench.xcorr_lead(t, ahead, ref) == pytest.approx(0.15, abs=0.01)
+
+
+def test_advance_speeds_takes_each_speed_from_later_in_its_own_segment():
+    """Two segments of 0.05 s samples, speeds advanced 0.1 s (two samples): each row gets the speed
+    two rows later in its segment, NaN where the segment ends; nothing else changes."""
+    from support.repo import load_benchmark
+
+    from mjtrack.io.logs import DriveLog
+
+    rr = load_benchmark("real_robots")
+    n = 6
+    t = np.r_[np.arange(n) * 0.05, 10 + np.arange(n) * 0.05]
+    v = np.arange(2 * n, dtype=float)
+    log = DriveLog(t=t, v_left_cmd=np.ones(2 * n), v_right_cmd=np.ones(2 * n), x=np.zeros(2 * n),
+                   y=np.zeros(2 * n), yaw=np.zeros(2 * n), v_left=v, v_right=-v, window=np.repeat([0, 1], n))
+    got = rr.advance_speeds(log, 0.1)
+    want = np.array([2, 3, 4, 5, np.nan, np.nan, 8, 9, 10, 11, np.nan, np.nan])
+    np.testing.assert_array_equal(got.v_left, want)
+    np.testing.assert_array_equal(got.v_right, -want)
+    np.testing.assert_array_equal(got.t, log.t)
+    np.testing.assert_array_equal(got.x, log.x)

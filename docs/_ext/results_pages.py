@@ -936,6 +936,11 @@ def _calibration() -> Page:
                  for name in lateral.data["robots"]]
         written += [real.path.parent / "real_robots_lateral" / name / f for name in lateral.data["robots"]
                     for f in ("robot.json", "calibration.json", "report.html")]
+    advanced_path = RESULTS / "real_robots_advanced.json"
+    advanced = Source(advanced_path) if advanced_path.exists() else None
+    if advanced is not None:
+        written += [real.path.parent / "real_robots_advanced" / name / f for name in advanced.data["robots"]
+                    for f in ("robot.json", "calibration.json", "report.html")]
     for name, path in runs:
         if not path.exists():
             continue
@@ -1014,6 +1019,23 @@ def _calibration() -> Page:
                   "yes" if r["determined"]["lateral_shear_ratio"]["determined"] else "no",
                   number(lateral, q + "/parameters/shear_modulus"), number(lateral, q + "/seconds"))
         shear_tables.append(t)
+    if advanced is not None:
+        t = Table("Whether the wheel speeds' clock is what the contact fit misses: the reference calibrations with each "
+                  "log's measured track speeds taken later than logged by the time shown (`--advance-speeds`, as if "
+                  "their clock were set by the gyro's; the timing table of the results page \"Real robots against "
+                  "peers\"), on the same split: the held-out position error at the window's end [m] before and after, "
+                  "as logged and advanced, and the steady-turn yaw ratio on the test windows, measured and calibrated.",
+                  ["robot", "speeds taken later by [s]", "before, as logged", "after, as logged", "before, advanced",
+                   "after, advanced", "yaw ratio measured", "calibrated, as logged", "calibrated, advanced"])
+        for name, r in advanced.data["robots"].items():
+            if name not in real.data["robots"]:
+                continue
+            q = f"/robots/{name}"
+            t.add(name, number(advanced, q + "/advance_speeds_s"), number(real, q + "/test/before"),
+                  number(real, q + "/test/after"), number(advanced, q + "/test/before"),
+                  number(advanced, q + "/test/after"), number(real, q + "/yaw_ratio/measured"),
+                  number(real, q + "/yaw_ratio/after"), number(advanced, q + "/yaw_ratio/after"))
+        shear_tables.append(t)
     return Page(
         "calibration", "Calibration",
         "What `mjtrack calibrate` finds on logs whose truth is known (the MuJoCo robot's own logs, one change each), "
@@ -1021,7 +1043,7 @@ def _calibration() -> Page:
         "A parameter the log does not determine keeps its described value and is marked so; intervals carry the "
         "correlation of a log's windows and the measured model-form error of simulating a window from a logged "
         "state.", [bat, *([noisy] if noisy is not None else []), real, *([coulomb] if coulomb is not None else []),
-                   *([lateral] if lateral is not None else []),
+                   *([lateral] if lateral is not None else []), *([advanced] if advanced is not None else []),
                    *([Source(starts_path)] if starts_path.exists() else []), *yaw_sources,
                    *[c for c in turn_sources if c.path not in {y.path for y in yaw_sources}], *scatter_sources],
         [*battery, robots, context, speed, params, summaries, *turn_tables, *shear_tables,
@@ -1032,12 +1054,13 @@ def _calibration() -> Page:
 
 
 #: the turn stage's outcome (calibration.json ``method.turns.refused_by``) in the page's words
-TURN_REFUSALS = {None: "it turns as the log does, and the training windows' end poses cannot tell it from the fit's "
-                       "robot or prefer it",
+TURN_REFUSALS = {None: "it turns as the log does, and the training part's steady turns and end poses together speak "
+                       "less against it than against the fit's robot",
                  "turns": "no value of the turn candidates turns as the log does in every class",
                  "bound": "turning as the log does takes a candidate to a bound of its range",
                  "diverges": "the robot that turns as the log does diverges in more training windows",
-                 "end_poses": "the training windows' end poses show the fit's robot better"}
+                 "end_poses": "the training windows' end poses speak more against it than the steady turns against "
+                              "the fit's robot"}
 
 
 def _refit_words(refit: dict | None) -> str:
@@ -1069,10 +1092,13 @@ def _turn_stage_tables(runs: list[tuple[str, Path]]) -> tuple[list[Table], list[
                     "robot turned unlike the training part's steady turns, the turn candidates fitted to them; whether "
                     "their values replaced the fit's and why, the position error at the window's end [m] of both robots "
                     "on every training window and on the test windows (never fitted), the least-squares "
-                    "evaluations, and whether the robot judged is the one whose other changed values were fitted "
-                    "again to the end poses with the turn candidates held.",
+                    "evaluations, whether the robot judged is the one whose other changed values were fitted "
+                    "again to the end poses with the turn candidates held, and how strongly the training part speaks "
+                    "against each robot (`evidence`: the Wald statistic of its steady turns' class medians plus the "
+                    "squared z of the end poses where they show it the worse one; the lower is kept).",
                     ["robot", "ran", "accepted", "train: fit's robot", "train: turn-matched", "test: fit's robot",
-                     "test: turn-matched", "evaluations", "others refitted", "why"])
+                     "test: turn-matched", "evaluations", "others refitted", "against the fit's robot",
+                     "against the turn-matched", "why"])
     class_names = _turn_class_names()
     classes = Table("The turn stage's classes on the training part (steady windows; the classes of the tables above: "
                     "straight, turning, sharp turns by |turn ratio|): measured, the pose fit's robot, the turn-matched "
@@ -1085,7 +1111,7 @@ def _turn_stage_tables(runs: list[tuple[str, Path]]) -> tuple[list[Table], list[
         cal = Source(path)
         t = cal.data["method"].get("turns")
         if t is None:
-            outcome.add(name, "no", "–", "–", "–", "–", "–", "–", "–",
+            outcome.add(name, "no", "–", "–", "–", "–", "–", "–", "–", "–", "–",
                         "the fitted robot turns as the log does in every class with enough steady turns")
             continue
         sources.append(cal)
@@ -1095,7 +1121,10 @@ def _turn_stage_tables(runs: list[tuple[str, Path]]) -> tuple[list[Table], list[
                     number(cal, q + "/train_rms_m/turn_matched"),
                     number(cal, q + "/test_rms_m/fitted") if test else "–",
                     number(cal, q + "/test_rms_m/turn_matched") if test else "–",
-                    number(cal, q + "/evaluations"), _refit_words(t.get("refit")), TURN_REFUSALS[t.get("refused_by")])
+                    number(cal, q + "/evaluations"), _refit_words(t.get("refit")),
+                    *((number(cal, f"{q}/evidence/chi2_{k}") for k in ("fit", "turn_matched")) if t.get("evidence")
+                      else ("–", "–")),
+                    TURN_REFUSALS[t.get("refused_by")])
         for k, label in enumerate(t["classes"]):
             quantity, _, cls = label.partition(" (")
             classes.add(name, f"{quantity}, {class_names.get('(' + cls, cls)}", number(cal, f"{q}/measured/{k}"),
@@ -1175,8 +1204,12 @@ def _peers() -> Page:
                  "benchmarks/peers.py): over the windows of each part that start with a command step whose yaw rate "
                  "changes by at least `min_change_rad_s`, how long before the ideal yaw rate of the measured track "
                  "speeds, (v_R - v_L)/T, the gyro's rate gets half-way to its new value [s] (quartiles and median). "
-                 "Positive: the body turns first, which says the measured speeds are dated late against the gyro.",
-                 ["robot", "part", "step windows timed", "25 %", "median", "75 %"])
+                 "Positive: the body turns first, which says the measured speeds are dated late against the gyro. "
+                 "Beside it, over every window of the part, how far the gyro's yaw rate and the poses' (their yaw "
+                 "differentiated) run ahead of that ideal rate, from the shift of their highest cross-correlation "
+                 "[s] (`xcorr`): the poses are what calibrate fits.",
+                 ["robot", "part", "step windows timed", "25 %", "median", "75 %", "gyro ahead, cross-correlation",
+                  "poses ahead, cross-correlation"])
     theirs = Table("The authors' DRIVE on the last part of each run, which the shared folders do not hold (other "
                    "windows than ours): end-of-window RMS [m], mean distance over the window [m], windows.",
                    ["robot", "end RMS", "mean distance", "windows"])
@@ -1236,7 +1269,9 @@ def _peers() -> Page:
                          number(src, c + "/gyro"))
             if "gyro_lead_median_s" in ev["steps"]:
                 lead.add(name, part, number(src, e + "/steps/timed"),
-                         *(number(src, f"{e}/steps/gyro_lead_{k}_s") for k in ("q25", "median", "q75")))
+                         *(number(src, f"{e}/steps/gyro_lead_{k}_s") for k in ("q25", "median", "q75")),
+                         *((number(src, f"{e}/xcorr/{k}_ahead_s") for k in ("gyro", "poses")) if "xcorr" in ev
+                           else ("–", "–")))
         theirs.add(name, number(src, q + "/authors_held_out/end_rms_m"), number(src, q + "/authors_held_out/mean_distance_m"),
                    number(src, q + "/authors_held_out/windows"))
     load = Table("The machine's load during the run.", ["what", "value"])
