@@ -1024,16 +1024,20 @@ def _calibration() -> Page:
                   "log's measured track speeds taken later than logged by the time shown (`--advance-speeds`, as if "
                   "their clock were set by the gyro's; the timing table of the results page \"Real robots against "
                   "peers\"), on the same split: the held-out position error at the window's end [m] before and after, "
-                  "as logged and advanced, and the steady-turn yaw ratio on the test windows, measured and calibrated.",
+                  "as logged and advanced, the same error of a kinematic ICR model on the measured speeds fitted on "
+                  "the training windows (the table of test errors in context), and the steady-turn yaw ratio on the "
+                  "test windows, measured and calibrated.",
                   ["robot", "speeds taken later by [s]", "before, as logged", "after, as logged", "before, advanced",
-                   "after, advanced", "yaw ratio measured", "calibrated, as logged", "calibrated, advanced"])
+                   "after, advanced", "kinematic, as logged", "kinematic, advanced", "yaw ratio measured",
+                   "calibrated, as logged", "calibrated, advanced"])
         for name, r in advanced.data["robots"].items():
             if name not in real.data["robots"]:
                 continue
             q = f"/robots/{name}"
             t.add(name, number(advanced, q + "/advance_speeds_s"), number(real, q + "/test/before"),
                   number(real, q + "/test/after"), number(advanced, q + "/test/before"),
-                  number(advanced, q + "/test/after"), number(real, q + "/yaw_ratio/measured"),
+                  number(advanced, q + "/test/after"), number(real, q + "/kinematic/fitted_on_train/rms"),
+                  number(advanced, q + "/kinematic/fitted_on_train/rms"), number(real, q + "/yaw_ratio/measured"),
                   number(real, q + "/yaw_ratio/after"), number(advanced, q + "/yaw_ratio/after"))
         shear_tables.append(t)
     return Page(
