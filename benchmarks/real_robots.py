@@ -402,9 +402,10 @@ def starts_robot(name: str, spec: dict, rounds: int | None = None) -> dict:
 
 def yaw_by_class(cj: dict, part: str) -> list[dict]:
     """The steady-turn yaw ratio per |turn ratio| class of ``part`` in a calibration.json: measured,
-    calibrated and the class's steady windows."""
+    calibrated, the class's steady windows and the bootstrap interval of measured minus calibrated
+    over them (how far the class's few windows alone move the gap)."""
     return [{"class": f["turn_class"], "measured": f["measured"], "calibrated": f["simulated_after"],
-             "windows": f["windows"]}
+             "windows": f["windows"], "gap_interval": f.get("gap_after_interval")}
             for f in cj["findings"] if f["part"] == part and "turn_class" in f and f["what"].startswith("yaw ratio")]
 
 
@@ -423,7 +424,9 @@ def turn_stage(cj: dict) -> dict:
 def turning_agreement(a: dict, b: dict) -> dict | None:
     """Whether two calibrations of one log turn alike: per |turn ratio| class with at least
     YAW_CLASS_MIN steady test windows, both calibrated yaw ratios and whether they lie within
-    YAW_CLASS_GAP of each other (the criterion's own yardstick); None when a record lacks them."""
+    YAW_CLASS_GAP of each other (the criterion's own yardstick), with each one's bootstrap interval of
+    measured minus calibrated over the class's windows where the record has it; None when a record
+    lacks them."""
     from mjtrack.calibrate.causes import YAW_CLASS_GAP, YAW_CLASS_MIN
 
     if "yaw_by_class" not in a or "yaw_by_class" not in b:
@@ -436,7 +439,8 @@ def turning_agreement(a: dict, b: dict) -> dict | None:
             continue
         out[f"{c['class'][0]:g} to {c['class'][1]:g}"] = {
             "measured": c["measured"], "shipped": c["calibrated"], "public": d["calibrated"], "windows": c["windows"],
-            "within_gap": abs(c["calibrated"] - d["calibrated"]) <= YAW_CLASS_GAP}
+            "within_gap": abs(c["calibrated"] - d["calibrated"]) <= YAW_CLASS_GAP,
+            "gap_interval": {"shipped": c.get("gap_interval"), "public": d.get("gap_interval")}}
     return out
 
 
