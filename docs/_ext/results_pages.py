@@ -877,9 +877,12 @@ def _calibration() -> Page:
                         "windows of the test part (the classes of the yaw table above), the measured yaw ratio, "
                         "each calibrated robot's, and whether the two lie within the criterion's gap of each other "
                         "(the turn candidates are fixed together by the steady turns, not one by one, so their "
-                        "intervals are wide and the parameter table alone cannot tell); with whether calibrate's "
-                        "turn stage ran and was taken from each description.",
+                        "intervals are wide and the parameter table alone cannot tell); each one's 95 % bootstrap "
+                        "interval of measured minus calibrated over the class's test windows (how finely the class's "
+                        "few windows resolve the gap); with whether calibrate's turn stage ran and was taken from "
+                        "each description.",
                         ["robot", "class", "test windows", "measured", "from shipped", "from public", "alike",
+                         "shipped: gap low", "shipped: gap high", "public: gap low", "public: gap high",
                          "turn stage (shipped; public)"])
         words = {k.removeprefix("(|turn ratio| ").removesuffix(")"): v for k, v in _turn_class_names().items()}
         for name, r in st.data["robots"].items():
@@ -887,8 +890,11 @@ def _calibration() -> Page:
             stage = "; ".join(_stage_words(r["starts"][s_].get("turn_stage")) for s_ in ("shipped", "public"))
             for c in r.get("turning") or {}:
                 t = f"{q}/turning/{c}"
+                gaps = (r["turning"][c].get("gap_interval") or {})
                 turning.add(name, words.get(c, c), number(st, t + "/windows"), number(st, t + "/measured"),
                             number(st, t + "/shipped"), number(st, t + "/public"), number(st, t + "/within_gap"),
+                            *(number(st, f"{t}/gap_interval/{s_}/{k}") if gaps.get(s_) else "–"
+                              for s_ in ("shipped", "public") for k in (0, 1)),
                             stage)
             for n in r["agreement"]:
                 a = f"{q}/agreement/{n}"
