@@ -1,6 +1,6 @@
 """Wall and CPU time of a calibration, the code before a change against the code now, in one run.
 
-    nice -n 10 python benchmarks/bench_calibrate.py [--old-tree DIR] [--case sim60|marmotte] [--repeats N]
+    nice -n 10 python benchmarks/bench_calibrate.py [--old-tree DIR] [--case sim60|marmotte|husky] [--repeats N]
 
 ``--old-tree DIR``: a checkout of the code to compare against (e.g. ``git archive REV | tar -x -C
 DIR``); without it only the code now is measured. Cases:
@@ -11,6 +11,10 @@ DIR``); without it only the code now is measured. Cases:
   defaults; the logs are simulated here (seeds 1 and 2), by the code now, for both.
 * ``marmotte``: the whole shared Marmotte log (../shared/data/marmotte/marmotte_boreal.csv) from
   the Marmotte's starting robot of ``benchmarks/real_robots.py``, 6 rollers per track.
+* ``husky``: the whole shared Husky log (../shared/data/husky/husky_drive.csv) from the description
+  shipped with it, calibrate's defaults (as a user runs ``mjtrack calibrate husky_drive.csv``: the
+  simulated drives follow the commands, and the turn stage runs where the fit's robot turns unlike
+  the log).
 
 Old and new alternate (old, new, old, new, ...), each calibration in a fresh Python process with
 that code on its path, so that both see the same load. Each run reports its wall time, its CPU time
@@ -18,7 +22,7 @@ that code on its path, so that both see the same load. Each run reports its wall
 window simulator is called), its stage times, and its answer (changed parameters, their values
 and intervals, the summary). The machine is shared: the load average before and after each run is
 printed and stored, and the ratios quoted are of medians. Writes
-benchmarks/results/bench_calibrate.json (or bench_calibrate_marmotte.json).
+benchmarks/results/bench_calibrate.json (or bench_calibrate_CASE.json).
 """
 
 from __future__ import annotations
@@ -75,7 +79,7 @@ def _child(case: str, data: str) -> None:
         log_path = Path((Path(data) / "log_path.txt").read_text().strip())
         train, _ = read_log_with_robot(log_path)
         robot = read_robot(Path(data) / "start.json")
-        kw = {"n_rollers": 6, "train_path": log_path.name}
+        kw = {"train_path": log_path.name, **({"n_rollers": 6} if case == "marmotte" else {})}
     load0 = os.getloadavg()
     t0, c0 = time.perf_counter(), time.process_time()
     cal = run_mod.calibrate(train, robot, quiet=True, **kw)
@@ -120,7 +124,7 @@ def _run(tree: Path, case: str, data: str) -> dict:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--old-tree", type=Path, help="a checkout of the code to compare against")
-    ap.add_argument("--case", choices=("sim60", "marmotte"), default="sim60")
+    ap.add_argument("--case", choices=("sim60", "marmotte", "husky"), default="sim60")
     ap.add_argument("--repeats", type=int, default=1, help="runs of each (alternating; default 1)")
     ap.add_argument("--child", help=argparse.SUPPRESS)
     ap.add_argument("--data", help=argparse.SUPPRESS)
@@ -138,12 +142,13 @@ def main() -> int:
             from mjtrack.io.robot import write_robot
             from real_robots import ROBOTS, starting_robot
 
-            log_path = ROBOTS["marmotte"]["log"]
+            log_path = ROBOTS[args.case]["log"]
             if not log_path.exists():
-                print(f"{log_path} not found (the shared Marmotte data); nothing to do")
+                print(f"{log_path} not found (the shared data); nothing to do")
                 return 0
             _, base = read_log_with_robot(log_path)
-            write_robot(starting_robot(base, ROBOTS["marmotte"]["public"]), data / "start.json")
+            write_robot(starting_robot(base, ROBOTS["marmotte"]["public"]) if args.case == "marmotte" else base,
+                        data / "start.json")
             (data / "log_path.txt").write_text(str(log_path))
         trees = [("new", ROOT)] + ([("old", args.old_tree.resolve())] if args.old_tree else [])
         runs: dict[str, list[dict]] = {label: [] for label, _ in trees}
@@ -160,12 +165,12 @@ def main() -> int:
         for k in ("wall_s", "cpu_s", "windows"):
             med.setdefault("ratio_old_over_new", {})[k] = med["old"][k] / max(med["new"][k], 1e-9)
         print("medians old / new: " + ", ".join(f"{k} {v:.2f}" for k, v in med["ratio_old_over_new"].items()))
-    out = RESULTS / ("bench_calibrate.json" if args.case == "sim60" else "bench_calibrate_marmotte.json")
+    out = RESULTS / ("bench_calibrate.json" if args.case == "sim60" else f"bench_calibrate_{args.case}.json")
     out.parent.mkdir(parents=True, exist_ok=True)
     command = " ".join(["python benchmarks/bench_calibrate.py", "--case", args.case, "--repeats", str(args.repeats)]
                        + (["--old-tree", "DIR"] if args.old_tree else []))  # (the checkout's place is the user's)
     out.write_text(json.dumps({"command": command, "case": args.case, "cpus": os.cpu_count(),
-        "target_wall_s": 60 if args.case == "sim60" else 120, "medians": med, "runs": runs}, indent=1) + "\n")
+        "target_wall_s": {"sim60": 60, "marmotte": 120, "husky": 600}[args.case], "medians": med, "runs": runs}, indent=1) + "\n")
     print(f"wrote {out.relative_to(ROOT)}")
     return 0
 

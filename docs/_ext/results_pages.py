@@ -321,6 +321,16 @@ def _speed() -> Page:
                                             "scored on the fit's windows instead of every training window (stage "
                                             "after); old and new alternating in one run.")
                   if "runs" in marmotte.data else _calibration_whole(marmotte))
+    husky_path = RESULTS / "bench_calibrate_husky.json"
+    if husky_path.exists():
+        husky = Source(husky_path)
+        sources.append(husky)
+        tables.append(_calibration_ab(husky, "Calibration of the whole shared Husky log from the description shipped "
+                                             "with it, calibrate's defaults (the simulated drives follow the "
+                                             "commands; `--drive-input fitted`, which the reference calibrations use, "
+                                             "is not the default): the code before the turn stage judged both robots "
+                                             "by both kinds of evidence (old) and now (new), alternating in one run; "
+                                             "the answer and the summary are in the result file."))
     gpu_path = RESULTS / "gpu_rollout.json"
     if gpu_path.exists():
         gpu = Source(gpu_path)
@@ -440,7 +450,7 @@ def _demo_tables(demo: Source) -> list[Table]:
 
 
 #: calibrate's stages (Calibration.timings), in their order; an older run may lack some
-CALIBRATE_STAGES = ("prepare", "before", "fit", "guard", "guard_refit", "after", "explain", "total")
+CALIBRATE_STAGES = ("prepare", "before", "fit", "guard", "guard_refit", "turns", "after", "explain", "total")
 
 
 def _calibration_ab(cal: Source, caption: str) -> Table:
@@ -877,8 +887,8 @@ def _calibration() -> Page:
                         "windows of the test part (the classes of the yaw table above), the measured yaw ratio, "
                         "each calibrated robot's, and whether the two lie within the criterion's gap of each other "
                         "(the turn candidates are fixed together by the steady turns, not one by one, so their "
-                        "intervals are wide and the parameter table alone cannot tell); each one's 95 % bootstrap "
-                        "interval of measured minus calibrated over the class's test windows (how finely the class's "
+                        "intervals are wide and the parameter table alone cannot tell); each one's bootstrap interval "
+                        "(calibrate's level) of measured minus calibrated over the class's test windows (how finely the class's "
                         "few windows resolve the gap); with whether calibrate's turn stage ran and was taken from "
                         "each description.",
                         ["robot", "class", "test windows", "measured", "from shipped", "from public", "alike",
