@@ -186,10 +186,9 @@ def xcorr_lead(t: np.ndarray, x: np.ndarray, ref: np.ndarray, max_shift: int = X
     the peak and its neighbours, times the median sample step. Positive: ``x`` changes first."""
     def corr(k: int) -> float:
         a, b = (x[:, :x.shape[1] - k], ref[:, k:]) if k >= 0 else (x[:, -k:], ref[:, :ref.shape[1] + k])
-        ok = np.isfinite(a) & np.isfinite(b)
-        a = np.where(ok, a - np.nanmean(np.where(ok, a, np.nan), axis=1, keepdims=True), 0.0)
-        b = np.where(ok, b - np.nanmean(np.where(ok, b, np.nan), axis=1, keepdims=True), 0.0)
-        a, b = np.nan_to_num(a), np.nan_to_num(b)
+        ok = np.isfinite(a) & np.isfinite(b)  # pairs both signals have; each window's mean over them removed
+        a, b = (np.nan_to_num(v - np.nanmean(v, axis=1, keepdims=True)) for v in (np.where(ok, a, np.nan),
+                                                                                np.where(ok, b, np.nan)))
         return float((a * b).sum() / np.sqrt((a * a).sum() * (b * b).sum()))
 
     ks = np.arange(-max_shift, max_shift + 1)

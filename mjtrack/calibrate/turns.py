@@ -227,11 +227,16 @@ def _mse_gap_means(a: np.ndarray, b: np.ndarray, groups: np.ndarray, n_boot: int
     return (draws @ sums) / (draws @ counts)
 
 
+def _percentile_interval(means: np.ndarray, level: float = 0.95) -> tuple[float, float]:
+    """The percentile interval of bootstrap replicates at ``level``."""
+    lo, hi = np.percentile(means, [50 * (1 - level), 50 * (1 + level)])
+    return float(lo), float(hi)
+
+
 def _mse_gap_interval(a: np.ndarray, b: np.ndarray, groups: np.ndarray, level: float = 0.95,
                       n_boot: int = TURN_BOOT, seed: int = 0) -> tuple[float, float]:
     """Percentile bootstrap interval of mean(a^2 - b^2) over windows (:func:`_mse_gap_means`)."""
-    lo, hi = np.percentile(_mse_gap_means(a, b, groups, n_boot, seed), [50 * (1 - level), 50 * (1 + level)])
-    return float(lo), float(hi)
+    return _percentile_interval(_mse_gap_means(a, b, groups, n_boot, seed), level)
 
 
 def turn_wald(gap: np.ndarray, cov: np.ndarray) -> float:
@@ -324,7 +329,8 @@ def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fi
     gaps = np.abs(fit_now - tc.measured)[tc.yaw()]
     if np.all(np.isfinite(gaps) & (gaps <= YAW_CLASS_GAP)):
         return None
-    steady = ws.subset(np.flatnonzero(steady_mask(commanded_log(train), ws)))
+    steady_idx = np.flatnonzero(steady_mask(commanded_log(train), ws))
+    steady = ws.subset(steady_idx)
     own = dict(robot.ground.params) if robot.ground.model == "shear" else {}
     first = {n: fitted.get(n) for n in names}
     first[geometry_name(robot)] = fitted.get(geometry_name(robot), getattr(robot, geometry_name(robot)))
@@ -343,9 +349,9 @@ def match_turns(sim: WindowSim, train: DriveLog, ws: WindowSet, robot: Robot, fi
     fitted_errors = np.asarray(fitted_errors, float)
     runs = command_runs(train, ws)
     # how strongly the steady turns speak against the fit's robot, on the same windows as the others'
-    idx, yaw = np.flatnonzero(steady_mask(commanded_log(train), ws)), tc.yaw()
-    fit_medians, fit_samples = _values(turn_measures(train, steady, robot, np.asarray(fitted_poses)[idx],
-                                                     np.asarray(fitted_speeds)[idx]), tc.classes)
+    yaw = tc.yaw()
+    fit_medians, fit_samples = _values(turn_measures(train, steady, robot, np.asarray(fitted_poses)[steady_idx],
+                                                     np.asarray(fitted_speeds)[steady_idx]), tc.classes)
     fit_cov = _gap_cov(meas_samples, fit_samples, command_runs(train, steady))
     fit_wald = turn_wald((tc.measured - fit_medians)[yaw], fit_cov[np.ix_(yaw, yaw)])
 
@@ -432,8 +438,8 @@ def _judge(out: _Outcome, tc: TurnClasses, score, fitted_errors: np.ndarray, fit
     errors = np.asarray(errors, float)
     fitted_rms, rms = (float(np.sqrt(np.mean(e ** 2))) for e in (fitted_errors, errors))
     out.train_rms = (fitted_rms, rms)
-    means = _mse_gap_means(errors, fitted_errors, runs)
-    gap = out.gap = _mse_gap_interval(errors, fitted_errors, runs)
+    means = _mse_gap_means(errors, fitted_errors, runs)  # one set of draws: the interval and z
+    gap = out.gap = _percentile_interval(means)
     z = _gap_z(means) if np.all(np.isfinite(means)) else math.inf
     against = evidence(fit_wald, out.wald, z)
     weighed = all(math.isfinite(v) for v in (fit_wald, out.wald))
