@@ -1,6 +1,6 @@
 """Wall and CPU time of a calibration, the code before a change against the code now, in one run.
 
-    nice -n 10 python benchmarks/bench_calibrate.py [--old-tree DIR] [--case sim60|marmotte|husky] [--repeats N]
+    nice -n 10 python benchmarks/bench_calibrate.py [--old-tree DIR] [--case sim60|marmotte|husky|warthog] [--repeats N]
 
 ``--old-tree DIR``: a checkout of the code to compare against (e.g. ``git archive REV | tar -x -C
 DIR``); without it only the code now is measured. Cases:
@@ -13,14 +13,15 @@ DIR``); without it only the code now is measured. Cases:
   the Marmotte's starting robot of ``benchmarks/real_robots.py``, 6 rollers per track.
 * ``husky``: the whole shared Husky log (../shared/data/husky/husky_drive.csv) from the description
   shipped with it, calibrate's defaults (as a user runs ``mjtrack calibrate husky_drive.csv``: the
-  simulated drives follow the commands, and the turn stage runs where the fit's robot turns unlike
-  the log).
+  drive input calibrate chooses, and the turn stage where the fit's robot turns unlike the log).
+* ``warthog``: the same for the whole shared Warthog log (../shared/data/warthog/warthog_drive.csv).
 
 Old and new alternate (old, new, old, new, ...), each calibration in a fresh Python process with
 that code on its path, so that both see the same load. Each run reports its wall time, its CPU time
 (all threads), the windows it simulated (every window of every parameter set, counted where the
-window simulator is called), its stage times, and its answer (changed parameters, their values
-and intervals, the summary). The machine is shared: the load average before and after each run is
+window simulator is called), its stage times, and its answer (the drive input used and why,
+changed parameters, their values and intervals, the training error before and after, the
+summary). The machine is shared: the load average before and after each run is
 printed and stored, and the ratios quoted are of medians. Writes
 benchmarks/results/bench_calibrate.json (or bench_calibrate_CASE.json).
 """
@@ -90,6 +91,7 @@ def _child(case: str, data: str) -> None:
         "timings_s": j["timings_s"], "changed": j["changed"],
         "values": {n: j["parameters"][n] for n in j["changed"]},
         "intervals": {n: j["intervals"].get(n) for n in j["changed"]},
+        "drive_input_mode": j.get("drive_input_mode", j.get("drive_input")), "drive_input_why": j.get("drive_input_why"),
         "rms": [j["train"]["before"], j["train"]["after"]] + ([j["test"]["before"], j["test"]["after"]]
                                                                if "test" in j else []),
         "fits": [{"parameters": f["parameters"], "iterations": f["iterations"]} for f in j["method"]["fits"]],
@@ -124,7 +126,7 @@ def _run(tree: Path, case: str, data: str) -> dict:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--old-tree", type=Path, help="a checkout of the code to compare against")
-    ap.add_argument("--case", choices=("sim60", "marmotte", "husky"), default="sim60")
+    ap.add_argument("--case", choices=("sim60", "marmotte", "husky", "warthog"), default="sim60")
     ap.add_argument("--repeats", type=int, default=1, help="runs of each (alternating; default 1)")
     ap.add_argument("--child", help=argparse.SUPPRESS)
     ap.add_argument("--data", help=argparse.SUPPRESS)
@@ -156,7 +158,8 @@ def main() -> int:
             for label, tree in reversed(trees):  # old first, then new
                 r = _run(tree, args.case, str(data))
                 runs[label].append(r)
-                print(f"{label}: wall {r['wall_s']:.1f} s, CPU {r['cpu_s']:.1f} s, {r['windows']} windows simulated, "
+                print(f"{label}: drive input {r.get('drive_input_mode')}, wall {r['wall_s']:.1f} s, CPU {r['cpu_s']:.1f} s, "
+                      f"{r['windows']} windows simulated, training error {r['rms'][0]:.3f} -> {r['rms'][1]:.3f} m, "
                       f"load {r['load_before'][0]:.2f} -> {r['load_after'][0]:.2f}; changed {r['changed']} "
                       f"{ {n: round(v, 5) for n, v in r['values'].items()} }", flush=True)
     med = {label: {k: statistics.median(r[k] for r in rs) for k in ("wall_s", "cpu_s", "windows")}
@@ -170,7 +173,7 @@ def main() -> int:
     command = " ".join(["python benchmarks/bench_calibrate.py", "--case", args.case, "--repeats", str(args.repeats)]
                        + (["--old-tree", "DIR"] if args.old_tree else []))  # (the checkout's place is the user's)
     out.write_text(json.dumps({"command": command, "case": args.case, "cpus": os.cpu_count(),
-        "target_wall_s": {"sim60": 60, "marmotte": 120, "husky": 600}[args.case], "medians": med, "runs": runs}, indent=1) + "\n")
+        "target_wall_s": {"sim60": 60, "marmotte": 120, "husky": 600, "warthog": 600}[args.case], "medians": med, "runs": runs}, indent=1) + "\n")
     print(f"wrote {out.relative_to(ROOT)}")
     return 0
 

@@ -14,12 +14,14 @@ fitted: Marmotte trains on the first 50 % of its windows and tests on the next 2
 Warthog train on the first 70 % and test on the remaining 30 % of what the shared folder holds.
 Each fit uses 150 windows spread over the training part (``FIT_WINDOWS``; calibrate's default is
 fewer, to bound a user's time; these are the reference results, and precision is their point).
-Husky and Warthog are calibrated with ``drive_input="fitted"``: their own speed controllers cap
-and reshape the DRIVE protocol's commands (``command_following`` in the result: once settled, the
-measured track speeds differ from the commands by a large share of them), so the drivetrain
-(lag, dead time, speed and acceleration limits, the controller's turn and mean-speed stages) is
-first fitted to the measured track speeds, then the contact and the effective rolling radius to
-the poses under the speeds the drivetrain predicts; the calibrated robot predicts from commands.
+Every robot is calibrated with calibrate's default drive input (``auto``), whose choice and reason
+each calibration.json records. It chooses ``fitted`` for the Husky and the Warthog: their own
+speed controllers cap and reshape the DRIVE protocol's commands (``command_following`` in the
+result: once settled, the measured track speeds differ from the commands by a large share of
+them), so the drivetrain (lag, dead time, speed and acceleration limits, the controller's turn and
+mean-speed stages) is first fitted to the measured track speeds, then the contact and the
+effective rolling radius to the poses under the speeds the drivetrain predicts; the calibrated
+robot predicts from commands. For the Marmotte it chooses ``commanded``.
 Writes benchmarks/results/real_robots.json: per robot the held-out 2 s position error before and
 after, the steady-turn yaw ratio measured and simulated (before, after) on the test part, every
 candidate's value, interval and whether the log determines it, the causes and the summary; the
@@ -54,7 +56,8 @@ the contact fit finds? Written to real_robots_advanced.json and real_robots_adva
 ``--shear-scan K,K,...``: what the shear ground alone does to a real robot, with nothing fitted to
 its poses. For each modulus K (0: Coulomb) the starting robot above on the shear ground of modulus
 K, scored on the test part of the reference split as calibrate scores a description before it fits
-anything ("before": the drives, with ``drive_input="fitted"``, fitted to the measured track speeds,
+anything ("before": the drives, with calibrate's default drive input (``fitted`` for the Husky and the
+Warthog), fitted to the measured track speeds,
 the contact as described): the held-out 2 s position error, and per turn class the steady yaw
 ratio and the forward speed ratio, measured and simulated. The scores are calibrate's "before" of
 a calibration of ``cg_y`` alone, which does not depend on what the calibration then fits. Writes
@@ -114,7 +117,7 @@ ROBOTS = {
             "mu": (0.5, "no public value: start value"),
         }},
     "husky": {
-        "log": DATA / "husky" / "husky_drive.csv", "split": (0.7, 0.3), "drive_input": "fitted",
+        "log": DATA / "husky" / "husky_drive.csv", "split": (0.7, 0.3),
         "public": {
             "mass": (50.0, "public specification of the Clearpath Husky A200, 50 kg"),
             "wheelbase": (0.512, f"public model: wheelbase 0.512 m ({HUSKY})"),
@@ -122,7 +125,7 @@ ROBOTS = {
             "mu": (0.5, "no public value: start value"),
         }},
     "warthog": {
-        "log": DATA / "warthog" / "warthog_drive.csv", "split": (0.7, 0.3), "drive_input": "fitted",
+        "log": DATA / "warthog" / "warthog_drive.csv", "split": (0.7, 0.3),
         "public": {
             "mass": (260.0, f"public model: chassis 100 kg + two rocker units 50 kg + four wheels 15 kg ({WARTHOG})"),
             "wheelbase": (0.92, f"public model: axles at +-0.46 m ({WARTHOG})"),
@@ -340,16 +343,17 @@ def run_robot(name: str, spec: dict, *, rollers: int, coulomb: bool = False, lat
     train, test = split(log, *spec["split"])
     robot = starting_robot(base, spec["public"])
     t0 = time.time()
-    drive_input = spec.get("drive_input", "commanded")
+    drive_input = spec.get("drive_input", "auto")
     # --coulomb: calibrate's default candidates (those of its drive input) less the shear ground's moduli
     # --lateral: those plus the shear ground's modulus across over the one along
     names = None
     if coulomb or lateral:
-        from mjtrack.calibrate.run import COMMAND_PARAMS, MEASURED_PARAMS
+        from mjtrack.calibrate.run import COMMAND_PARAMS, MEASURED_PARAMS, auto_drive_input
 
         names = [n for n in default_names(robot, train) if not (coulomb and n == "shear_modulus")]
         names += ["lateral_shear_ratio"] if lateral else []
-        if drive_input != "commanded":
+        mode = auto_drive_input(train, robot, None)[0] if drive_input == "auto" else drive_input
+        if mode != "commanded":
             names = [n for n in names if n not in COMMAND_PARAMS] + list(MEASURED_PARAMS)
     cal = calibrate(train, robot, test=test, n_rollers=rollers, quiet=not sys.stderr.isatty(), drive_input=drive_input,
                     fit_windows=FIT_WINDOWS, names=names,
@@ -363,7 +367,8 @@ def run_robot(name: str, spec: dict, *, rollers: int, coulomb: bool = False, lat
     speed = {f["what"].removeprefix("forward speed ratio "): {"measured": f["measured"], "before": f["simulated_before"],
                                                              "after": f["simulated_after"], "windows": f["windows"]}
              for f in cj["findings"] if f["what"].startswith("forward speed ratio") and f["part"] == "test"}
-    return {"traction": robot.traction, "drive_input": drive_input, "command_following": command_following(log),
+    return {"traction": robot.traction, "drive_input": cj["drive_input_mode"], "drive_input_why": cj["drive_input_why"],
+            "command_following": command_following(log),
             "windows": {"train": len(cal.train_windows), "fit": len(cal.fitted_windows), "test": len(cal.test_windows)},
             "test": cj["test"], "train": cj["train"],
             "yaw_ratio": {"measured": yaw["measured"], "before": yaw["simulated_before"], "after": yaw["simulated_after"],
@@ -386,7 +391,7 @@ def starts_robot(name: str, spec: dict, rounds: int | None = None) -> dict:
     for start, robot in (("shipped", base), ("public", starting_robot(base, spec["public"]))):
         t0 = time.time()
         cal = calibrate(train, robot, test=test, quiet=not sys.stderr.isatty(),
-                        drive_input=spec.get("drive_input", "commanded"), rounds=out["rounds"])
+                        drive_input=spec.get("drive_input", "auto"), rounds=out["rounds"])
         cj = cal.to_json()
         out["starts"][start] = {"seconds": time.time() - t0, "test": cj["test"], "parameters": cj["parameters"],
                                 "intervals": cj["intervals"], "determined": cj["determined"],
@@ -498,7 +503,7 @@ def shear_scan_robot(name: str, spec: dict, moduli: list[float]) -> dict:
     log, base = read_log_with_robot(spec["log"])
     train, test = split(log, *spec["split"])
     robot = starting_robot(base, spec["public"])
-    out = {"split": list(spec["split"]), "drive_input": spec.get("drive_input", "commanded"), "moduli": {}}
+    out = {"split": list(spec["split"]), "drive_input": spec.get("drive_input", "auto"), "moduli": {}}
     for K in moduli:
         t0 = time.time()
         r = robot.replace(ground={"model": "shear", "shear_modulus": K} if K > 0 else {"model": "coulomb"})

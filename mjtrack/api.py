@@ -309,7 +309,7 @@ def diagnose_log(log: "DriveLog", robot: "Robot", *, baseline: str = "auto", tes
 def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | None" = None,
                     params: list[str] | None = None, horizon_s: float = 2.0, max_iter: int = 8,
                     out_dir: str | os.PathLike | None = None, quiet: bool = True,
-                    drive_input: str = "commanded", fit_windows: int | None | str = "default",
+                    drive_input: str = "auto", fit_windows: int | None | str = "default",
                     rounds: int = 3) -> "Calibration":
     """Fit the MuJoCo robot's description to a drive log.
 
@@ -327,14 +327,14 @@ def calibrate_robot(log: "DriveLog", robot: "Robot", *, test_log: "DriveLog | No
         max_iter: optimiser iterations.
         out_dir: when given, ``robot.json``, ``calibration.json`` and ``report.html`` are written.
         quiet: no progress display.
-        drive_input: what the simulated drives follow: ``"commanded"`` (the logged commands; the
-            drive's lag, delay and speed scale are fitted too), ``"measured"`` (the logged track
-            speeds, for a robot whose own speed controller caps its commands) or ``"fitted"`` (the
-            drivetrain is first fitted to the log's measured track speeds, command to speed, and the
-            contact then to the poses under the speeds it predicts from the commands) or ``"auto"``
-            (``"fitted"`` when the log has measured track speeds that are not copies of its commands
-            and the drive's timing is not asked for by name, else ``"commanded"``; the mode used and
-            why are in the result's ``drive_input_mode`` and ``drive_input_why``).
+        drive_input: what the simulated drives follow: ``"auto"`` (default: ``"fitted"`` when the
+            log's measured track speeds show the robot's own speed controller capping its commands
+            and the drive's timing is not asked for by name, else ``"commanded"``; the mode used
+            and why are in the result's ``drive_input_mode`` and ``drive_input_why``),
+            ``"commanded"`` (the logged commands; the drive's lag, delay and speed scale are fitted
+            too), ``"fitted"`` (the drivetrain is first fitted to the log's measured track speeds,
+            command to speed, and the contact then to the poses under the speeds it predicts from
+            the commands) or ``"measured"`` (the logged track speeds: the contact alone).
         fit_windows: windows the fit uses, spread over the log (``--fit-windows``; None: all;
             default: the command's).
         rounds: at most this many refits after the first fit, each after what the log determines

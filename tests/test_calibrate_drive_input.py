@@ -24,18 +24,34 @@ def _log(n=40, measured=None):
     return lg
 
 
-def test_auto_fits_the_drivetrain_only_to_measured_speeds_that_are_not_the_commands():
+def test_auto_fits_the_drivetrain_only_to_measured_speeds_that_show_a_capping_controller():
     robot = Robot(track_gauge=0.4)
     assert auto_drive_input(_log(), robot, None)[0] == "commanded"
     copies = _log(measured=(np.full(40, 0.5), np.full(40, 0.8)))
     mode, why = auto_drive_input(copies, robot, None)
     assert mode == "commanded" and "copies" in why
-    real = _log(measured=(np.full(40, 0.45), np.full(40, 0.7)))
-    mode, why = auto_drive_input(real, robot, None)
-    assert mode == "fitted" and "0.0791 m/s RMS" in why  # sqrt((0.05^2 + 0.1^2) / 2) = 0.0791
+    # slower than commanded, but every command reached in proportion: lag, delay and speed scale
+    # describe it, and the pose fit has them
+    slow = _log(measured=(np.full(40, 0.45), np.full(40, 0.72)))  # 0.9 times each command
+    mode, why = auto_drive_input(slow, robot, None)
+    assert mode == "commanded" and "0.0667 m/s RMS" in why  # sqrt((0.05^2 + 0.08^2) / 2) = 0.0667
+    assert "no speed controller capping" in why
+    # commands ramping to 2 m/s, both sides held at 1 m/s above 1 m/s: the drives saturate
+    n = 80
+    ramp = np.linspace(0.0, 2.0, n)
+    capped = dataclasses.replace(_log(n), v_left_cmd=ramp, v_right_cmd=ramp, v_left=np.minimum(ramp, 1.0),
+                                 v_right=np.minimum(ramp, 1.0))
+    mode, why = auto_drive_input(capped, robot, None)
+    assert mode == "fitted" and "saturate" in why and "never exceed 1 / 1 m/s" in why
     # a user who names the drive's timing wants it fitted to the poses
-    assert auto_drive_input(real, robot, "mu,drive_lag")[0] == "commanded"
-    assert auto_drive_input(real, robot, ["mu", "cg_x"])[0] == "fitted"
+    assert auto_drive_input(capped, robot, "mu,drive_lag")[0] == "commanded"
+    assert auto_drive_input(capped, robot, ["mu", "cg_x"])[0] == "fitted"
+    # a turn commanded at up to 1 m/s half difference, the sides' half difference held at 0.4 m/s
+    # (each side's speed within reach): the controller caps the turn
+    half = np.minimum(ramp / 2, 0.4)
+    turning = dataclasses.replace(_log(n), v_left_cmd=-ramp / 2, v_right_cmd=ramp / 2, v_left=-half, v_right=half)
+    mode, why = auto_drive_input(turning, robot, None)
+    assert mode == "fitted" and "caps the turn" in why and "never exceeds 0.4 m/s" in why
     # measured speeds on a few rows only: none to fit
     sparse = _log(measured=(np.where(np.arange(40) < 5, 0.45, np.nan), np.full(40, 0.7)))
     assert auto_drive_input(sparse, robot, None)[0] == "commanded"

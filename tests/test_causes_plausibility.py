@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mjtrack.calibrate.causes import (find_causes, implausibility, not_explained, saturation_words, speeds_worse,
+from mjtrack.calibrate.causes import (cap_words, find_causes, implausibility, not_explained, saturation_words, speeds_worse,
                                      summary, traction_limit)
 from mjtrack.io.robot import Robot
 
@@ -137,6 +137,19 @@ def test_saturated_drives_are_named_with_the_measurement_that_shows_them():
     # tracks at 0.8 of every command are not saturated drives, though the commands reach 1.25 times
     assert saturation_words((2.5, 2.5), (2.0, 2.0), scale=(0.8, 0.8)) == ""
     assert "lower commands give 0.8 / 0.8 times" in saturation_words((2.5, 2.5), (1.0, 1.0), scale=(0.8, 0.8))
+
+
+def test_a_capped_turn_or_mean_speed_is_named_with_the_measurement_that_shows_it():
+    # the Warthog's log: the half difference commanded to 4.63 m/s, measured never above 2.55 m/s
+    text = cap_words("the turn", 4.63, 2.55)
+    assert text.startswith("its speed controller caps the turn: the measured half difference of the track speeds "
+                           "never exceeds 2.55 m/s while the commands' reaches 4.63 m/s")
+    assert "fitted limit 1.94 m/s" in cap_words("the turn", 4.63, 2.55, limit=1.94)
+    assert cap_words("the mean speed", 1.2, 1.1) == ""  # within 1.2 times: reached
+    # a mean speed run at 1.7 times the lower commands: the peak command asks for 1.7 x 0.9
+    text = cap_words("the mean speed", 0.9, 1.06, scale=1.7)
+    assert "the measured mean of the track speeds never exceeds 1.06 m/s" in text and "asks for 1.53 m/s" in text
+    assert cap_words("the mean speed", 2.5, 2.0, scale=0.8) == ""  # 0.8 x 2.5 = 2.0: every command reached
 
 
 def test_the_speed_ratio_of_the_lower_commands_ignores_the_saturated_ones():

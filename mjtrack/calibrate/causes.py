@@ -472,6 +472,27 @@ def saturation_words(command_peak: tuple[float, float], measured_peak: tuple[flo
     return text
 
 
-__all__ = ["COUPLED", "GEOMETRY_RATIO", "SATURATED", "SPEED_WORSE", "YAW_CLASS_GAP", "YAW_CLASS_MIN", "Cause",
+def cap_words(what: str, command_peak: float, measured_peak: float, scale: float = 1.0,
+              limit: float | None = None) -> str:
+    """A speed controller's cap on one combination of the two sides (``what``: "the turn", the
+    half difference of the track speeds, or "the mean speed") in words, from the largest |command|
+    and |measured| value of it [m/s], the measured over commanded value the lower commands show
+    and the limit fitted to the measured speeds where there is one; "" when the commands, so
+    scaled, stay within :data:`SATURATED` times the largest measured value."""
+    if not scale * command_peak > SATURATED * measured_peak:
+        return ""
+    quantity = "half difference of the track speeds" if what == "the turn" else "mean of the track speeds"
+    text = f"its speed controller caps {what}: the measured {quantity} never exceeds {measured_peak:.3g} m/s"
+    if abs(scale - 1.0) > 0.05:
+        text += (f", where the commands' peak, {command_peak:.3g} m/s, at the {scale:.2g} times theirs that lower "
+                 f"commands give, asks for {scale * command_peak:.3g} m/s")
+    else:
+        text += f" while the commands' reaches {command_peak:.3g} m/s"
+    if limit is not None:
+        text += f"; fitted limit {limit:.3g} m/s"
+    return text
+
+
+__all__ = ["COUPLED", "GEOMETRY_RATIO", "SATURATED", "SPEED_WORSE", "YAW_CLASS_GAP", "YAW_CLASS_MIN", "Cause", "cap_words",
            "find_causes", "groups", "implausibility", "not_explained", "on_bound", "saturation_words", "speeds_worse", "summary",
            "traction_defaults", "traction_limit", "yaw_class_gaps"]

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mjtrack.calibrate.causes import Cause, not_explained, saturation_words, speeds_worse, yaw_class_gaps
+from mjtrack.calibrate.causes import Cause, cap_words, not_explained, saturation_words, speeds_worse, yaw_class_gaps
 from mjtrack.calibrate.identify import Verdict
 from mjtrack.calibrate.rounds import MAX_ROUNDS
 from mjtrack.io.atomic import atomic_write_text, make_output_dir
@@ -99,6 +99,35 @@ def speed_ratio(command: np.ndarray, measured: np.ndarray, peak: float) -> float
         return 1.0
     rows = (c >= LOW_COMMANDS[0] * peak) & (c <= LOW_COMMANDS[1] * peak) & np.isfinite(m)
     return float(np.median(m[rows] / c[rows])) if rows.any() else 1.0
+
+
+def drive_caps(lg: DriveLog, chain: dict[str, float] | None = None) -> str:
+    """What the log's measured track speeds show the robot's own speed controller capping, in
+    words ("" when nothing, or when the log has no measured speeds): each side's speed
+    (:func:`mjtrack.calibrate.causes.saturation_words`), the turn (the half difference of the two
+    sides) and the mean speed (:func:`mjtrack.calibrate.causes.cap_words`), each judged by its
+    largest |command| and |measured value| with the commands scaled by what the lower commands
+    give (:func:`speed_ratio`); ``chain``: a drivetrain fitted to the measured speeds
+    (:mod:`mjtrack.calibrate.drivetrain`), whose limits are quoted beside."""
+    if not lg.has_track_speeds:
+        return ""
+    chain = chain or {}
+    cmd = commanded_log(lg)
+    cl, cr = (np.asarray(v, float) for v in (cmd.v_left_cmd, cmd.v_right_cmd))
+    ml, mr = (np.asarray(v, float) for v in (lg.v_left, lg.v_right))
+
+    def peaks(c, m):
+        pc, pm = float(np.nanmax(np.abs(c))), float(np.nanmax(np.abs(m)))
+        return pc, pm, speed_ratio(c, m, pc)
+
+    sides = [peaks(cl, ml), peaks(cr, mr)]
+    words = [saturation_words(tuple(p[0] for p in sides), tuple(p[1] for p in sides),
+                              tuple(chain.get(f"drive_speed_limit_{side}") for side in ("left", "right")),
+                              tuple(p[2] for p in sides))]
+    for what, c, m, key in (("the turn", (cr - cl) / 2, (mr - ml) / 2, "drive_turn_limit"),
+                            ("the mean speed", (cl + cr) / 2, (ml + mr) / 2, "drive_mean_speed_limit")):
+        words.append(cap_words(what, *peaks(c, m), limit=chain.get(key)))
+    return "; ".join(w for w in words if w)
 
 
 @dataclass
@@ -192,17 +221,8 @@ class Calibration:
 
     def saturation(self) -> str:
         """The drives' saturation in words, as the training log's measured track speeds show it
-        (:func:`mjtrack.calibrate.causes.saturation_words`), or ""."""
-        lg = self.train_log
-        if not lg.has_track_speeds:
-            return ""
-        cmd = commanded_log(lg)
-        commands, measured = (cmd.v_left_cmd, cmd.v_right_cmd), (lg.v_left, lg.v_right)
-        peak = tuple(float(np.nanmax(np.abs(v))) for v in commands)
-        meas = tuple(float(np.nanmax(np.abs(v))) for v in measured)
-        values = {} if self.drivetrain is None else self.drivetrain.values
-        limits = tuple(values.get(f"drive_speed_limit_{side}") for side in ("left", "right"))
-        return saturation_words(peak, meas, limits, tuple(speed_ratio(c, m, p) for c, m, p in zip(commands, measured, peak)))
+        (:func:`drive_caps`), or ""."""
+        return drive_caps(self.train_log, {} if self.drivetrain is None else self.drivetrain.values)
 
     def not_explained(self, speeds: dict | None = None) -> list[dict]:
         """What the log shows that no candidate describes (calibration.json ``not_explained``): the

@@ -51,7 +51,7 @@ if TYPE_CHECKING:  # MuJoCo is loaded by the functions that simulate, not by imp
     from mjtrack.sim.windows import WindowSim
 
 from mjtrack.calibrate.measures import class_gap_interval, command_runs, measured_speeds, turn_measures
-from mjtrack.calibrate.result import Calibration, Scored, write_outputs
+from mjtrack.calibrate.result import Calibration, Scored, drive_caps, write_outputs
 
 from mjtrack.calibrate.rounds import MAX_ROUNDS, MAX_ROUNDS_LIMIT, Fitted, Fitter, Meter, expected_passes, fit_attempt
 
@@ -142,7 +142,7 @@ def _score(sim: WindowSim, lg: DriveLog, ws: WindowSet, variants: list[dict], *,
 def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
               names: str | list[str] | None = None, horizon_s: float = 2.0, n_rollers: int | None = None,
               max_iter: int = 8, nthread: int = 2, quiet: bool = True, train_path: str | None = None,
-              test_path: str | None = None, warmup_s: float = WARMUP_S, drive_input: str = "commanded",
+              test_path: str | None = None, warmup_s: float = WARMUP_S, drive_input: str = "auto",
               fit_windows: int | None = FIT_WINDOWS, keep_contradicting: bool = False,
               rounds: int = MAX_ROUNDS) -> Calibration:
     """Fit the MuJoCo robot to ``train`` (see the module docstring); bad input raises InputError.
@@ -160,19 +160,19 @@ def calibrate(train: DriveLog, robot: Robot, *, test: DriveLog | None = None,
         max_iter: Levenberg-Marquardt iterations of the first fit (the refit gets half).
         nthread: rollout threads (results do not depend on it).
         warmup_s: history [s] over which each window's hidden states are warmed up (0: none).
-        drive_input: ``"commanded"`` (default): the simulated drives follow the logged commands (the drive's
-            lag, delay and speed scale are candidates); ``"measured"``: they follow the logged
-            track speeds, for a robot whose own speed controller caps or shapes its commands in
-            ways the drive keys do not describe; the contact, the speed scale (then the effective
-            rolling radius over the nominal one) and the drives' force limit (how fast the simulated
-            drives can follow the measured speeds) are calibrated; ``"fitted"``: the drivetrain
-            (:mod:`mjtrack.calibrate.drivetrain`) fitted first to the log's measured track speeds
-            and fixed, the contact then fitted as with ``"measured"`` on the track speeds the fitted
-            drivetrain predicts from the commands; the calibrated robot carries the drivetrain's
-            keys and is driven by its commands; ``"auto"``: ``"fitted"`` when the log has measured
-            track speeds that are not copies of its commands and ``names`` does not name the
-            drive's timing, else ``"commanded"`` (:func:`auto_drive_input`). The mode used and why
-            are kept in ``drive_input_mode`` and ``drive_input_why``.
+        drive_input: ``"auto"`` (default): ``"fitted"`` when the log's measured track speeds show
+            the robot's own speed controller capping its commands, else ``"commanded"``
+            (:func:`auto_drive_input`); ``"commanded"``: the simulated drives follow the logged
+            commands (the drive's lag, delay and speed scale are candidates); ``"measured"``: they
+            follow the logged track speeds, for a robot whose own speed controller caps or shapes
+            its commands in ways the drive keys do not describe; the contact, the speed scale
+            (then the effective rolling radius over the nominal one) and the drives' force limit
+            (how fast the simulated drives can follow the measured speeds) are calibrated;
+            ``"fitted"``: the drivetrain (:mod:`mjtrack.calibrate.drivetrain`) fitted first to the
+            log's measured track speeds and fixed, the contact then fitted as with ``"measured"``
+            on the track speeds the fitted drivetrain predicts from the commands; the calibrated
+            robot carries the drivetrain's keys and is driven by its commands. The mode used and
+            why are kept in ``drive_input_mode`` and ``drive_input_why``.
         fit_windows: windows the fit uses, spread evenly over the log (None: every window); the
             errors before and after use every window, the causes the windows the fit used.
         keep_contradicting: keep the windows whose poses move against the tracks (by default they
@@ -258,10 +258,13 @@ COPY_TOLERANCE = 1e-6
 
 
 def auto_drive_input(train: DriveLog, robot: Robot, names) -> tuple[str, str]:
-    """What ``drive_input="auto"`` uses on ``train``, and why in words: ``"fitted"`` when the log
-    has measured track speeds (most rows) that are not copies of its commands and the candidates
-    do not name the drive's timing (a user asking for ``drive_lag`` wants it fitted to the poses),
-    else ``"commanded"``."""
+    """What ``drive_input="auto"`` (the default) uses on ``train``, and why in words: ``"fitted"``
+    when the log has measured track speeds (most rows) that are not copies of its commands, show
+    the robot's own speed controller capping the commands (:func:`mjtrack.calibrate.result.drive_caps`:
+    a side's speed, the turn or the mean speed saturates, which no candidate of the commanded
+    drive describes) and the candidates do not name the drive's timing (a user asking for
+    ``drive_lag`` wants it fitted to the poses); else ``"commanded"``: the drive's lag, delay and
+    speed scale are then candidates of the pose fit, which the MuJoCo drives follow exactly."""
     if not has_measured_speeds(train):
         return "commanded", "auto: the log has no measured track speeds"
     meas = np.stack([train.v_left, train.v_right], -1).astype(float)
@@ -274,8 +277,15 @@ def auto_drive_input(train: DriveLog, robot: Robot, names) -> tuple[str, str]:
             COMMAND_PARAMS):
         return "commanded", f"auto: the parameters name the drive's timing ({', '.join(COMMAND_PARAMS)})"
     rms = float(np.sqrt(np.mean((meas[ok] - cmd[ok]) ** 2)))
-    return "fitted", (f"auto: the log has measured track speeds, {rms:.3g} m/s RMS from the commands: the drivetrain "
-                      "is fitted to them first")
+    caps = drive_caps(train)
+    if caps:
+        return "fitted", (f"auto: the log's measured track speeds ({rms:.3g} m/s RMS from the commands) show that {caps}: "
+                          "the drivetrain is fitted to them first")
+    return "commanded", (f"auto: the log's measured track speeds ({rms:.3g} m/s RMS from the commands) show no speed "
+                         "controller capping the commands: the drive's lag, delay and speed scale are fitted to the "
+                         "poses with the other candidates")
+
+
 # when the drives follow their commands: not candidates with --drive-input measured. The speed scale
 # stays one: against measured track speeds (wheel or sprocket turn rate times its nominal radius) it
 # is the effective rolling radius over the nominal one (a loaded tyre rolls on less than its radius)

@@ -67,17 +67,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rollers", metavar="N", type=bounded("rollers"), default=None,
                         help="contact rollers per track in the simulation (default: the robot file's simulator "
                              "setting, else 10; 6 is ~2x faster); recorded in robot.json")
-    parser.add_argument("--drive-input", choices=["commanded", "measured", "fitted", "auto"], default="commanded",
-                        help="what the simulated drives follow: the logged commands (default; the drive's lag, delay "
-                             "and speed scale are fitted too) or the logged track speeds (measured: for a robot whose "
-                             "own speed controller caps its commands; the contact, the speed scale, then the effective "
-                             "rolling radius over the nominal one, and the drives' force limit, which bounds how fast "
-                             "they follow the measured speeds, are fitted) or the commands through a drivetrain fitted "
-                             "first to the logged track speeds (fitted: speed controller limits, ramp, per-side lag and "
-                             "dead time; then the contact as with measured); auto: fitted when the log has measured "
-                             "track speeds that are not copies of the commands and --params names neither drive_lag "
-                             "nor drive_delay, else commanded. The mode used is printed and written to "
-                             "calibration.json (drive_input_mode, drive_input_why)")
+    parser.add_argument("--drive-input", choices=["auto", "commanded", "measured", "fitted"], default="auto",
+                        help="what the simulated drives follow. auto (default): fitted when the log's measured track "
+                             "speeds (not copies of the commands) show the robot's own speed controller capping the "
+                             "commands (a side's speed, the turn or the mean speed saturates) and --params names "
+                             "neither drive_lag nor drive_delay, else commanded. commanded: the logged commands (the "
+                             "drive's lag, delay and speed scale are fitted to the poses too). fitted: the commands "
+                             "through a drivetrain fitted first to the logged track speeds (speed controller limits, "
+                             "ramp, per-side lag and dead time), then the contact as with measured; the calibrated "
+                             "robot carries the drivetrain and is driven by its commands. measured: the logged track "
+                             "speeds, for the contact alone (the contact, the speed scale, then the effective rolling "
+                             "radius over the nominal one, and the drives' force limit, which bounds how fast they "
+                             "follow the measured speeds, are fitted). The mode used, and why, is printed and written "
+                             "to calibration.json (drive_input_mode, drive_input_why)")
     parser.add_argument("--fit-windows", metavar="N", type=bounded("fit_windows", {"all": None}), default=FIT_WINDOWS,
                         help=f"windows the fit uses, spread evenly over the log (default {FIT_WINDOWS}; 'all': every "
                              "window). The errors before and after use every window, the causes the fit's; a fit's time "
