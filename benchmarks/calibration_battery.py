@@ -18,6 +18,13 @@ calibrated robot (which must name nothing calibration fitted).
 --noise``'s presets; ``realistic``: the levels measured on the shared real logs), each log's from its
 own seed; those cases go to benchmarks/results/calibration_battery_noisy.json.
 
+``--drive-input MODE`` calibrates every case with that drive input instead of calibrate's default
+(``auto``, which on these logs, whose drives follow their commands late or in proportion, chooses
+``commanded``); ``--drive-input fitted`` asks what fitting the drivetrain to the measured track
+speeds first would do to logs whose truth is known. Those cases go to
+benchmarks/results/calibration_battery_MODE.json, each with the drive input used and, fitted,
+the drivetrain's wheel-speed error after its fit.
+
 Writes benchmarks/results/calibration_battery.json (merged with earlier cases of another
 selection) and prints the coverage table, the worst row and the machine's load.
 """
@@ -40,12 +47,12 @@ RESULT = Path(__file__).resolve().parent / "results" / "calibration_battery.json
 NOISY_RESULT = RESULT.with_name("calibration_battery_noisy.json")
 
 
-def run_case(c, *, duration: float, diagnose: bool, noise: str | None = None) -> dict:
+def run_case(c, *, duration: float, diagnose: bool, noise: str | None = None, drive_input: str = "auto") -> dict:
     train = make_log(c, duration=duration, seed=11, noise=noise)
     test = make_log(c, duration=duration, seed=12, noise=noise)
     robot = described_robot(c)
     t0 = time.perf_counter()
-    cal = calibrate(train, robot, test=test, nthread=2)
+    cal = calibrate(train, robot, test=test, nthread=2, drive_input=drive_input)
     seconds = time.perf_counter() - t0
     rows = []
     for n in cal.names:
@@ -65,7 +72,12 @@ def run_case(c, *, duration: float, diagnose: bool, noise: str | None = None) ->
            "expected_cause": list(c.cause), "cause_ok": cause_ok,
            "coverage_ok": all(r["covered"] is not False for r in rows if r["determined"]),
            "train": [cal.before.rms, cal.after.rms], "test": [cal.test_before.rms, cal.test_after.rms],
-           "diverged": [cal.before.diverged, cal.after.diverged], "seconds": seconds, "noise": noise or "none"}
+           "diverged": [cal.before.diverged, cal.after.diverged], "seconds": seconds, "noise": noise or "none",
+           "drive_input_mode": cal.drive_input_mode, "drive_input_why": cal.drive_input_why}
+    if cal.drivetrain is not None:
+        out["drivetrain"] = {"wheel_speed_rms_before": list(cal.drivetrain.rms_before),
+                             "wheel_speed_rms_after": list(cal.drivetrain.rms_after),
+                             "values": cal.drivetrain.values, "half_width_95": cal.drivetrain.half}
     if diagnose:
         out.update(diagnose_case(train, test, robot, cal.calibrated))
     return out
@@ -142,10 +154,17 @@ def main(argv=None) -> int:
     ap.add_argument("--noise", default=None, metavar="PRESET",
                     help="measurement noise on both logs of every case (a preset of `mjtrack simulate --noise`, e.g. "
                          "realistic); default: none. Writes to calibration_battery_noisy.json unless --out says otherwise")
+    ap.add_argument("--drive-input", default="auto", choices=("auto", "commanded", "measured", "fitted"),
+                    help="calibrate's drive input for every case (default: calibrate's own, auto). Other than auto, "
+                         "writes to calibration_battery_MODE.json unless --out says otherwise")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
     if args.out is None:
-        args.out = NOISY_RESULT if args.noise and args.noise != "none" else RESULT
+        args.out = (NOISY_RESULT if args.noise and args.noise != "none" else
+                    RESULT.with_name(f"calibration_battery_{args.drive_input}.json") if args.drive_input != "auto"
+                    else RESULT)
+    if args.drive_input != "auto" and (args.diagnose or args.diagnose_only):
+        ap.error("--drive-input is for calibration alone; run --diagnose without it")
     noise = None if args.noise in (None, "none") else args.noise
     if noise and args.diagnose_only:
         ap.error("--diagnose-only rebuilds stored noise-free cases; run --diagnose with --noise instead")
@@ -170,7 +189,7 @@ def main(argv=None) -> int:
                       f"{r['diagnose_calibrated']['cause']} {r['diagnose_calibrated']['findings']}", flush=True)
                 _write(args.out, results, old, args.duration, load0)
                 continue
-            r = run_case(c, duration=args.duration, diagnose=args.diagnose, noise=noise)
+            r = run_case(c, duration=args.duration, diagnose=args.diagnose, noise=noise, drive_input=args.drive_input)
             before = results.get(c.name, {})
             if not args.diagnose and "diagnose" in before:
                 # diagnose against the description does not depend on calibration: an earlier run's
@@ -180,7 +199,7 @@ def main(argv=None) -> int:
             results[c.name] = r
             det = [x for x in r["rows"] if x["determined"]]
             miss = [x["parameter"] for x in det if x["covered"] is False]
-            print(f"{c.name:28s} cause {'ok ' if r['cause_ok'] else 'BAD'} "
+            print(f"{c.name:28s} [{r['drive_input_mode']}] cause {'ok ' if r['cause_ok'] else 'BAD'} "
                   f"{[cc['parameters'] for cc in r['causes']][:2]}  covered {len(det) - len(miss)}/{len(det)}"
                   + (f" MISSED {miss}" if miss else "")
                   + f"  test {r['test'][0]:.4g} -> {r['test'][1]:.4g} m  {r['seconds']:.0f} s"

@@ -24,6 +24,16 @@ def _log(n=40, measured=None):
     return lg
 
 
+def _turn_capped(n=80):
+    """Straight runs ramped to 2 m/s and reached, then spins commanded up to a half difference of
+    1 m/s whose measured half difference stops at 0.4 m/s."""
+    straight = np.linspace(0.0, 2.0, n // 2)
+    half_cmd = np.linspace(0.0, 1.0, n - n // 2)
+    half = np.minimum(half_cmd, 0.4)
+    return dataclasses.replace(_log(n), v_left_cmd=np.r_[straight, -half_cmd], v_right_cmd=np.r_[straight, half_cmd],
+                               v_left=np.r_[straight, -half], v_right=np.r_[straight, half])
+
+
 def test_auto_fits_the_drivetrain_only_to_measured_speeds_that_show_a_capping_controller():
     robot = Robot(track_gauge=0.4)
     assert auto_drive_input(_log(), robot, None)[0] == "commanded"
@@ -46,12 +56,10 @@ def test_auto_fits_the_drivetrain_only_to_measured_speeds_that_show_a_capping_co
     # a user who names the drive's timing wants it fitted to the poses
     assert auto_drive_input(capped, robot, "mu,drive_lag")[0] == "commanded"
     assert auto_drive_input(capped, robot, ["mu", "cg_x"])[0] == "fitted"
-    # a turn commanded at up to 1 m/s half difference, the sides' half difference held at 0.4 m/s
-    # (each side's speed within reach): the controller caps the turn
-    half = np.minimum(ramp / 2, 0.4)
-    turning = dataclasses.replace(_log(n), v_left_cmd=-ramp / 2, v_right_cmd=ramp / 2, v_left=-half, v_right=half)
-    mode, why = auto_drive_input(turning, robot, None)
-    assert mode == "fitted" and "caps the turn" in why and "never exceeds 0.4 m/s" in why
+    # straight runs to 2 m/s, reached, then spins commanded to 1 m/s half difference, the half
+    # difference held at 0.4 m/s: each side's speed within reach, the controller caps the turn
+    mode, why = auto_drive_input(_turn_capped(), robot, None)
+    assert mode == "fitted" and "caps the turn" in why and "never exceeds 0.4 m/s" in why and "saturate" not in why
     # measured speeds on a few rows only: none to fit
     sparse = _log(measured=(np.where(np.arange(40) < 5, 0.45, np.nan), np.full(40, 0.7)))
     assert auto_drive_input(sparse, robot, None)[0] == "commanded"
@@ -80,3 +88,20 @@ def test_wheel_speed_rms_compares_the_simulated_rows_after_each_windows_start():
     (kept,) = wheel_speed_rms(lg, ws, [(sim, 1.0)], np.array([False, True]))
     assert abs(kept["left"] - 0.1) < 1e-12
     assert wheel_speed_rms(_log(n), ws, [(sim, 1.0)], np.zeros(2, bool)) is None
+
+
+def test_drive_caps_names_each_cap_the_measured_speeds_show_with_the_fitted_limit_beside():
+    from mjtrack.calibrate.result import drive_caps
+
+    n = 80
+    ramp = np.linspace(0.0, 2.0, n)
+    # sides and mean speed reached in full, the half difference held at 0.4 m/s: the turn is capped
+    text = drive_caps(_turn_capped(), {"drive_turn_limit": 0.41})
+    assert text.startswith("its speed controller caps the turn") and "fitted limit 0.41 m/s" in text
+    assert "saturate" not in text and "mean speed" not in text
+    # straight runs capped at 1 m/s: each side and the mean speed
+    capped = dataclasses.replace(_log(n), v_left_cmd=ramp, v_right_cmd=ramp, v_left=np.minimum(ramp, 1.0),
+                                 v_right=np.minimum(ramp, 1.0))
+    text = drive_caps(capped)
+    assert "its drives saturate" in text and "caps the mean speed" in text and "caps the turn" not in text
+    assert drive_caps(_log()) == ""  # no measured speeds: nothing to say

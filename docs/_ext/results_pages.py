@@ -321,16 +321,18 @@ def _speed() -> Page:
                                             "scored on the fit's windows instead of every training window (stage "
                                             "after); old and new alternating in one run.")
                   if "runs" in marmotte.data else _calibration_whole(marmotte))
-    husky_path = RESULTS / "bench_calibrate_husky.json"
-    if husky_path.exists():
-        husky = Source(husky_path)
-        sources.append(husky)
-        tables.append(_calibration_ab(husky, "Calibration of the whole shared Husky log from the description shipped "
-                                             "with it, calibrate's defaults (the simulated drives follow the "
-                                             "commands; `--drive-input fitted`, which the reference calibrations use, "
-                                             "is not the default): the code before the turn stage judged both robots "
-                                             "by both kinds of evidence (old) and now (new), alternating in one run; "
-                                             "the answer and the summary are in the result file."))
+    for robot, title in (("husky", "Husky"), ("warthog", "Warthog")):
+        path = RESULTS / f"bench_calibrate_{robot}.json"
+        if path.exists():
+            whole = Source(path)
+            sources.append(whole)
+            tables.append(_calibration_ab(whole, f"Calibration of the whole shared {title} log from the description "
+                                                 "shipped with it, calibrate's defaults, as a new user runs it: the "
+                                                 "code whose default drive input was `commanded` (old) and the code "
+                                                 "now, whose default `auto` fits the drivetrain to the measured track "
+                                                 "speeds first when they show the robot's speed controller capping "
+                                                 "the commands (new), alternating in one run; the summaries are in "
+                                                 "the result file."))
     gpu_path = RESULTS / "gpu_rollout.json"
     if gpu_path.exists():
         gpu = Source(gpu_path)
@@ -476,7 +478,12 @@ def _calibration_ab(cal: Source, caption: str) -> Table:
     row("windows simulated, median", lambda k: f"/medians/{k}/windows")
     for stage in CALIBRATE_STAGES:
         row(f"stage {stage} [s]", lambda k, st=stage: f"/runs/{k}/0/timings_s/{st}")
-    for n in cal.data["runs"][labels[-1]][0]["changed"]:
+    if all("drive_input_mode" in cal.data["runs"][k][0] for k in labels):
+        table.add("drive input used", *(str(cal.data["runs"][k][0]["drive_input_mode"]) for k in labels))
+        row("training 2 s position error before [m]", lambda k: f"/runs/{k}/0/rms/0")
+        row("training 2 s position error after [m]", lambda k: f"/runs/{k}/0/rms/1")
+    changed = dict.fromkeys(n for k in labels for n in cal.data["runs"][k][0]["changed"])
+    for n in changed:
         row(f"calibrated {n}", lambda k, n=n: f"/runs/{k}/0/values/{n}")
     row("load average before (one minute)", lambda k: f"/runs/{k}/0/load_before/0")
     row("load average after (one minute)", lambda k: f"/runs/{k}/0/load_after/0")
@@ -756,6 +763,31 @@ def _battery_cases(bat: Source, caption: str) -> tuple[Table, Table]:
     return cases, rows
 
 
+def _battery_fitted(fit: Source, bat: Source) -> Table:
+    """Battery cases calibrated with ``--drive-input fitted`` beside the same cases with calibrate's
+    default (benchmarks/calibration_battery.py --drive-input fitted)."""
+    table = Table("Why calibrate's default drive input fits the drivetrain to the measured track speeds first only "
+                  "when they show a capping speed controller: battery cases (the logs of the table above) calibrated "
+                  "with `--drive-input fitted`. The drivetrain follows the simulated track speeds closely (its "
+                  "wheel-speed RMS after its fit, left and right [m/s]), yet the contact's fit, driven by the speeds "
+                  "it predicts, starts from a held-out error the default's starts without; causes named, the true "
+                  "cause first, covered of determined, held-out position error [m] before and after; the default's "
+                  "error after on the same case beside.",
+                  ["case", "drive input", "wheel-speed RMS, left", "wheel-speed RMS, right", "causes named",
+                   "true cause first", "covered", "determined", "test before", "test after", "default: test after"])
+    for name, c in fit.data["cases"].items():
+        key = name.replace("~", "~0").replace("/", "~1")
+        q = f"/cases/{key}"
+        speeds = ([number(fit, q + "/drivetrain/wheel_speed_rms_after/0"), number(fit, q + "/drivetrain/wheel_speed_rms_after/1")]
+                  if "drivetrain" in c else ["–", "–"])
+        table.add(name, str(c.get("drive_input_mode", "–")), *speeds,
+                  "; ".join("+".join(g["parameters"]) for g in c["causes"]) or "none", number(fit, q + "/cause_ok"),
+                  number(fit, q + "/rows", reduce="count", field_name="covered"),
+                  number(fit, q + "/rows", reduce="count", field_name="determined"), number(fit, q + "/test/0"),
+                  number(fit, q + "/test/1"), number(bat, f"/cases/{key}/test/1") if name in bat.data["cases"] else "–")
+    return table
+
+
 def _calibration() -> Page:
     bat = Source(RESULTS / "calibration_battery.json")
     noisy_path = RESULTS / "calibration_battery_noisy.json"
@@ -788,6 +820,10 @@ def _calibration() -> Page:
         for channel, unit in noisy.data["noise_levels"]["units"].items():
             levels.add(f"{channel} [{unit}]", number(noisy, f"/noise_levels/std/{channel}"))
         battery.append(levels)
+    fitted_path = RESULTS / "calibration_battery_fitted.json"
+    fitted = Source(fitted_path) if fitted_path.exists() else None
+    if fitted is not None:
+        battery.append(_battery_fitted(fitted, bat))
     robots = Table("Three real robots, calibrated on the first part of their log and scored on the next part: held-out "
                    "position error [m] at the window's end before and after, its relative drop, the steady-turn yaw ratio "
                    "(yaw rate over the ideal (v_R - v_L)/T) measured and simulated on the test part, and the windows "
@@ -1062,7 +1098,7 @@ def _calibration() -> Page:
         "and on three real robots: Marmotte (tracked), Husky and Warthog (wheeled skid-steer), from the DRIVE data. "
         "A parameter the log does not determine keeps its described value and is marked so; intervals carry the "
         "correlation of a log's windows and the measured model-form error of simulating a window from a logged "
-        "state.", [bat, *([noisy] if noisy is not None else []), real, *([coulomb] if coulomb is not None else []),
+        "state.", [bat, *([noisy] if noisy is not None else []), *([fitted] if fitted is not None else []), real, *([coulomb] if coulomb is not None else []),
                    *([lateral] if lateral is not None else []), *([advanced] if advanced is not None else []),
                    *([Source(starts_path)] if starts_path.exists() else []), *yaw_sources,
                    *[c for c in turn_sources if c.path not in {y.path for y in yaw_sources}], *scatter_sources],
