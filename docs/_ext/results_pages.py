@@ -763,28 +763,31 @@ def _battery_cases(bat: Source, caption: str) -> tuple[Table, Table]:
     return cases, rows
 
 
-def _battery_fitted(fit: Source, bat: Source) -> Table:
-    """Battery cases calibrated with ``--drive-input fitted`` beside the same cases with calibrate's
-    default (benchmarks/calibration_battery.py --drive-input fitted)."""
+def _battery_other_inputs(sources: list[Source], bat: Source) -> Table:
+    """Battery cases calibrated with another drive input than calibrate's default, beside the same
+    cases with the default (benchmarks/calibration_battery.py --drive-input fitted|measured)."""
     table = Table("Why calibrate's default drive input fits the drivetrain to the measured track speeds first only "
-                  "when they show a capping speed controller: battery cases (the logs of the table above) calibrated "
-                  "with `--drive-input fitted`. The drivetrain follows the simulated track speeds closely (its "
-                  "wheel-speed RMS after its fit, left and right [m/s]), yet the contact's fit, driven by the speeds "
-                  "it predicts, starts from a held-out error the default's starts without; causes named, the true "
-                  "cause first, covered of determined, held-out position error [m] before and after; the default's "
-                  "error after on the same case beside.",
+                  "when they show a capping speed controller: battery cases (the logs of the table above, whose "
+                  "drives follow their commands through a lag, a delay and a speed scale) calibrated with "
+                  "`--drive-input fitted` (the drivetrain fitted to the simulated track speeds first: its "
+                  "wheel-speed RMS after its fit, left and right [m/s]) and with `--drive-input measured` (the "
+                  "drives follow the simulated track speeds themselves): causes named, the true cause first, covered "
+                  "of determined, held-out position error [m] before and after; the default's error after on the "
+                  "same case beside.",
                   ["case", "drive input", "wheel-speed RMS, left", "wheel-speed RMS, right", "causes named",
                    "true cause first", "covered", "determined", "test before", "test after", "default: test after"])
-    for name, c in fit.data["cases"].items():
-        key = name.replace("~", "~0").replace("/", "~1")
-        q = f"/cases/{key}"
-        speeds = ([number(fit, q + "/drivetrain/wheel_speed_rms_after/0"), number(fit, q + "/drivetrain/wheel_speed_rms_after/1")]
-                  if "drivetrain" in c else ["–", "–"])
-        table.add(name, str(c.get("drive_input_mode", "–")), *speeds,
-                  "; ".join("+".join(g["parameters"]) for g in c["causes"]) or "none", number(fit, q + "/cause_ok"),
-                  number(fit, q + "/rows", reduce="count", field_name="covered"),
-                  number(fit, q + "/rows", reduce="count", field_name="determined"), number(fit, q + "/test/0"),
-                  number(fit, q + "/test/1"), number(bat, f"/cases/{key}/test/1") if name in bat.data["cases"] else "–")
+    for src in sources:
+        for name, c in src.data["cases"].items():
+            key = name.replace("~", "~0").replace("/", "~1")
+            q = f"/cases/{key}"
+            speeds = ([number(src, q + "/drivetrain/wheel_speed_rms_after/0"),
+                       number(src, q + "/drivetrain/wheel_speed_rms_after/1")] if "drivetrain" in c else ["–", "–"])
+            table.add(name, str(c.get("drive_input_mode", "–")), *speeds,
+                      "; ".join("+".join(g["parameters"]) for g in c["causes"]) or "none", number(src, q + "/cause_ok"),
+                      number(src, q + "/rows", reduce="count", field_name="covered"),
+                      number(src, q + "/rows", reduce="count", field_name="determined"), number(src, q + "/test/0"),
+                      number(src, q + "/test/1"),
+                      number(bat, f"/cases/{key}/test/1") if name in bat.data["cases"] else "–")
     return table
 
 
@@ -820,10 +823,10 @@ def _calibration() -> Page:
         for channel, unit in noisy.data["noise_levels"]["units"].items():
             levels.add(f"{channel} [{unit}]", number(noisy, f"/noise_levels/std/{channel}"))
         battery.append(levels)
-    fitted_path = RESULTS / "calibration_battery_fitted.json"
-    fitted = Source(fitted_path) if fitted_path.exists() else None
-    if fitted is not None:
-        battery.append(_battery_fitted(fitted, bat))
+    other_inputs = [Source(p) for p in (RESULTS / f"calibration_battery_{mode}.json" for mode in ("fitted", "measured"))
+                     if p.exists()]
+    if other_inputs:
+        battery.append(_battery_other_inputs(other_inputs, bat))
     robots = Table("Three real robots, calibrated on the first part of their log and scored on the next part: held-out "
                    "position error [m] at the window's end before and after, its relative drop, the steady-turn yaw ratio "
                    "(yaw rate over the ideal (v_R - v_L)/T) measured and simulated on the test part, and the windows "
@@ -1098,7 +1101,7 @@ def _calibration() -> Page:
         "and on three real robots: Marmotte (tracked), Husky and Warthog (wheeled skid-steer), from the DRIVE data. "
         "A parameter the log does not determine keeps its described value and is marked so; intervals carry the "
         "correlation of a log's windows and the measured model-form error of simulating a window from a logged "
-        "state.", [bat, *([noisy] if noisy is not None else []), *([fitted] if fitted is not None else []), real, *([coulomb] if coulomb is not None else []),
+        "state.", [bat, *([noisy] if noisy is not None else []), *other_inputs, real, *([coulomb] if coulomb is not None else []),
                    *([lateral] if lateral is not None else []), *([advanced] if advanced is not None else []),
                    *([Source(starts_path)] if starts_path.exists() else []), *yaw_sources,
                    *[c for c in turn_sources if c.path not in {y.path for y in yaw_sources}], *scatter_sources],
