@@ -771,11 +771,13 @@ def _battery_other_inputs(sources: list[Source], bat: Source) -> Table:
                   "drives follow their commands through a lag, a delay and a speed scale) calibrated with "
                   "`--drive-input fitted` (the drivetrain fitted to the simulated track speeds first: its "
                   "wheel-speed RMS after its fit, left and right [m/s]) and with `--drive-input measured` (the "
-                  "drives follow the simulated track speeds themselves): causes named, the true cause first, covered "
-                  "of determined, held-out position error [m] before and after; the default's error after on the "
-                  "same case beside.",
+                  "drives follow the simulated track speeds themselves): what the contact's fit then names, and the "
+                  "held-out position error [m] before and after; the default's error after on the same case beside. "
+                  "With either, the truth's lag, delay and speed scale are not the contact's candidates (the "
+                  "drivetrain's, or the measured speeds', and the contact's speed scale is an effective rolling "
+                  "radius, whose truth is one), so the battery's coverage and cause criteria do not apply.",
                   ["case", "drive input", "wheel-speed RMS, left", "wheel-speed RMS, right", "causes named",
-                   "true cause first", "covered", "determined", "test before", "test after", "default: test after"])
+                   "test before", "test after", "default: test after"])
     for src in sources:
         for name, c in src.data["cases"].items():
             key = name.replace("~", "~0").replace("/", "~1")
@@ -783,10 +785,8 @@ def _battery_other_inputs(sources: list[Source], bat: Source) -> Table:
             speeds = ([number(src, q + "/drivetrain/wheel_speed_rms_after/0"),
                        number(src, q + "/drivetrain/wheel_speed_rms_after/1")] if "drivetrain" in c else ["–", "–"])
             table.add(name, str(c.get("drive_input_mode", "–")), *speeds,
-                      "; ".join("+".join(g["parameters"]) for g in c["causes"]) or "none", number(src, q + "/cause_ok"),
-                      number(src, q + "/rows", reduce="count", field_name="covered"),
-                      number(src, q + "/rows", reduce="count", field_name="determined"), number(src, q + "/test/0"),
-                      number(src, q + "/test/1"),
+                      "; ".join("+".join(g["parameters"]) for g in c["causes"]) or "none",
+                      number(src, q + "/test/0"), number(src, q + "/test/1"),
                       number(bat, f"/cases/{key}/test/1") if name in bat.data["cases"] else "–")
     return table
 
