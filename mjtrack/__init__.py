@@ -23,7 +23,7 @@ _LAZY = {
     **dict.fromkeys(("MICR", "MPP", "MVIR", "Nominal", "integrate"), "mjtrack.models.kinematic"),
 }
 
-__version__ = "0.2.0"
+__version__ = "0.3.0"
 __all__ = ["InputError", "MjtrackError", "SingularMotionError", *_LAZY, "__version__"]
 
 

@@ -105,3 +105,17 @@ def test_drive_caps_names_each_cap_the_measured_speeds_show_with_the_fitted_limi
     text = drive_caps(capped)
     assert "its drives saturate" in text and "caps the mean speed" in text and "caps the turn" not in text
     assert drive_caps(_log()) == ""  # no measured speeds: nothing to say
+
+
+def test_the_batterys_logs_are_calibrated_from_their_commands_by_default():
+    """The battery's drives follow their commands through a lag, a delay and a speed scale, which the
+    commanded path's candidates describe exactly: the default drive input must not send them through
+    a drivetrain fitted to the simulated speeds (the calibration page's battery under other drive
+    inputs measures what that costs)."""
+    from mjtrack.testing.battery import GEOMETRIES, case, described_robot, make_log
+
+    for geometry in GEOMETRIES:
+        for change in ("clean", "lag_delay", "track_speed_scale"):
+            c = case(geometry, change)
+            mode, why = auto_drive_input(make_log(c, duration=20.0, seed=11), described_robot(c), None)
+            assert mode == "commanded" and "no speed controller capping" in why, (c.name, why)

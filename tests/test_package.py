@@ -29,5 +29,5 @@ def test_one_version_everywhere():
     conf = (root / "docs" / "conf.py").read_text()
     assert "release = mjtrack.__version__" in conf  # the docs take the package's number
     newest = re.search(r"^## (\S+)", (root / "docs" / "changelog.md").read_text(), re.MULTILINE).group(1)
-    assert pyproject == mjtrack.__version__ == newest == "0.2.0"
+    assert pyproject == mjtrack.__version__ == newest == "0.3.0"
     assert "unreleased" not in (root / "docs" / "changelog.md").read_text().split("\n## ", 2)[1].splitlines()[0]
