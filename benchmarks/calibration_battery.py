@@ -25,6 +25,13 @@ speeds first would do to logs whose truth is known. Those cases go to
 benchmarks/results/calibration_battery_MODE.json, each with the drive input used and, fitted,
 the drivetrain's wheel-speed error after its fit.
 
+``--speed-following``: no calibration. For the clean case of each geometry, the MuJoCo robot as
+it is, on its own log at the battery's 50 Hz and at 200 Hz, its 2 s windows simulated driven by
+its logged commands and driven by its own logged track speeds (``--drive-input measured``'s
+drives), those as logged and read half a row and a row ahead: how much of what speed-following
+drives miss comes from holding a sampled speed as the set-point over the row that follows it.
+Writes benchmarks/results/speed_following.json.
+
 Writes benchmarks/results/calibration_battery.json (merged with earlier cases of another
 selection) and prints the coverage table, the worst row and the machine's load.
 """
@@ -108,6 +115,45 @@ def stored_calibrated(c, stored: dict):
     return calibrated_robot(robot, values, sim_config(None, robot=robot))
 
 
+SPEED_RATES = (50.0, 200.0)  # [Hz] log rates of --speed-following
+SPEED_LEADS = (0.0, 0.5, 1.0)  # rows by which the logged speeds are read ahead
+
+
+def speed_following(geometries, duration: float = 30.0, seed: int = 11) -> dict:
+    """--speed-following (module docstring): per geometry, log rate and drive, the windows' RMS
+    end position [m] and yaw [rad] error against the log."""
+    import dataclasses
+
+    from mjtrack.sim import drive_log
+    from mjtrack.sim.config import sim_config
+    from mjtrack.sim.windows import WindowSim, simulate_windows
+    from mjtrack.testing.battery import commands
+    from mjtrack.windows import WARMUP_S, make_windows, measured_drive_log
+
+    rows = []
+    for g in geometries:
+        truth = described_robot(case(g, "clean"))
+        sim = WindowSim(truth, sim_config(None, robot=truth), resisted=True)
+        for rate in SPEED_RATES:
+            lg = drive_log(truth, commands(duration, seed), duration=duration, log_rate=rate)
+            ws = make_windows(lg, 2.0)
+            measured = measured_drive_log(lg, "log")
+            drives = [("commanded", None, lg)]
+            for lead in SPEED_LEADS:
+                ahead = dataclasses.replace(measured, **{k: np.interp(lg.t + lead / rate, lg.t, getattr(measured, k))
+                                                         for k in ("v_left_cmd", "v_right_cmd")})
+                drives.append(("measured", lead, ahead))
+            for drive, lead, log_ in drives:
+                e = simulate_windows(sim, log_, ws, warmup_s=WARMUP_S).errors[0]
+                rows.append({"geometry": g, "rate_hz": rate, "drive": drive, "lead_rows": lead, "windows": len(ws),
+                             "position_rms_m": float(np.sqrt(np.mean(e[:, 0] ** 2 + e[:, 1] ** 2))),
+                             "yaw_rms_rad": float(np.sqrt(np.mean(e[:, 2] ** 2)))})
+                r = rows[-1]
+                print(f"{g:8s} {rate:5.0f} Hz {drive:9s} lead {lead if lead is not None else '-'}: position "
+                      f"{r['position_rms_m']:.4f} m, yaw {r['yaw_rms_rad']:.4f} rad", flush=True)
+    return {"rows": rows, "duration_s": duration, "seed": seed, "horizon_s": 2.0}
+
+
 def _plain(o):
     """numpy scalars and arrays as JSON values."""
     if isinstance(o, np.generic):
@@ -157,8 +203,20 @@ def main(argv=None) -> int:
     ap.add_argument("--drive-input", default="auto", choices=("auto", "commanded", "measured", "fitted"),
                     help="calibrate's drive input for every case (default: calibrate's own, auto). Other than auto, "
                          "writes to calibration_battery_MODE.json unless --out says otherwise")
+    ap.add_argument("--speed-following", action="store_true",
+                    help="no calibration: the robot driven by its own logged track speeds against its own log "
+                         "(module docstring); writes speed_following.json")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
+    if args.speed_following:
+        load0 = os.getloadavg()
+        out = speed_following(args.geometries.split(","))
+        path = args.out or RESULT.with_name("speed_following.json")
+        path.write_text(json.dumps({"command": "python benchmarks/calibration_battery.py " + " ".join(
+            sys.argv[1:] if argv is None else argv), **out, "load_before": load0, "load_after": os.getloadavg(),
+            "cpus": os.cpu_count()}, indent=1) + "\n")
+        print(f"load average before {load0}, after {os.getloadavg()} ({os.cpu_count()} cores); wrote {path}")
+        return 0
     if args.out is None:
         args.out = (NOISY_RESULT if args.noise and args.noise != "none" else
                     RESULT.with_name(f"calibration_battery_{args.drive_input}.json") if args.drive_input != "auto"

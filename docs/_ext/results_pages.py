@@ -827,6 +827,25 @@ def _calibration() -> Page:
                      if p.exists()]
     if other_inputs:
         battery.append(_battery_other_inputs(other_inputs, bat))
+    following_path = RESULTS / "speed_following.json"
+    following = Source(following_path) if following_path.exists() else None
+    if following is not None:
+        table = Table("Where the speed-following drives' error comes from: the MuJoCo robot as it is (the battery's "
+                      "clean case of each geometry), its own log at two log rates, its 2 s windows driven by its "
+                      "logged commands and by its own logged track speeds (the drives of `--drive-input measured`), "
+                      "those read as logged and half a row and a row ahead: RMS over the windows of the end "
+                      "position [m] and yaw [rad] error against the log.",
+                      ["geometry", "log rate [Hz]", "drive", "speeds read ahead [rows]", "windows", "position [m]",
+                       "yaw [rad]"])
+        for i, r in enumerate(following.data["rows"]):
+            q = f"/rows/{i}"
+            table.add(r["geometry"], number(following, q + "/rate_hz"), r["drive"],
+                      "–" if r["lead_rows"] is None else number(following, q + "/lead_rows"),
+                      number(following, q + "/windows"), number(following, q + "/position_rms_m"),
+                      number(following, q + "/yaw_rms_rad"))
+        table.add("load average before / after (one minute)", number(following, "/load_before/0"),
+                  number(following, "/load_after/0"), "–", "–", "–", "–")
+        battery.append(table)
     robots = Table("Three real robots, calibrated on the first part of their log and scored on the next part: held-out "
                    "position error [m] at the window's end before and after, its relative drop, the steady-turn yaw ratio "
                    "(yaw rate over the ideal (v_R - v_L)/T) measured and simulated on the test part, and the windows "
@@ -1101,7 +1120,8 @@ def _calibration() -> Page:
         "and on three real robots: Marmotte (tracked), Husky and Warthog (wheeled skid-steer), from the DRIVE data. "
         "A parameter the log does not determine keeps its described value and is marked so; intervals carry the "
         "correlation of a log's windows and the measured model-form error of simulating a window from a logged "
-        "state.", [bat, *([noisy] if noisy is not None else []), *other_inputs, real, *([coulomb] if coulomb is not None else []),
+        "state.", [bat, *([noisy] if noisy is not None else []), *other_inputs,
+                   *([following] if following is not None else []), real, *([coulomb] if coulomb is not None else []),
                    *([lateral] if lateral is not None else []), *([advanced] if advanced is not None else []),
                    *([Source(starts_path)] if starts_path.exists() else []), *yaw_sources,
                    *[c for c in turn_sources if c.path not in {y.path for y in yaw_sources}], *scatter_sources],
