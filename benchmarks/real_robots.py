@@ -391,7 +391,9 @@ def starts_robot(name: str, spec: dict, rounds: int | None = None) -> dict:
     for start, robot in (("shipped", base), ("public", starting_robot(base, spec["public"]))):
         t0 = time.time()
         cal = calibrate(train, robot, test=test, quiet=not sys.stderr.isatty(),
-                        drive_input=spec.get("drive_input", "auto"), rounds=out["rounds"])
+                        drive_input=spec.get("drive_input", "auto"), rounds=out["rounds"],
+                        train_path=f"{spec['log'].name} (first {100 * STARTS_SPLIT[0]:.0f} %)",
+                        test_path=f"{spec['log'].name} (next {100 * STARTS_SPLIT[1]:.0f} %)")
         cj = cal.to_json()
         out["starts"][start] = {"seconds": time.time() - t0, "test": cj["test"], "parameters": cj["parameters"],
                                 "intervals": cj["intervals"], "determined": cj["determined"],
