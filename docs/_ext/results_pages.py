@@ -41,6 +41,11 @@ def pointer_get(data: Any, pointer: str) -> Any:
     return value
 
 
+def pointer_token(key: str) -> str:
+    """``key`` as one token of a JSON pointer (RFC 6901: ``~`` and ``/`` escaped; :func:`pointer_get`)."""
+    return key.replace("~", "~0").replace("/", "~1")
+
+
 REDUCTIONS: dict[str, Callable[[list[float]], float]] = {
     "mean": statistics.fmean, "max": max, "min": min, "median": statistics.median,
     "count": lambda items: sum(1 for v in items if v is True),  # how many items' field is true
@@ -541,7 +546,7 @@ def _diagnose_profile(diag: Source) -> Table:
               "overlap: each includes the rollouts it calls, and scoring every effect includes the grids.",
               ["part", "seconds"])
     for part in diag.data["profile"]["parts_s"]:
-        t.add(part, number(diag, "/profile/parts_s/" + part.replace("~", "~0").replace("/", "~1")))
+        t.add(part, number(diag, "/profile/parts_s/" + pointer_token(part)))
     t.add("the profiled run's wall time", number(diag, "/profile/wall_s"))
     t.add("windows simulated", number(diag, "/profile/windows"))
     add_load(t, diag, "/profile/load_before/0", "/profile/load_after/0")
@@ -749,7 +754,7 @@ def _battery_cases(bat: Source, caption: str) -> tuple[Table, Table]:
                  "value where kept), interval, whether the log determines it and whether the interval covers the truth.",
                  ["case", "parameter", "truth", "value", "interval low", "interval high", "determined", "covered"])
     for name, c in bat.data["cases"].items():
-        q = f"/cases/{name.replace('~', '~0').replace('/', '~1')}"
+        q = f"/cases/{pointer_token(name)}"
         cases.add(name, "; ".join("+".join(g["parameters"]) for g in c["causes"]) or "none",
                   number(bat, q + "/cause_ok"), number(bat, q + "/rows", reduce="count", field_name="covered"),
                   number(bat, q + "/rows", reduce="count", field_name="determined"), number(bat, q + "/test/0"),
@@ -780,7 +785,7 @@ def _battery_other_inputs(sources: list[Source], bat: Source) -> Table:
                    "test before", "test after", "default: test after"])
     for src in sources:
         for name, c in src.data["cases"].items():
-            key = name.replace("~", "~0").replace("/", "~1")
+            key = pointer_token(name)
             q = f"/cases/{key}"
             speeds = ([number(src, q + "/drivetrain/wheel_speed_rms_after/0"),
                        number(src, q + "/drivetrain/wheel_speed_rms_after/1")] if "drivetrain" in c else ["–", "–"])
@@ -906,7 +911,7 @@ def _calibration() -> Page:
                           number(real, p + "/samples"),
                           *(number(real, p + f"/{key}") if row[key] is not None else "–" for key in ("measured", "simulated")))
         for cls in r.get("speed_ratio", {}):
-            p = f"{q}/speed_ratio/{cls.replace('~', '~0').replace('/', '~1')}"
+            p = f"{q}/speed_ratio/{pointer_token(cls)}"
             speed.add(name, class_names.get(cls, cls), number(real, p + "/windows"), number(real, p + "/measured"),
                       number(real, p + "/before"), number(real, p + "/after"))
         for n in r["determined"]:
@@ -1501,7 +1506,7 @@ def _shear_ground() -> Page:
             for key, m in r["moduli"].items():
                 p = f"/robots/{robot}/moduli/{key}"
                 for what in m["classes"]:
-                    q = f"{p}/classes/{what.replace('~', '~0').replace('/', '~1')}"
+                    q = f"{p}/classes/{pointer_token(what)}"
                     quantity, _, cls = what.partition(" (")
                     scan_t.add(robot, number(scan, p + "/shear_modulus"), number(scan, p + "/test_error"),
                                f"{quantity}, {class_names.get('(' + cls, cls)}",
